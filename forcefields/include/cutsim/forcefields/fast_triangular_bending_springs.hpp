@@ -1,0 +1,155 @@
+#pragma once
+// FastTriangularBendingSprings: one linear bending spring per interior edge (Volino and
+// Magnenat-Thalmann 2006, as in SOFA), maintained incrementally from topology events.
+// Specification: bending-springs.md; implementation notes: docs/bending-springs.md.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/forcefields/hinge_kernel.hpp"
+#include "cutsim/topology/events.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::forcefields {
+
+/// The component's parameters (spec section 1).
+struct BendingParameters {
+  using AreaWeights = forcefields::AreaWeights;
+
+  double bendingStiffness = 1.0;   ///< k: finite, >= 0
+  double minDistValidity = 1e-6;   ///< eps: finite, >= 0 (an absolute length)
+  double rayleighStiffness = 0.0;  ///< this component's Rayleigh stiffness factor: finite, >= 0
+  AreaWeights areaWeights = AreaWeights::Unsigned;
+
+  /// Throws cutsim::InvalidInput with where() = the parameter's name for a negative, NaN or
+  /// infinite value.
+  void validate() const;
+};
+
+/// "unsigned" or "signed"; anything else throws InvalidInput(where = "areaWeights").
+AreaWeights parseAreaWeights(std::string_view name);
+std::string_view toString(AreaWeights weights);
+
+/// One hinge as a record: what the table holds for an edge, or what a rebuild computes.
+struct HingeRecord {
+  EdgeId edge = topology::kInvalidIndex;
+  HingeStatus status = HingeStatus::NoHinge;
+  bool signedFallback = false;
+  /// A, B (wings), C, D (edge endpoints); kInvalidIndex unless status is Active.
+  std::array<PointId, 4> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
+                                  topology::kInvalidIndex, topology::kInvalidIndex};
+  std::array<double, 4> alpha{};  ///< zeros unless active
+  double lambda = 0.0;            ///< zero unless active
+};
+
+/// The counters of the table (the current state, not a history).
+struct BendingCounters {
+  std::size_t activeSprings = 0;
+  std::size_t noHinge = 0;  ///< live edges with fewer than two triangles
+  std::size_t shortWingDistance = 0;
+  std::size_t shortEdge = 0;
+  std::size_t smallHeight = 0;
+  std::size_t unrepresentable = 0;
+  std::size_t signedFallbacks = 0;  ///< active springs on unsigned weights though signed asked
+  std::size_t degenerate() const {
+    return shortWingDistance + shortEdge + smallHeight + unrepresentable;
+  }
+  bool operator==(const BendingCounters&) const = default;
+};
+
+/// One active spring as stored: 4 vertex ids, 4 weights, the stiffness (56 bytes).
+struct BendingSpring {
+  std::array<std::uint32_t, 4> v;  ///< A, B, C, D
+  std::array<double, 4> alpha;
+  double lambda;
+};
+static_assert(sizeof(BendingSpring) == 56);
+
+class FastTriangularBendingSprings : public ForceField, public topology::TopologyObserver {
+ public:
+  /// Validates the parameters, builds the table once from the current mesh (rest positions from
+  /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
+  FastTriangularBendingSprings(topology::Topology& topology, BendingParameters parameters);
+  FastTriangularBendingSprings(const FastTriangularBendingSprings&) = delete;
+  FastTriangularBendingSprings& operator=(const FastTriangularBendingSprings&) = delete;
+  ~FastTriangularBendingSprings() override;
+
+  // ---- ForceField ----
+  std::string typeName() const override { return "FastTriangularBendingSprings"; }
+  void addForce(std::span<const double> x, std::span<const double> v,
+                std::span<double> f) const override;
+  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                 double kFactor, double bFactor) const override;
+  double potentialEnergy(std::span<const double> x) const override;
+  void addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                    double kFactor) const override;
+  void addBToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                    double bFactor) const override;
+  /// One segment per active spring, from wing A to wing B.
+  void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+
+  // ---- TopologyObserver (spec section 6) ----
+  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed&) override;
+  void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
+  void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed&) override;
+  void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated&) override;
+  void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated&) override;
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  std::string observerName() const override { return typeName(); }
+  /// Compares the table with buildFromScratch on `topology`: statuses per edge, active hinges as
+  /// vertex sets with the same weight per vertex id and the same lambda (1e-12 relative), the
+  /// counters, and the forces on a random x.
+  void validate(const topology::Topology& topology,
+                std::vector<std::string>& problems) const override;
+
+  // ---- the table ----
+  const BendingParameters& parameters() const { return params_; }
+  /// The active springs, compact (their order changes with removals and compaction).
+  std::span<const BendingSpring> activeSprings() const { return springs_; }
+  std::size_t numActiveSprings() const { return springs_.size(); }
+  /// The record of edge e (status DeadEdge for a slot that is dead or beyond the table).
+  HingeRecord hinge(EdgeId e) const;
+  /// Records of every live edge of the table, ascending edge id.
+  std::vector<HingeRecord> hinges() const;
+  const BendingCounters& counters() const { return counters_; }
+  /// Bytes held by the table per edge slot (sizes, not capacities).
+  double bytesPerEdgeSlot() const;
+  std::size_t numEdgeSlots() const { return edgeSlot_.size(); }
+
+  /// The table built from scratch on the current mesh: one record per live edge, ascending id.
+  static std::vector<HingeRecord> buildFromScratch(const topology::Topology& topology,
+                                                   const BendingParameters& parameters);
+  /// The hinge of one edge computed from the mesh (A in the triangle left of edgeVertices(e)).
+  static HingeRecord hingeFromMesh(const topology::Topology& topology, EdgeId e,
+                                   const BendingParameters& parameters);
+  /// f += forces of `records` at x (the brute-force twin of addForce, for validation and tests).
+  static void addForceOfRecords(std::span<const HingeRecord> records, std::span<const double> x,
+                                std::span<double> f);
+
+ private:
+  void setEdge(EdgeId e, const HingeRecord& r);
+  void recomputeEdge(const topology::Topology& t, EdgeId e);
+  void ensureEdgeSlots(std::size_t n);
+  void removeSpring(std::uint32_t slot);
+  void countStatus(HingeStatus s, int delta);
+  void checkSizes(std::span<const double> a, std::span<const double> b, const char* what) const;
+
+  const topology::Topology* topology_;
+  BendingParameters params_;
+  // Hot: the active springs, streamed by every force pass.
+  std::vector<BendingSpring> springs_;
+  // springEdge_[s]: the edge of springs_[s], with kFallbackBit set if it fell back to unsigned.
+  std::vector<std::uint32_t> springEdge_;
+  // edgeSlot_[e]: index in springs_, or kStatusBase + status for an edge without a spring.
+  std::vector<std::uint32_t> edgeSlot_;
+  BendingCounters counters_;
+  std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
+  topology::Subscription subscription_;
+};
+
+}  // namespace cutsim::forcefields

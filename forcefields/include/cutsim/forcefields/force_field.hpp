@@ -1,0 +1,97 @@
+#pragma once
+// The ForceField interface: what every force field of cutsim (bending springs, stretch springs, the
+// nonlinear dihedral bending model, ...) implements, and the matrix accumulators used to assemble
+// stiffness and damping matrices.
+//
+// Names, for SOFA users:
+//
+//   cutsim                         SOFA (core::behavior::ForceField<DataTypes>)
+//   -----------------------------  --------------------------------------------------------------
+//   addForce(x, v, f)              addForce(mparams, f, x, v): f += F(x, v)
+//   addDForce(x, dx, df, k, b)     addDForce(mparams, df, dx): df += (kFactor K + bFactor B) dx,
+//                                  with kFactor = mparams->kFactor(), bFactor = mparams->bFactor()
+//   potentialEnergy(x)             getPotentialEnergy(mparams, x) (SOFA returns a value cached by
+//                                  the last addForce; cutsim always computes it from x)
+//   addKToMatrix(x, m, k)          addKToMatrix(mparams, matrix) / buildStiffnessMatrix(...)
+//   addBToMatrix(x, m, b)          addBToMatrix(mparams, matrix) / buildDampingMatrix(...)
+//   draw(segments)                 draw(vparams): here the drawable network as point pairs, which
+//                                  an output writes (no OpenGL)
+//
+// Vectors are flat std::span<double> with three doubles per point SLOT of the topology, so their
+// size is 3 * topology.pointCapacity(); dead slots are ignored (never read, never written).
+// Matrices are indexed by point slot: block (i, j) covers rows 3i..3i+2 and columns 3j..3j+2.
+// K = dF/dx and B = dF/dv follow SOFA's sign convention (both negative semi-definite for springs).
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutsim/topology/types.hpp"
+
+namespace cutsim::forcefields {
+
+using topology::EdgeId;
+using topology::Index;
+using topology::PointId;
+using topology::TriangleId;
+
+/// Receives 3x3 blocks of a 3N x 3N matrix (SOFA: the matrix accessor of addKToMatrix).
+class MatrixAccumulator {
+ public:
+  virtual ~MatrixAccumulator();
+  /// Adds b to block (i, j).
+  virtual void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) = 0;
+  /// Adds s * I3 to block (i, j). Default: addBlock(i, j, s * I3).
+  virtual void addScaledIdentity(PointId i, PointId j, double s);
+};
+
+/// Collects the blocks as Eigen triplets (duplicates are summed by toSparse).
+class TripletAccumulator : public MatrixAccumulator {
+ public:
+  void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override;
+  void addScaledIdentity(PointId i, PointId j, double s) override;
+
+  /// The 3N x 3N matrix of the collected triplets (N point slots; every index must be < N).
+  Eigen::SparseMatrix<double> toSparse(Index numPoints) const;
+  const std::vector<Eigen::Triplet<double>>& triplets() const { return triplets_; }
+  void clear() { triplets_.clear(); }
+  void reserve(std::size_t n) { triplets_.reserve(n); }
+
+ private:
+  std::vector<Eigen::Triplet<double>> triplets_;
+};
+
+/// A force field over the points of a topology. See the table at the top of this file.
+class ForceField {
+ public:
+  virtual ~ForceField();
+
+  /// The component's name ("FastTriangularBendingSprings", ...).
+  virtual std::string typeName() const = 0;
+
+  /// f += F(x, v).
+  virtual void addForce(std::span<const double> x, std::span<const double> v,
+                        std::span<double> f) const = 0;
+
+  /// df += (kFactor K(x) + bFactor B(x)) dx, with K = dF/dx and B = dF/dv.
+  virtual void addDForce(std::span<const double> x, std::span<const double> dx,
+                         std::span<double> df, double kFactor, double bFactor) const = 0;
+
+  /// The potential energy at x.
+  virtual double potentialEnergy(std::span<const double> x) const = 0;
+
+  /// Adds kFactor * K(x) to m.
+  virtual void addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                            double kFactor) const = 0;
+
+  /// Adds bFactor * B(x) to m.
+  virtual void addBToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                            double bFactor) const = 0;
+
+  /// Appends the drawable network as point pairs (drawn at the current positions by an output).
+  virtual void draw(std::vector<std::array<PointId, 2>>& /*segments*/) const {}
+};
+
+}  // namespace cutsim::forcefields

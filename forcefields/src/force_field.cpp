@@ -1,0 +1,35 @@
+#include "cutsim/forcefields/force_field.hpp"
+
+namespace cutsim::forcefields {
+
+MatrixAccumulator::~MatrixAccumulator() = default;
+
+void MatrixAccumulator::addScaledIdentity(PointId i, PointId j, double s) {
+  addBlock(i, j, s * Eigen::Matrix3d::Identity());
+}
+
+void TripletAccumulator::addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) {
+  const Eigen::Index r = 3 * static_cast<Eigen::Index>(i);
+  const Eigen::Index c = 3 * static_cast<Eigen::Index>(j);
+  // Every entry, zeros included, so that the sparsity pattern depends only on the topology.
+  for (int a = 0; a < 3; ++a) {
+    for (int k = 0; k < 3; ++k) triplets_.emplace_back(r + a, c + k, b(a, k));
+  }
+}
+
+void TripletAccumulator::addScaledIdentity(PointId i, PointId j, double s) {
+  const Eigen::Index r = 3 * static_cast<Eigen::Index>(i);
+  const Eigen::Index c = 3 * static_cast<Eigen::Index>(j);
+  for (int a = 0; a < 3; ++a) triplets_.emplace_back(r + a, c + a, s);
+}
+
+Eigen::SparseMatrix<double> TripletAccumulator::toSparse(Index numPoints) const {
+  const Eigen::Index n = 3 * static_cast<Eigen::Index>(numPoints);
+  Eigen::SparseMatrix<double> m(n, n);
+  m.setFromTriplets(triplets_.begin(), triplets_.end());
+  return m;
+}
+
+ForceField::~ForceField() = default;
+
+}  // namespace cutsim::forcefields

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Configures (once) and builds cutsim. Usage: scripts/build.sh [release|debug|sanitize] [targets...]
+# Build trees: build/release, build/debug, build/sanitize. Incremental on later runs.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+config="${1:-release}"; shift || true
+case "$config" in
+  release)  flags=(-DCMAKE_BUILD_TYPE=Release) ;;
+  debug)    flags=(-DCMAKE_BUILD_TYPE=Debug) ;;
+  sanitize) flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DCUTSIM_SANITIZE=ON -DCUTSIM_NATIVE=OFF -DCUTSIM_BUILD_BENCHMARKS=OFF -DCUTSIM_BUILD_EXAMPLES=OFF) ;;
+  *) echo "scripts/build.sh: unknown configuration '$config' (release, debug, sanitize)" >&2; exit 2 ;;
+esac
+build="$root/build/$config"
+generator=()
+if command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S "$root" -B "$build" "${generator[@]}" "${flags[@]}" >/dev/null
+fi
+jobs="${CUTSIM_JOBS:-$(nproc)}"
+if [ $# -gt 0 ]; then
+  cmake --build "$build" --parallel "$jobs" --target "$@"
+else
+  cmake --build "$build" --parallel "$jobs"
+fi

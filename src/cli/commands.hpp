@@ -1,0 +1,21 @@
+#pragma once
+// The subcommands of the `cutsim` program. Each one lives in its own src/cli/cmd_NAME.cpp and
+// adds itself to the application through a register function called from main.cpp.
+//
+// A command reports bad input by throwing cutsim::InvalidInput (exit code 2, message
+// "PATH:LINE: message" on stderr) and other failures by throwing cutsim::Error (exit code 1);
+// main.cpp maps them. A command that returns normally exits with 0.
+#include <CLI/CLI.hpp>
+
+namespace cutsim::cli {
+
+/// `cutsim info MESH [--json]`: loads and checks a mesh, prints its counts (src/cli/cmd_info.cpp).
+void registerInfoCommand(CLI::App& app);
+
+/// `cutsim eval --rest REST --current CURRENT [...]`: energy and forces of
+/// FastTriangularBendingSprings as one JSON object (src/cli/cmd_eval.cpp).
+void registerEvalCommand(CLI::App& app);
+
+// Further commands are declared here.
+
+}  // namespace cutsim::cli

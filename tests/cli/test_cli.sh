@@ -1,0 +1,149 @@
+#!/usr/bin/env bash
+# End-to-end test of the `cutsim` program (CTest: cli.end_to_end): exit codes, output and error
+# messages for good and bad mesh files, and --version.
+# Environment: CUTSIM (the program), CUTSIM_TEST_DATA_DIR (tests/data), CUTSIM_DATA_DIR (data).
+# Prints every failed check and exits non-zero if there was one.
+set -uo pipefail
+
+: "${CUTSIM:?set CUTSIM to the cutsim program}"
+: "${CUTSIM_TEST_DATA_DIR:?set CUTSIM_TEST_DATA_DIR to tests/data}"
+: "${CUTSIM_DATA_DIR:?set CUTSIM_DATA_DIR to data}"
+
+failures=0
+checks=0
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+fail() {
+  echo "FAIL: $*" >&2
+  failures=$((failures + 1))
+}
+
+# run ARGS...: runs cutsim, leaving stdout, stderr and the exit code in $tmp/out, $tmp/err, $code.
+run() {
+  "$CUTSIM" "$@" >"$tmp/out" 2>"$tmp/err"
+  code=$?
+}
+
+# expect_code N DESCRIPTION
+expect_code() {
+  checks=$((checks + 1))
+  if [ "$code" -ne "$1" ]; then
+    fail "$2: exit code $code, expected $1; stderr: $(cat "$tmp/err")"
+    return 1
+  fi
+}
+
+# json_info MESH KEY=VALUE...: `cutsim info --json MESH` prints one object with exactly these.
+json_info() {
+  local mesh="$1"
+  shift
+  run info "$mesh" --json
+  expect_code 0 "info --json $mesh" || return
+  checks=$((checks + 1))
+  if ! python3 - "$tmp/out" "$@" <<'EOF'
+import json, sys
+text = open(sys.argv[1]).read()
+lines = [l for l in text.splitlines() if l.strip()]
+if len(lines) != 1:
+    sys.exit(f"expected exactly one line of JSON, got {len(lines)}: {text!r}")
+obj = json.loads(lines[0])
+keys = ["vertices", "edges", "triangles", "boundary_edges", "components", "isolated_vertices"]
+if not isinstance(obj, dict) or sorted(obj) != sorted(keys):
+    sys.exit(f"expected an object with exactly the keys {keys}, got {lines[0]}")
+for k in keys:
+    if type(obj[k]) is not int:
+        sys.exit(f"{k} is not an integer: {obj[k]!r}")
+for pair in sys.argv[2:]:
+    k, v = pair.split("=")
+    if obj[k] != int(v):
+        sys.exit(f"{k} = {obj[k]}, expected {v}")
+EOF
+  then
+    fail "info --json $mesh: output $(cat "$tmp/out")"
+  fi
+  [ -s "$tmp/err" ] && fail "info --json $mesh wrote to stderr: $(cat "$tmp/err")"
+}
+
+# bad_file FILE LINE PHRASE: exit code 2, stderr starts with "PATH:LINE: " (or "PATH: " when
+# LINE is empty) and contains PHRASE; nothing on stdout.
+bad_file() {
+  local path="$CUTSIM_TEST_DATA_DIR/bad/$1" prefix
+  if [ -n "$2" ]; then prefix="$path:$2: "; else prefix="$path: "; fi
+  for json in "" --json; do
+    run info "$path" $json
+    expect_code 2 "info $json $1" || continue
+    checks=$((checks + 1))
+    local err
+    err="$(cat "$tmp/err")"
+    if [[ "$err" != "$prefix"* ]]; then
+      fail "info $json $1: stderr should start with '$prefix', got: $err"
+    elif [[ "$err" != *"$3"* ]]; then
+      fail "info $json $1: stderr should contain '$3', got: $err"
+    elif [ "$(wc -l <"$tmp/err")" -ne 1 ]; then
+      fail "info $json $1: expected exactly one line on stderr, got: $err"
+    fi
+    [ -s "$tmp/out" ] && fail "info $json $1 wrote to stdout: $(cat "$tmp/out")"
+  done
+}
+
+# ---- good meshes ----
+json_info "$CUTSIM_DATA_DIR/meshes/octahedron.off" vertices=6 edges=12 triangles=8 \
+  boundary_edges=0 components=1 isolated_vertices=0
+json_info "$CUTSIM_DATA_DIR/meshes/grid_10x10.obj" vertices=100 edges=261 triangles=162 \
+  boundary_edges=36 components=1 isolated_vertices=0
+json_info "$CUTSIM_DATA_DIR/meshes/two_components.obj" vertices=8 edges=10 triangles=4 \
+  boundary_edges=8 components=2 isolated_vertices=0
+json_info "$CUTSIM_TEST_DATA_DIR/good/isolated_vertex.obj" vertices=4 edges=3 triangles=1 \
+  boundary_edges=3 components=1 isolated_vertices=1
+json_info "$CUTSIM_TEST_DATA_DIR/good/all_forms.obj" vertices=6 triangles=4
+
+# The report for a person: one aligned "label: value" line per count.
+run info "$CUTSIM_DATA_DIR/meshes/hinge.obj"
+if expect_code 0 "info hinge.obj"; then
+  checks=$((checks + 1))
+  for line in "vertices:          4" "edges:             5" "triangles:         2" \
+    "boundary edges:    4" "components:        1" "isolated vertices: 0"; do
+    grep -qxF "$line" "$tmp/out" || fail "info hinge.obj: no line '$line' in: $(cat "$tmp/out")"
+  done
+fi
+
+# ---- bad meshes: exit code 2, "PATH:LINE: message" on stderr ----
+bad_file malformed_number.obj 3 "malformed number"
+bad_file truncated_faces.off 8 "expected 2 faces, found 1"
+bad_file index_out_of_range.obj 5 "out of range"
+bad_file negative_index.off 6 "negative vertex index"
+bad_file quad_face.obj 5 "only triangles are supported"
+bad_file repeated_vertex.obj 5 "repeats vertex"
+bad_file nan_coordinate.obj 2 "NaN coordinate"
+bad_file inf_coordinate.off 4 "infinite coordinate"
+bad_file non_manifold_edge.obj 9 "non-manifold edge"
+bad_file inconsistent_orientation.obj 7 "inconsistent orientation"
+bad_file bowtie_vertex.obj 2 "bowtie vertex"
+bad_file does_not_exist.obj "" "cannot open: No such file or directory"
+bad_file unknown_extension.stl "" "unknown mesh file extension"
+bad_file empty.obj "" "no vertices"
+
+# ---- usage errors: CLI11's message, exit code 2 ----
+for args in "" "info" "info a.obj b.obj" "info --no-such-option a.obj" "no-such-command"; do
+  # shellcheck disable=SC2086 # split the arguments on purpose
+  run $args
+  expect_code 2 "usage error 'cutsim $args'" && { [ -s "$tmp/err" ] || fail "'cutsim $args': no message"; }
+done
+
+run info --help
+expect_code 0 "info --help" && { grep -q -- "--json" "$tmp/out" || fail "info --help does not list --json"; }
+
+# ---- --version ----
+run --version
+if expect_code 0 "--version"; then
+  checks=$((checks + 1))
+  grep -Eq '^cutsim [0-9]+\.[0-9]+\.[0-9]+ \(Eigen [0-9.]+, CHOLMOD [0-9.]+\)$' "$tmp/out" ||
+    fail "--version printed: $(cat "$tmp/out")"
+fi
+
+if [ "$failures" -ne 0 ]; then
+  echo "cli.end_to_end: $failures of $checks checks failed" >&2
+  exit 1
+fi
+echo "cli.end_to_end: all $checks checks passed"

@@ -1,0 +1,150 @@
+#pragma once
+// The triangle topology: a manifold triangle mesh on CGAL::Surface_mesh (kept out of this header),
+// the only writer of connectivity, which announces every change to its observers as events.
+// See docs/topology-events.md for the event contract and the index policy.
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutsim/topology/errors.hpp"
+#include "cutsim/topology/events.hpp"
+#include "cutsim/topology/mesh_io.hpp"
+#include "cutsim/topology/types.hpp"
+
+namespace cutsim::topology {
+
+class Topology;
+
+/// Keeps an observer registered while it lives; ends the registration when destroyed or reset.
+/// Outliving the topology is safe.
+class Subscription {
+ public:
+  Subscription() = default;
+  Subscription(Subscription&&) noexcept;
+  Subscription& operator=(Subscription&&) noexcept;
+  Subscription(const Subscription&) = delete;
+  Subscription& operator=(const Subscription&) = delete;
+  ~Subscription();
+  void reset();
+  bool active() const;
+  struct Registry;  ///< opaque, owned by the topology
+
+ private:
+  friend class Topology;
+  Subscription(std::weak_ptr<Registry> registry, TopologyObserver* observer);
+  std::weak_ptr<Registry> registry_;
+  TopologyObserver* observer_ = nullptr;
+};
+
+/// Result of an incision (incise, tear, cutPolyline).
+struct IncisionResult {
+  std::vector<PointId> path;            ///< the vertices of the cut path, in order (originals)
+  std::vector<PointId> copies;          ///< new points created by opening the cut
+  std::vector<PointId> copiedFrom;      ///< copies[i] is a copy of copiedFrom[i]
+  std::vector<PointId> insertedPoints;  ///< points inserted on edges/triangles (cutPolyline, tear)
+};
+
+/// Options of cutPolyline.
+struct CutOptions {
+  /// A crossing closer than snapTolerance * (local edge length) to a vertex (or, for a corner of
+  /// the polyline, to an edge) snaps to it, so that the cut leaves no sliver triangles.
+  double snapTolerance = 0.1;
+};
+
+struct ValidationReport {
+  std::vector<std::string> problems;
+  bool ok() const { return problems.empty(); }
+  std::string summary() const;
+};
+
+class Topology {
+ public:
+  Topology();
+  /// Builds from rest positions and counter-clockwise triangles; checks manifoldness
+  /// (throws InvalidInput). Points not used by a triangle are kept as isolated points.
+  Topology(std::span<const Vec3> restPoints, std::span<const TriangleVertices> triangles);
+  explicit Topology(const MeshData& mesh);
+  ~Topology();
+  Topology(Topology&&) noexcept;
+  Topology& operator=(Topology&&) noexcept;
+  Topology(const Topology&) = delete;
+  Topology& operator=(const Topology&) = delete;
+
+  // ---- counts and slots ----
+  std::size_t numPoints() const;     ///< live points
+  std::size_t numEdges() const;      ///< live edges
+  std::size_t numTriangles() const;  ///< live triangles
+  Index pointCapacity() const;       ///< slots, live or dead: every PointId < pointCapacity()
+  Index edgeCapacity() const;
+  Index triangleCapacity() const;
+  bool isPointAlive(PointId p) const;
+  bool isEdgeAlive(EdgeId e) const;
+  bool isTriangleAlive(TriangleId t) const;
+  /// Fraction of dead slots over all slots (points, edges, triangles together).
+  double garbageFraction() const;
+
+  // ---- geometry (rest configuration: material coordinates) ----
+  Vec3 restPosition(PointId p) const;
+
+  // ---- queries ----
+  EdgeVertices edgeVertices(EdgeId e) const;
+  TriangleVertices triangleVertices(TriangleId t) const;  ///< counter-clockwise
+  TriangleEdges triangleEdges(TriangleId t) const;        ///< edge i is opposite vertex i
+  /// The triangles on either side of e: [0] lies to the left of edgeVertices(e) (the triangle
+  /// where the edge runs v0 -> v1), [1] to the right; kInvalidIndex where there is none.
+  std::array<TriangleId, 2> edgeTriangles(EdgeId e) const;
+  PointId oppositeVertex(TriangleId t, EdgeId e) const;  ///< throws if e is not an edge of t
+  EdgeId findEdge(PointId a, PointId b) const;           ///< kInvalidIndex if none
+  bool isBoundaryEdge(EdgeId e) const;                   ///< fewer than two triangles
+  bool isBoundaryPoint(PointId p) const;                 ///< on a boundary edge
+  bool isIsolatedPoint(PointId p) const;                 ///< in no edge
+  std::vector<EdgeId> edgesAroundPoint(PointId p) const;
+  std::vector<TriangleId> trianglesAroundPoint(PointId p) const;
+  std::vector<PointId> points() const;  ///< live ids, ascending
+  std::vector<EdgeId> edges() const;
+  std::vector<TriangleId> triangles() const;
+
+  // ---- observers ----
+  [[nodiscard]] Subscription subscribe(TopologyObserver& observer);
+  std::size_t numObservers() const;
+
+  // ---- operations: each is one transaction (validated first: a rejected request throws
+  //      TopologyError and changes nothing) ----
+  std::vector<PointId> addPoints(std::span<const Vec3> restPositions);
+  std::vector<TriangleId> addTriangles(std::span<const TriangleVertices> triangles);
+  /// Removes the triangles, then the edges and points they leave unused (carving).
+  void removeTriangles(std::span<const TriangleId> triangles);
+  /// Inserts a point on e at v0 + t (v1 - v0), t in (0, 1); the one or two triangles split too.
+  PointId splitEdge(EdgeId e, double t);
+  /// Inserts a point inside t with barycentric weights (sum 1, each > 0); t splits into three.
+  PointId splitTriangle(TriangleId t, const std::array<double, 3>& barycentric);
+  /// Opens the mesh along a path of interior edges (consecutive points joined by edges).
+  /// Every path vertex whose triangles the cut separates into several fans is duplicated; the
+  /// fan that holds the triangle to the RIGHT of the path (seen from the triangles' front side,
+  /// walking along the path) keeps the original vertex, the others move to copies. A path of one
+  /// edge between two interior points is first split at its midpoint. No bowtie is left.
+  IncisionResult incise(std::span<const PointId> path);
+  /// Separates the two triangles across an interior edge, opening the mesh there.
+  IncisionResult tear(EdgeId e);
+  /// Cuts along a polyline given in rest coordinates, from a surface point to a surface point:
+  /// inserts the path (splitting crossed edges and triangles, snapping), then incises it.
+  IncisionResult cutPolyline(std::span<const Vec3> polyline, const CutOptions& options = {});
+  /// Renumbers every element densely and emits renumbering events (old -> new).
+  void compact();
+
+  // ---- checking ----
+  /// Half-edge structure, manifoldness, and every observer's validate().
+  ValidationReport validate() const;
+  void validateOrThrow() const;  ///< throws TopologyError listing the problems
+
+  /// Current state as a triangle soup (live points densely renumbered in ascending id order).
+  MeshData toMeshData(std::vector<PointId>* pointIds = nullptr) const;
+
+  struct Impl;  ///< implementation detail (CGAL-based), opaque outside topology/src
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cutsim::topology

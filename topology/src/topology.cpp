@@ -1,0 +1,725 @@
+// Topology: construction, queries, observers, transactions and event delivery, validation,
+// compaction. Operations are in topology_ops.cpp and topology_cut.cpp.
+#include "topology_impl.hpp"
+
+#include <CGAL/boost/graph/Euler_operations.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+namespace cutsim::topology {
+
+// ------------------------------------------------------------------------------------------
+// Subscription
+
+Subscription::Subscription(std::weak_ptr<Registry> registry, TopologyObserver* observer)
+    : registry_(std::move(registry)), observer_(observer) {}
+Subscription::Subscription(Subscription&& o) noexcept
+    : registry_(std::move(o.registry_)), observer_(o.observer_) {
+  o.observer_ = nullptr;
+}
+Subscription& Subscription::operator=(Subscription&& o) noexcept {
+  if (this != &o) {
+    reset();
+    registry_ = std::move(o.registry_);
+    observer_ = o.observer_;
+    o.observer_ = nullptr;
+  }
+  return *this;
+}
+Subscription::~Subscription() { reset(); }
+void Subscription::reset() {
+  if (auto r = registry_.lock(); r && observer_) {
+    auto& obs = r->observers;
+    obs.erase(std::remove(obs.begin(), obs.end(), observer_), obs.end());
+  }
+  registry_.reset();
+  observer_ = nullptr;
+}
+bool Subscription::active() const { return observer_ != nullptr && !registry_.expired(); }
+
+std::string ValidationReport::summary() const {
+  std::ostringstream s;
+  for (std::size_t i = 0; i < problems.size() && i < 20; ++i) s << "  - " << problems[i] << "\n";
+  if (problems.size() > 20) s << "  ... and " << problems.size() - 20 << " more\n";
+  return s.str();
+}
+
+// ------------------------------------------------------------------------------------------
+// Construction
+
+Topology::Topology() : impl_(std::make_unique<Impl>()) {}
+
+Topology::Topology(const MeshData& data) : impl_(std::make_unique<Impl>()) {
+  checkManifold(data);
+  Mesh& m = impl_->mesh;
+  m.reserve(data.points.size(), data.points.size() + data.triangles.size() * 2,
+            data.triangles.size());
+  for (const Vec3& p : data.points) m.add_vertex(toPoint(p));
+  std::vector<std::array<VI, 3>> faces;
+  faces.reserve(data.triangles.size());
+  for (const auto& t : data.triangles) faces.push_back({VI(t[0]), VI(t[1]), VI(t[2])});
+  CGAL::Euler::add_faces(faces, m);
+  if (m.number_of_faces() != data.triangles.size()) {
+    throw TopologyError("internal error: the half-edge structure took " +
+                        std::to_string(m.number_of_faces()) + " of " +
+                        std::to_string(data.triangles.size()) + " triangles");
+  }
+}
+
+namespace {
+MeshData soup(std::span<const Vec3> pts, std::span<const TriangleVertices> tris) {
+  MeshData d;
+  d.points.assign(pts.begin(), pts.end());
+  d.triangles.assign(tris.begin(), tris.end());
+  d.pointLines.assign(pts.size(), 0);
+  d.triangleLines.assign(tris.size(), 0);
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    for (double c : pts[i])
+      if (!std::isfinite(c))
+        throw InvalidInput("point " + std::to_string(i), "non-finite rest coordinate");
+  for (std::size_t i = 0; i < tris.size(); ++i) {
+    for (PointId v : tris[i])
+      if (v >= pts.size())
+        throw InvalidInput("triangle " + std::to_string(i),
+                           "vertex index " + std::to_string(v) + " out of range [0, " +
+                               std::to_string(pts.size()) + ")");
+    if (tris[i][0] == tris[i][1] || tris[i][1] == tris[i][2] || tris[i][0] == tris[i][2])
+      throw InvalidInput("triangle " + std::to_string(i), "repeated vertex in a triangle");
+  }
+  return d;
+}
+}  // namespace
+
+Topology::Topology(std::span<const Vec3> restPoints, std::span<const TriangleVertices> triangles)
+    : Topology(soup(restPoints, triangles)) {}
+
+Topology::~Topology() = default;
+Topology::Topology(Topology&&) noexcept = default;
+Topology& Topology::operator=(Topology&&) noexcept = default;
+
+// ------------------------------------------------------------------------------------------
+// Queries
+
+std::size_t Topology::numPoints() const { return impl_->mesh.number_of_vertices(); }
+std::size_t Topology::numEdges() const { return impl_->mesh.number_of_edges(); }
+std::size_t Topology::numTriangles() const { return impl_->mesh.number_of_faces(); }
+Index Topology::pointCapacity() const { return Index(impl_->mesh.num_vertices()); }
+Index Topology::edgeCapacity() const { return Index(impl_->mesh.num_edges()); }
+Index Topology::triangleCapacity() const { return Index(impl_->mesh.num_faces()); }
+bool Topology::isPointAlive(PointId p) const { return impl_->vertexAlive(VI(p)); }
+bool Topology::isEdgeAlive(EdgeId e) const { return impl_->edgeAlive(EI(e)); }
+bool Topology::isTriangleAlive(TriangleId t) const { return impl_->faceAlive(FI(t)); }
+
+double Topology::garbageFraction() const {
+  const Mesh& m = impl_->mesh;
+  double slots = double(m.num_vertices() + m.num_edges() + m.num_faces());
+  if (slots == 0) return 0.0;
+  double dead = double(m.number_of_removed_vertices() + m.number_of_removed_edges() +
+                       m.number_of_removed_faces());
+  return dead / slots;
+}
+
+namespace {
+[[noreturn]] void badIndex(const char* what, Index i) {
+  throw TopologyError(std::string(what) + " " + std::to_string(i) + " does not exist");
+}
+}  // namespace
+
+Vec3 Topology::restPosition(PointId p) const {
+  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  return toVec(impl_->mesh.point(VI(p)));
+}
+
+EdgeVertices Topology::edgeVertices(EdgeId e) const {
+  if (!impl_->edgeAlive(EI(e))) badIndex("edge", e);
+  const Mesh& m = impl_->mesh;
+  HI h = m.halfedge(EI(e));
+  return {PointId(m.source(h).idx()), PointId(m.target(h).idx())};
+}
+
+TriangleVertices Topology::Impl::verticesOf(FI f) const {
+  HI h = mesh.halfedge(f);
+  return {PointId(mesh.source(h).idx()), PointId(mesh.target(h).idx()),
+          PointId(mesh.target(mesh.next(h)).idx())};
+}
+
+TriangleEdges Topology::Impl::edgesOf(FI f) const {
+  // vertices (s(h), t(h), t(next h)); edge i is opposite vertex i.
+  HI h = mesh.halfedge(f);
+  HI n = mesh.next(h);
+  HI p = mesh.next(n);
+  return {EdgeId(mesh.edge(n).idx()), EdgeId(mesh.edge(p).idx()), EdgeId(mesh.edge(h).idx())};
+}
+
+TriangleVertices Topology::triangleVertices(TriangleId t) const {
+  if (!impl_->faceAlive(FI(t))) badIndex("triangle", t);
+  return impl_->verticesOf(FI(t));
+}
+
+TriangleEdges Topology::triangleEdges(TriangleId t) const {
+  if (!impl_->faceAlive(FI(t))) badIndex("triangle", t);
+  return impl_->edgesOf(FI(t));
+}
+
+std::array<TriangleId, 2> Topology::edgeTriangles(EdgeId e) const {
+  if (!impl_->edgeAlive(EI(e))) badIndex("edge", e);
+  const Mesh& m = impl_->mesh;
+  HI h = m.halfedge(EI(e));
+  FI a = m.face(h), b = m.face(m.opposite(h));
+  return {a.is_valid() ? TriangleId(a.idx()) : kInvalidIndex,
+          b.is_valid() ? TriangleId(b.idx()) : kInvalidIndex};
+}
+
+PointId Topology::oppositeVertex(TriangleId t, EdgeId e) const {
+  TriangleEdges te = triangleEdges(t);
+  TriangleVertices tv = impl_->verticesOf(FI(t));
+  for (int i = 0; i < 3; ++i)
+    if (te[i] == e) return tv[i];
+  throw TopologyError("edge " + std::to_string(e) + " is not an edge of triangle " +
+                      std::to_string(t));
+}
+
+HI Topology::Impl::findHalfedge(VI a, VI b) const {
+  HI h = mesh.halfedge(b);  // incoming to b
+  if (!h.is_valid()) return Mesh::null_halfedge();
+  HI start = h;
+  std::size_t guard = 0;
+  do {
+    if (mesh.source(h) == a) return h;
+    h = mesh.opposite(mesh.next(h));
+    if (++guard > mesh.num_halfedges()) break;
+  } while (h != start);
+  return Mesh::null_halfedge();
+}
+
+EdgeId Topology::findEdge(PointId a, PointId b) const {
+  if (!impl_->vertexAlive(VI(a)) || !impl_->vertexAlive(VI(b)) || a == b) return kInvalidIndex;
+  HI h = impl_->findHalfedge(VI(a), VI(b));
+  return h.is_valid() ? EdgeId(impl_->mesh.edge(h).idx()) : kInvalidIndex;
+}
+
+bool Topology::isBoundaryEdge(EdgeId e) const {
+  if (!impl_->edgeAlive(EI(e))) badIndex("edge", e);
+  return impl_->mesh.is_border(EI(e));
+}
+
+bool Topology::isBoundaryPoint(PointId p) const {
+  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  const Mesh& m = impl_->mesh;
+  return !m.is_isolated(VI(p)) && m.is_border(VI(p), true);
+}
+
+bool Topology::isIsolatedPoint(PointId p) const {
+  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  return impl_->mesh.is_isolated(VI(p));
+}
+
+void Topology::Impl::incomingHalfedges(VI v, std::vector<HI>& out) const {
+  out.clear();
+  HI h = mesh.halfedge(v);
+  if (!h.is_valid()) return;
+  HI start = h;
+  do {
+    out.push_back(h);
+    h = mesh.opposite(mesh.next(h));
+    if (out.size() > mesh.num_halfedges()) break;
+  } while (h != start);
+}
+
+std::vector<EdgeId> Topology::edgesAroundPoint(PointId p) const {
+  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  std::vector<HI> hs;
+  impl_->incomingHalfedges(VI(p), hs);
+  std::vector<EdgeId> out;
+  for (HI h : hs) out.push_back(EdgeId(impl_->mesh.edge(h).idx()));
+  return out;
+}
+
+std::vector<TriangleId> Topology::trianglesAroundPoint(PointId p) const {
+  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  std::vector<HI> hs;
+  impl_->incomingHalfedges(VI(p), hs);
+  std::vector<TriangleId> out;
+  for (HI h : hs)
+    if (FI f = impl_->mesh.face(h); f.is_valid()) out.push_back(TriangleId(f.idx()));
+  return out;
+}
+
+std::vector<PointId> Topology::points() const {
+  std::vector<PointId> out;
+  out.reserve(numPoints());
+  for (VI v : impl_->mesh.vertices()) out.push_back(PointId(v.idx()));
+  return out;
+}
+std::vector<EdgeId> Topology::edges() const {
+  std::vector<EdgeId> out;
+  out.reserve(numEdges());
+  for (EI e : impl_->mesh.edges()) out.push_back(EdgeId(e.idx()));
+  return out;
+}
+std::vector<TriangleId> Topology::triangles() const {
+  std::vector<TriangleId> out;
+  out.reserve(numTriangles());
+  for (FI f : impl_->mesh.faces()) out.push_back(TriangleId(f.idx()));
+  return out;
+}
+
+double Topology::Impl::localEdgeLength(VI v) const {
+  std::vector<HI> hs;
+  incomingHalfedges(v, hs);
+  if (hs.empty()) return 0.0;
+  double sum = 0;
+  for (HI h : hs) sum += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(h)), mesh.point(v)));
+  return sum / double(hs.size());
+}
+
+MeshData Topology::toMeshData(std::vector<PointId>* pointIds) const {
+  MeshData d;
+  const Mesh& m = impl_->mesh;
+  std::vector<PointId> dense(m.num_vertices(), kInvalidIndex);
+  for (VI v : m.vertices()) {
+    dense[v.idx()] = PointId(d.points.size());
+    d.points.push_back(toVec(m.point(v)));
+    if (pointIds) pointIds->push_back(PointId(v.idx()));
+  }
+  for (FI f : m.faces()) {
+    TriangleVertices t = impl_->verticesOf(f);
+    d.triangles.push_back({dense[t[0]], dense[t[1]], dense[t[2]]});
+  }
+  d.pointLines.assign(d.points.size(), 0);
+  d.triangleLines.assign(d.triangles.size(), 0);
+  return d;
+}
+
+// ------------------------------------------------------------------------------------------
+// Observers
+
+Subscription Topology::subscribe(TopologyObserver& observer) {
+  auto& obs = impl_->registry->observers;
+  if (std::find(obs.begin(), obs.end(), &observer) != obs.end())
+    throw TopologyError("observer '" + observer.observerName() + "' is already subscribed");
+  obs.push_back(&observer);
+  return Subscription(impl_->registry, &observer);
+}
+
+std::size_t Topology::numObservers() const { return impl_->registry->observers.size(); }
+
+// ------------------------------------------------------------------------------------------
+// Transactions
+
+void Topology::Impl::begin(std::string op) {
+  if (open) throw TopologyError("internal error: nested transaction '" + op + "' in '" + operation + "'");
+  open = true;
+  operation = std::move(op);
+  vBefore = Index(mesh.num_vertices());
+  eBefore = Index(mesh.num_edges());
+  fBefore = Index(mesh.num_faces());
+}
+
+void Topology::Impl::abortIfOpen() {
+  // Only used before any mutation happened (validation failures); nothing to undo.
+  open = false;
+  trisDestroyed.clear(); trisDestroyedV.clear(); trisDestroyedE.clear(); trisDestroyedP.clear();
+  edgesDestroyed.clear(); edgesDestroyedV.clear(); pointsDestroyed.clear();
+  ancestry.clear(); touched.clear();
+}
+
+VI Topology::Impl::newFreePoint(const Point3& p) { return mesh.add_vertex(p); }
+
+VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ancestors) {
+  // Compose with the ancestry of points created earlier in this transaction.
+  std::vector<std::pair<PointId, double>> flat;
+  double x = 0, y = 0, z = 0;
+  for (auto [a, w] : ancestors) {
+    const Point3& p = mesh.point(VI(a));
+    x += w * p.x(); y += w * p.y(); z += w * p.z();
+    if (a >= vBefore) {
+      auto it = ancestry.find(a);
+      if (it != ancestry.end() && !it->second.empty()) {
+        for (auto [aa, ww] : it->second) flat.emplace_back(aa, w * ww);
+        continue;
+      }
+    }
+    flat.emplace_back(a, w);
+  }
+  std::sort(flat.begin(), flat.end());
+  std::vector<std::pair<PointId, double>> merged;
+  for (auto& [a, w] : flat) {
+    if (!merged.empty() && merged.back().first == a) merged.back().second += w;
+    else merged.emplace_back(a, w);
+  }
+  VI v = mesh.add_vertex(Point3(x, y, z));
+  ancestry[PointId(v.idx())] = std::move(merged);
+  return v;
+}
+
+void Topology::Impl::detachFace(FI f) {
+  // As CGAL::Euler::remove_face, but a vertex left without edges stays (isolated) until commit,
+  // so that the same transaction may attach new faces to it.
+  HI h = mesh.halfedge(f);
+  HI end = h;
+  if (f.idx() < fBefore) {
+    trisDestroyed.push_back(TriangleId(f.idx()));
+    trisDestroyedV.push_back(verticesOf(f));
+    trisDestroyedE.push_back(edgesOf(f));
+    auto v = verticesOf(f);
+    trisDestroyedP.push_back({mesh.point(VI(v[0])), mesh.point(VI(v[1])), mesh.point(VI(v[2]))});
+  }
+  for (PointId p : verticesOf(f)) touched.push_back(VI(p));
+  auto removeEdge = [&](EI e) {
+    if (e.idx() < eBefore) {
+      edgesDestroyed.push_back(EdgeId(e.idx()));
+      HI eh(2 * e.idx());  // the edge's first halfedge (an Edge_index built from a halfedge keeps it)
+      edgesDestroyedV.push_back({PointId(mesh.source(eh).idx()), PointId(mesh.target(eh).idx())});
+    }
+    mesh.remove_edge(e);
+  };
+  do {
+    mesh.set_face(h, Mesh::null_face());
+    HI nh = mesh.next(h);
+    bool hBorder = mesh.is_border(mesh.opposite(h));
+    bool nhBorder = mesh.is_border(mesh.opposite(nh));
+    if (hBorder && nhBorder && mesh.next(mesh.opposite(nh)) == mesh.opposite(h)) {
+      mesh.set_halfedge(mesh.target(h), Mesh::null_halfedge());
+      if (h != end) removeEdge(mesh.edge(h));
+    } else {
+      if (nhBorder) {
+        HI x = mesh.opposite(mesh.next(mesh.opposite(nh)));
+        mesh.set_halfedge(mesh.target(x), x);
+        mesh.set_next(h, mesh.next(mesh.opposite(mesh.next(h))));
+      }
+      if (hBorder) {
+        HI y = mesh.opposite(mesh.next(h));
+        mesh.set_halfedge(mesh.target(y), y);
+        HI p = mesh.prev(mesh.opposite(h));
+        mesh.set_next(p, mesh.next(mesh.opposite(mesh.next(p))));
+        if (h != end) removeEdge(mesh.edge(h));
+      }
+    }
+    h = nh;
+  } while (h != end);
+  mesh.remove_face(f);
+  if (mesh.is_border(mesh.opposite(h))) removeEdge(mesh.edge(h));
+}
+
+std::vector<FI> Topology::Impl::attachFaces(const std::vector<std::array<VI, 3>>& faces) {
+  std::vector<FI> out(faces.size(), Mesh::null_face());
+  std::vector<std::size_t> pending(faces.size());
+  std::iota(pending.begin(), pending.end(), 0);
+  while (!pending.empty()) {
+    std::vector<std::size_t> next;
+    for (std::size_t i : pending) {
+      FI f = CGAL::Euler::add_face(faces[i], mesh);
+      if (f == Mesh::null_face()) next.push_back(i);
+      else out[i] = f;
+    }
+    if (next.size() == pending.size()) {
+      const auto& t = faces[next.front()];
+      throw TopologyError("internal error in '" + operation + "': cannot attach triangle (" +
+                          std::to_string(t[0].idx()) + ", " + std::to_string(t[1].idx()) + ", " +
+                          std::to_string(t[2].idx()) + ")");
+    }
+    pending.swap(next);
+  }
+  return out;
+}
+
+void Topology::Impl::reattach(const std::vector<FI>& faces,
+                              const std::unordered_map<std::uint64_t, VI>& subst) {
+  std::vector<std::array<VI, 3>> added;
+  added.reserve(faces.size());
+  for (FI f : faces) {
+    TriangleVertices t = verticesOf(f);
+    std::array<VI, 3> nt;
+    for (int i = 0; i < 3; ++i) {
+      auto it = subst.find(faceVertexKey(f, VI(t[i])));
+      nt[i] = it == subst.end() ? VI(t[i]) : it->second;
+    }
+    added.push_back(nt);
+  }
+  for (FI f : faces) detachFace(f);
+  attachFaces(added);
+}
+
+std::vector<std::vector<FI>> Topology::Impl::fansAround(
+    VI v, const std::function<bool(EI)>& isSeparator) const {
+  std::vector<HI> hs;
+  incomingHalfedges(v, hs);
+  std::vector<FI> faces;
+  for (HI h : hs)
+    if (FI f = mesh.face(h); f.is_valid()) faces.push_back(f);
+  std::sort(faces.begin(), faces.end());
+  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+  std::vector<std::size_t> parent(faces.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  auto slot = [&](FI f) {
+    return std::size_t(std::lower_bound(faces.begin(), faces.end(), f) - faces.begin());
+  };
+  for (HI h : hs) {
+    FI a = mesh.face(h), b = mesh.face(mesh.opposite(h));
+    if (!a.is_valid() || !b.is_valid()) continue;
+    if (isSeparator && isSeparator(mesh.edge(h))) continue;
+    parent[find(slot(a))] = find(slot(b));
+  }
+  std::vector<std::vector<FI>> groups;
+  std::unordered_map<std::size_t, std::size_t> rootToGroup;
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    std::size_t r = find(i);
+    auto [it, inserted] = rootToGroup.emplace(r, groups.size());
+    if (inserted) groups.emplace_back();
+    groups[it->second].push_back(faces[i]);
+  }
+  return groups;
+}
+
+void Topology::Impl::splitFans(const std::vector<VI>& candidates,
+                               const std::function<bool(EI)>& isSeparator,
+                               const std::unordered_map<std::uint32_t, FI>& keepFace,
+                               std::vector<PointId>* copies, std::vector<PointId>* copiedFrom) {
+  std::unordered_map<std::uint64_t, VI> subst;
+  std::vector<FI> affected;
+  std::vector<VI> seen;
+  for (VI v : candidates) {
+    if (!vertexAlive(v) || std::find(seen.begin(), seen.end(), v) != seen.end()) continue;
+    seen.push_back(v);
+    auto groups = fansAround(v, isSeparator);
+    if (groups.size() < 2) continue;
+    std::size_t keep = 0;  // groups are ordered by their smallest face index
+    if (auto it = keepFace.find(v.idx()); it != keepFace.end()) {
+      for (std::size_t g = 0; g < groups.size(); ++g)
+        if (std::find(groups[g].begin(), groups[g].end(), it->second) != groups[g].end()) keep = g;
+    }
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      if (g == keep) continue;
+      VI c = newPoint({{PointId(v.idx()), 1.0}});
+      if (copies) copies->push_back(PointId(c.idx()));
+      if (copiedFrom) copiedFrom->push_back(PointId(v.idx()));
+      for (FI f : groups[g]) {
+        subst[faceVertexKey(f, v)] = c;
+        affected.push_back(f);
+      }
+    }
+  }
+  if (affected.empty()) return;
+  std::sort(affected.begin(), affected.end());
+  affected.erase(std::unique(affected.begin(), affected.end()), affected.end());
+  reattach(affected, subst);
+}
+
+namespace {
+template <class Id, class Data>
+void sortTogether(std::vector<Id>& ids, std::vector<Data>& data) {
+  std::vector<std::size_t> order(ids.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return ids[a] < ids[b]; });
+  std::vector<Id> i2;
+  std::vector<Data> d2;
+  for (std::size_t k : order) { i2.push_back(ids[k]); d2.push_back(data[k]); }
+  ids.swap(i2);
+  data.swap(d2);
+}
+}  // namespace
+
+void Topology::Impl::commit(Topology& self) {
+  // Points left without any edge by this transaction are removed (carving).
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  for (VI v : touched) {
+    if (!vertexAlive(v) || !mesh.is_isolated(v)) continue;
+    if (v.idx() < vBefore) pointsDestroyed.push_back(PointId(v.idx()));
+    mesh.remove_vertex(v);
+  }
+
+  // Net lists. Elements created in this transaction have slots >= the *Before marks.
+  std::vector<TriangleId> triC;
+  std::vector<TriangleVertices> triCV;
+  std::vector<TriangleEdges> triCE;
+  for (Index f = fBefore; f < mesh.num_faces(); ++f)
+    if (!mesh.is_removed(FI(f))) {
+      triC.push_back(f);
+      triCV.push_back(verticesOf(FI(f)));
+      triCE.push_back(edgesOf(FI(f)));
+    }
+  std::vector<EdgeId> edgeC;
+  std::vector<EdgeVertices> edgeCV;
+  for (Index e = eBefore; e < mesh.num_edges(); ++e)
+    if (!mesh.is_removed(EI(e))) {
+      edgeC.push_back(e);
+      HI h = mesh.halfedge(EI(e));
+      edgeCV.push_back({PointId(mesh.source(h).idx()), PointId(mesh.target(h).idx())});
+    }
+  std::vector<PointId> pointC;
+  std::vector<std::uint32_t> offsets{0};
+  std::vector<PointId> anc;
+  std::vector<double> w;
+  for (Index v = vBefore; v < mesh.num_vertices(); ++v)
+    if (!mesh.is_removed(VI(v))) {
+      pointC.push_back(v);
+      if (auto it = ancestry.find(v); it != ancestry.end())
+        for (auto [a, ww] : it->second) { anc.push_back(a); w.push_back(ww); }
+      offsets.push_back(std::uint32_t(anc.size()));
+    }
+  {
+    std::vector<std::size_t> order(trisDestroyed.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return trisDestroyed[a] < trisDestroyed[b]; });
+    std::vector<TriangleId> t2; std::vector<TriangleVertices> v2; std::vector<TriangleEdges> e2;
+    std::vector<std::array<Point3, 3>> p2;
+    for (std::size_t k : order) {
+      t2.push_back(trisDestroyed[k]); v2.push_back(trisDestroyedV[k]);
+      e2.push_back(trisDestroyedE[k]); p2.push_back(trisDestroyedP[k]);
+    }
+    trisDestroyed.swap(t2); trisDestroyedV.swap(v2); trisDestroyedE.swap(e2); trisDestroyedP.swap(p2);
+  }
+  sortTogether(edgesDestroyed, edgesDestroyedV);
+  std::sort(pointsDestroyed.begin(), pointsDestroyed.end());
+
+  // Keep the locator up to date (only once it has been built).
+  if (grid.built()) {
+    for (std::size_t i = 0; i < trisDestroyed.size(); ++i) grid.erase(trisDestroyedP[i], FI(trisDestroyed[i]));
+    for (TriangleId t : triC) grid.insert(mesh, FI(t));
+  }
+
+  TransactionSummary summary;
+  summary.operation = operation;
+  summary.trianglesDestroyed = trisDestroyed.size();
+  summary.edgesDestroyed = edgesDestroyed.size();
+  summary.pointsDestroyed = pointsDestroyed.size();
+  summary.pointsCreated = pointC.size();
+  summary.edgesCreated = edgeC.size();
+  summary.trianglesCreated = triC.size();
+
+  // The journal is cleared before delivery: observers see a closed transaction.
+  std::vector<TriangleId> tD; tD.swap(trisDestroyed);
+  std::vector<TriangleVertices> tDV; tDV.swap(trisDestroyedV);
+  std::vector<TriangleEdges> tDE; tDE.swap(trisDestroyedE);
+  std::vector<EdgeId> eD; eD.swap(edgesDestroyed);
+  std::vector<EdgeVertices> eDV; eDV.swap(edgesDestroyedV);
+  std::vector<PointId> pD; pD.swap(pointsDestroyed);
+  std::string op = operation;
+  summary.operation = op;
+  abortIfOpen();
+
+  std::vector<TopologyObserver*> obs = registry->observers;
+  if (obs.empty()) return;
+  registry->delivering = true;
+  struct Guard { Subscription::Registry& r; ~Guard() { r.delivering = false; } } guard{*registry};
+  if (!tD.empty()) for (auto* o : obs) o->onTrianglesDestroyed(self, {tD, tDV, tDE});
+  if (!eD.empty()) for (auto* o : obs) o->onEdgesDestroyed(self, {eD, eDV});
+  if (!pD.empty()) for (auto* o : obs) o->onPointsDestroyed(self, {pD});
+  if (!pointC.empty()) for (auto* o : obs) o->onPointsCreated(self, {pointC, offsets, anc, w});
+  if (!edgeC.empty()) for (auto* o : obs) o->onEdgesCreated(self, {edgeC, edgeCV});
+  if (!triC.empty()) for (auto* o : obs) o->onTrianglesCreated(self, {triC, triCV, triCE});
+  for (auto* o : obs) o->onTransactionEnd(self, summary);
+}
+
+// ------------------------------------------------------------------------------------------
+// Compaction
+
+void Topology::compact() {
+  Impl& I = *impl_;
+  if (I.registry->delivering) throw TopologyError("compact() called from an observer");
+  Mesh& m = I.mesh;
+  if (!m.has_garbage()) return;
+  const std::size_t nV = m.num_vertices(), nE = m.num_edges(), nF = m.num_faces();
+  const Index liveV = Index(m.number_of_vertices()), liveE = Index(m.number_of_edges()),
+              liveF = Index(m.number_of_faces());
+  std::vector<Index> vmap(nV, kInvalidIndex), emap(nE, kInvalidIndex), fmap(nF, kInvalidIndex);
+  auto visitor = [&](auto& vm, auto& hm, auto& fm) {
+    // CGAL swaps the last live element into the first hole: the maps are involutions, so
+    // map[old] is the new index of a live old element; a value beyond the live count means dead.
+    for (std::size_t i = 0; i < nV; ++i) {
+      Index n = Index(vm[VI(Index(i))].idx());
+      vmap[i] = n < liveV ? n : kInvalidIndex;
+    }
+    for (std::size_t i = 0; i < nE; ++i) {
+      Index n = Index(hm[HI(Index(2 * i))].idx()) / 2;
+      emap[i] = n < liveE ? n : kInvalidIndex;
+    }
+    for (std::size_t i = 0; i < nF; ++i) {
+      Index n = Index(fm[FI(Index(i))].idx());
+      fmap[i] = n < liveF ? n : kInvalidIndex;
+    }
+  };
+  // A removed element that was not moved keeps map[i] == i, which may be < live count only if
+  // it was swapped; mark removed ones explicitly before collecting.
+  std::vector<bool> vdead(nV), edead(nE), fdead(nF);
+  for (std::size_t i = 0; i < nV; ++i) vdead[i] = m.is_removed(VI(Index(i)));
+  for (std::size_t i = 0; i < nE; ++i) edead[i] = m.is_removed(EI(Index(i)));
+  for (std::size_t i = 0; i < nF; ++i) fdead[i] = m.is_removed(FI(Index(i)));
+  m.collect_garbage(visitor);
+  for (std::size_t i = 0; i < nV; ++i) if (vdead[i]) vmap[i] = kInvalidIndex;
+  for (std::size_t i = 0; i < nE; ++i) if (edead[i]) emap[i] = kInvalidIndex;
+  for (std::size_t i = 0; i < nF; ++i) if (fdead[i]) fmap[i] = kInvalidIndex;
+  I.grid.clear();
+
+  TransactionSummary summary;
+  summary.operation = "compact";
+  summary.renumbered = true;
+  std::vector<TopologyObserver*> obs = I.registry->observers;
+  I.registry->delivering = true;
+  struct Guard { Subscription::Registry& r; ~Guard() { r.delivering = false; } } guard{*I.registry};
+  for (auto* o : obs) o->onPointsRenumbered(*this, {vmap, liveV});
+  for (auto* o : obs) o->onEdgesRenumbered(*this, {emap, liveE});
+  for (auto* o : obs) o->onTrianglesRenumbered(*this, {fmap, liveF});
+  for (auto* o : obs) o->onTransactionEnd(*this, summary);
+}
+
+// ------------------------------------------------------------------------------------------
+// Validation
+
+ValidationReport Topology::validate() const {
+  ValidationReport r;
+  const Mesh& m = impl_->mesh;
+  auto bad = [&](std::string s) { r.problems.push_back(std::move(s)); };
+  if (!m.is_valid(false)) bad("CGAL's Surface_mesh::is_valid() fails");
+  for (FI f : m.faces()) {
+    HI h = m.halfedge(f);
+    if (m.next(m.next(m.next(h))) != h) bad("triangle " + std::to_string(f.idx()) + " is not a triangle");
+    auto t = impl_->verticesOf(f);
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+      bad("triangle " + std::to_string(f.idx()) + " has a repeated vertex");
+  }
+  for (EI e : m.edges()) {
+    HI h = m.halfedge(e);
+    if (m.is_border(h) && m.is_border(m.opposite(h)))
+      bad("edge " + std::to_string(e.idx()) + " has no triangle");
+    if (m.source(h) == m.target(h)) bad("edge " + std::to_string(e.idx()) + " is a loop");
+  }
+  // Manifold vertices: one fan each; no two edges with the same endpoints.
+  std::vector<HI> hs;
+  for (VI v : m.vertices()) {
+    if (m.is_isolated(v)) continue;
+    impl_->incomingHalfedges(v, hs);
+    std::vector<VI> nbrs;
+    for (HI h : hs) nbrs.push_back(m.source(h));
+    std::sort(nbrs.begin(), nbrs.end());
+    if (std::adjacent_find(nbrs.begin(), nbrs.end()) != nbrs.end())
+      bad("point " + std::to_string(v.idx()) + " has two edges to the same neighbour");
+    std::size_t borders = 0;
+    for (HI h : hs) borders += m.is_border(h) ? 1 : 0;
+    if (borders > 1) bad("point " + std::to_string(v.idx()) + " is a bowtie (" + std::to_string(borders) + " boundary fans)");
+    if (hs.size() >= 1 && m.target(hs.front()) != v) bad("point " + std::to_string(v.idx()) + ": halfedge does not point to it");
+  }
+  for (auto* o : impl_->registry->observers) {
+    std::vector<std::string> problems;
+    o->validate(*this, problems);
+    for (auto& p : problems) bad(o->observerName() + ": " + p);
+  }
+  return r;
+}
+
+void Topology::validateOrThrow() const {
+  ValidationReport r = validate();
+  if (!r.ok()) throw TopologyError("topology validation failed:\n" + r.summary());
+}
+
+}  // namespace cutsim::topology

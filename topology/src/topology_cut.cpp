@@ -1,0 +1,492 @@
+// Cutting along a polyline given in rest (material) coordinates, and the triangle locator.
+//
+// The cut is found by walking over the surface from triangle to triangle (never by scanning the
+// mesh): the start point is located with a hash grid of triangle boxes, then each segment of the
+// polyline is followed across triangles, projecting the target into each triangle's plane, so a
+// curved rest surface is followed too. The walk runs twice: first on the unchanged mesh to check
+// the request (a polyline that leaves the surface is rejected before anything changes), then for
+// real, from vertex to vertex: every crossing becomes a vertex (an edge split, or a triangle split
+// at a corner), snapped to an existing vertex or edge when closer than snapTolerance times the
+// local edge length. The resulting path of edges is then incised.
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <sstream>
+
+#include "topology_impl.hpp"
+
+namespace cutsim::topology {
+
+namespace {
+
+using Vector3 = Kernel::Vector_3;
+
+std::string fmt(const Point3& p) {
+  std::ostringstream s;
+  s.precision(6);
+  s << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
+  return s.str();
+}
+
+std::array<Point3, 3> corners(const Mesh& m, FI f) {
+  HI h = m.halfedge(f);
+  return {m.point(m.source(h)), m.point(m.target(h)), m.point(m.target(m.next(h)))};
+}
+
+/// Barycentric coordinates of the projection of q onto the plane of c. nullopt if degenerate.
+std::optional<std::array<double, 3>> barycentric(const std::array<Point3, 3>& c, const Point3& q) {
+  Vector3 v0 = c[1] - c[0], v1 = c[2] - c[0], v2 = q - c[0];
+  double d00 = v0 * v0, d01 = v0 * v1, d11 = v1 * v1, d20 = v2 * v0, d21 = v2 * v1;
+  double denom = d00 * d11 - d01 * d01;
+  if (!(denom > 1e-300) || denom <= 1e-14 * d00 * d11) return std::nullopt;
+  double b = (d11 * d20 - d01 * d21) / denom;
+  double g = (d00 * d21 - d01 * d20) / denom;
+  return std::array<double, 3>{1.0 - b - g, b, g};
+}
+
+/// Closest point of triangle c to p (Ericson, Real-Time Collision Detection, 5.1.5).
+Point3 closestOnTriangle(const std::array<Point3, 3>& c, const Point3& p) {
+  const Point3 &a = c[0], &b = c[1], &cc = c[2];
+  Vector3 ab = b - a, ac = cc - a, ap = p - a;
+  double d1 = ab * ap, d2 = ac * ap;
+  if (d1 <= 0 && d2 <= 0) return a;
+  Vector3 bp = p - b;
+  double d3 = ab * bp, d4 = ac * bp;
+  if (d3 >= 0 && d4 <= d3) return b;
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
+  Vector3 cp = p - cc;
+  double d5 = ab * cp, d6 = ac * cp;
+  if (d6 >= 0 && d5 <= d6) return cc;
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (cc - b);
+  double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+double longestEdge(const std::array<Point3, 3>& c) {
+  return std::sqrt(std::max({CGAL::squared_distance(c[0], c[1]), CGAL::squared_distance(c[1], c[2]),
+                             CGAL::squared_distance(c[2], c[0])}));
+}
+
+/// Squared distance between segments p1q1 and p2q2 (Ericson 5.1.9).
+double segmentDistance2(const Point3& p1, const Point3& q1, const Point3& p2, const Point3& q2) {
+  Vector3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  double a = d1 * d1, e = d2 * d2, f = d2 * r;
+  double s = 0, t = 0;
+  const double eps = 1e-30;
+  if (a <= eps && e <= eps) return r * r;
+  if (a <= eps) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    double c = d1 * r;
+    if (e <= eps) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      double b = d1 * d2, denom = a * e - b * b;
+      s = denom > eps ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) { t = 0; s = std::clamp(-c / a, 0.0, 1.0); }
+      else if (t > 1) { t = 1; s = std::clamp((b - c) / a, 0.0, 1.0); }
+    }
+  }
+  Vector3 d = (p1 + s * d1) - (p2 + t * d2);
+  return d * d;
+}
+
+/// One step of the walk inside face f from p (barycentric lp in f, on f's closure) towards q.
+struct Step {
+  bool enters = false;
+  double margin = -1e300;      // how clearly the direction enters f (larger is better)
+  bool reached = false;        // q (projected) lies in f
+  std::array<double, 3> at{};  // barycentric coordinates of the end of the step in f
+  int exitEdge = -1;           // local index of the vertex opposite the exit edge
+};
+
+Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, const Point3& q) {
+  Step s;
+  auto lq = barycentric(c, q);
+  if (!lq) return s;
+  const double eps = 1e-10;
+  std::array<double, 3> d{(*lq)[0] - lp[0], (*lq)[1] - lp[1], (*lq)[2] - lp[2]};
+  double norm = std::max({std::abs(d[0]), std::abs(d[1]), std::abs(d[2]), 1e-300});
+  double margin = 1e300;
+  for (int j = 0; j < 3; ++j)
+    if (lp[j] <= eps) margin = std::min(margin, d[j] / norm);
+  s.margin = margin == 1e300 ? 1.0 : margin;
+  s.enters = s.margin >= -1e-9;
+  double sExit = 1.0;
+  int exitJ = -1;
+  for (int j = 0; j < 3; ++j)
+    if (d[j] < 0 && lp[j] > eps) {
+      double sj = lp[j] / -d[j];
+      if (sj < sExit) { sExit = sj; exitJ = j; }
+    }
+  if (exitJ < 0) {
+    s.reached = true;
+    s.at = *lq;
+    for (double& x : s.at) x = std::max(0.0, x);
+    double sum = s.at[0] + s.at[1] + s.at[2];
+    for (double& x : s.at) x /= sum;
+  } else {
+    for (int j = 0; j < 3; ++j) s.at[j] = std::max(0.0, lp[j] + sExit * d[j]);
+    s.at[exitJ] = 0.0;
+    double sum = s.at[0] + s.at[1] + s.at[2];
+    for (double& x : s.at) x /= sum;
+    s.exitEdge = exitJ;
+  }
+  return s;
+}
+
+Point3 fromBary(const std::array<Point3, 3>& c, const std::array<double, 3>& l) {
+  return Point3(l[0] * c[0].x() + l[1] * c[1].x() + l[2] * c[2].x(),
+                l[0] * c[0].y() + l[1] * c[1].y() + l[2] * c[2].y(),
+                l[0] * c[0].z() + l[1] * c[1].z() + l[2] * c[2].z());
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------
+// TriangleGrid
+
+TriangleGrid::Key TriangleGrid::key(long i, long j, long k) const {
+  auto u = [](long x) { return std::uint64_t(x + (1L << 20)) & 0x1FFFFFu; };
+  return (u(i) << 42) | (u(j) << 21) | u(k);
+}
+
+void TriangleGrid::cellRange(const std::array<Point3, 3>& c, long lo[3], long hi[3]) const {
+  for (int a = 0; a < 3; ++a) {
+    double mn = std::min({c[0][a], c[1][a], c[2][a]}), mx = std::max({c[0][a], c[1][a], c[2][a]});
+    lo[a] = long(std::floor(mn / cell_));
+    hi[a] = long(std::floor(mx / cell_));
+  }
+}
+
+void TriangleGrid::build(const Mesh& mesh) {
+  cells_.clear();
+  double sum = 0;
+  std::size_t n = 0;
+  for (auto e : mesh.edges()) {
+    sum += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(mesh.halfedge(e))),
+                                            mesh.point(mesh.target(mesh.halfedge(e)))));
+    ++n;
+  }
+  cell_ = n ? std::max(2.0 * sum / double(n), 1e-300) : 1.0;
+  built_ = true;
+  for (FI f : mesh.faces()) insert(mesh, f);
+}
+
+void TriangleGrid::insert(const Mesh& mesh, FI f) {
+  auto c = corners(mesh, f);
+  long lo[3], hi[3];
+  cellRange(c, lo, hi);
+  for (long i = lo[0]; i <= hi[0]; ++i)
+    for (long j = lo[1]; j <= hi[1]; ++j)
+      for (long k = lo[2]; k <= hi[2]; ++k) cells_[key(i, j, k)].push_back(f);
+}
+
+void TriangleGrid::erase(const std::array<Point3, 3>& c, FI f) {
+  long lo[3], hi[3];
+  cellRange(c, lo, hi);
+  for (long i = lo[0]; i <= hi[0]; ++i)
+    for (long j = lo[1]; j <= hi[1]; ++j)
+      for (long k = lo[2]; k <= hi[2]; ++k) {
+        auto it = cells_.find(key(i, j, k));
+        if (it == cells_.end()) continue;
+        auto& v = it->second;
+        auto pos = std::find(v.begin(), v.end(), f);
+        if (pos != v.end()) { *pos = v.back(); v.pop_back(); }
+        if (v.empty()) cells_.erase(it);
+      }
+}
+
+void TriangleGrid::query(const Point3& p, double r, std::vector<FI>& out) const {
+  out.clear();
+  long lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = long(std::floor((p[a] - r) / cell_));
+    hi[a] = long(std::floor((p[a] + r) / cell_));
+  }
+  for (long i = lo[0]; i <= hi[0]; ++i)
+    for (long j = lo[1]; j <= hi[1]; ++j)
+      for (long k = lo[2]; k <= hi[2]; ++k)
+        if (auto it = cells_.find(key(i, j, k)); it != cells_.end())
+          out.insert(out.end(), it->second.begin(), it->second.end());
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+// ------------------------------------------------------------------------------------------
+// The walk
+
+namespace {
+
+struct Location {
+  FI face;
+  std::array<double, 3> bary;  // in face
+};
+
+class Walker {
+ public:
+  Walker(Topology::Impl& impl, double snap) : I(impl), m(impl.mesh), snap_(snap) {}
+
+  /// Nearest surface point to p, within `tolerance` times the local edge length.
+  Location locate(const Point3& p, std::size_t index) {
+    if (!I.grid.built()) I.grid.build(m);
+    std::vector<FI> cand;
+    double r = I.grid.cellSize();
+    for (int attempt = 0; attempt < 2 && cand.empty(); ++attempt, r *= 2) I.grid.query(p, r, cand);
+    double best = 1e300;
+    FI bestF;
+    for (FI f : cand) {
+      auto c = corners(m, f);
+      double d = CGAL::squared_distance(closestOnTriangle(c, p), p);
+      if (d < best) { best = d; bestF = f; }
+    }
+    if (!bestF.is_valid())
+      throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
+                          " is not on the surface (no triangle near it)");
+    auto c = corners(m, bestF);
+    double tol = 0.25 * longestEdge(c);
+    if (std::sqrt(best) > tol)
+      throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
+                          " is not on the surface (nearest triangle " + std::to_string(bestF.idx()) +
+                          " is " + std::to_string(std::sqrt(best)) + " away)");
+    Point3 onSurface = closestOnTriangle(c, p);
+    auto l = barycentric(c, onSurface);
+    if (!l) throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
+                                " lies on a degenerate triangle " + std::to_string(bestF.idx()));
+    for (double& x : *l) x = std::max(0.0, x);
+    double s = (*l)[0] + (*l)[1] + (*l)[2];
+    for (double& x : *l) x /= s;
+    return {bestF, *l};
+  }
+
+  /// Candidate faces containing the location, with its barycentric coordinates in each.
+  std::vector<Location> around(const Location& loc) {
+    const double eps = 1e-10;
+    std::vector<int> zeros;
+    for (int j = 0; j < 3; ++j) if (loc.bary[j] <= eps) zeros.push_back(j);
+    std::vector<Location> out;
+    HI h = m.halfedge(loc.face);
+    std::array<VI, 3> fv{m.source(h), m.target(h), m.target(m.next(h))};
+    if (zeros.size() >= 2) {  // at a vertex
+      int k = 3 - zeros[0] - zeros[1];
+      return aroundVertex(fv[k]);
+    }
+    out.push_back(loc);
+    if (zeros.size() == 1) {  // on an edge: the face across too
+      int j = zeros[0];
+      VI a = fv[(j + 1) % 3], b = fv[(j + 2) % 3];
+      HI across = I.findHalfedge(b, a);
+      if (across.is_valid() && m.face(across).is_valid()) {
+        FI g = m.face(across);
+        auto c = corners(m, g);
+        auto l = barycentric(c, fromBary(corners(m, loc.face), loc.bary));
+        if (l) {
+          for (double& x : *l) x = std::max(0.0, x);
+          HI gh = m.halfedge(g);
+          std::array<VI, 3> gv{m.source(gh), m.target(gh), m.target(m.next(gh))};
+          for (int t = 0; t < 3; ++t) if (gv[t] != a && gv[t] != b) (*l)[t] = 0.0;
+          double s = (*l)[0] + (*l)[1] + (*l)[2];
+          for (double& x : *l) x /= s;
+          out.push_back({g, *l});
+        }
+      }
+    }
+    return out;
+  }
+
+  std::vector<Location> aroundVertex(VI v) {
+    std::vector<Location> out;
+    std::vector<HI> hs;
+    I.incomingHalfedges(v, hs);
+    for (HI h : hs) {
+      FI f = m.face(h);
+      if (!f.is_valid()) continue;
+      HI fh = m.halfedge(f);
+      std::array<VI, 3> fv{m.source(fh), m.target(fh), m.target(m.next(fh))};
+      std::array<double, 3> l{0, 0, 0};
+      for (int t = 0; t < 3; ++t) if (fv[t] == v) l[t] = 1.0;
+      out.push_back({f, l});
+    }
+    return out;
+  }
+
+  /// Best step from one of the candidate locations towards q.
+  std::optional<std::pair<Location, Step>> bestStep(const std::vector<Location>& cands,
+                                                    const Point3& q) {
+    std::optional<std::pair<Location, Step>> best;
+    for (const Location& l : cands) {
+      Step s = stepIn(corners(m, l.face), l.bary, q);
+      if (!s.enters) continue;
+      if (!best || s.margin > best->second.margin) best = std::make_pair(l, s);
+    }
+    return best;
+  }
+
+  /// The checking walk on the unchanged mesh: throws if the polyline leaves the surface.
+  void check(const std::vector<Point3>& poly) {
+    Location loc = locate(poly[0], 0);
+    for (std::size_t k = 1; k < poly.size(); ++k) {
+      locate(poly[k], k);  // each polyline point must be on the surface too
+      std::size_t guard = 0;
+      while (true) {
+        if (++guard > 100000 + 4 * m.number_of_faces())
+          throw TopologyError("cutPolyline: the walk along segment " + std::to_string(k) + " does not end");
+        auto st = bestStep(around(loc), poly[k]);
+        Point3 here = fromBary(corners(m, loc.face), loc.bary);
+        if (!st)
+          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
+                              " leaves the surface at " + fmt(here));
+        Location next{st->first.face, st->second.at};
+        if (st->second.reached) { loc = next; break; }
+        // Crossing the exit edge: the face across must exist.
+        int j = st->second.exitEdge;
+        HI fh = m.halfedge(next.face);
+        std::array<VI, 3> fv{m.source(fh), m.target(fh), m.target(m.next(fh))};
+        VI a = fv[(j + 1) % 3], b = fv[(j + 2) % 3];
+        HI across = I.findHalfedge(b, a);
+        bool atVertex = next.bary[(j + 1) % 3] <= 1e-10 || next.bary[(j + 2) % 3] <= 1e-10;
+        if (!atVertex && (!across.is_valid() || !m.face(across).is_valid()))
+          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
+                              " leaves the surface at " + fmt(fromBary(corners(m, next.face), next.bary)) +
+                              " through border edge (" + std::to_string(a.idx()) + ", " +
+                              std::to_string(b.idx()) + ")");
+        if (fromBary(corners(m, next.face), next.bary) == here && guard > 3) {
+          // No progress from a vertex: the direction leaves the surface there.
+          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
+                              " leaves the surface at " + fmt(here));
+        }
+        loc = next;
+      }
+    }
+  }
+
+  /// Inserts a vertex at location l (snapping), returns it. Snapping moves the path by up to
+  /// snapTolerance of the local edge length; it never moves it ONTO the border (a border vertex or
+  /// edge is used only where the polyline really meets it), so that the path cannot leave the
+  /// surface that the checking walk found it on.
+  VI insertAt(const Location& l) {
+    const double exact = 1e-9;
+    HI fh = m.halfedge(l.face);
+    std::array<VI, 3> fv{m.source(fh), m.target(fh), m.target(m.next(fh))};
+    auto edgeIsBorder = [&](int j) {
+      return m.is_border(m.edge(I.findHalfedge(fv[(j + 1) % 3], fv[(j + 2) % 3])));
+    };
+    int onBorderEdge = -1;  // the location lies on this border edge: it may snap along it
+    for (int j = 0; j < 3; ++j)
+      if (l.bary[j] <= exact && edgeIsBorder(j)) onBorderEdge = j;
+    for (int k = 0; k < 3; ++k) {
+      bool mayMove = !m.is_border(fv[k], true) || (onBorderEdge >= 0 && onBorderEdge != k);
+      if (l.bary[k] >= 1.0 - exact || (l.bary[k] >= 1.0 - snap_ && mayMove)) return fv[k];
+    }
+    int edge = -1;
+    for (int j = 0; j < 3; ++j) {
+      VI a = fv[(j + 1) % 3], b = fv[(j + 2) % 3];
+      HI h = I.findHalfedge(a, b);
+      bool border = m.is_border(m.edge(h));
+      if (l.bary[j] <= exact || (l.bary[j] <= snap_ && !border))
+        if (edge < 0 || l.bary[j] < l.bary[edge]) edge = j;
+    }
+    if (edge >= 0) {
+      int j = edge;
+      VI a = fv[(j + 1) % 3], b = fv[(j + 2) % 3];
+      double u = l.bary[(j + 2) % 3] / (l.bary[(j + 1) % 3] + l.bary[(j + 2) % 3]);
+      u = std::clamp(u, 1e-6, 1.0 - 1e-6);
+      HI h = I.findHalfedge(a, b);
+      VI v = I.splitEdgeNoTxn(m.edge(h), a, u);
+      inserted.push_back(PointId(v.idx()));
+      return v;
+    }
+    VI v = I.splitFaceNoTxn(l.face, l.bary);
+    inserted.push_back(PointId(v.idx()));
+    return v;
+  }
+
+  /// The real walk: every crossing becomes a vertex. Returns the path of vertices.
+  std::vector<VI> insert(const std::vector<Point3>& poly) {
+    std::vector<VI> path;
+    VI cur = insertAt(locate(poly[0], 0));
+    path.push_back(cur);
+    for (std::size_t k = 1; k < poly.size(); ++k) {
+      std::size_t guard = 0;
+      while (true) {
+        if (++guard > 100000 + 4 * m.number_of_faces())
+          throw TopologyError("internal error: cutPolyline's walk does not end");
+        auto st = bestStep(aroundVertex(cur), poly[k]);
+        if (!st)
+          throw TopologyError("internal error: cutPolyline's walk left the surface at point " +
+                              std::to_string(cur.idx()) + " (the mesh stays valid)");
+        const auto& [l, s] = *st;
+        VI v = insertAt({l.face, s.at});
+        if (v != cur) { path.push_back(v); cur = v; }
+        if (s.reached) break;
+      }
+    }
+    return path;
+  }
+
+  std::vector<PointId> inserted;
+
+ private:
+  Topology::Impl& I;
+  Mesh& m;
+  double snap_;
+};
+
+}  // namespace
+
+IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOptions& options) {
+  Impl& I = *impl_;
+  if (!(options.snapTolerance >= 0.0 && options.snapTolerance < 0.5))
+    throw TopologyError("cutPolyline: snapTolerance " + std::to_string(options.snapTolerance) +
+                        " must be in [0, 0.5)");
+  std::vector<Point3> poly;
+  for (std::size_t i = 0; i < polyline.size(); ++i) {
+    for (double c : polyline[i])
+      if (!std::isfinite(c))
+        throw TopologyError("cutPolyline: point " + std::to_string(i) + " has a non-finite coordinate");
+    Point3 p = toPoint(polyline[i]);
+    if (poly.empty() || p != poly.back()) poly.push_back(p);
+  }
+  if (poly.size() < 2) throw TopologyError("cutPolyline: a polyline needs two distinct points");
+  if (I.mesh.number_of_faces() == 0) throw TopologyError("cutPolyline: the surface has no triangles");
+  // A polyline that crosses itself would need the walk to split its own path: rejected.
+  for (std::size_t i = 0; i + 1 < poly.size(); ++i)
+    for (std::size_t j = i + 2; j + 1 < poly.size(); ++j) {
+      double d2 = segmentDistance2(poly[i], poly[i + 1], poly[j], poly[j + 1]);
+      double len = std::min(std::sqrt(CGAL::squared_distance(poly[i], poly[i + 1])),
+                            std::sqrt(CGAL::squared_distance(poly[j], poly[j + 1])));
+      if (d2 <= 1e-18 * len * len || d2 == 0.0)
+        throw TopologyError("cutPolyline: the polyline crosses itself (segments " + std::to_string(i) +
+                            " and " + std::to_string(j) + "); cut it as separate polylines");
+    }
+  Walker walker(I, options.snapTolerance);
+  walker.check(poly);  // throws before anything changes
+
+  I.begin("cutPolyline");
+  IncisionResult result;
+  std::vector<VI> path;
+  try {
+    path = walker.insert(poly);
+  } catch (...) {
+    I.commit(*this);  // the mesh is valid: announce what was done, then report
+    throw;
+  }
+  result.insertedPoints = walker.inserted;
+  if (path.size() >= 2) {
+    std::vector<PointId> ins = result.insertedPoints;
+    I.inciseNoTxn(path, result);
+    result.insertedPoints.insert(result.insertedPoints.begin(), ins.begin(), ins.end());
+  } else {
+    for (VI v : path) result.path.push_back(PointId(v.idx()));
+  }
+  I.commit(*this);
+  return result;
+}
+
+}  // namespace cutsim::topology

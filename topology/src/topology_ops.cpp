@@ -1,0 +1,238 @@
+// Topology operations: add points and triangles, remove triangles (carving), split an edge or a
+// triangle, incise along a path of edges, tear at an edge. Each is one transaction; requests are
+// checked before anything changes.
+#include <CGAL/boost/graph/Euler_operations.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <set>
+#include <unordered_set>
+
+#include "topology_impl.hpp"
+
+namespace cutsim::topology {
+
+namespace {
+std::string pt(Index i) { return std::to_string(i); }
+std::string edgeName(Index a, Index b) { return "(" + pt(a) + ", " + pt(b) + ")"; }
+}  // namespace
+
+std::vector<PointId> Topology::addPoints(std::span<const Vec3> restPositions) {
+  for (std::size_t i = 0; i < restPositions.size(); ++i)
+    for (double c : restPositions[i])
+      if (!std::isfinite(c))
+        throw TopologyError("addPoints: point " + std::to_string(i) + " has a non-finite coordinate");
+  Impl& I = *impl_;
+  I.begin("addPoints");
+  std::vector<PointId> out;
+  for (const Vec3& p : restPositions) out.push_back(PointId(I.newFreePoint(toPoint(p)).idx()));
+  I.commit(*this);
+  return out;
+}
+
+std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices> triangles) {
+  Impl& I = *impl_;
+  const Mesh& m = I.mesh;
+  // Directed edges must be free; the final fan around each vertex must be a single one.
+  std::set<std::pair<Index, Index>> directed;
+  std::unordered_map<Index, std::vector<std::array<Index, 2>>> newAround;  // v -> other two
+  for (std::size_t i = 0; i < triangles.size(); ++i) {
+    const auto& t = triangles[i];
+    const std::string where = "addTriangles: triangle " + std::to_string(i) + " " +
+                              "(" + pt(t[0]) + ", " + pt(t[1]) + ", " + pt(t[2]) + ")";
+    for (PointId v : t)
+      if (!I.vertexAlive(VI(v))) throw TopologyError(where + ": point " + pt(v) + " does not exist");
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+      throw TopologyError(where + ": repeated vertex");
+    for (int k = 0; k < 3; ++k) {
+      Index a = t[k], b = t[(k + 1) % 3];
+      if (!directed.insert({a, b}).second)
+        throw TopologyError(where + ": edge " + edgeName(a, b) +
+                            " is used twice in the same direction by the new triangles");
+      HI h = I.findHalfedge(VI(a), VI(b));
+      if (h.is_valid() && !m.is_border(h))
+        throw TopologyError(where + ": edge " + edgeName(a, b) + " already has triangle " +
+                            pt(m.face(h).idx()) + " on that side (non-manifold or wrongly oriented)");
+      newAround[t[k]].push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
+    }
+  }
+  // One fan per vertex: faces around v connected through shared edges (v, w).
+  for (auto& [v, added] : newAround) {
+    std::vector<std::array<Index, 2>> around = added;
+    std::vector<HI> hs;
+    I.incomingHalfedges(VI(v), hs);
+    for (HI h : hs)
+      if (FI f = m.face(h); f.is_valid()) {
+        auto tv = I.verticesOf(f);
+        std::array<Index, 2> o{};
+        int k = 0;
+        for (PointId x : tv) if (x != v) o[k++] = x;
+        around.push_back(o);
+      }
+    std::vector<std::size_t> parent(around.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](std::size_t i) { while (parent[i] != i) i = parent[i] = parent[parent[i]]; return i; };
+    std::unordered_map<Index, std::size_t> byNeighbour;
+    for (std::size_t i = 0; i < around.size(); ++i)
+      for (Index w : around[i]) {
+        auto [it, ins] = byNeighbour.emplace(w, i);
+        if (!ins) parent[find(i)] = find(it->second);
+      }
+    std::size_t roots = 0;
+    for (std::size_t i = 0; i < around.size(); ++i) roots += find(i) == i ? 1 : 0;
+    if (roots > 1)
+      throw TopologyError("addTriangles: point " + pt(v) + " would join " + std::to_string(roots) +
+                          " separate fans of triangles (a non-manifold vertex)");
+  }
+  I.begin("addTriangles");
+  std::vector<std::array<VI, 3>> faces;
+  for (const auto& t : triangles) faces.push_back({VI(t[0]), VI(t[1]), VI(t[2])});
+  std::vector<FI> added = I.attachFaces(faces);
+  I.commit(*this);
+  std::vector<TriangleId> out;
+  for (FI f : added) out.push_back(TriangleId(f.idx()));
+  return out;
+}
+
+void Topology::removeTriangles(std::span<const TriangleId> triangles) {
+  Impl& I = *impl_;
+  std::vector<TriangleId> ts(triangles.begin(), triangles.end());
+  std::sort(ts.begin(), ts.end());
+  if (std::adjacent_find(ts.begin(), ts.end()) != ts.end())
+    throw TopologyError("removeTriangles: triangle " + pt(*std::adjacent_find(ts.begin(), ts.end())) +
+                        " is listed twice");
+  for (TriangleId t : ts)
+    if (!I.faceAlive(FI(t))) throw TopologyError("removeTriangles: triangle " + pt(t) + " does not exist");
+  if (ts.empty()) return;
+  I.begin("removeTriangles");
+  for (TriangleId t : ts) I.detachFace(FI(t));
+  // Removal may leave a vertex with two fans (a bowtie): give each extra fan its own copy.
+  std::vector<VI> candidates = I.touched;
+  I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
+  I.commit(*this);
+}
+
+VI Topology::Impl::splitEdgeNoTxn(EI e, VI from, double t) {
+  HI h0 = mesh.halfedge(e);
+  VI a = mesh.source(h0), b = mesh.target(h0);
+  if (from != a) std::swap(a, b);
+  VI m = newPoint({{PointId(a.idx()), 1.0 - t}, {PointId(b.idx()), t}});
+  std::vector<FI> old;
+  std::vector<std::array<VI, 3>> added;
+  for (HI h : {h0, mesh.opposite(h0)}) {
+    FI f = mesh.face(h);
+    if (!f.is_valid()) continue;
+    VI p = mesh.source(h), q = mesh.target(h), o = mesh.target(mesh.next(h));
+    old.push_back(f);
+    added.push_back({p, m, o});
+    added.push_back({m, q, o});
+  }
+  for (FI f : old) detachFace(f);
+  attachFaces(added);
+  return m;
+}
+
+VI Topology::Impl::splitFaceNoTxn(FI f, const std::array<double, 3>& bary) {
+  TriangleVertices t = verticesOf(f);
+  VI m = newPoint({{t[0], bary[0]}, {t[1], bary[1]}, {t[2], bary[2]}});
+  detachFace(f);
+  VI a(t[0]), b(t[1]), c(t[2]);
+  attachFaces({{a, b, m}, {b, c, m}, {c, a, m}});
+  return m;
+}
+
+PointId Topology::splitEdge(EdgeId e, double t) {
+  Impl& I = *impl_;
+  if (!I.edgeAlive(EI(e))) throw TopologyError("splitEdge: edge " + pt(e) + " does not exist");
+  if (!(t > 0.0 && t < 1.0))
+    throw TopologyError("splitEdge: parameter " + std::to_string(t) + " on edge " + pt(e) +
+                        " is not strictly between 0 and 1");
+  I.begin("splitEdge");
+  VI from = I.mesh.source(I.mesh.halfedge(EI(e)));
+  VI m = I.splitEdgeNoTxn(EI(e), from, t);
+  I.commit(*this);
+  return PointId(m.idx());
+}
+
+PointId Topology::splitTriangle(TriangleId t, const std::array<double, 3>& bary) {
+  Impl& I = *impl_;
+  if (!I.faceAlive(FI(t))) throw TopologyError("splitTriangle: triangle " + pt(t) + " does not exist");
+  double s = bary[0] + bary[1] + bary[2];
+  if (!(bary[0] > 0 && bary[1] > 0 && bary[2] > 0) || !(std::abs(s - 1.0) < 1e-9))
+    throw TopologyError("splitTriangle: barycentric weights of triangle " + pt(t) +
+                        " must be positive and sum to 1");
+  I.begin("splitTriangle");
+  VI m = I.splitFaceNoTxn(FI(t), bary);
+  I.commit(*this);
+  return PointId(m.idx());
+}
+
+void Topology::Impl::inciseNoTxn(std::vector<VI> path, IncisionResult& result) {
+  auto isBorderPoint = [&](VI v) { return mesh.is_border(v, true); };
+  if (path.size() == 2 && !isBorderPoint(path[0]) && !isBorderPoint(path[1])) {
+    HI h = findHalfedge(path[0], path[1]);
+    VI m = splitEdgeNoTxn(mesh.edge(h), path[0], 0.5);
+    result.insertedPoints.push_back(PointId(m.idx()));
+    path = {path[0], m, path[1]};
+  }
+  std::unordered_set<std::uint32_t> cutEdges;
+  std::unordered_map<std::uint32_t, FI> keep;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    HI h = findHalfedge(path[i], path[i + 1]);
+    cutEdges.insert(mesh.edge(h).idx());
+    FI right = mesh.face(mesh.opposite(h));  // h runs along the path: its face is on the left
+    if (right.is_valid()) {
+      keep.emplace(path[i].idx(), right);
+      keep.emplace(path[i + 1].idx(), right);
+    }
+  }
+  for (VI v : path) result.path.push_back(PointId(v.idx()));
+  splitFans(path, [&](EI e) { return cutEdges.count(e.idx()) > 0; }, keep, &result.copies,
+            &result.copiedFrom);
+}
+
+IncisionResult Topology::incise(std::span<const PointId> path) {
+  Impl& I = *impl_;
+  if (path.size() < 2) throw TopologyError("incise: a path needs at least two points");
+  std::set<std::pair<Index, Index>> used;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    if (!I.vertexAlive(VI(path[i])))
+      throw TopologyError("incise: point " + pt(path[i]) + " (path position " + std::to_string(i) +
+                          ") does not exist");
+    if (i == 0) continue;
+    PointId a = path[i - 1], b = path[i];
+    if (a == b) throw TopologyError("incise: point " + pt(a) + " is repeated at path position " + std::to_string(i));
+    HI h = I.findHalfedge(VI(a), VI(b));
+    if (!h.is_valid())
+      throw TopologyError("incise: the path is not connected: no edge joins points " + pt(a) +
+                          " and " + pt(b) + " (path positions " + std::to_string(i - 1) + ", " +
+                          std::to_string(i) + ")");
+    if (I.mesh.is_border(I.mesh.edge(h)))
+      throw TopologyError("incise: edge " + edgeName(a, b) + " of the path is on the border: there is nothing to open");
+    if (!used.insert({std::min(a, b), std::max(a, b)}).second)
+      throw TopologyError("incise: edge " + edgeName(a, b) + " appears twice in the path");
+  }
+  I.begin("incise");
+  IncisionResult result;
+  std::vector<VI> vs;
+  for (PointId p : path) vs.push_back(VI(p));
+  I.inciseNoTxn(vs, result);
+  I.commit(*this);
+  return result;
+}
+
+IncisionResult Topology::tear(EdgeId e) {
+  Impl& I = *impl_;
+  if (!I.edgeAlive(EI(e))) throw TopologyError("tear: edge " + pt(e) + " does not exist");
+  if (I.mesh.is_border(EI(e)))
+    throw TopologyError("tear: edge " + pt(e) + " is on the border: there is nothing to tear");
+  HI h = I.mesh.halfedge(EI(e));
+  I.begin("tear");
+  IncisionResult result;
+  I.inciseNoTxn({I.mesh.source(h), I.mesh.target(h)}, result);
+  I.commit(*this);
+  return result;
+}
+
+}  // namespace cutsim::topology
