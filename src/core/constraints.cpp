@@ -1,0 +1,111 @@
+#include "cutsim/core/constraints.hpp"
+
+#include <cmath>
+
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::core {
+
+PointSet::PointSet(topology::Topology& topology, std::string name) : name_(std::move(name)) {
+  flags_.assign(topology.pointCapacity(), 0);
+  data_.assign(topology.pointCapacity(), Vec3{0, 0, 0});
+  subscription_ = topology.subscribe(*this);
+}
+
+void PointSet::add(PointId p, const Vec3& data) {
+  if (p >= flags_.size()) throw TopologyError(name_ + ": point " + std::to_string(p) + " does not exist");
+  if (!flags_[p]) ++count_;
+  flags_[p] = 1;
+  data_[p] = data;
+}
+
+void PointSet::clear() {
+  std::fill(flags_.begin(), flags_.end(), 0);
+  count_ = 0;
+}
+
+std::vector<PointId> PointSet::points() const {
+  std::vector<PointId> out;
+  for (std::size_t p = 0; p < flags_.size(); ++p)
+    if (flags_[p]) out.push_back(PointId(p));
+  return out;
+}
+
+void PointSet::onPointsCreated(const topology::Topology& t, const topology::PointsCreated& e) {
+  flags_.resize(t.pointCapacity(), 0);
+  data_.resize(t.pointCapacity(), Vec3{0, 0, 0});
+  for (std::size_t i = 0; i < e.points.size(); ++i) {
+    // A copy of a member (one ancestor, weight 1) is a member, with the member's data.
+    if (e.offsets[i + 1] - e.offsets[i] != 1) continue;
+    PointId a = e.ancestors[e.offsets[i]];
+    if (contains(a) && e.weights[e.offsets[i]] == 1.0) {
+      flags_[e.points[i]] = 1;
+      data_[e.points[i]] = data_[a];
+      ++count_;
+    }
+  }
+}
+
+void PointSet::onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed& e) {
+  for (auto p : e.points)
+    if (p < flags_.size() && flags_[p]) {
+      flags_[p] = 0;
+      --count_;
+    }
+}
+
+void PointSet::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
+  std::vector<char> f(r.newSize, 0);
+  std::vector<Vec3> d(r.newSize, Vec3{0, 0, 0});
+  for (std::size_t o = 0; o < r.oldToNew.size() && o < flags_.size(); ++o)
+    if (r.oldToNew[o] != topology::kInvalidIndex) {
+      f[r.oldToNew[o]] = flags_[o];
+      d[r.oldToNew[o]] = data_[o];
+    }
+  flags_.swap(f);
+  data_.swap(d);
+}
+
+void PointSet::validate(const topology::Topology& t, std::vector<std::string>& problems) const {
+  if (flags_.size() != t.pointCapacity()) problems.push_back("size differs from the point capacity");
+  std::size_t n = 0;
+  for (std::size_t p = 0; p < flags_.size(); ++p) {
+    if (!flags_[p]) continue;
+    ++n;
+    if (!t.isPointAlive(PointId(p))) problems.push_back("holds dead point " + std::to_string(p));
+  }
+  if (n != count_) problems.push_back("count is wrong");
+}
+
+Vec3 DisplacementPath::at(double t) const {
+  if (times.empty()) return {0, 0, 0};
+  if (t <= times.front()) return displacements.front();
+  if (t >= times.back()) return displacements.back();
+  std::size_t k = 1;
+  while (times[k] < t) ++k;
+  double s = (t - times[k - 1]) / (times[k] - times[k - 1]);
+  Vec3 out;
+  for (int c = 0; c < 3; ++c)
+    out[c] = (1 - s) * displacements[k - 1][c] + s * displacements[k][c];
+  return out;
+}
+
+Grasp::Grasp(topology::Topology& topology, std::string name, double startTime, DisplacementPath path)
+    : points_(topology, std::move(name)), start_(startTime), path_(std::move(path)) {
+  if (path_.times.size() != path_.displacements.size())
+    throw InvalidInput("grasp '" + points_.name() + "'", "path times and displacements differ in number");
+  for (std::size_t i = 0; i < path_.times.size(); ++i) {
+    if (!std::isfinite(path_.times[i]) || (i > 0 && !(path_.times[i] > path_.times[i - 1])))
+      throw InvalidInput("grasp '" + points_.name() + "'", "path times must be finite and increasing");
+    for (double c : path_.displacements[i])
+      if (!std::isfinite(c)) throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
+  }
+}
+
+Vec3 Grasp::target(PointId p, double t) const {
+  Vec3 d = path_.at(t - start_);
+  const Vec3& a = points_.data(p);
+  return {a[0] + d[0], a[1] + d[1], a[2] + d[2]};
+}
+
+}  // namespace cutsim::core

@@ -1,0 +1,380 @@
+// Simulation: state, mass, force fields, constraints, and the time integrators:
+//  - explicit: symplectic Euler;
+//  - implicit Euler linearised once per step (Baraff and Witkin 1998), with Rayleigh damping,
+//      (M (1 + h rM) - h B - (h^2 + h rK) K) dv = h (f0 + h K v0),
+//    f0 = F(x, v) + M g - rM M v + rK K v, solved by matrix-free conjugate gradients or by CHOLMOD
+//    (supernodal Cholesky through Eigen's CholmodSupport) on the assembled matrix, whose symbolic
+//    analysis is kept until the sparsity pattern changes (a topology event, a new constraint).
+// Constrained points (fixed, grasped, and points without mass) get a prescribed velocity change.
+#include "cutsim/core/simulation.hpp"
+
+#include <dlfcn.h>
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::core {
+
+using Vec = Eigen::VectorXd;
+using VecMap = Eigen::Map<Vec>;
+using ConstVecMap = Eigen::Map<const Vec>;
+
+namespace {
+
+void finiteNonNegative(double v, const char* name) {
+  if (!std::isfinite(v) || v < 0.0)
+    throw InvalidInput(name, "must be a finite number >= 0 (got " + std::to_string(v) + ")");
+}
+
+/// OpenBLAS (which CHOLMOD's supernodal factorisation uses when it is the installed BLAS) would
+/// pick its thread count from the machine; one thread keeps results identical from run to run.
+void pinBlasThreads() {
+  static bool done = false;
+  if (done) return;
+  done = true;
+  using SetThreads = void (*)(int);
+  if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) fn(1);
+}
+
+}  // namespace
+
+void SolverSettings::validate() const {
+  if (cgMaxIterations < 1)
+    throw InvalidInput("solver.iterations", "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
+  if (!std::isfinite(cgTolerance) || !(cgTolerance > 0))
+    throw InvalidInput("solver.tolerance", "must be a finite number > 0 (got " + std::to_string(cgTolerance) + ")");
+  finiteNonNegative(rayleighMass, "solver.rayleighMass");
+  finiteNonNegative(rayleighStiffness, "solver.rayleighStiffness");
+}
+
+std::string_view toString(SolverSettings::Kind kind) {
+  switch (kind) {
+    case SolverSettings::Kind::Explicit: return "explicit";
+    case SolverSettings::Kind::ImplicitCG: return "implicit-cg";
+    case SolverSettings::Kind::ImplicitCholmod: return "implicit-cholmod";
+  }
+  return "?";
+}
+
+SolverSettings::Kind parseSolverKind(std::string_view name) {
+  if (name == "explicit") return SolverSettings::Kind::Explicit;
+  if (name == "implicit-cg") return SolverSettings::Kind::ImplicitCG;
+  if (name == "implicit-cholmod") return SolverSettings::Kind::ImplicitCholmod;
+  throw InvalidInput("solver.type", "unknown solver '" + std::string(name) +
+                                        "' (explicit, implicit-cg, implicit-cholmod)");
+}
+
+struct Simulation::Solver {
+  Vec warm;  // previous velocity change (CG warm start)
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
+  std::vector<int> outer, inner;  // the analysed pattern
+  bool analysed = false;
+};
+
+Simulation::Simulation(std::unique_ptr<topology::Topology> topology, double density)
+    : topology_(std::move(topology)) {
+  if (!topology_) throw InvalidInput("mesh", "no topology");
+  state_ = std::make_unique<MechanicalState>(*topology_);
+  if (density > 0) mass_ = std::make_unique<LumpedMass>(*topology_, density);
+  fixed_ = std::make_unique<PointSet>(*topology_, "fixed");
+  solverImpl_ = std::make_unique<Solver>();
+}
+
+Simulation::~Simulation() {
+  // Fields and constraints unsubscribe before the topology goes.
+  fields_.clear();
+  grasps_.clear();
+  fixed_.reset();
+  mass_.reset();
+  state_.reset();
+}
+
+forcefields::ForceField& Simulation::addForceField(std::unique_ptr<forcefields::ForceField> field,
+                                                   std::string label) {
+  if (label.empty()) label = field->typeName();
+  fields_.push_back({std::move(field), std::move(label)});
+  return *fields_.back().field;
+}
+
+Grasp& Simulation::addGrasp(const std::string& name, std::span<const PointId> points, DisplacementPath path) {
+  if (findGrasp(name)) throw InvalidInput("grasp '" + name + "'", "a grasp of that name is already active");
+  auto g = std::make_unique<Grasp>(*topology_, name, time_, std::move(path));
+  auto x = state_->x();
+  for (PointId p : points) {
+    if (!topology_->isPointAlive(p)) throw InvalidInput("grasp '" + name + "'", "point " + std::to_string(p) + " does not exist");
+    g->add(p, {x[3 * p], x[3 * p + 1], x[3 * p + 2]});
+  }
+  grasps_.push_back(std::move(g));
+  return *grasps_.back();
+}
+
+void Simulation::releaseGrasp(const std::string& name) {
+  auto it = std::find_if(grasps_.begin(), grasps_.end(), [&](auto& g) { return g->name() == name; });
+  if (it == grasps_.end()) throw InvalidInput("grasp '" + name + "'", "no active grasp of that name to release");
+  grasps_.erase(it);
+}
+
+Grasp* Simulation::findGrasp(const std::string& name) {
+  for (auto& g : grasps_)
+    if (g->name() == name) return g.get();
+  return nullptr;
+}
+
+void Simulation::setSolver(const SolverSettings& s) {
+  s.validate();
+  solver_ = s;
+  solverImpl_ = std::make_unique<Solver>();
+}
+
+double Simulation::kineticEnergy() const {
+  if (!mass_) return 0.0;
+  auto m = mass_->perPoint();
+  auto v = state_->v();
+  double e = 0;
+  for (std::size_t p = 0; p < m.size(); ++p)
+    e += 0.5 * m[p] * (v[3 * p] * v[3 * p] + v[3 * p + 1] * v[3 * p + 1] + v[3 * p + 2] * v[3 * p + 2]);
+  return e;
+}
+
+double Simulation::gravityEnergy() const {
+  if (!mass_) return 0.0;
+  auto m = mass_->perPoint();
+  auto x = state_->x();
+  double e = 0;
+  for (std::size_t p = 0; p < m.size(); ++p)
+    e -= m[p] * (gravity_[0] * x[3 * p] + gravity_[1] * x[3 * p + 1] + gravity_[2] * x[3 * p + 2]);
+  return e;
+}
+
+double Simulation::potentialEnergy(std::size_t i) const { return fields_.at(i).field->potentialEnergy(state_->x()); }
+
+std::vector<double> Simulation::totalForce() const {
+  std::vector<double> f(state_->x().size(), 0.0);
+  for (auto& fl : fields_) fl.field->addForce(state_->x(), state_->v(), f);
+  if (mass_) {
+    auto m = mass_->perPoint();
+    for (std::size_t p = 0; p < m.size(); ++p)
+      for (int c = 0; c < 3; ++c) f[3 * p + c] += m[p] * gravity_[c];
+  }
+  return f;
+}
+
+void Simulation::checkFinite(std::span<const double> a, const char* what, const std::string& component) const {
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a[i])) {
+      std::ostringstream s;
+      s << "step " << steps_ + 1 << " (t = " << time_ << "): non-finite " << what;
+      if (!component.empty()) s << " from " << component;
+      s << " at point " << i / 3;
+      if (solver_.kind == SolverSettings::Kind::Explicit)
+        s << "; the explicit integrator is unstable at this time step: try a smaller one or an implicit solver";
+      throw SolverError(s.str());
+    }
+}
+
+StepStats Simulation::step(double dt) {
+  if (!std::isfinite(dt) || !(dt > 0))
+    throw InvalidInput("timeStep", "must be a finite number > 0 (got " + std::to_string(dt) + ")");
+  if (!mass_) throw SolverError("the simulation has no mass: give a density or a total mass");
+  pinBlasThreads();
+  const std::size_t n = state_->numSlots();
+  const Eigen::Index N = Eigen::Index(3 * n);
+  auto xs = state_->x();
+  auto vs = state_->v();
+  VecMap x(xs.data(), N), v(vs.data(), N);
+  auto ms = mass_->perPoint();
+  const double rM = solver_.rayleighMass, rK = solver_.rayleighStiffness;
+  const double tNext = time_ + dt;
+
+  // Constrained degrees of freedom and their target velocities.
+  std::vector<char> constrained(n, 0);
+  Vec vTarget = Vec::Zero(N);
+  for (std::size_t p = 0; p < n; ++p)
+    if (!(ms[p] > 0) || !topology_->isPointAlive(topology::PointId(p)) || fixed_->contains(topology::PointId(p)))
+      constrained[p] = 1;
+  for (auto& g : grasps_)
+    for (PointId p : g->points().points()) {
+      constrained[p] = 1;
+      Vec3 target = g->target(p, tNext);
+      for (int c = 0; c < 3; ++c) vTarget[3 * p + c] = (target[c] - x[3 * p + c]) / dt;
+    }
+
+  // Forces at the start of the step.
+  Vec f = Vec::Zero(N);
+  std::span<double> fs(f.data(), std::size_t(N));
+  for (auto& fl : fields_) {
+    fl.field->addForce(xs, vs, fs);
+    checkFinite(fs, "force", fl.label);
+  }
+  for (std::size_t p = 0; p < n; ++p)
+    for (int c = 0; c < 3; ++c) f[3 * p + c] += ms[p] * (gravity_[c] - rM * v[3 * p + c]);
+  if (rK > 0)
+    for (auto& fl : fields_) fl.field->addDForce(xs, vs, fs, rK, 0.0);
+  checkFinite(fs, "force", "");
+
+  StepStats stats;
+  Vec vNew(N);
+  Vec reactionForce = Vec::Zero(N);  // force the constraints exert, per DOF
+  if (solver_.kind == SolverSettings::Kind::Explicit) {
+    for (std::size_t p = 0; p < n; ++p)
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Index i = Eigen::Index(3 * p + c);
+        if (constrained[p]) {
+          vNew[i] = vTarget[i];
+          reactionForce[i] = ms[p] * (vNew[i] - v[i]) / dt - f[i];
+        } else {
+          vNew[i] = v[i] + dt * f[i] / ms[p];
+        }
+      }
+  } else {
+    // b = h (f0 + h K v)
+    Vec Kv = Vec::Zero(N);
+    std::span<double> kvs(Kv.data(), std::size_t(N));
+    for (auto& fl : fields_) fl.field->addDForce(xs, vs, kvs, 1.0, 0.0);
+    Vec b = dt * (f + dt * Kv);
+    const double kFactor = dt * dt + dt * rK, bFactor = dt;
+    auto applyA = [&](const Vec& p, Vec& out) {
+      out.resize(N);
+      for (std::size_t q = 0; q < n; ++q)
+        for (int c = 0; c < 3; ++c) out[3 * q + c] = (1 + dt * rM) * ms[q] * p[3 * q + c];
+      Vec df = Vec::Zero(N);
+      std::span<double> dfs(df.data(), std::size_t(N));
+      std::span<const double> ps(p.data(), std::size_t(N));
+      for (auto& fl : fields_) fl.field->addDForce(xs, ps, dfs, kFactor, bFactor);
+      out -= df;
+    };
+    Vec dv = Vec::Zero(N);
+    for (std::size_t p = 0; p < n; ++p)
+      if (constrained[p])
+        for (int c = 0; c < 3; ++c) dv[3 * p + c] = vTarget[3 * p + c] - v[3 * p + c];
+    auto project = [&](Vec& a) {
+      for (std::size_t p = 0; p < n; ++p)
+        if (constrained[p]) a.segment<3>(Eigen::Index(3 * p)).setZero();
+    };
+    if (solver_.kind == SolverSettings::Kind::ImplicitCG) {
+      auto& S = *solverImpl_;
+      if (solver_.cgWarmStart && S.warm.size() == N)
+        for (std::size_t p = 0; p < n; ++p)
+          if (!constrained[p]) dv.segment<3>(Eigen::Index(3 * p)) = S.warm.segment<3>(Eigen::Index(3 * p));
+      Vec Ap;
+      applyA(dv, Ap);
+      Vec r = b - Ap;
+      project(r);
+      Vec bFree = b;
+      project(bFree);
+      const double bNorm = bFree.norm();
+      Vec pdir = r;
+      double rr = r.squaredNorm();
+      int it = 0;
+      const double stop = solver_.cgTolerance * std::max(bNorm, 1e-300);
+      while (it < solver_.cgMaxIterations && std::sqrt(rr) > stop) {
+        applyA(pdir, Ap);
+        project(Ap);
+        const double pAp = pdir.dot(Ap);
+        if (!(pAp > 0)) break;  // not positive definite along pdir (or zero): stop
+        const double alpha = rr / pAp;
+        dv += alpha * pdir;
+        r -= alpha * Ap;
+        const double rrNew = r.squaredNorm();
+        pdir = r + (rrNew / rr) * pdir;
+        rr = rrNew;
+        ++it;
+      }
+      stats.iterations = it;
+      stats.residual = bNorm > 0 ? std::sqrt(rr) / bNorm : 0.0;
+      S.warm = dv;
+    } else {
+      auto& S = *solverImpl_;
+      forcefields::TripletAccumulator acc;
+      for (auto& fl : fields_) {
+        fl.field->addKToMatrix(xs, acc, -kFactor);
+        fl.field->addBToMatrix(xs, acc, -bFactor);
+      }
+      std::vector<Eigen::Triplet<double>> trip;
+      trip.reserve(acc.triplets().size() + std::size_t(N));
+      Vec rhs = b;
+      for (const auto& t : acc.triplets()) {
+        const bool rc = constrained[std::size_t(t.row()) / 3], cc = constrained[std::size_t(t.col()) / 3];
+        if (rc) continue;
+        if (cc) {
+          rhs[t.row()] -= t.value() * dv[t.col()];
+          continue;
+        }
+        trip.push_back(t);
+      }
+      for (std::size_t p = 0; p < n; ++p)
+        for (int c = 0; c < 3; ++c) {
+          const Eigen::Index i = Eigen::Index(3 * p + c);
+          trip.emplace_back(i, i, constrained[p] ? 1.0 : (1 + dt * rM) * ms[p]);
+          if (constrained[p]) rhs[i] = dv[i];
+        }
+      Eigen::SparseMatrix<double> A(N, N);
+      A.setFromTriplets(trip.begin(), trip.end());
+      A.makeCompressed();
+      const bool same = S.analysed && S.outer.size() == std::size_t(N + 1) &&
+                        std::equal(S.outer.begin(), S.outer.end(), A.outerIndexPtr()) &&
+                        S.inner.size() == std::size_t(A.nonZeros()) &&
+                        std::equal(S.inner.begin(), S.inner.end(), A.innerIndexPtr());
+      if (!same) {
+        S.cholmod.analyzePattern(A);
+        S.outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + N + 1);
+        S.inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+        S.analysed = true;
+        stats.analysed = true;
+      }
+      S.cholmod.factorize(A);
+      if (S.cholmod.info() != Eigen::Success) {
+        std::ostringstream s;
+        s << "step " << steps_ + 1 << " (t = " << time_ << "): CHOLMOD could not factorise the system "
+          << "matrix (not positive definite): check the stiffness and damping parameters";
+        throw SolverError(s.str());
+      }
+      dv = S.cholmod.solve(rhs);
+      Vec check;
+      applyA(dv, check);
+      Vec res = b - check;
+      project(res);
+      Vec bFree = b;
+      project(bFree);
+      stats.iterations = 1;
+      stats.residual = bFree.norm() > 0 ? res.norm() / bFree.norm() : 0.0;
+    }
+    checkFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change", std::string(toString(solver_.kind)));
+    vNew = v + dv;
+    // Constraint forces: what the unconstrained equation misses at constrained DOFs, per time.
+    if (!grasps_.empty()) {
+      Vec Adv;
+      applyA(dv, Adv);
+      reactionForce = (Adv - b) / dt;
+    }
+  }
+
+  Vec xNew = x + dt * vNew;
+  checkFinite(std::span<const double>(vNew.data(), std::size_t(N)), "velocity", "");
+  checkFinite(std::span<const double>(xNew.data(), std::size_t(N)), "position", "");
+  // Dead points and points without mass (isolated) do not move.
+  for (std::size_t p = 0; p < n; ++p)
+    if (!(ms[p] > 0) || !topology_->isPointAlive(topology::PointId(p))) {
+      vNew.segment<3>(Eigen::Index(3 * p)).setZero();
+      xNew.segment<3>(Eigen::Index(3 * p)) = x.segment<3>(Eigen::Index(3 * p));
+    }
+  v = vNew;
+  x = xNew;
+  for (auto& g : grasps_) {
+    Vec3 r{0, 0, 0};
+    for (PointId p : g->points().points())
+      for (int c = 0; c < 3; ++c) r[c] += reactionForce[3 * p + c];
+    g->setReaction(r);
+  }
+  time_ = tNext;
+  ++steps_;
+  return stats;
+}
+
+}  // namespace cutsim::core

@@ -1,0 +1,79 @@
+#pragma once
+// Point constraints: fixed points, and grasps that drag a set of points along a path over time.
+// Both follow the topology: a copy made by an incision (a new point whose single ancestor is a
+// constrained point) is constrained too; destroyed points drop out; compaction renumbers.
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::core {
+
+using topology::PointId;
+using topology::Vec3;
+
+/// A set of points (per slot flags) that follows the topology, with a Vec3 of data per member
+/// (a grasp's anchors) that new members inherit from their ancestors (weighted).
+class PointSet : public topology::TopologyObserver {
+ public:
+  PointSet(topology::Topology& topology, std::string name);
+  void add(PointId p, const Vec3& data = {0, 0, 0});
+  void clear();
+  bool contains(PointId p) const { return p < flags_.size() && flags_[p]; }
+  const Vec3& data(PointId p) const { return data_[p]; }
+  void setData(PointId p, const Vec3& d) { data_[p] = d; }
+  std::vector<PointId> points() const;  ///< ascending
+  std::size_t size() const { return count_; }
+  const std::string& name() const { return name_; }
+
+  void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
+  void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed&) override;
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  std::string observerName() const override { return "PointSet '" + name_ + "'"; }
+  void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
+
+ private:
+  std::string name_;
+  std::vector<char> flags_;
+  std::vector<Vec3> data_;
+  std::size_t count_ = 0;
+  topology::Subscription subscription_;
+};
+
+/// A piecewise-linear displacement path: (time, displacement) keys, constant after the last key
+/// and before the first (times strictly increasing).
+struct DisplacementPath {
+  std::vector<double> times;
+  std::vector<Vec3> displacements;
+  Vec3 at(double t) const;
+};
+
+/// Grasped points follow anchor + path(t - startTime), where anchor is each point's position when
+/// it was grasped (a copy made later by a cut inherits its original's anchor). The reaction force is the force the grasp exerts on the surface (the sum
+/// over its points of what holds them on the path), reported after each step.
+class Grasp {
+ public:
+  Grasp(topology::Topology& topology, std::string name, double startTime, DisplacementPath path);
+  const std::string& name() const { return points_.name(); }
+  PointSet& points() { return points_; }
+  const PointSet& points() const { return points_; }
+  /// Grasps point p, anchored at its current position x_p (the path moves it from there).
+  void add(PointId p, const Vec3& position) { points_.add(p, position); }
+  /// Target position of point p at time t: its anchor plus the path's displacement.
+  Vec3 target(PointId p, double t) const;
+  const Vec3& reaction() const { return reaction_; }
+  void setReaction(const Vec3& r) { reaction_ = r; }
+  double startTime() const { return start_; }
+  const DisplacementPath& path() const { return path_; }
+
+ private:
+  friend class Simulation;
+  PointSet points_;
+  double start_;
+  DisplacementPath path_;
+  Vec3 reaction_{0, 0, 0};
+};
+
+}  // namespace cutsim::core
