@@ -36,6 +36,8 @@ double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass
 
 LumpedMass::LumpedMass(topology::Topology& t, double density) : density_(density) {
   checkPositive(density, "mass.density");
+  mass_.reserve(std::size_t(t.pointCapacity()) * 5 / 4 + 16);
+  triangleArea_.reserve(std::size_t(t.triangleCapacity()) * 5 / 4 + 16);
   mass_.assign(t.pointCapacity(), 0.0);
   triangleArea_.assign(t.triangleCapacity(), 0.0);
   for (auto f : t.triangles()) {

@@ -5,6 +5,11 @@
 namespace cutsim::core {
 
 MechanicalState::MechanicalState(topology::Topology& topology) {
+  // Headroom so that the first cuts do not copy the whole state (see Topology's constructor).
+  const std::size_t room = 3 * (std::size_t(topology.pointCapacity()) * 5 / 4 + 16);
+  x_.reserve(room);
+  v_.reserve(room);
+  rest_.reserve(room);
   resize(topology.pointCapacity());
   for (auto p : topology.points()) {
     auto r = topology.restPosition(p);

@@ -55,8 +55,11 @@ Topology::Topology() : impl_(std::make_unique<Impl>()) {}
 Topology::Topology(const MeshData& data) : impl_(std::make_unique<Impl>()) {
   checkManifold(data);
   Mesh& m = impl_->mesh;
-  m.reserve(data.points.size(), data.points.size() + data.triangles.size() * 2,
-            data.triangles.size());
+  // Room for a quarter more of everything: cuts add elements at the end, and the first growth of
+  // an array filled to its capacity would copy the whole mesh in the middle of a cut.
+  const std::size_t nv = data.points.size(), nf = data.triangles.size();
+  const std::size_t ne = nv + nf + 1;  // Euler: E = V + F - chi, a little over for open meshes
+  m.reserve(nv + nv / 4, ne + ne / 4, nf + nf / 4);
   for (const Vec3& p : data.points) m.add_vertex(toPoint(p));
   std::vector<std::array<VI, 3>> faces;
   faces.reserve(data.triangles.size());

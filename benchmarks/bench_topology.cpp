@@ -1,0 +1,101 @@
+// The cost of a topology change must follow the size of the change, not of the mesh: one incision
+// along 20 edges, and one triangle removal, with the events delivered to a spring-table observer
+// (FastTriangularBendingSprings) and to the simulation state, on a 20k-triangle grid and on a
+// 2M-triangle grid. Every iteration works on a fresh part of the grid.
+//
+//   cutsim_bench_topology                      # both sizes (the 2M grid takes a few seconds to build)
+//   cutsim_bench_topology --benchmark_format=json > topology.json
+#include <benchmark/benchmark.h>
+
+#include <memory>
+#include <vector>
+
+#include "cutsim/core/state.hpp"
+#include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace {
+
+using cutsim::topology::PointId;
+using cutsim::topology::Topology;
+using cutsim::topology::TriangleVertices;
+using cutsim::topology::Vec3;
+
+struct Sheet {
+  int n = 0;  // vertices per side
+  std::unique_ptr<Topology> topo;
+  std::unique_ptr<cutsim::forcefields::FastTriangularBendingSprings> springs;
+  std::unique_ptr<cutsim::core::MechanicalState> state;
+  int nextRow = 2, nextCol = 1;
+
+  explicit Sheet(int side) : n(side) {
+    std::vector<Vec3> pts;
+    std::vector<TriangleVertices> tris;
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) pts.push_back({double(i), double(j), 0.0});
+    auto id = [&](int i, int j) { return PointId(j * n + i); };
+    for (int j = 0; j + 1 < n; ++j)
+      for (int i = 0; i + 1 < n; ++i) {
+        tris.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+        tris.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+      }
+    topo = std::make_unique<Topology>(pts, tris);
+    springs = std::make_unique<cutsim::forcefields::FastTriangularBendingSprings>(
+        *topo, cutsim::forcefields::BendingParameters{});
+    state = std::make_unique<cutsim::core::MechanicalState>(*topo);
+  }
+
+  /// A path of 20 grid edges along row `nextRow`, in a part of the grid not cut yet.
+  std::vector<PointId> nextPath() {
+    if (nextCol + 21 >= n) {
+      nextCol = 1;
+      nextRow += 3;
+    }
+    std::vector<PointId> path;
+    for (int i = 0; i <= 20; ++i) path.push_back(PointId(nextRow * n + nextCol + i));
+    nextCol += 24;
+    return path;
+  }
+};
+
+Sheet& sheet(int side) {
+  static std::unique_ptr<Sheet> small, large;
+  auto& s = side < 500 ? small : large;
+  if (!s) s = std::make_unique<Sheet>(side);
+  return *s;
+}
+
+void BM_Incise20Edges(benchmark::State& st) {
+  Sheet& s = sheet(int(st.range(0)));
+  for (auto _ : st) {
+    auto path = s.nextPath();
+    auto r = s.topo->incise(path);
+    benchmark::DoNotOptimize(r);
+  }
+  st.counters["triangles"] = double(s.topo->numTriangles());
+  st.counters["active_springs"] = double(s.springs->numActiveSprings());
+}
+
+void BM_RemoveOneTriangle(benchmark::State& st) {
+  Sheet& s = sheet(int(st.range(0)));
+  // Triangles far from the incisions (the top rows), one per iteration.
+  std::vector<cutsim::topology::TriangleId> ids;
+  const int n = s.n;
+  for (int j = n - 2; j > n / 2 && ids.size() < 4000; j -= 2)
+    for (int i = 1; i + 2 < n && ids.size() < 4000; i += 3) ids.push_back(cutsim::topology::TriangleId(2 * (j * (n - 1) + i)));
+  std::size_t k = 0;
+  for (auto _ : st) {
+    std::vector<cutsim::topology::TriangleId> one{ids[k++ % ids.size()]};
+    if (!s.topo->isTriangleAlive(one[0])) continue;
+    s.topo->removeTriangles(one);
+  }
+  st.counters["triangles"] = double(s.topo->numTriangles());
+}
+
+// 101 x 101 vertices: 20,000 triangles; 1001 x 1001: 2,000,000 triangles.
+BENCHMARK(BM_Incise20Edges)->Arg(101)->Arg(1001)->Iterations(120)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RemoveOneTriangle)->Arg(101)->Arg(1001)->Iterations(1000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
