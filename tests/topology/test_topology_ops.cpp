@@ -387,5 +387,68 @@ TEST(TopologyCut, RejectsPolylinesOffTheSurfaceWithoutChange) {
   w.check();
 }
 
+TEST(TopologyOps, TearingTheOneHingeSeparatesItsTriangles) {
+  Watched w(oneHinge({0.3, -1, 0}, {0.6, 2, 0}, {0, 0, 0}, {1, 0, 0}));
+  auto r = w.t.tear(w.t.findEdge(2, 3));
+  // Both ends of the hinge edge are on the border: both are duplicated.
+  EXPECT_EQ(r.copies.size(), 2u);
+  EXPECT_TRUE(r.insertedPoints.empty());
+  EXPECT_EQ(w.t.numPoints(), 6u);
+  EXPECT_EQ(w.t.numEdges(), 6u);
+  EXPECT_EQ(components(w.t), 2u);
+  EXPECT_EQ(w.log.kinds(), (Strings{"T-", "E-", "P+", "E+", "T+", "end"}));
+  w.check();
+}
+
+TEST(TopologyOps, IncisionOfAStripFromBorderToBorder) {
+  // A strip of 4 squares, 2 x 5 points: point i + 5 j at (i, j); cut across it at x = 2.
+  MeshData strip;
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 5; ++i) strip.points.push_back({double(i), double(j), 0.0});
+  for (int i = 0; i < 4; ++i) {
+    PointId a = PointId(i), b = PointId(i + 1), c = PointId(i + 6), d = PointId(i + 5);
+    strip.triangles.push_back({a, b, c});
+    strip.triangles.push_back({a, c, d});
+  }
+  Watched w(strip);
+  auto r = w.t.incise(std::vector<PointId>{2, 7});
+  EXPECT_EQ(r.copies.size(), 2u);
+  EXPECT_EQ(components(w.t), 2u);
+  EXPECT_EQ(boundaryEdges(w.t), 10u + 2u);
+  w.check();
+}
+
+TEST(TopologyOps, IncisionOfAClosedSurfaceOpensASlit) {
+  MeshData oct;
+  oct.points = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  oct.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  Watched w(oct);
+  // From the north pole over (1,0,0) to the south pole: the poles are the slit's tips.
+  auto r = w.t.incise(std::vector<PointId>{4, 0, 5});
+  EXPECT_EQ(r.copiedFrom, (std::vector<PointId>{0}));
+  EXPECT_EQ(w.t.numPoints(), 7u);
+  EXPECT_EQ(boundaryEdges(w.t), 4u);
+  EXPECT_EQ(components(w.t), 1u);
+  w.check();
+}
+
+TEST(TopologyCut, PolylineAlongExistingEdgesInsertsNothing) {
+  Watched w(grid(11));  // spacing 1: y = 5 is a grid line
+  auto r = w.t.cutPolyline(line({{0, 5, 0}, {5, 5, 0}}));
+  EXPECT_TRUE(r.insertedPoints.empty());
+  EXPECT_EQ(r.path.size(), 6u);
+  EXPECT_EQ(r.copies.size(), 5u);  // the border end and four interior points; the tip stays
+  w.check();
+}
+
+TEST(TopologyCut, PolylineThroughAVertexAndEndingOnTheBorder) {
+  Watched w(grid(11));
+  // From the bottom border through the vertex (3, 3) to the left border.
+  auto r = w.t.cutPolyline(line({{3, 0, 0}, {3, 3, 0}, {0, 6, 0}}));
+  EXPECT_NE(std::find(r.path.begin(), r.path.end(), gridId(11, 3, 3)), r.path.end());
+  EXPECT_EQ(components(w.t), 2u);
+  w.check();
+}
+
 }  // namespace
 }  // namespace cutsim::test
