@@ -1,0 +1,125 @@
+#pragma once
+// StretchSprings: one linear spring per live edge of the mesh (as SOFA's MeshSpringForceField on a
+// triangle mesh), maintained incrementally from topology events. Notes: docs/forcefields.md.
+//
+// For a spring between points i and j with rest length L0, d = x_j - x_i, l = |d|, u = d / l:
+//
+//   f_j = -ks (l - L0) u - kd ((v_j - v_i) . u) u,   f_i = -f_j,   E = 1/2 ks (l - L0)^2,
+//   K block (j, j) = (i, i) = -(i, j) = -(j, i) = -ks [ a (I - u u^T) + u u^T ],  a = 1 - L0 / l,
+//   B block (j, j) = (i, i) = -(i, j) = -(j, i) = -kd u u^T.
+//
+// With stableJacobian, a is clamped to >= 0 (compressed springs), which keeps K negative
+// semi-definite for implicit solvers; K is then NOT the exact derivative of the force for
+// compressed springs (it is for stretched ones, and always with stableJacobian = false). K never
+// includes the derivative of the damping force with respect to positions (u depends on x).
+// A spring whose current length is zero (l^2 below the smallest normal double) has no direction:
+// it contributes no force, no damping and zero matrix blocks (its energy 1/2 ks L0^2 still counts).
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/events.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::forcefields {
+
+/// The component's parameters.
+struct StretchParameters {
+  double stiffness = 100.0;    ///< ks, per spring: finite, >= 0
+  double damping = 0.0;        ///< kd, per spring: finite, >= 0
+  bool stableJacobian = true;  ///< clamp 1 - L0/l to >= 0 in K (see the top of this file)
+
+  /// Throws cutsim::InvalidInput with where() = the parameter's name for a negative, NaN or
+  /// infinite value.
+  void validate() const;
+};
+
+/// One spring as stored: its two point ids and its rest length (16 bytes).
+struct StretchSpring {
+  std::uint32_t a;  ///< first endpoint (edgeVertices(e)[0] when the edge was created)
+  std::uint32_t b;  ///< second endpoint
+  double restLength;
+};
+static_assert(sizeof(StretchSpring) == 16);
+
+/// One spring as a record: what the table holds for an edge, or what a rebuild computes.
+struct StretchRecord {
+  EdgeId edge = topology::kInvalidIndex;
+  std::array<PointId, 2> vertices{topology::kInvalidIndex, topology::kInvalidIndex};
+  double restLength = 0.0;
+};
+
+class StretchSprings : public ForceField, public topology::TopologyObserver {
+ public:
+  /// Validates the parameters, builds the table once from the current mesh (rest lengths from
+  /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
+  StretchSprings(topology::Topology& topology, StretchParameters parameters);
+  StretchSprings(const StretchSprings&) = delete;
+  StretchSprings& operator=(const StretchSprings&) = delete;
+  ~StretchSprings() override;
+
+  // ---- ForceField ----
+  std::string typeName() const override { return "StretchSprings"; }
+  /// v is read only when damping > 0.
+  void addForce(std::span<const double> x, std::span<const double> v,
+                std::span<double> f) const override;
+  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                 double kFactor, double bFactor) const override;
+  double potentialEnergy(std::span<const double> x) const override;
+  /// Four 3x3 blocks per spring, zero blocks included (the pattern depends on the topology only).
+  void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
+  /// Nothing when bFactor * damping is zero; else four blocks per spring.
+  void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
+  /// One segment per spring.
+  void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+
+  // ---- TopologyObserver: the table follows edge events and point renumbering only ----
+  void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
+  void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated&) override;
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  std::string observerName() const override { return typeName(); }
+  /// Compares the table with buildFromScratch on `topology`: one spring per live edge, the same
+  /// endpoints (as an unordered pair) and the same rest length (1e-12 relative), springs on live
+  /// points only, plus the internal consistency of the compact array and the edge map.
+  void validate(const topology::Topology& topology,
+                std::vector<std::string>& problems) const override;
+
+  // ---- the table ----
+  const StretchParameters& parameters() const { return params_; }
+  /// The springs, compact (their order changes with removals and compaction).
+  std::span<const StretchSpring> springs() const { return springs_; }
+  std::size_t numSprings() const { return springs_.size(); }
+  /// The record of edge e (edge = kInvalidIndex if e has no spring: dead or beyond the table).
+  StretchRecord spring(EdgeId e) const;
+  /// Records of every spring, ascending edge id.
+  std::vector<StretchRecord> records() const;
+  std::size_t numEdgeSlots() const { return edgeSlot_.size(); }
+  /// Bytes held by the table per edge slot (sizes, not capacities).
+  double bytesPerEdgeSlot() const;
+
+  /// The table built from scratch on the current mesh: one record per live edge, ascending id.
+  static std::vector<StretchRecord> buildFromScratch(const topology::Topology& topology);
+
+ private:
+  void addSpring(EdgeId e, PointId a, PointId b, double restLength);
+  void removeSpring(std::uint32_t slot);
+  void ensureEdgeSlots(std::size_t n);
+  void checkSize(std::span<const double> a, const char* name, const char* what) const;
+
+  const topology::Topology* topology_;
+  StretchParameters params_;
+  // Hot: the springs, streamed by every force pass.
+  std::vector<StretchSpring> springs_;
+  // springEdge_[s]: the edge of springs_[s].
+  std::vector<std::uint32_t> springEdge_;
+  // edgeSlot_[e]: index in springs_, or kNoSpring.
+  std::vector<std::uint32_t> edgeSlot_;
+  std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
+  topology::Subscription subscription_;
+};
+
+}  // namespace cutsim::forcefields

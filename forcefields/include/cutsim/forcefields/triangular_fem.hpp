@@ -1,0 +1,137 @@
+#pragma once
+// TriangularFEM: a corotational linear membrane, one constant-strain triangle per live triangle
+// (as SOFA's TriangularFEMForceField, method "large"), maintained incrementally from topology
+// events. Notes: docs/forcefields.md.
+//
+// Per triangle (a, b, c) with rest positions X: a rest frame in the triangle's plane gives 2D rest
+// coordinates, whose edge matrix Dm = [Pb - Pa, Pc - Pa] (2x2) is stored inverted as the shape
+// gradients g_b, g_c (rows of Dm^-1; g_a = -g_b - g_c), with the rest area A. At x:
+//
+//   F = sum_k x_k g_k^T (3x2),  F = R S (polar: R 3x2 with orthonormal columns, S = sqrt(F^T F)),
+//   eps = S - I,  sigma = 2 mu eps + lambda tr(eps) I  (plane stress: mu = E / (2 (1 + nu)),
+//   lambda = E nu / (1 - nu^2)),  E_tri = A h (mu eps:eps + lambda/2 tr(eps)^2),
+//   f_k = -A h R sigma g_k.
+//
+// The rotation is the polar factor of F (not SOFA's frame aligned with the edge ab): the two agree
+// to first order in the strain, and with the polar factor the force is the exact gradient of the
+// energy. K is the usual corotational approximation: R held constant,
+//
+//   K block (k, l) = -A h R [ mu (g_k . g_l) I2 + mu g_l g_k^T + lambda g_k g_l^T ] R^T,
+//
+// symmetric and negative semi-definite, exact for rigid motions of the rest shape (eps = 0) and
+// off by O(strain) elsewhere. There is no damping (B = 0). A triangle whose current area is
+// (nearly) zero has no rotation: it contributes no force and zero blocks (its energy still
+// counts). A triangle whose REST area is (nearly) zero has no element at all (a "degenerate"
+// triangle, counted; validate() checks the set against a rebuild).
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/events.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::forcefields {
+
+/// The component's parameters.
+struct TriangularFEMParameters {
+  double youngModulus = 1000.0;  ///< E: finite, >= 0
+  double poissonRatio = 0.3;     ///< nu: finite, in (-1, 0.5)
+  double thickness = 1.0;        ///< h: finite, >= 0
+
+  /// Throws cutsim::InvalidInput with where() = the parameter's name for a value out of range,
+  /// NaN or infinite.
+  void validate() const;
+};
+
+/// One element as stored: 3 point ids, the shape gradients g_b, g_c and the rest area (56 bytes).
+struct FemTriangle {
+  std::array<std::uint32_t, 3> v;  ///< a, b, c (counter-clockwise, as the triangle)
+  std::uint32_t pad = 0;
+  std::array<double, 4> g;  ///< g_b = (g[0], g[1]), g_c = (g[2], g[3])
+  double area;              ///< rest area
+};
+static_assert(sizeof(FemTriangle) == 56);
+
+/// One triangle as a record: what the table holds, or what a rebuild computes.
+struct FemRecord {
+  TriangleId triangle = topology::kInvalidIndex;
+  bool degenerate = false;  ///< no element (rest area too small)
+  std::array<PointId, 3> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
+                                  topology::kInvalidIndex};
+  std::array<double, 4> g{};  ///< zeros when degenerate
+  double area = 0.0;          ///< zero when degenerate
+};
+
+class TriangularFEM : public ForceField, public topology::TopologyObserver {
+ public:
+  /// Validates the parameters, builds the table once from the current mesh (rest frames from
+  /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
+  TriangularFEM(topology::Topology& topology, TriangularFEMParameters parameters);
+  TriangularFEM(const TriangularFEM&) = delete;
+  TriangularFEM& operator=(const TriangularFEM&) = delete;
+  ~TriangularFEM() override;
+
+  // ---- ForceField ----
+  std::string typeName() const override { return "TriangularFEM"; }
+  void addForce(std::span<const double> x, std::span<const double> v,
+                std::span<double> f) const override;
+  /// df += kFactor K dx (bFactor is ignored: no damping).
+  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                 double kFactor, double bFactor) const override;
+  double potentialEnergy(std::span<const double> x) const override;
+  /// Nine 3x3 blocks per element, zero blocks included (the pattern depends on the topology only).
+  void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
+  /// Nothing (no damping).
+  void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
+  /// The three edges of every element.
+  void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+
+  // ---- TopologyObserver: the table follows triangle events and point renumbering only ----
+  void onTrianglesDestroyed(const topology::Topology&,
+                            const topology::TrianglesDestroyed&) override;
+  void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated&) override;
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  void onTrianglesRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  std::string observerName() const override { return typeName(); }
+  /// Compares the table with buildFromScratch: one entry per live triangle, the same vertices (as
+  /// a rotation of the triangle's), the same degenerate flag, rest area and energy of a random
+  /// displacement (1e-10 relative), plus the internal consistency of the array and the map.
+  void validate(const topology::Topology& topology,
+                std::vector<std::string>& problems) const override;
+
+  // ---- the table ----
+  const TriangularFEMParameters& parameters() const { return params_; }
+  std::span<const FemTriangle> elements() const { return elements_; }
+  std::size_t numElements() const { return elements_.size(); }
+  std::size_t numDegenerate() const { return numDegenerate_; }
+  /// The record of triangle t (triangle = kInvalidIndex for a dead slot or beyond the table).
+  FemRecord element(TriangleId t) const;
+  std::size_t numTriangleSlots() const { return triSlot_.size(); }
+
+  /// The table built from scratch: one record per live triangle, ascending id.
+  static std::vector<FemRecord> buildFromScratch(const topology::Topology& topology);
+  /// The element of one triangle from its rest positions.
+  static FemRecord elementFromMesh(const topology::Topology& topology, TriangleId t);
+
+ private:
+  void setTriangle(TriangleId t, const FemRecord& r);
+  void clearTriangle(TriangleId t);
+  void removeElement(std::uint32_t slot);
+  void ensureSlots(std::size_t n);
+  void checkSize(std::span<const double> a, const char* name, const char* what) const;
+
+  const topology::Topology* topology_;
+  TriangularFEMParameters params_;
+  double mu_ = 0.0, lambda_ = 0.0;  // plane-stress Lame coefficients times the thickness
+  std::vector<FemTriangle> elements_;
+  std::vector<std::uint32_t> elementTriangle_;  // elementTriangle_[s]: the triangle of element s
+  std::vector<std::uint32_t> triSlot_;  // index in elements_, kDegenerateSlot, or kNoSlot (dead)
+  std::size_t numDegenerate_ = 0;
+  std::vector<std::string> eventProblems_;
+  topology::Subscription subscription_;
+};
+
+}  // namespace cutsim::forcefields

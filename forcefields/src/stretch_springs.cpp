@@ -1,0 +1,465 @@
+#include "cutsim/forcefields/stretch_springs.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace cutsim::forcefields {
+namespace {
+
+using topology::kInvalidIndex;
+using topology::Topology;
+
+constexpr std::uint32_t kNoSpring = 0xFFFFFFFFu;
+
+/// Below this squared length a spring has no direction (u undefined): it is skipped. The smallest
+/// normal double keeps l^2 exact enough for u = d / l to be a unit vector.
+constexpr double kMinLength2 = std::numeric_limits<double>::min();
+
+/// A double for messages, without arithmetic (so no floating-point exception for NaN or inf).
+std::string describe(double v) {
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+void checkParameter(const char* name, double v) {
+  if (!std::isfinite(v)) {
+    throw InvalidInput(name, "must be a finite number >= 0, got " + describe(v));
+  }
+  if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
+}
+
+std::string edgeName(EdgeId e) {
+  return "edge " + std::to_string(e);
+}
+
+/// The rest length of the segment (a, b): the same function for events and rebuilds.
+double restLengthOf(const Topology& t, PointId a, PointId b) {
+  const topology::Vec3 pa = t.restPosition(a), pb = t.restPosition(b);
+  return std::hypot(pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]);
+}
+
+/// The direction of a spring at x: u = (x_b - x_a) / l and l; false for a zero-length spring.
+inline bool direction(const double* __restrict x, std::uint32_t a, std::uint32_t b, double u[3],
+                      double& l) {
+  const double* xa = x + 3 * static_cast<std::size_t>(a);
+  const double* xb = x + 3 * static_cast<std::size_t>(b);
+  u[0] = xb[0] - xa[0];
+  u[1] = xb[1] - xa[1];
+  u[2] = xb[2] - xa[2];
+  const double l2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+  if (!(l2 >= kMinLength2)) return false;
+  l = std::sqrt(l2);
+  const double inv = 1.0 / l;
+  u[0] *= inv;
+  u[1] *= inv;
+  u[2] *= inv;
+  return true;
+}
+
+/// The coefficient a of the K block -ks [a (I - u u^T) + u u^T].
+inline double tangentFactor(double restLength, double l, bool stable) {
+  const double a = 1.0 - restLength / l;
+  return stable ? std::max(a, 0.0) : a;
+}
+
+/// The K block (j, j) of a spring, times `factor`: -factor ks [a I + (1 - a) u u^T].
+Eigen::Matrix3d stiffnessBlock(const double u[3], double a, double factorTimesKs) {
+  const Eigen::Vector3d uv(u[0], u[1], u[2]);
+  Eigen::Matrix3d m = ((1.0 - a) * uv) * uv.transpose();
+  m.diagonal().array() += a;
+  return -factorTimesKs * m;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Parameters
+
+void StretchParameters::validate() const {
+  checkParameter("stiffness", stiffness);
+  checkParameter("damping", damping);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Construction and the table
+
+StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
+    : topology_(&topology), params_(parameters) {
+  params_.validate();
+  const std::vector<StretchRecord> records = buildFromScratch(topology);
+  edgeSlot_.assign(topology.edgeCapacity(), kNoSpring);
+  springs_.reserve(records.size());
+  springEdge_.reserve(records.size());
+  for (const StretchRecord& r : records) {
+    addSpring(r.edge, r.vertices[0], r.vertices[1], r.restLength);
+  }
+  subscription_ = topology.subscribe(*this);
+}
+
+StretchSprings::~StretchSprings() = default;
+
+std::vector<StretchRecord> StretchSprings::buildFromScratch(const Topology& topology) {
+  std::vector<StretchRecord> records;
+  const std::vector<EdgeId> edges = topology.edges();
+  records.reserve(edges.size());
+  for (EdgeId e : edges) {
+    const topology::EdgeVertices ev = topology.edgeVertices(e);
+    records.push_back({e, {ev[0], ev[1]}, restLengthOf(topology, ev[0], ev[1])});
+  }
+  return records;
+}
+
+void StretchSprings::ensureEdgeSlots(std::size_t n) {
+  if (edgeSlot_.size() < n) edgeSlot_.resize(n, kNoSpring);
+}
+
+void StretchSprings::addSpring(EdgeId e, PointId a, PointId b, double restLength) {
+  ensureEdgeSlots(static_cast<std::size_t>(e) + 1);
+  const StretchSpring s{a, b, restLength};
+  if (edgeSlot_[e] != kNoSpring) {
+    springs_[edgeSlot_[e]] = s;
+    return;
+  }
+  if (springs_.size() >= kNoSpring) throw std::length_error("StretchSprings: too many springs");
+  edgeSlot_[e] = static_cast<std::uint32_t>(springs_.size());
+  springs_.push_back(s);
+  springEdge_.push_back(e);
+}
+
+void StretchSprings::removeSpring(std::uint32_t slot) {
+  const std::uint32_t last = static_cast<std::uint32_t>(springs_.size() - 1);
+  edgeSlot_[springEdge_[slot]] = kNoSpring;
+  if (slot != last) {
+    springs_[slot] = springs_[last];
+    springEdge_[slot] = springEdge_[last];
+    edgeSlot_[springEdge_[slot]] = slot;
+  }
+  springs_.pop_back();
+  springEdge_.pop_back();
+}
+
+StretchRecord StretchSprings::spring(EdgeId e) const {
+  StretchRecord r;
+  if (e >= edgeSlot_.size() || edgeSlot_[e] == kNoSpring) return r;
+  const StretchSpring& s = springs_[edgeSlot_[e]];
+  r.edge = e;
+  r.vertices = {s.a, s.b};
+  r.restLength = s.restLength;
+  return r;
+}
+
+std::vector<StretchRecord> StretchSprings::records() const {
+  std::vector<StretchRecord> out;
+  out.reserve(springs_.size());
+  for (EdgeId e = 0; e < edgeSlot_.size(); ++e) {
+    if (edgeSlot_[e] != kNoSpring) out.push_back(spring(e));
+  }
+  return out;
+}
+
+double StretchSprings::bytesPerEdgeSlot() const {
+  if (edgeSlot_.empty()) return 0.0;
+  const double bytes = static_cast<double>(springs_.size() * sizeof(StretchSpring) +
+                                           springEdge_.size() * sizeof(std::uint32_t) +
+                                           edgeSlot_.size() * sizeof(std::uint32_t));
+  return bytes / static_cast<double>(edgeSlot_.size());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Forces
+
+void StretchSprings::checkSize(std::span<const double> a, const char* name,
+                               const char* what) const {
+  const std::size_t need = 3 * static_cast<std::size_t>(topology_->pointCapacity());
+  if (a.size() < need) {
+    throw std::invalid_argument(std::string("StretchSprings::") + what + ": " + name +
+                                " must hold 3 * pointCapacity = " + std::to_string(need) +
+                                " doubles, got " + std::to_string(a.size()));
+  }
+}
+
+void StretchSprings::addForce(std::span<const double> x, std::span<const double> v,
+                              std::span<double> f) const {
+  checkSize(x, "x", "addForce");
+  checkSize(f, "f", "addForce");
+  const double ks = params_.stiffness, kd = params_.damping;
+  const bool damped = kd != 0.0;
+  if (damped) checkSize(v, "v", "addForce");
+  const double* __restrict xp = x.data();
+  const double* __restrict vp = damped ? v.data() : nullptr;
+  double* __restrict fp = f.data();
+  // Springs are taken by value in the force passes: a store into f could otherwise alias the
+  // table, and the compiler would reload the spring after every store.
+  for (const StretchSpring s : springs_) {
+    double u[3], l;
+    if (!direction(xp, s.a, s.b, u, l)) continue;
+    double intensity = -ks * (l - s.restLength);
+    if (damped) {
+      const double* va = vp + 3 * static_cast<std::size_t>(s.a);
+      const double* vb = vp + 3 * static_cast<std::size_t>(s.b);
+      intensity -= kd * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
+    }
+    double* fa = fp + 3 * static_cast<std::size_t>(s.a);
+    double* fb = fp + 3 * static_cast<std::size_t>(s.b);
+    for (int k = 0; k < 3; ++k) {
+      fb[k] += intensity * u[k];
+      fa[k] -= intensity * u[k];
+    }
+  }
+}
+
+void StretchSprings::addDForce(std::span<const double> x, std::span<const double> dx,
+                               std::span<double> df, double kFactor, double bFactor) const {
+  checkSize(x, "x", "addDForce");
+  checkSize(dx, "dx", "addDForce");
+  checkSize(df, "df", "addDForce");
+  const double k = kFactor * params_.stiffness;
+  const double b = bFactor * params_.damping;
+  if (k == 0.0 && b == 0.0) return;
+  const bool stable = params_.stableJacobian;
+  const double* __restrict xp = x.data();
+  const double* __restrict dxp = dx.data();
+  double* __restrict dfp = df.data();
+  for (const StretchSpring s : springs_) {
+    double u[3], l;
+    if (!direction(xp, s.a, s.b, u, l)) continue;
+    const double a = tangentFactor(s.restLength, l, stable);
+    const double* da = dxp + 3 * static_cast<std::size_t>(s.a);
+    const double* db = dxp + 3 * static_cast<std::size_t>(s.b);
+    const double w[3] = {db[0] - da[0], db[1] - da[1], db[2] - da[2]};
+    const double uw = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
+    // g = (kFactor K_jj + bFactor B_jj) w = -k (a w + (1 - a) (u.w) u) - b (u.w) u.
+    const double cu = -(k * (1.0 - a) + b) * uw;
+    const double cw = -k * a;
+    double* fa = dfp + 3 * static_cast<std::size_t>(s.a);
+    double* fb = dfp + 3 * static_cast<std::size_t>(s.b);
+    for (int c = 0; c < 3; ++c) {
+      const double g = cw * w[c] + cu * u[c];
+      fb[c] += g;
+      fa[c] -= g;
+    }
+  }
+}
+
+double StretchSprings::potentialEnergy(std::span<const double> x) const {
+  checkSize(x, "x", "potentialEnergy");
+  const double* __restrict xp = x.data();
+  double e = 0.0;
+  for (const StretchSpring s : springs_) {
+    const double* xa = xp + 3 * static_cast<std::size_t>(s.a);
+    const double* xb = xp + 3 * static_cast<std::size_t>(s.b);
+    const double d0 = xb[0] - xa[0], d1 = xb[1] - xa[1], d2 = xb[2] - xa[2];
+    const double stretch = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - s.restLength;
+    e += stretch * stretch;
+  }
+  return 0.5 * params_.stiffness * e;
+}
+
+void StretchSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                                  double kFactor) const {
+  checkSize(x, "x", "addKToMatrix");
+  const double k = kFactor * params_.stiffness;
+  const bool stable = params_.stableJacobian;
+  for (const StretchSpring s : springs_) {
+    double u[3], l;
+    Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+    if (direction(x.data(), s.a, s.b, u, l)) {
+      block = stiffnessBlock(u, tangentFactor(s.restLength, l, stable), k);
+    }
+    m.addBlock(s.a, s.a, block);
+    m.addBlock(s.b, s.b, block);
+    m.addBlock(s.a, s.b, -block);
+    m.addBlock(s.b, s.a, -block);
+  }
+}
+
+void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                                  double bFactor) const {
+  const double b = bFactor * params_.damping;
+  if (b == 0.0) return;
+  checkSize(x, "x", "addBToMatrix");
+  for (const StretchSpring s : springs_) {
+    double u[3], l;
+    Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+    if (direction(x.data(), s.a, s.b, u, l)) {
+      const Eigen::Vector3d uv(u[0], u[1], u[2]);
+      block = (-b * uv) * uv.transpose();
+    }
+    m.addBlock(s.a, s.a, block);
+    m.addBlock(s.b, s.b, block);
+    m.addBlock(s.a, s.b, -block);
+    m.addBlock(s.b, s.a, -block);
+  }
+}
+
+void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
+  segments.reserve(segments.size() + springs_.size());
+  for (const StretchSpring& s : springs_) segments.push_back({s.a, s.b});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Topology events. Only edges carry springs: an edge destroyed loses its spring, an edge created
+// (new, or re-created with other endpoints by an incision) gets one with the rest length of its
+// endpoints' rest positions. Triangle events change nothing; a point is destroyed only after the
+// edges around it, whose destruction already removed their springs.
+
+void StretchSprings::onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& ev) {
+  for (EdgeId e : ev.edges) {
+    if (e >= edgeSlot_.size() || edgeSlot_[e] == kNoSpring) {
+      eventProblems_.push_back("edges destroyed: " + edgeName(e) + " had no spring");
+      continue;
+    }
+    removeSpring(edgeSlot_[e]);
+  }
+}
+
+void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCreated& ev) {
+  ensureEdgeSlots(t.edgeCapacity());
+  springs_.reserve(springs_.size() + ev.edges.size());
+  springEdge_.reserve(springEdge_.size() + ev.edges.size());
+  for (std::size_t i = 0; i < ev.edges.size(); ++i) {
+    const EdgeId e = ev.edges[i];
+    const topology::EdgeVertices& v = ev.vertices[i];
+    if (e < edgeSlot_.size() && edgeSlot_[e] != kNoSpring) {
+      eventProblems_.push_back("edges created: " + edgeName(e) + " already had a spring");
+    }
+    addSpring(e, v[0], v[1], restLengthOf(t, v[0], v[1]));
+  }
+}
+
+void StretchSprings::onPointsRenumbered(const Topology&, const topology::Renumbering& ev) {
+  const std::span<const topology::Index> map = ev.oldToNew;
+  auto remap = [&](std::uint32_t& p) {
+    const topology::Index n = p < map.size() ? map[p] : kInvalidIndex;
+    if (n == kInvalidIndex) {
+      eventProblems_.push_back("points renumbered: a spring references dead point " +
+                               std::to_string(p));
+    } else {
+      p = n;
+    }
+  };
+  for (StretchSpring& s : springs_) {
+    remap(s.a);
+    remap(s.b);
+  }
+}
+
+void StretchSprings::onEdgesRenumbered(const Topology&, const topology::Renumbering& ev) {
+  // Entries move old -> new with their edges; the springs are re-laid out in the new edge order,
+  // which restores the streaming locality of a fresh mesh.
+  std::vector<std::uint32_t> slots(ev.newSize, kNoSpring);
+  for (std::size_t old = 0; old < edgeSlot_.size(); ++old) {
+    const topology::Index n = old < ev.oldToNew.size() ? ev.oldToNew[old] : kInvalidIndex;
+    if (n == kInvalidIndex || n >= ev.newSize) {
+      if (edgeSlot_[old] != kNoSpring) {
+        eventProblems_.push_back("edges renumbered: " + edgeName(static_cast<EdgeId>(old)) +
+                                 " has a spring but no new index");
+      }
+      continue;
+    }
+    slots[n] = edgeSlot_[old];
+  }
+  std::vector<StretchSpring> springs;
+  std::vector<std::uint32_t> springEdge;
+  springs.reserve(springs_.size());
+  springEdge.reserve(springs_.size());
+  for (EdgeId e = 0; e < slots.size(); ++e) {
+    if (slots[e] == kNoSpring) continue;
+    springs.push_back(springs_[slots[e]]);
+    springEdge.push_back(e);
+    slots[e] = static_cast<std::uint32_t>(springs.size() - 1);
+  }
+  if (springs.size() != springs_.size()) {
+    eventProblems_.push_back("edges renumbered: springs lost with their edges");
+  }
+  springs_ = std::move(springs);
+  springEdge_ = std::move(springEdge);
+  edgeSlot_ = std::move(slots);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation: the incremental table against a rebuild from scratch.
+
+namespace {
+
+std::string describeRecord(const StretchRecord& r) {
+  std::ostringstream os;
+  os.precision(17);
+  os << edgeName(r.edge) << " [" << r.vertices[0] << "-" << r.vertices[1] << ", rest length "
+     << r.restLength << "]";
+  return os.str();
+}
+
+bool sameSpring(const StretchRecord& a, const StretchRecord& b) {
+  if (std::minmax(a.vertices[0], a.vertices[1]) != std::minmax(b.vertices[0], b.vertices[1])) {
+    return false;
+  }
+  return std::fabs(a.restLength - b.restLength) <=
+         1e-12 * std::max(std::fabs(b.restLength), 1e-300);
+}
+
+}  // namespace
+
+void StretchSprings::validate(const Topology& topology, std::vector<std::string>& problems) const {
+  for (const std::string& p : eventProblems_) problems.push_back(p);
+
+  // Internal consistency of the compact array and the edge map.
+  if (springs_.size() != springEdge_.size()) {
+    problems.push_back("springs and their edge back-references differ in size");
+    return;
+  }
+  for (std::size_t s = 0; s < springs_.size(); ++s) {
+    const std::uint32_t e = springEdge_[s];
+    if (e >= edgeSlot_.size() || edgeSlot_[e] != s) {
+      problems.push_back("spring " + std::to_string(s) + " of " + edgeName(e) +
+                         " is not what the edge map points to");
+    }
+  }
+  if (edgeSlot_.size() < topology.edgeCapacity()) {
+    problems.push_back("the table has " + std::to_string(edgeSlot_.size()) +
+                       " edge slots, the topology " + std::to_string(topology.edgeCapacity()));
+  }
+  for (EdgeId e = 0; e < edgeSlot_.size(); ++e) {
+    const bool alive = e < topology.edgeCapacity() && topology.isEdgeAlive(e);
+    const bool inTable = edgeSlot_[e] != kNoSpring;
+    if (alive != inTable) {
+      problems.push_back(edgeName(e) +
+                         (alive ? " is alive but has no spring" : " is dead but has a spring"));
+    }
+  }
+
+  // Springs on live points only.
+  const Index cap = topology.pointCapacity();
+  for (std::size_t s = 0; s < springs_.size(); ++s) {
+    for (std::uint32_t v : {springs_[s].a, springs_[s].b}) {
+      if (v >= cap || !topology.isPointAlive(v)) {
+        problems.push_back("spring of " + edgeName(springEdge_[s]) + " references dead point " +
+                           std::to_string(v));
+      }
+    }
+  }
+
+  // Against the rebuild.
+  const std::vector<StretchRecord> ref = buildFromScratch(topology);
+  for (const StretchRecord& r : ref) {
+    const StretchRecord mine = spring(r.edge);
+    if (mine.edge == kInvalidIndex) {
+      problems.push_back("no spring for " + edgeName(r.edge) + ", a rebuild gives " +
+                         describeRecord(r));
+    } else if (!sameSpring(mine, r)) {
+      problems.push_back("table has " + describeRecord(mine) + ", a rebuild gives " +
+                         describeRecord(r));
+    }
+  }
+  if (springs_.size() != ref.size()) {
+    problems.push_back(std::to_string(springs_.size()) + " springs, a rebuild has " +
+                       std::to_string(ref.size()));
+  }
+}
+
+}  // namespace cutsim::forcefields

@@ -1,0 +1,523 @@
+#include "cutsim/forcefields/triangular_fem.hpp"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+namespace cutsim::forcefields {
+namespace {
+
+using topology::kInvalidIndex;
+using topology::Topology;
+
+constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;          // dead triangle (or beyond the table)
+constexpr std::uint32_t kDegenerateSlot = 0xFFFFFFFEu;  // live triangle without an element
+
+/// A triangle whose rest area is below this fraction of its longest edge squared has no element.
+constexpr double kMinRestShape = 1e-12;
+/// A current configuration whose area ratio det S is below this fraction of (tr S)^2 has no
+/// rotation (cond(S) would exceed 1e12): no force, zero blocks.
+constexpr double kMinCurrentShape = 1e-12;
+
+using Mat32 = Eigen::Matrix<double, 3, 2>;
+
+std::string describe(double v) {
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+std::string triangleName(TriangleId t) {
+  return "triangle " + std::to_string(t);
+}
+
+/// What one element gives at x.
+struct ElementState {
+  Mat32 f = Mat32::Zero();                      // F
+  Eigen::Matrix2d s = Eigen::Matrix2d::Zero();  // S = sqrt(F^T F)
+  double detS = 0.0;
+  bool hasRotation = false;
+  Mat32 r = Mat32::Zero();  // R = F S^-1 (when hasRotation)
+};
+
+inline Eigen::Vector3d point(const double* x, std::uint32_t p) {
+  const double* q = x + 3 * static_cast<std::size_t>(p);
+  return {q[0], q[1], q[2]};
+}
+
+ElementState evaluate(const FemTriangle& e, const double* x) {
+  ElementState st;
+  const Eigen::Vector3d xa = point(x, e.v[0]);
+  const Eigen::Vector3d db = point(x, e.v[1]) - xa;
+  const Eigen::Vector3d dc = point(x, e.v[2]) - xa;
+  st.f.col(0) = db * e.g[0] + dc * e.g[2];
+  st.f.col(1) = db * e.g[1] + dc * e.g[3];
+  const double c00 = st.f.col(0).squaredNorm();
+  const double c11 = st.f.col(1).squaredNorm();
+  const double c01 = st.f.col(0).dot(st.f.col(1));
+  // sqrt of a symmetric positive semi-definite 2x2 matrix: (C + sqrt(det C) I) / sqrt(tr C +
+  // 2 sqrt(det C)), with det S = sqrt(det C).
+  const double s = std::sqrt(std::max(0.0, c00 * c11 - c01 * c01));
+  const double t2 = c00 + c11 + 2.0 * s;
+  if (!(t2 > 0.0)) return st;  // F = 0: S = 0
+  const double inv = 1.0 / std::sqrt(t2);
+  st.s << (c00 + s) * inv, c01 * inv, c01 * inv, (c11 + s) * inv;
+  st.detS = s;
+  if (s > kMinCurrentShape * t2) {
+    Eigen::Matrix2d sInv;
+    sInv << st.s(1, 1), -st.s(0, 1), -st.s(1, 0), st.s(0, 0);
+    sInv /= s;
+    st.r = st.f * sInv;
+    st.hasRotation = true;
+  }
+  return st;
+}
+
+/// sigma = 2 mu eps + lambda tr(eps) I.
+inline Eigen::Matrix2d stress(const Eigen::Matrix2d& eps, double mu, double lambda) {
+  Eigen::Matrix2d sigma = 2.0 * mu * eps;
+  const double tr = lambda * (eps(0, 0) + eps(1, 1));
+  sigma(0, 0) += tr;
+  sigma(1, 1) += tr;
+  return sigma;
+}
+
+inline std::array<Eigen::Vector2d, 3> gradients(const FemTriangle& e) {
+  const Eigen::Vector2d gb(e.g[0], e.g[1]), gc(e.g[2], e.g[3]);
+  return {-gb - gc, gb, gc};
+}
+
+inline void scatter(double* out, std::uint32_t p, const Eigen::Vector3d& v) {
+  double* q = out + 3 * static_cast<std::size_t>(p);
+  q[0] += v[0];
+  q[1] += v[1];
+  q[2] += v[2];
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Parameters
+
+void TriangularFEMParameters::validate() const {
+  auto finiteNonNegative = [](const char* name, double v) {
+    if (!std::isfinite(v)) {
+      throw InvalidInput(name, "must be a finite number >= 0, got " + describe(v));
+    }
+    if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
+  };
+  finiteNonNegative("youngModulus", youngModulus);
+  if (!std::isfinite(poissonRatio) || !(poissonRatio > -1.0) || !(poissonRatio < 0.5)) {
+    throw InvalidInput("poissonRatio",
+                       "must be a finite number in (-1, 0.5), got " + describe(poissonRatio));
+  }
+  finiteNonNegative("thickness", thickness);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Construction and the table
+
+TriangularFEM::TriangularFEM(Topology& topology, TriangularFEMParameters parameters)
+    : topology_(&topology), params_(parameters) {
+  params_.validate();
+  const double nu = params_.poissonRatio;
+  mu_ = params_.thickness * params_.youngModulus / (2.0 * (1.0 + nu));
+  lambda_ = params_.thickness * params_.youngModulus * nu / (1.0 - nu * nu);
+  const std::vector<FemRecord> records = buildFromScratch(topology);
+  triSlot_.assign(topology.triangleCapacity(), kNoSlot);
+  elements_.reserve(records.size());
+  elementTriangle_.reserve(records.size());
+  for (const FemRecord& r : records) setTriangle(r.triangle, r);
+  subscription_ = topology.subscribe(*this);
+}
+
+TriangularFEM::~TriangularFEM() = default;
+
+FemRecord TriangularFEM::elementFromMesh(const Topology& t, TriangleId tri) {
+  FemRecord r;
+  r.triangle = tri;
+  const topology::TriangleVertices v = t.triangleVertices(tri);
+  const topology::Vec3 pa = t.restPosition(v[0]), pb = t.restPosition(v[1]),
+                       pc = t.restPosition(v[2]);
+  const Eigen::Vector3d xa(pa[0], pa[1], pa[2]), xb(pb[0], pb[1], pb[2]), xc(pc[0], pc[1], pc[2]);
+  const Eigen::Vector3d e1 = xb - xa, e2 = xc - xa;
+  const double lb = e1.norm();
+  const double twiceArea = e1.cross(e2).norm();
+  const double longest = std::max({lb, e2.norm(), (xc - xb).norm()});
+  if (!(lb > 0.0) || !(twiceArea > kMinRestShape * longest * longest)) {
+    r.degenerate = true;
+    return r;
+  }
+  // Rest frame: x along ab, y in the plane towards c. Pa = (0, 0), Pb = (lb, 0), Pc = (cx, cy).
+  const double cx = e2.dot(e1) / lb;
+  const double cy = twiceArea / lb;
+  // Dm = [[lb, cx], [0, cy]]; Dm^-1 = [[1/lb, -cx/(lb cy)], [0, 1/cy]]; rows are g_b, g_c.
+  r.vertices = {v[0], v[1], v[2]};
+  r.g = {1.0 / lb, -cx / (lb * cy), 0.0, 1.0 / cy};
+  r.area = 0.5 * twiceArea;
+  return r;
+}
+
+std::vector<FemRecord> TriangularFEM::buildFromScratch(const Topology& topology) {
+  std::vector<FemRecord> records;
+  const std::vector<TriangleId> tris = topology.triangles();
+  records.reserve(tris.size());
+  for (TriangleId t : tris) records.push_back(elementFromMesh(topology, t));
+  return records;
+}
+
+void TriangularFEM::ensureSlots(std::size_t n) {
+  if (triSlot_.size() < n) triSlot_.resize(n, kNoSlot);
+}
+
+void TriangularFEM::removeElement(std::uint32_t slot) {
+  const std::uint32_t last = static_cast<std::uint32_t>(elements_.size() - 1);
+  triSlot_[elementTriangle_[slot]] = kNoSlot;
+  if (slot != last) {
+    elements_[slot] = elements_[last];
+    elementTriangle_[slot] = elementTriangle_[last];
+    triSlot_[elementTriangle_[slot]] = slot;
+  }
+  elements_.pop_back();
+  elementTriangle_.pop_back();
+}
+
+void TriangularFEM::clearTriangle(TriangleId t) {
+  const std::uint32_t code = triSlot_[t];
+  if (code == kDegenerateSlot) {
+    --numDegenerate_;
+  } else if (code != kNoSlot) {
+    removeElement(code);
+  }
+  triSlot_[t] = kNoSlot;
+}
+
+void TriangularFEM::setTriangle(TriangleId t, const FemRecord& r) {
+  ensureSlots(static_cast<std::size_t>(t) + 1);
+  clearTriangle(t);
+  if (r.degenerate) {
+    triSlot_[t] = kDegenerateSlot;
+    ++numDegenerate_;
+    return;
+  }
+  if (elements_.size() >= kDegenerateSlot) {
+    throw std::length_error("TriangularFEM: too many elements");
+  }
+  triSlot_[t] = static_cast<std::uint32_t>(elements_.size());
+  elements_.push_back({{r.vertices[0], r.vertices[1], r.vertices[2]}, 0, r.g, r.area});
+  elementTriangle_.push_back(t);
+}
+
+FemRecord TriangularFEM::element(TriangleId t) const {
+  FemRecord r;
+  if (t >= triSlot_.size() || triSlot_[t] == kNoSlot) return r;
+  r.triangle = t;
+  if (triSlot_[t] == kDegenerateSlot) {
+    r.degenerate = true;
+    return r;
+  }
+  const FemTriangle& e = elements_[triSlot_[t]];
+  r.vertices = {e.v[0], e.v[1], e.v[2]};
+  r.g = e.g;
+  r.area = e.area;
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Forces
+
+void TriangularFEM::checkSize(std::span<const double> a, const char* name, const char* what) const {
+  const std::size_t need = 3 * static_cast<std::size_t>(topology_->pointCapacity());
+  if (a.size() < need) {
+    throw std::invalid_argument(std::string("TriangularFEM::") + what + ": " + name +
+                                " must hold 3 * pointCapacity = " + std::to_string(need) +
+                                " doubles, got " + std::to_string(a.size()));
+  }
+}
+
+void TriangularFEM::addForce(std::span<const double> x, std::span<const double> /*v*/,
+                             std::span<double> f) const {
+  checkSize(x, "x", "addForce");
+  checkSize(f, "f", "addForce");
+  for (const FemTriangle& e : elements_) {
+    const ElementState st = evaluate(e, x.data());
+    if (!st.hasRotation) continue;
+    const Eigen::Matrix2d sigma = stress(st.s - Eigen::Matrix2d::Identity(), mu_, lambda_);
+    const Mat32 p = (-e.area) * (st.r * sigma);  // -A h P (h folded into mu, lambda)
+    const Eigen::Vector3d fb = p * Eigen::Vector2d(e.g[0], e.g[1]);
+    const Eigen::Vector3d fc = p * Eigen::Vector2d(e.g[2], e.g[3]);
+    scatter(f.data(), e.v[1], fb);
+    scatter(f.data(), e.v[2], fc);
+    scatter(f.data(), e.v[0], -(fb + fc));
+  }
+}
+
+void TriangularFEM::addDForce(std::span<const double> x, std::span<const double> dx,
+                              std::span<double> df, double kFactor, double /*bFactor*/) const {
+  checkSize(x, "x", "addDForce");
+  checkSize(dx, "dx", "addDForce");
+  checkSize(df, "df", "addDForce");
+  if (kFactor == 0.0) return;
+  for (const FemTriangle& e : elements_) {
+    const ElementState st = evaluate(e, x.data());
+    if (!st.hasRotation) continue;
+    const Eigen::Vector3d da = point(dx.data(), e.v[0]);
+    const Eigen::Vector3d db = point(dx.data(), e.v[1]) - da;
+    const Eigen::Vector3d dc = point(dx.data(), e.v[2]) - da;
+    Mat32 dF;
+    dF.col(0) = db * e.g[0] + dc * e.g[2];
+    dF.col(1) = db * e.g[1] + dc * e.g[3];
+    const Eigen::Matrix2d local = st.r.transpose() * dF;
+    const Eigen::Matrix2d dEps = 0.5 * (local + local.transpose());
+    const Mat32 dP = (-kFactor * e.area) * (st.r * stress(dEps, mu_, lambda_));
+    const Eigen::Vector3d fb = dP * Eigen::Vector2d(e.g[0], e.g[1]);
+    const Eigen::Vector3d fc = dP * Eigen::Vector2d(e.g[2], e.g[3]);
+    scatter(df.data(), e.v[1], fb);
+    scatter(df.data(), e.v[2], fc);
+    scatter(df.data(), e.v[0], -(fb + fc));
+  }
+}
+
+double TriangularFEM::potentialEnergy(std::span<const double> x) const {
+  checkSize(x, "x", "potentialEnergy");
+  double energy = 0.0;
+  for (const FemTriangle& e : elements_) {
+    const ElementState st = evaluate(e, x.data());
+    const Eigen::Matrix2d eps = st.s - Eigen::Matrix2d::Identity();
+    const double tr = eps(0, 0) + eps(1, 1);
+    const double epsEps =
+        eps(0, 0) * eps(0, 0) + 2.0 * eps(0, 1) * eps(0, 1) + eps(1, 1) * eps(1, 1);
+    energy += e.area * (mu_ * epsEps + 0.5 * lambda_ * tr * tr);
+  }
+  return energy;
+}
+
+void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                                 double kFactor) const {
+  checkSize(x, "x", "addKToMatrix");
+  for (const FemTriangle& e : elements_) {
+    const ElementState st = evaluate(e, x.data());
+    const std::array<Eigen::Vector2d, 3> g = gradients(e);
+    for (int k = 0; k < 3; ++k) {
+      for (int l = 0; l < 3; ++l) {
+        Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+        if (st.hasRotation) {
+          Eigen::Matrix2d mkl = (mu_ * g[k].dot(g[l])) * Eigen::Matrix2d::Identity();
+          mkl += mu_ * (g[l] * g[k].transpose()) + lambda_ * (g[k] * g[l].transpose());
+          block = (-kFactor * e.area) * (st.r * mkl * st.r.transpose());
+        }
+        m.addBlock(e.v[k], e.v[l], block);
+      }
+    }
+  }
+}
+
+void TriangularFEM::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& /*m*/,
+                                 double /*bFactor*/) const {}
+
+void TriangularFEM::draw(std::vector<std::array<PointId, 2>>& segments) const {
+  segments.reserve(segments.size() + 3 * elements_.size());
+  for (const FemTriangle& e : elements_) {
+    segments.push_back({e.v[0], e.v[1]});
+    segments.push_back({e.v[1], e.v[2]});
+    segments.push_back({e.v[2], e.v[0]});
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Topology events: only triangles carry elements. A triangle re-attached to other vertices (an
+// incision) is destroyed and created anew, so a triangle's element never changes in place.
+
+void TriangularFEM::onTrianglesDestroyed(const Topology&, const topology::TrianglesDestroyed& ev) {
+  for (TriangleId t : ev.triangles) {
+    if (t >= triSlot_.size() || triSlot_[t] == kNoSlot) {
+      eventProblems_.push_back("triangles destroyed: " + triangleName(t) + " was not in the table");
+      continue;
+    }
+    clearTriangle(t);
+  }
+}
+
+void TriangularFEM::onTrianglesCreated(const Topology& t, const topology::TrianglesCreated& ev) {
+  ensureSlots(t.triangleCapacity());
+  elements_.reserve(elements_.size() + ev.triangles.size());
+  elementTriangle_.reserve(elementTriangle_.size() + ev.triangles.size());
+  for (TriangleId tri : ev.triangles) {
+    if (triSlot_[tri] != kNoSlot) {
+      eventProblems_.push_back("triangles created: " + triangleName(tri) +
+                               " was already in the table");
+    }
+    setTriangle(tri, elementFromMesh(t, tri));
+  }
+}
+
+void TriangularFEM::onPointsRenumbered(const Topology&, const topology::Renumbering& ev) {
+  const std::span<const topology::Index> map = ev.oldToNew;
+  for (FemTriangle& e : elements_) {
+    for (std::uint32_t& p : e.v) {
+      const topology::Index n = p < map.size() ? map[p] : kInvalidIndex;
+      if (n == kInvalidIndex) {
+        eventProblems_.push_back("points renumbered: an element references dead point " +
+                                 std::to_string(p));
+      } else {
+        p = n;
+      }
+    }
+  }
+}
+
+void TriangularFEM::onTrianglesRenumbered(const Topology&, const topology::Renumbering& ev) {
+  std::vector<std::uint32_t> slots(ev.newSize, kNoSlot);
+  for (std::size_t old = 0; old < triSlot_.size(); ++old) {
+    const topology::Index n = old < ev.oldToNew.size() ? ev.oldToNew[old] : kInvalidIndex;
+    if (n == kInvalidIndex || n >= ev.newSize) {
+      if (triSlot_[old] != kNoSlot) {
+        eventProblems_.push_back("triangles renumbered: live " +
+                                 triangleName(static_cast<TriangleId>(old)) + " has no new index");
+      }
+      continue;
+    }
+    slots[n] = triSlot_[old];
+  }
+  std::vector<FemTriangle> elements;
+  std::vector<std::uint32_t> elementTriangle;
+  elements.reserve(elements_.size());
+  elementTriangle.reserve(elements_.size());
+  for (TriangleId t = 0; t < slots.size(); ++t) {
+    if (slots[t] == kNoSlot || slots[t] == kDegenerateSlot) continue;
+    elements.push_back(elements_[slots[t]]);
+    elementTriangle.push_back(t);
+    slots[t] = static_cast<std::uint32_t>(elements.size() - 1);
+  }
+  if (elements.size() != elements_.size()) {
+    eventProblems_.push_back("triangles renumbered: elements lost with their triangles");
+  }
+  elements_ = std::move(elements);
+  elementTriangle_ = std::move(elementTriangle);
+  triSlot_ = std::move(slots);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation against a rebuild
+
+namespace {
+
+/// The same element up to the labelling of its vertices (a rotation of the triangle's): the same
+/// rest area, and the same Gram matrix of the shape gradients per pair of vertex ids (which
+/// determines the element's stiffness and is independent of the rest frame).
+bool sameElement(const FemRecord& a, const FemRecord& b) {
+  if (a.degenerate != b.degenerate) return false;
+  if (a.degenerate) return true;
+  const auto tol = [](double x, double y, double scale) {
+    return std::fabs(x - y) <= 1e-10 * scale;
+  };
+  if (!tol(a.area, b.area, std::max(std::fabs(b.area), 1e-300))) return false;
+  auto grads = [](const FemRecord& r) {
+    std::map<PointId, Eigen::Vector2d> m;
+    const Eigen::Vector2d gb(r.g[0], r.g[1]), gc(r.g[2], r.g[3]);
+    m[r.vertices[0]] = -gb - gc;
+    m[r.vertices[1]] = gb;
+    m[r.vertices[2]] = gc;
+    return m;
+  };
+  const auto ga = grads(a), gb = grads(b);
+  if (ga.size() != 3 || gb.size() != 3) return false;
+  // Same cyclic order (orientation) of the vertices.
+  int shift = -1;
+  for (int s = 0; s < 3; ++s) {
+    if (a.vertices[0] == b.vertices[s]) shift = s;
+  }
+  if (shift < 0 || a.vertices[1] != b.vertices[(shift + 1) % 3] ||
+      a.vertices[2] != b.vertices[(shift + 2) % 3]) {
+    return false;
+  }
+  double scale = 0.0;
+  for (const auto& [p, g] : gb) scale = std::max(scale, g.squaredNorm());
+  for (const auto& [p, g] : ga) {
+    const auto it = gb.find(p);
+    if (it == gb.end()) return false;
+    for (const auto& [q, h] : ga) {
+      if (!tol(g.dot(h), it->second.dot(gb.at(q)), scale)) return false;
+    }
+  }
+  return true;
+}
+
+std::string describeRecord(const FemRecord& r) {
+  std::ostringstream os;
+  os.precision(17);
+  os << triangleName(r.triangle);
+  if (r.degenerate) {
+    os << " [degenerate]";
+  } else {
+    os << " [" << r.vertices[0] << " " << r.vertices[1] << " " << r.vertices[2] << ", area "
+       << r.area << "]";
+  }
+  return os.str();
+}
+
+}  // namespace
+
+void TriangularFEM::validate(const Topology& topology, std::vector<std::string>& problems) const {
+  for (const std::string& p : eventProblems_) problems.push_back(p);
+  if (elements_.size() != elementTriangle_.size()) {
+    problems.push_back("elements and their triangle back-references differ in size");
+    return;
+  }
+  for (std::size_t s = 0; s < elements_.size(); ++s) {
+    const std::uint32_t t = elementTriangle_[s];
+    if (t >= triSlot_.size() || triSlot_[t] != s) {
+      problems.push_back("element " + std::to_string(s) + " of " + triangleName(t) +
+                         " is not what the triangle map points to");
+    }
+    for (std::uint32_t p : elements_[s].v) {
+      if (p >= topology.pointCapacity() || !topology.isPointAlive(p)) {
+        problems.push_back("element of " + triangleName(t) + " references dead point " +
+                           std::to_string(p));
+      }
+    }
+  }
+  if (triSlot_.size() < topology.triangleCapacity()) {
+    problems.push_back("the table has " + std::to_string(triSlot_.size()) +
+                       " triangle slots, the topology " +
+                       std::to_string(topology.triangleCapacity()));
+  }
+  std::size_t degenerate = 0;
+  for (TriangleId t = 0; t < triSlot_.size(); ++t) {
+    const bool alive = t < topology.triangleCapacity() && topology.isTriangleAlive(t);
+    const bool inTable = triSlot_[t] != kNoSlot;
+    degenerate += triSlot_[t] == kDegenerateSlot ? 1 : 0;
+    if (alive != inTable) {
+      problems.push_back(triangleName(t) +
+                         (alive ? " is alive but not in the table" : " is dead but in the table"));
+    }
+  }
+  if (degenerate != numDegenerate_) {
+    problems.push_back("degenerate count " + std::to_string(numDegenerate_) + ", the table holds " +
+                       std::to_string(degenerate));
+  }
+  const std::vector<FemRecord> ref = buildFromScratch(topology);
+  std::size_t refElements = 0;
+  for (const FemRecord& r : ref) {
+    refElements += r.degenerate ? 0 : 1;
+    const FemRecord mine = element(r.triangle);
+    if (mine.triangle == kInvalidIndex) {
+      problems.push_back("no entry for " + triangleName(r.triangle) + ", a rebuild gives " +
+                         describeRecord(r));
+    } else if (!sameElement(mine, r)) {
+      problems.push_back("table has " + describeRecord(mine) + ", a rebuild gives " +
+                         describeRecord(r));
+    }
+  }
+  if (refElements != elements_.size()) {
+    problems.push_back(std::to_string(elements_.size()) + " elements, a rebuild has " +
+                       std::to_string(refElements));
+  }
+}
+
+}  // namespace cutsim::forcefields
