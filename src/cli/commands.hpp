@@ -16,6 +16,10 @@ void registerInfoCommand(CLI::App& app);
 /// FastTriangularBendingSprings as one JSON object (src/cli/cmd_eval.cpp).
 void registerEvalCommand(CLI::App& app);
 
+/// `cutsim run SCENE [--out DIR] [--dump-final DIR] [--quiet]`: runs a scene file
+/// (src/cli/cmd_run.cpp).
+void registerRunCommand(CLI::App& app);
+
 // Further commands are declared here.
 
 }  // namespace cutsim::cli

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   // Every subcommand registers here, one line each.
   cutsim::cli::registerInfoCommand(app);
   cutsim::cli::registerEvalCommand(app);
+  cutsim::cli::registerRunCommand(app);
 
   try {
     app.parse(argc, argv);  // runs the chosen subcommand's callback

@@ -1,0 +1,122 @@
+// `cutsim run SCENE [--out DIR] [--dump-final DIR] [--quiet]`: loads and validates a scene, runs
+// it, writes its frames and CSV (see cutsim/core/output.hpp) and prints a summary.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#include "cutsim/core/output.hpp"
+#include "cutsim/core/scene.hpp"
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::cli {
+namespace {
+
+struct RunOptions {
+  std::string scene;
+  std::string out;
+  std::string dumpFinal;
+  bool quiet = false;
+};
+
+/// A progress bar on a terminal; plain lines every 10 % otherwise.
+class Progress {
+ public:
+  Progress(long total, bool enabled)
+      : total_(total), enabled_(enabled), tty_(enabled && isatty(fileno(stderr))) {}
+
+  void update(long step, double time) {
+    if (!enabled_ || total_ <= 0) return;
+    const int percent = int(100 * step / total_);
+    if (tty_) {
+      if (percent == lastPercent_ && step != total_) return;
+      lastPercent_ = percent;
+      const int width = 40, filled = width * percent / 100;
+      std::fprintf(stderr, "\r[%s%s] %3d%%  t = %-10.4g step %ld/%ld",
+                   std::string(std::size_t(filled), '#').c_str(),
+                   std::string(std::size_t(width - filled), ' ').c_str(), percent, time, step,
+                   total_);
+      if (step == total_) std::fputc('\n', stderr);
+      std::fflush(stderr);
+    } else {
+      const int decile = percent / 10;
+      if (decile == lastPercent_) return;
+      lastPercent_ = decile;
+      std::fprintf(stderr, "%3d%%  t = %g  step %ld/%ld\n", decile * 10, time, step, total_);
+      std::fflush(stderr);
+    }
+  }
+
+ private:
+  long total_;
+  bool enabled_, tty_;
+  int lastPercent_ = -1;
+};
+
+void runScene(const RunOptions& options) {
+  const core::Scene scene = core::loadScene(options.scene);
+  const std::filesystem::path outDir = options.out.empty()
+                                           ? std::filesystem::path("out") / scene.name
+                                           : std::filesystem::path(options.out);
+
+  const auto start = std::chrono::steady_clock::now();
+  core::SceneRunner runner(scene);
+  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames());
+  Progress progress(runner.numSteps(), !options.quiet);
+
+  runner.start();
+  writer.record(runner.simulation(), {0, 0.0, {}}, runner.finished());
+  progress.update(0, 0.0);
+  while (!runner.finished()) {
+    const core::StepStats stats = runner.advance();
+    writer.record(runner.simulation(), {runner.currentStep(), runner.time(), stats},
+                  runner.finished());
+    progress.update(runner.currentStep(), runner.time());
+  }
+  writer.finish();
+  if (!options.dumpFinal.empty()) {
+    core::dumpFinal(options.dumpFinal, runner.simulation(), runner.bendingField());
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  const topology::Topology& topo = runner.simulation().topology();
+  std::cout << "scene      " << scene.name << " (" << options.scene << ")\n"
+            << "steps      " << runner.numSteps() << " of " << scene.timeStep
+            << " s, t = " << runner.time() << " s\n"
+            << "wall time  " << seconds << " s ("
+            << (seconds > 0 ? double(runner.numSteps()) / seconds : 0.0) << " steps/s)\n"
+            << "final      " << topo.numPoints() << " points, " << topo.numEdges() << " edges, "
+            << topo.numTriangles() << " triangles";
+  if (const auto* b = runner.bendingField()) {
+    std::cout << ", " << b->numActiveSprings() << " bending springs";
+  }
+  std::cout << "\n"
+            << "topology   " << runner.cutsDone() << " cuts, " << runner.tornEdges()
+            << " torn edges\n"
+            << "output     " << writer.framesWritten() << " frames in " << outDir.string() << "\n";
+  if (!options.dumpFinal.empty()) std::cout << "final dump " << options.dumpFinal << "\n";
+  std::cout.flush();
+  if (!std::cout) throw Error("cannot write to standard output");
+}
+
+}  // namespace
+
+void registerRunCommand(CLI::App& app) {
+  auto options = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "run", "Load a scene (JSON), check it, run it and write its frames and per-step CSV");
+  cmd->add_option("scene", options->scene, "the scene file (.json)")->required();
+  cmd->add_option("--out", options->out, "output folder (default: out/<scene name>)");
+  cmd->add_option("--dump-final", options->dumpFinal,
+                  "also write final_rest.obj, final.obj and final_forces.json in this folder");
+  cmd->add_flag("--quiet", options->quiet, "no progress display (the summary is still printed)");
+  cmd->callback([options] { runScene(*options); });
+}
+
+}  // namespace cutsim::cli

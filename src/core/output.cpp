@@ -1,0 +1,333 @@
+#include "cutsim/core/output.hpp"
+
+#include <array>
+#include <charconv>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <ostream>
+#include <sstream>
+
+#include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/topology/errors.hpp"
+#include "tearing.hpp"
+
+namespace cutsim::core {
+
+std::string formatNumber(double v) {
+  std::array<char, 64> buf{};
+  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);
+  return std::string(buf.data(), res.ptr);
+}
+
+void writeFileAtomically(const std::filesystem::path& path,
+                         const std::function<void(std::ostream&)>& write) {
+  const std::filesystem::path temp = path.parent_path() / ("." + path.filename().string() + ".tmp");
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot create " + temp.string());
+    write(out);
+    out.flush();
+    if (!out) throw Error("cannot write " + temp.string());
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, path, ec);
+  if (ec)
+    throw Error("cannot rename " + temp.string() + " to " + path.string() + ": " + ec.message());
+}
+
+namespace {
+
+/// Live points densely renumbered: ids[k] is the slot of point k, dense[slot] its number.
+struct Numbering {
+  topology::MeshData mesh;  // rest positions, renumbered triangles
+  std::vector<PointId> ids;
+  std::vector<topology::Index> dense;
+  std::vector<topology::TriangleId> triangles;  // slots of mesh.triangles, same order
+};
+
+Numbering numbering(const Simulation& sim) {
+  Numbering n;
+  const topology::Topology& topo = sim.topology();
+  n.mesh = topo.toMeshData(&n.ids);
+  n.dense.assign(topo.pointCapacity(), topology::kInvalidIndex);
+  for (std::size_t k = 0; k < n.ids.size(); ++k) n.dense[n.ids[k]] = topology::Index(k);
+  n.triangles = topo.triangles();
+  return n;
+}
+
+void writeTriplets(std::ostream& out, std::span<const double> a, const std::vector<PointId>& ids) {
+  for (PointId p : ids) {
+    out << formatNumber(a[3 * p]) << ' ' << formatNumber(a[3 * p + 1]) << ' '
+        << formatNumber(a[3 * p + 2]) << '\n';
+  }
+}
+
+void vtpHeader(std::ostream& out) {
+  out << "<?xml version=\"1.0\"?>\n"
+         "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n"
+         "  <PolyData>\n";
+}
+
+void vtpFooter(std::ostream& out) {
+  out << "    </Piece>\n"
+         "  </PolyData>\n"
+         "</VTKFile>\n";
+}
+
+void pointsBlock(std::ostream& out, const Simulation& sim, const std::vector<PointId>& ids) {
+  out << "      <Points>\n"
+         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n";
+  writeTriplets(out, sim.state().x(), ids);
+  out << "        </DataArray>\n"
+         "      </Points>\n";
+}
+
+}  // namespace
+
+void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
+  const Numbering n = numbering(sim);
+  const std::span<const double> x = sim.state().x();
+  vtpHeader(out);
+  out << "    <Piece NumberOfPoints=\"" << n.ids.size()
+      << "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\""
+      << n.mesh.triangles.size() << "\">\n";
+  out << "      <PointData Vectors=\"velocity\">\n"
+         "        <DataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n";
+  writeTriplets(out, sim.state().v(), n.ids);
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Float64\" Name=\"rest_position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n";
+  writeTriplets(out, sim.state().rest(), n.ids);
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"slot\" format=\"ascii\">\n";
+  for (PointId p : n.ids) out << p << '\n';
+  out << "        </DataArray>\n"
+         "      </PointData>\n"
+         "      <CellData Scalars=\"strain\">\n"
+         "        <DataArray type=\"Float64\" Name=\"strain\" format=\"ascii\">\n";
+  for (topology::TriangleId t : n.triangles) {
+    out << formatNumber(maxPrincipalStrain(sim.topology(), x, t)) << '\n';
+  }
+  out << "        </DataArray>\n"
+         "      </CellData>\n";
+  pointsBlock(out, sim, n.ids);
+  out << "      <Polys>\n"
+         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (const auto& t : n.mesh.triangles) out << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (std::size_t i = 0; i < n.mesh.triangles.size(); ++i) out << 3 * (i + 1) << '\n';
+  out << "        </DataArray>\n"
+         "      </Polys>\n";
+  vtpFooter(out);
+}
+
+void writeNetworkVtp(std::ostream& out, const Simulation& sim,
+                     const forcefields::ForceField& field) {
+  const Numbering n = numbering(sim);
+  std::vector<std::array<PointId, 2>> segments;
+  field.draw(segments);
+  std::vector<std::array<topology::Index, 2>> lines;
+  lines.reserve(segments.size());
+  for (const auto& s : segments) {
+    if (s[0] >= n.dense.size() || s[1] >= n.dense.size()) continue;
+    const topology::Index a = n.dense[s[0]], b = n.dense[s[1]];
+    if (a == topology::kInvalidIndex || b == topology::kInvalidIndex) continue;
+    lines.push_back({a, b});
+  }
+  vtpHeader(out);
+  out << "    <Piece NumberOfPoints=\"" << n.ids.size() << "\" NumberOfVerts=\"0\" NumberOfLines=\""
+      << lines.size() << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  pointsBlock(out, sim, n.ids);
+  out << "      <Lines>\n"
+         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (const auto& l : lines) out << l[0] << ' ' << l[1] << '\n';
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (std::size_t i = 0; i < lines.size(); ++i) out << 2 * (i + 1) << '\n';
+  out << "        </DataArray>\n"
+         "      </Lines>\n";
+  vtpFooter(out);
+}
+
+void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames) {
+  out << "<?xml version=\"1.0\"?>\n"
+         "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n";
+  for (const auto& [t, file] : frames) {
+    out << "    <DataSet timestep=\"" << formatNumber(t) << "\" group=\"\" part=\"0\" file=\""
+        << file << "\"/>\n";
+  }
+  out << "  </Collection>\n"
+         "</VTKFile>\n";
+}
+
+void writeSurfaceObj(std::ostream& out, const Simulation& sim) {
+  const Numbering n = numbering(sim);
+  std::vector<Vec3> points;
+  points.reserve(n.ids.size());
+  const auto x = sim.state().x();
+  for (PointId p : n.ids) points.push_back({x[3 * p], x[3 * p + 1], x[3 * p + 2]});
+  topology::writeObj(out, points, n.mesh.triangles);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+const forcefields::FastTriangularBendingSprings* firstBending(const Simulation& sim) {
+  for (std::size_t i = 0; i < sim.numForceFields(); ++i) {
+    if (auto* f =
+            dynamic_cast<const forcefields::FastTriangularBendingSprings*>(&sim.forceField(i))) {
+      return f;
+    }
+  }
+  return nullptr;
+}
+
+std::string frameName(const std::string& prefix, std::size_t index, const std::string& ext) {
+  std::array<char, 32> buf{};
+  std::snprintf(buf.data(), buf.size(), "%06zu", index);
+  return prefix + "_" + buf.data() + ext;
+}
+
+}  // namespace
+
+OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
+                           std::vector<std::string> fieldLabels,
+                           std::vector<std::string> graspNames)
+    : dir_(std::move(dir)),
+      settings_(settings),
+      labels_(std::move(fieldLabels)),
+      grasps_(std::move(graspNames)) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  if (ec || !std::filesystem::is_directory(dir_)) {
+    throw Error("cannot create the output folder " + dir_.string() +
+                (ec ? ": " + ec.message() : std::string()));
+  }
+  if (settings_.csv) {
+    // Written under a temporary name, renamed when the run finishes.
+    csvTemp_ = dir_ / ".steps.csv.tmp";
+    csv_.open(csvTemp_, std::ios::binary | std::ios::trunc);
+    if (!csv_) throw Error("cannot create " + csvTemp_.string());
+    csv_ << csvHeader() << '\n';
+  }
+}
+
+OutputWriter::~OutputWriter() = default;
+
+std::string OutputWriter::csvHeader() const {
+  std::string h = "time,kinetic_energy";
+  for (const std::string& l : labels_) h += ",potential_" + l;
+  h += ",gravity_energy,solver_iterations,solver_residual,active_springs,points,edges,triangles";
+  for (const std::string& g : grasps_) h += "," + g + "_fx," + g + "_fy," + g + "_fz";
+  return h;
+}
+
+void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
+  if (settings_.csv) {
+    std::ostringstream row;
+    row << formatNumber(r.time) << ',' << formatNumber(sim.kineticEnergy());
+    for (std::size_t i = 0; i < sim.numForceFields(); ++i) {
+      row << ',' << formatNumber(sim.potentialEnergy(i));
+    }
+    const auto* bending = firstBending(sim);
+    row << ',' << formatNumber(sim.gravityEnergy()) << ',' << r.stats.iterations << ','
+        << formatNumber(r.stats.residual) << ',' << (bending ? bending->numActiveSprings() : 0)
+        << ',' << sim.topology().numPoints() << ',' << sim.topology().numEdges() << ','
+        << sim.topology().numTriangles();
+    for (const std::string& g : grasps_) {
+      const Grasp* grasp = sim.findGrasp(g);
+      const Vec3 f = grasp ? grasp->reaction() : Vec3{0, 0, 0};
+      row << ',' << formatNumber(f[0]) << ',' << formatNumber(f[1]) << ',' << formatNumber(f[2]);
+    }
+    csv_ << row.str() << '\n';
+  }
+  if ((r.step % settings_.every == 0 || last) && r.step != lastFrameStep_) writeFrame(sim, r);
+}
+
+void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
+  lastFrameStep_ = r.step;
+  const std::size_t index = surfaceFrames_.size();
+  if (settings_.vtk) {
+    const std::string surface = frameName("surface", index, ".vtp");
+    writeFileAtomically(dir_ / surface, [&](std::ostream& o) { writeSurfaceVtp(o, sim); });
+    surfaceFrames_.emplace_back(r.time, surface);
+    writeFileAtomically(dir_ / "surface.pvd",
+                        [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+    const auto* bending = firstBending(sim);
+    if (settings_.springs && bending) {
+      const std::string springs = frameName("springs", index, ".vtp");
+      writeFileAtomically(dir_ / springs,
+                          [&](std::ostream& o) { writeNetworkVtp(o, sim, *bending); });
+      springFrames_.emplace_back(r.time, springs);
+      writeFileAtomically(dir_ / "springs.pvd",
+                          [&](std::ostream& o) { writePvd(o, springFrames_); });
+    }
+  } else {
+    surfaceFrames_.emplace_back(r.time, "");
+  }
+  if (settings_.obj) {
+    writeFileAtomically(dir_ / frameName("frame", index, ".obj"),
+                        [&](std::ostream& o) { writeSurfaceObj(o, sim); });
+  }
+}
+
+void OutputWriter::finish() {
+  if (!settings_.csv || !csv_.is_open()) return;
+  csv_.flush();
+  const bool ok = bool(csv_);
+  csv_.close();
+  if (!ok) throw Error("cannot write " + csvTemp_.string());
+  std::error_code ec;
+  std::filesystem::rename(csvTemp_, dir_ / "steps.csv", ec);
+  if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
+}
+
+void dumpFinal(const std::filesystem::path& dir, const Simulation& sim,
+               const forcefields::FastTriangularBendingSprings* bending) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec || !std::filesystem::is_directory(dir)) {
+    throw Error("cannot create the folder " + dir.string() +
+                (ec ? ": " + ec.message() : std::string()));
+  }
+  std::vector<PointId> ids;
+  const topology::MeshData rest = sim.topology().toMeshData(&ids);
+  const auto x = sim.state().x();
+  std::vector<Vec3> current;
+  current.reserve(ids.size());
+  for (PointId p : ids) current.push_back({x[3 * p], x[3 * p + 1], x[3 * p + 2]});
+  writeFileAtomically(dir / "final_rest.obj",
+                      [&](std::ostream& o) { topology::writeObj(o, rest.points, rest.triangles); });
+  writeFileAtomically(dir / "final.obj",
+                      [&](std::ostream& o) { topology::writeObj(o, current, rest.triangles); });
+  if (!bending) return;
+  std::vector<double> f(x.size(), 0.0), v(x.size(), 0.0);
+  bending->addForce(x, v, f);
+  const forcefields::BendingCounters& c = bending->counters();
+  const forcefields::BendingParameters& params = bending->parameters();
+  nlohmann::ordered_json j;
+  j["energy"] = bending->potentialEnergy(x);
+  j["active_springs"] = c.activeSprings;
+  nlohmann::json forces = nlohmann::json::array();
+  for (PointId p : ids) forces.push_back({f[3 * p], f[3 * p + 1], f[3 * p + 2]});
+  j["forces"] = std::move(forces);
+  j["degenerate_hinges"] = c.degenerate();
+  j["degenerate_by_reason"] = {{"short_wing_distance", c.shortWingDistance},
+                               {"short_edge", c.shortEdge},
+                               {"small_height", c.smallHeight},
+                               {"unrepresentable", c.unrepresentable}};
+  j["signed_fallbacks"] = c.signedFallbacks;
+  j["bending_stiffness"] = params.bendingStiffness;
+  j["min_dist_validity"] = params.minDistValidity;
+  j["area_weights"] = std::string(forcefields::toString(params.areaWeights));
+  j["rayleigh_stiffness"] = params.rayleighStiffness;
+  writeFileAtomically(dir / "final_forces.json", [&](std::ostream& o) { o << j.dump() << '\n'; });
+}
+
+}  // namespace cutsim::core

@@ -1,0 +1,96 @@
+#pragma once
+// Outputs of a simulation run, all deterministic (no wall-clock figure anywhere: the same scene
+// run twice gives byte-identical files):
+//  - VTK XML PolyData frames (.vtp, ASCII, shortest round-trip numbers) of the surface at its
+//    current positions (point data: velocity, rest_position, slot; cell data: strain = the
+//    largest principal Green strain of the triangle in its rest plane), and of the first bending
+//    field's spring network (one line per spring from wing A to wing B);
+//  - .pvd collections listing the frames with their times (ParaView opens them as animations);
+//  - OBJ frames on request;
+//  - a CSV row per step (energies, solver figures, counts, grasp reaction forces).
+// Frames and collections are written atomically (a temporary file renamed into place), so an
+// interrupted run leaves no half-written file under a final name.
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iosfwd>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cutsim/core/scene.hpp"
+#include "cutsim/core/simulation.hpp"
+#include "cutsim/forcefields/force_field.hpp"
+
+namespace cutsim::core {
+
+/// The shortest decimal text that reads back to the same double ("0.1", "1e-07", "-0").
+std::string formatNumber(double v);
+
+/// Writes `path` through a temporary file in the same folder renamed into place. Throws
+/// cutsim::Error naming the path if it cannot be written.
+void writeFileAtomically(const std::filesystem::path& path,
+                         const std::function<void(std::ostream&)>& write);
+
+/// The surface at the simulation's current positions (live points densely renumbered in
+/// ascending slot order, as Topology::toMeshData).
+void writeSurfaceVtp(std::ostream& out, const Simulation& sim);
+/// The network of `field.draw()` as lines between the live points (numbered as in the surface).
+void writeNetworkVtp(std::ostream& out, const Simulation& sim,
+                     const forcefields::ForceField& field);
+/// A ParaView collection: (time, file name relative to the .pvd) per frame.
+void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames);
+/// OBJ of the live surface at current positions, 17 significant digits.
+void writeSurfaceObj(std::ostream& out, const Simulation& sim);
+
+/// What the CSV row of a step needs beyond the simulation itself.
+struct StepRecord {
+  long step = 0;
+  double time = 0.0;
+  StepStats stats;
+};
+
+/// The writer of a run's output folder.
+///   surface.pvd, surface_NNNNNN.vtp   springs.pvd, springs_NNNNNN.vtp   frame_NNNNNN.obj
+///   steps.csv: time, kinetic_energy, potential_<label> per force field, gravity_energy,
+///     solver_iterations, solver_residual, active_springs, points, edges, triangles,
+///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active)
+class OutputWriter {
+ public:
+  /// Creates the folder. fieldLabels and graspNames fix the CSV's columns.
+  OutputWriter(std::filesystem::path dir, OutputSettings settings,
+               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames);
+  ~OutputWriter();
+  OutputWriter(const OutputWriter&) = delete;
+  OutputWriter& operator=(const OutputWriter&) = delete;
+
+  /// The CSV row of this step, and a frame if the step is a multiple of `every` or `last`.
+  void record(Simulation& sim, const StepRecord& r, bool last);
+  /// Flushes and closes the CSV (throws cutsim::Error if it could not be written).
+  void finish();
+
+  const std::filesystem::path& dir() const { return dir_; }
+  std::size_t framesWritten() const { return surfaceFrames_.size(); }
+  /// The CSV header line (without newline).
+  std::string csvHeader() const;
+
+ private:
+  void writeFrame(Simulation& sim, const StepRecord& r);
+
+  std::filesystem::path dir_;
+  OutputSettings settings_;
+  std::vector<std::string> labels_, grasps_;
+  std::ofstream csv_;
+  std::filesystem::path csvTemp_;
+  std::vector<std::pair<double, std::string>> surfaceFrames_, springFrames_;
+  long lastFrameStep_ = -1;
+};
+
+/// `--dump-final`: final_rest.obj and final.obj (the live points densely renumbered, rest and
+/// current positions, the same triangles, 17 significant digits) and final_forces.json (the force
+/// of `bending` at the current positions, zero velocity, per vertex of the OBJs, in the form of
+/// `cutsim eval`'s output: energy, active_springs, forces, counters and parameters echoed).
+void dumpFinal(const std::filesystem::path& dir, const Simulation& sim,
+               const forcefields::FastTriangularBendingSprings* bending);
+
+}  // namespace cutsim::core

@@ -1,0 +1,194 @@
+#pragma once
+// Scenes: a JSON file that lists only what a simulation needs (mesh, mass, gravity, force fields,
+// constraints, solver, time step and duration, outputs) and a timeline of scripted actions (cuts,
+// progressive cuts, carving, tearing, grasps). The format is documented in docs/scenes.md.
+//
+// loadScene() parses and validates a whole scene before anything runs: every problem is an
+// InvalidInput whose what() is "SCENE.json:LINE: /json/pointer: message". SceneRunner builds the
+// core::Simulation from a validated scene (nothing the scene does not ask for) and plays it.
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cutsim/core/constraints.hpp"
+#include "cutsim/core/simulation.hpp"
+#include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/topology/mesh_io.hpp"
+
+namespace cutsim::core {
+
+/// Where a value came from in the scene file, for the messages of errors found later (at run time).
+struct SceneLocation {
+  std::string pointer;  ///< JSON pointer, "/timeline/2"
+  std::size_t line = 0;
+  /// "FILE:LINE" (or "FILE" when the line is unknown).
+  std::string where(const std::string& file) const;
+};
+
+/// A generated flat grid of nx x ny VERTICES (nx, ny >= 2) covering size[0] x size[1].
+struct GridSpec {
+  int nx = 2, ny = 2;
+  double width = 1.0, height = 1.0;
+  /// Alternating: cell (i, j) is split along (i,j)-(i+1,j+1) when i + j is even, along
+  /// (i+1,j)-(i,j+1) when odd (as data/meshes/grid_10x10.obj). One way: always (i,j)-(i+1,j+1).
+  bool alternating = true;
+  /// "xy": vertex (i, j) at origin + (u, v, 0), triangles facing +z.
+  /// "xz": vertex (i, j) at origin + (u, 0, v), triangles facing -y (a curtain in front of +y).
+  bool planeXZ = false;
+  topology::Vec3 origin{0, 0, 0};
+};
+topology::MeshData makeGrid(const GridSpec& grid);
+
+/// A choice of points in rest coordinates: listed ids, a box (inclusive), or for each given
+/// position the nearest live point (ties: lowest id).
+struct PointSelection {
+  enum class Kind { Points, Box, Near };
+  Kind kind = Kind::Points;
+  std::vector<PointId> points;
+  Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
+  std::vector<Vec3> near;
+  /// The selected live points, ascending, without repeats.
+  std::vector<PointId> resolve(const topology::Topology& topology) const;
+};
+
+struct ForceFieldSpec {
+  enum class Kind { Bending, Stretch };
+  Kind kind = Kind::Bending;
+  std::string label;  ///< "" = the type name
+  forcefields::BendingParameters bending;
+  double stiffness = 0.0, damping = 0.0;  ///< StretchSprings
+  bool stableJacobian = true;             ///< StretchSprings
+  SceneLocation location;
+};
+
+struct FixedSpec {
+  PointSelection selection;
+  SceneLocation location;
+};
+
+struct Region {
+  enum class Kind { Sphere, Box };
+  Kind kind = Kind::Sphere;
+  Vec3 center{0, 0, 0};
+  double radius = 0.0;
+  Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
+  bool contains(const Vec3& p) const;
+};
+
+struct SceneAction {
+  enum class Kind { Cut, ProgressiveCut, Remove, Tearing, Grasp, Release };
+  Kind kind = Kind::Cut;
+  double at = 0.0;              ///< start time (Cut, Remove, Tearing, Grasp, Release)
+  double from = 0.0, to = 0.0;  ///< ProgressiveCut
+  std::vector<Vec3> polyline;   ///< Cut, ProgressiveCut (rest coordinates)
+  double snapTolerance = 0.1;
+  Region region;             ///< Remove
+  double threshold = 0.0;    ///< Tearing: Green strain normal to an edge above which it tears
+  int maxPerStep = 4;        ///< Tearing: edges torn per step at most
+  std::string name;          ///< Grasp, Release
+  PointSelection selection;  ///< Grasp
+  DisplacementPath path;     ///< Grasp (times relative to its start)
+  SceneLocation location;
+  double startTime() const { return kind == Kind::ProgressiveCut ? from : at; }
+};
+
+struct OutputSettings {
+  int every = 1;        ///< a frame every N steps (and the last one)
+  bool vtk = true;      ///< surface and spring network as .vtp frames with .pvd collections
+  bool springs = true;  ///< the spring network frames (with vtk)
+  bool obj = false;     ///< OBJ frames of the surface at current positions
+  bool csv = true;      ///< one CSV row per step
+};
+
+struct Scene {
+  std::filesystem::path file;  ///< as given
+  std::string name;            ///< "name" key, or the file's stem
+  std::string description;
+  std::optional<std::filesystem::path> meshFile;  ///< resolved against the scene's folder
+  std::optional<GridSpec> grid;
+  bool massByTotal = false;
+  double density = 0.0, totalMass = 0.0;
+  Vec3 gravity{0, 0, 0};
+  std::vector<ForceFieldSpec> forceFields;
+  std::vector<FixedSpec> fixed;
+  SolverSettings solver;
+  double timeStep = 0.0, duration = 0.0;
+  OutputSettings output;
+  std::vector<SceneAction> timeline;  ///< sorted by start time (stable: file order at ties)
+
+  /// Number of steps: duration / timeStep rounded up (within 1e-9 of a whole number: rounded).
+  long numSteps() const;
+  /// The mesh the scene starts from (read or generated).
+  topology::MeshData mesh() const;
+  /// Labels of the force fields as the simulation gets them (unique: "Type", "Type_2", ...).
+  std::vector<std::string> forceFieldLabels() const;
+  /// Names of every grasp of the timeline, in order of first appearance.
+  std::vector<std::string> graspNames() const;
+};
+
+/// Parses and validates the scene text (sourceName names it in messages; relative mesh paths are
+/// resolved against baseDir), including a dry run of the timeline's cuts and removals on a copy of
+/// the mesh. Throws InvalidInput "SOURCE:LINE: /pointer: message".
+Scene parseScene(std::string_view text, const std::string& sourceName,
+                 const std::filesystem::path& baseDir);
+/// Reads and parses the file (a missing or unreadable file: InvalidInput "PATH: ...").
+Scene loadScene(const std::filesystem::path& file);
+
+/// Builds the simulation a scene describes and plays its timeline.
+class SceneRunner {
+ public:
+  explicit SceneRunner(const Scene& scene);
+  ~SceneRunner();
+  SceneRunner(const SceneRunner&) = delete;
+  SceneRunner& operator=(const SceneRunner&) = delete;
+
+  Simulation& simulation() { return *sim_; }
+  const Simulation& simulation() const { return *sim_; }
+  const Scene& scene() const { return scene_; }
+
+  long numSteps() const { return numSteps_; }
+  long currentStep() const { return step_; }
+  /// Time of the current step: currentStep() * timeStep (not accumulated).
+  double time() const;
+  bool finished() const { return step_ >= numSteps_; }
+
+  /// Runs the actions due at time 0. Called once, before the first advance().
+  void start();
+  /// One step: the simulation step, then the progressive cuts' pieces up to the new time, the
+  /// tearing check if enabled, then the actions due at the new time.
+  StepStats advance();
+  const StepStats& lastStats() const { return lastStats_; }
+
+  /// The first FastTriangularBendingSprings field, or null.
+  const forcefields::FastTriangularBendingSprings* bendingField() const;
+  /// Edges torn so far, cuts done so far (pieces of progressive cuts count one each).
+  long tornEdges() const { return tornEdges_; }
+  long cutsDone() const { return cutsDone_; }
+
+ private:
+  struct Progressive;
+  void runDueActions(double t);
+  void runAction(const SceneAction& a);
+  void advanceProgressive(double t);
+  topology::IncisionResult cut(std::span<const Vec3> polyline, double snap,
+                               const SceneLocation& where);
+
+  Scene scene_;
+  std::unique_ptr<Simulation> sim_;
+  long numSteps_ = 0;
+  long step_ = 0;
+  std::size_t nextAction_ = 0;
+  bool started_ = false;
+  StepStats lastStats_;
+  std::vector<Progressive> progressive_;
+  double tearThreshold_ = 0.0;
+  int tearMaxPerStep_ = 0;
+  bool tearing_ = false;
+  long tornEdges_ = 0, cutsDone_ = 0;
+};
+
+}  // namespace cutsim::core

@@ -1,0 +1,132 @@
+#!/usr/bin/env bash
+# End-to-end test of `cutsim run` (CTest: cli.run): a small scene run twice gives byte-identical
+# output; --dump-final's files agree with `cutsim eval` on them; progress and summary; bad scenes
+# exit with code 2 and a "PATH:LINE: /pointer: message" line.
+# Environment: CUTSIM (the program), CUTSIM_TEST_DATA_DIR (tests/data), CUTSIM_DATA_DIR (data).
+# Prints every failed check and exits non-zero if there was one.
+set -uo pipefail
+
+: "${CUTSIM:?set CUTSIM to the cutsim program}"
+: "${CUTSIM_TEST_DATA_DIR:?set CUTSIM_TEST_DATA_DIR to tests/data}"
+: "${CUTSIM_DATA_DIR:?set CUTSIM_DATA_DIR to data}"
+
+failures=0
+checks=0
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+scene="$(cd "$CUTSIM_TEST_DATA_DIR" && pwd)/scenes/small.json"
+CUTSIM="$(cd "$(dirname "$CUTSIM")" && pwd)/$(basename "$CUTSIM")"
+
+fail() {
+  echo "FAIL: $*" >&2
+  failures=$((failures + 1))
+}
+
+check() {  # check DESCRIPTION COMMAND...: counts a check, reports it if the command fails
+  local what="$1"
+  shift
+  checks=$((checks + 1))
+  "$@" || fail "$what"
+}
+
+# ---- the same scene twice: byte-identical files ----
+"$CUTSIM" run "$scene" --out "$tmp/a" --dump-final "$tmp/da" --quiet >"$tmp/out_a" 2>"$tmp/err_a"
+code=$?
+check "run exits with 0 (got $code; stderr: $(cat "$tmp/err_a"))" [ "$code" -eq 0 ]
+"$CUTSIM" run "$scene" --out "$tmp/b" --dump-final "$tmp/db" --quiet >"$tmp/out_b" 2>"$tmp/err_b"
+check "second run exits with 0" [ $? -eq 0 ]
+check "--quiet prints nothing on stderr" [ ! -s "$tmp/err_a" ]
+check "output identical from run to run" diff -r "$tmp/a" "$tmp/b"
+check "--dump-final identical from run to run" diff -r "$tmp/da" "$tmp/db"
+for f in steps.csv surface.pvd springs.pvd surface_000000.vtp surface_000006.vtp \
+         springs_000006.vtp frame_000006.obj; do
+  check "output has $f" [ -s "$tmp/a/$f" ]
+done
+check "no frame beyond the last" [ ! -e "$tmp/a/surface_000007.vtp" ]
+check "no temporary file left" [ -z "$(find "$tmp/a" -name '.*')" ]
+check "steps.csv has a row per step and a header" [ "$(wc -l <"$tmp/a/steps.csv")" -eq 32 ]
+check "the summary names the steps" grep -q "^steps *30 " "$tmp/out_a"
+check "the summary gives the final counts" grep -q "^final .* points, .* triangles" "$tmp/out_a"
+
+# ---- --dump-final agrees with `cutsim eval` ----
+for f in final_rest.obj final.obj final_forces.json; do
+  check "--dump-final wrote $f" [ -s "$tmp/da/$f" ]
+done
+read -r k eps weights < <(python3 -c '
+import json, sys
+j = json.load(open(sys.argv[1]))
+print(repr(j["bending_stiffness"]), repr(j["min_dist_validity"]), j["area_weights"])' \
+  "$tmp/da/final_forces.json")
+"$CUTSIM" eval --rest "$tmp/da/final_rest.obj" --current "$tmp/da/final.obj" \
+  --bending-stiffness "$k" --min-dist-validity "$eps" --area-weights "$weights" >"$tmp/eval.json" \
+  2>"$tmp/eval_err"
+check "eval on the dumped meshes exits with 0 ($(cat "$tmp/eval_err"))" [ $? -eq 0 ]
+checks=$((checks + 1))
+if ! python3 - "$tmp/eval.json" "$tmp/da/final_forces.json" <<'PY'
+import json, sys
+e = json.load(open(sys.argv[1]))
+d = json.load(open(sys.argv[2]))
+if e["active_springs"] != d["active_springs"]:
+    sys.exit(f"active springs: eval {e['active_springs']}, dump {d['active_springs']}")
+if len(e["forces"]) != len(d["forces"]):
+    sys.exit(f"forces: eval has {len(e['forces'])}, dump {len(d['forces'])}")
+scale = max([1.0] + [abs(c) for f in d["forces"] for c in f])
+worst = max(abs(a - b) for fe, fd in zip(e["forces"], d["forces"]) for a, b in zip(fe, fd))
+if worst > 1e-9 * scale:
+    sys.exit(f"forces differ by {worst} (scale {scale})")
+if abs(e["energy"] - d["energy"]) > 1e-9 * max(1.0, abs(d["energy"])):
+    sys.exit(f"energy: eval {e['energy']}, dump {d['energy']}")
+if d["active_springs"] == 0:
+    sys.exit("no active spring: the comparison would prove nothing")
+PY
+then
+  fail "final_forces.json disagrees with cutsim eval"
+fi
+
+# ---- progress lines when stderr is not a terminal; default output folder ----
+(cd "$tmp" && "$CUTSIM" run "$scene" >"$tmp/out_c" 2>"$tmp/err_c")
+check "run without --out exits with 0" [ $? -eq 0 ]
+check "default output folder out/<scene name>" [ -s "$tmp/out/small/steps.csv" ]
+check "plain progress lines (0 % .. 100 %)" \
+  [ "$(grep -c '%  t = ' "$tmp/err_c")" -eq 11 ]
+check "default output identical to --out's" diff -r "$tmp/a" "$tmp/out/small"
+
+# ---- bad scenes: exit code 2, "PATH:LINE: " ----
+# bad FILE LINE POINTER
+bad() {
+  local path="$CUTSIM_TEST_DATA_DIR/scenes/bad/$1"
+  "$CUTSIM" run "$path" --out "$tmp/bad" >"$tmp/out_bad" 2>"$tmp/err_bad"
+  local c=$?
+  check "$1: exit code 2 (got $c)" [ "$c" -eq 2 ]
+  local err
+  err="$(cat "$tmp/err_bad")"
+  checks=$((checks + 1))
+  [[ "$err" == "$path:$2: $3"* ]] || fail "$1: stderr should start with '$path:$2: $3', got: $err"
+  check "$1: one line on stderr" [ "$(wc -l <"$tmp/err_bad")" -eq 1 ]
+  check "$1: nothing on stdout" [ ! -s "$tmp/out_bad" ]
+}
+bad unknown_key.json 5 "/solver/iteration: unknown key"
+bad wrong_type.json 5 "/forceFields/0/bendingStiffness: expected a number"
+bad missing_mesh.json 3 "/mesh: mesh file \"no_such_mesh.obj\" not found"
+bad negative_stiffness.json 7 "/forceFields/1/bendingStiffness: must be >= 0"
+bad negative_time_step.json 4 "/timeStep: must be > 0"
+bad negative_action_time.json 8 "/timeline/1/at: an action cannot happen at a negative time"
+bad action_after_duration.json 6 "/timeline/0/at: time 0.2 is after the end"
+bad cut_misses_surface.json 9 "/timeline/0/polyline/2: the cut misses the surface"
+bad unknown_action.json 7 "/timeline/0/action: unknown action \"explode\""
+bad unknown_force_field.json 4 "/forceFields/0/type: unknown force field type"
+bad invalid_json.json 4 "invalid JSON"
+check "no output folder for bad scenes" [ ! -e "$tmp/bad" ]
+
+"$CUTSIM" run "$tmp/no_such_scene.json" >/dev/null 2>"$tmp/err_missing"
+check "a missing scene file exits with 2" [ $? -eq 2 ]
+check "a missing scene file is named" grep -q "^$tmp/no_such_scene.json: " "$tmp/err_missing"
+
+# ---- the demo scenes load (validation only: a run of each is too long for a test) ----
+# (tests/core/test_scene.cpp loads them; here: they are valid JSON files)
+for f in "$CUTSIM_DATA_DIR"/scenes/*.json; do
+  check "$f is valid JSON" python3 -c 'import json, sys; json.load(open(sys.argv[1]))' "$f"
+done
+
+echo "$checks checks, $failures failed"
+[ "$failures" -eq 0 ]

@@ -1,0 +1,460 @@
+// Scenes: loading, every kind of bad scene with its message ("FILE:LINE: /pointer: message"),
+// the runner (cuts, progressive cuts, removal, grasps, tearing) and the strain measures.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "../../src/core/tearing.hpp"
+#include "cutsim/core/scene.hpp"
+#include "cutsim/topology/errors.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::core {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+const std::filesystem::path kScenes = std::filesystem::path(CUTSIM_TEST_DATA_DIR) / "scenes";
+const std::filesystem::path kDemoScenes = std::filesystem::path(CUTSIM_DATA_DIR) / "scenes";
+
+/// The message of the InvalidInput that parsing `text` throws ("" if none).
+std::string parseError(const std::string& text) {
+  try {
+    parseScene(text, "inline.json", kScenes);
+  } catch (const InvalidInput& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// A valid scene with `extra` appended inside the top-level object (one line each).
+std::string scene(const std::string& extra = "") {
+  return "{\n"
+         "  \"mesh\": {\"grid\": {\"nx\": 5, \"ny\": 5}},\n"
+         "  \"mass\": {\"density\": 1},\n"
+         "  \"timeStep\": 0.01,\n"
+         "  \"duration\": 0.1" +
+         (extra.empty() ? "" : ",\n  " + extra) + "\n}\n";
+}
+
+// ---- loading ----
+
+TEST(Scene, LoadsTheSmallScene) {
+  const Scene s = loadScene(kScenes / "small.json");
+  EXPECT_EQ(s.name, "small");
+  ASSERT_TRUE(s.grid.has_value());
+  EXPECT_EQ(s.grid->nx, 9);
+  EXPECT_FALSE(s.massByTotal);
+  EXPECT_DOUBLE_EQ(s.density, 0.5);
+  EXPECT_DOUBLE_EQ(s.gravity[2], -9.81);
+  ASSERT_EQ(s.forceFields.size(), 2u);
+  EXPECT_EQ(s.forceFields[0].kind, ForceFieldSpec::Kind::Stretch);
+  EXPECT_DOUBLE_EQ(s.forceFields[0].stiffness, 200);
+  EXPECT_EQ(s.forceFields[1].kind, ForceFieldSpec::Kind::Bending);
+  EXPECT_EQ(s.forceFields[1].bending.areaWeights, forcefields::AreaWeights::Signed);
+  EXPECT_EQ(s.forceFieldLabels(),
+            (std::vector<std::string>{"StretchSprings", "FastTriangularBendingSprings"}));
+  EXPECT_EQ(s.fixed.size(), 2u);
+  EXPECT_EQ(s.solver.kind, SolverSettings::Kind::ImplicitCG);
+  EXPECT_EQ(s.solver.cgMaxIterations, 200);
+  EXPECT_EQ(s.numSteps(), 30);
+  EXPECT_EQ(s.output.every, 5);
+  EXPECT_TRUE(s.output.obj);
+  ASSERT_EQ(s.timeline.size(), 7u);
+  // Sorted by start time, file order at ties (the remove and the progressive cut both at 0.1).
+  EXPECT_EQ(s.timeline[0].kind, SceneAction::Kind::Cut);
+  EXPECT_EQ(s.timeline[1].kind, SceneAction::Kind::ProgressiveCut);
+  EXPECT_EQ(s.timeline[1].location.pointer, "/timeline/1");
+  EXPECT_EQ(s.timeline[1].location.line, 17u);
+  EXPECT_EQ(s.timeline[2].kind, SceneAction::Kind::Remove);
+  EXPECT_EQ(s.timeline[3].kind, SceneAction::Kind::Grasp);
+  EXPECT_EQ(s.timeline[3].path.times.size(), 2u);
+  EXPECT_EQ(s.timeline.back().kind, SceneAction::Kind::Remove);
+  EXPECT_DOUBLE_EQ(s.timeline.back().at, 0.3);  // at the duration: allowed
+  EXPECT_EQ(s.graspNames(), std::vector<std::string>{"pin"});
+}
+
+TEST(Scene, LoadsEveryDemoScene) {
+  for (const char* name :
+       {"hanging.json", "hanging_cut.json", "tearing.json", "surgery_incision.json"}) {
+    SCOPED_TRACE(name);
+    const Scene s = loadScene(kDemoScenes / name);
+    EXPECT_GT(s.numSteps(), 0);
+    EXPECT_FALSE(s.description.empty());
+  }
+}
+
+TEST(Scene, MeshFileRelativeToTheScene) {
+  const std::string text =
+      "{\"mesh\": \"../../../data/meshes/grid_10x10.obj\", \"mass\": {\"total\": 2},"
+      " \"timeStep\": 0.1, \"duration\": 0.2}";
+  const Scene s = parseScene(text, "x.json", kScenes);
+  ASSERT_TRUE(s.meshFile.has_value());
+  EXPECT_EQ(s.mesh().points.size(), 100u);
+  EXPECT_TRUE(s.massByTotal);
+  SceneRunner runner(s);
+  EXPECT_NEAR(runner.simulation().mass().total(), 2.0, 1e-12);
+  EXPECT_EQ(runner.simulation().numForceFields(), 0u);  // only what the scene lists
+}
+
+TEST(Scene, StepsRoundToTheNearestWholeNumber) {
+  Scene s;
+  s.timeStep = 0.1;
+  s.duration = 0.3;  // 2.9999999999999996 steps
+  EXPECT_EQ(s.numSteps(), 3);
+  s.duration = 0.35;
+  EXPECT_EQ(s.numSteps(), 4);
+  s.duration = 0;
+  EXPECT_EQ(s.numSteps(), 0);
+}
+
+TEST(Scene, GridLayoutAndOrientation) {
+  GridSpec g;
+  g.nx = 4;
+  g.ny = 3;
+  g.width = 3;
+  g.height = 1;
+  const topology::MeshData m = makeGrid(g);
+  EXPECT_EQ(m.points.size(), 12u);
+  EXPECT_EQ(m.triangles.size(), 2u * 3 * 2);
+  EXPECT_EQ(m.points[5], (Vec3{1, 0.5, 0}));
+  for (bool xz : {false, true}) {
+    g.planeXZ = xz;
+    g.origin = {1, 2, 3};
+    const topology::MeshData mm = makeGrid(g);
+    topology::checkManifold(mm);
+    for (const auto& t : mm.triangles) {
+      const Vec3 &a = mm.points[t[0]], &b = mm.points[t[1]], &c = mm.points[t[2]];
+      const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      const Vec3 n{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      if (xz) {
+        EXPECT_LT(n[1], 0);  // facing -y
+        EXPECT_DOUBLE_EQ(a[1], 2);
+      } else {
+        EXPECT_GT(n[2], 0);  // facing +z
+        EXPECT_DOUBLE_EQ(a[2], 3);
+      }
+    }
+  }
+}
+
+// ---- bad scenes: files ----
+
+struct BadScene {
+  const char* file;
+  int line;
+  const char* pointer;
+  const char* phrase;
+};
+
+// Readable test names in CTest (instead of the parameter's bytes).
+void PrintTo(const BadScene& b, std::ostream* os) {
+  *os << b.file;
+}
+
+class BadSceneFile : public ::testing::TestWithParam<BadScene> {};
+
+TEST_P(BadSceneFile, NamesFileLinePointerAndProblem) {
+  const BadScene& b = GetParam();
+  const std::filesystem::path path = kScenes / "bad" / b.file;
+  try {
+    loadScene(path);
+    FAIL() << "no error for " << b.file;
+  } catch (const InvalidInput& e) {
+    const std::string prefix = path.string() + ":" + std::to_string(b.line) + ": " + b.pointer;
+    EXPECT_THAT(e.what(), StartsWith(prefix));
+    EXPECT_THAT(e.what(), HasSubstr(b.phrase));
+    EXPECT_EQ(e.where(), path.string() + ":" + std::to_string(b.line));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Scene, BadSceneFile,
+    ::testing::Values(
+        BadScene{"unknown_key.json", 5, "/solver/iteration: ", "unknown key \"iteration\""},
+        BadScene{"wrong_type.json", 5,
+                 "/forceFields/0/bendingStiffness: ", "expected a number, got a string"},
+        BadScene{"missing_mesh.json", 3, "/mesh: ", "\"no_such_mesh.obj\" not found"},
+        BadScene{"negative_stiffness.json", 7,
+                 "/forceFields/1/bendingStiffness: ", "must be >= 0 (got -2.5)"},
+        BadScene{"negative_time_step.json", 4, "/timeStep: ", "must be > 0 (got -0.01)"},
+        BadScene{"negative_action_time.json", 8, "/timeline/1/at: ", "negative time"},
+        BadScene{"action_after_duration.json", 6, "/timeline/0/at: ", "after the end of the scene"},
+        BadScene{"cut_misses_surface.json", 9, "/timeline/0/polyline/2: ",
+                 "the cut misses the surface: point (2, 0.5, 0) is 1 away"},
+        BadScene{"unknown_action.json", 7, "/timeline/0/action: ", "unknown action \"explode\""},
+        BadScene{"unknown_force_field.json", 4,
+                 "/forceFields/0/type: ", "unknown force field type \"Magnet\""},
+        BadScene{"invalid_json.json", 4, "invalid JSON", "syntax error"}),
+    [](const ::testing::TestParamInfo<BadScene>& param) {
+      std::string name = param.param.file;
+      name = name.substr(0, name.find('.'));
+      return name;
+    });
+
+TEST(Scene, MissingSceneFile) {
+  try {
+    loadScene(kScenes / "bad" / "no_such_scene.json");
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no_such_scene.json: cannot open"));
+  }
+}
+
+// ---- bad scenes: inline ----
+
+TEST(Scene, InlineProblemsNameTheirPlace) {
+  struct Case {
+    std::string extra;
+    std::string expected;  // the message after "inline.json:"
+  };
+  const std::vector<Case> cases = {
+      {"\"gravity\": [0, 0]", "6: /gravity: expected [x, y, z]"},
+      {"\"gravity\": [0, 0, \"down\"]", "6: /gravity/2: expected a number, got a string"},
+      {"\"solver\": {\"type\": \"magic\"}", "6: /solver/type: unknown solver type \"magic\""},
+      {"\"solver\": {\"iterations\": 2.5}", "6: /solver/iterations: expected an integer"},
+      {"\"solver\": {\"tolerance\": -1}", "6: /solver/tolerance: must be > 0"},
+      {"\"solver\": {\"warmStart\": 1}", "6: /solver/warmStart: expected true or false"},
+      {"\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": -1}]",
+       "6: /forceFields/0/stiffness: must be >= 0"},
+      {"\"forceFields\": [{\"type\": \"StretchSprings\"}]",
+       "6: /forceFields/0: missing key \"stiffness\""},
+      {"\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", \"areaWeights\": \"x\"}]",
+       "6: /forceFields/0/areaWeights: unknown value \"x\""},
+      {"\"constraints\": [{\"type\": \"fixed\", \"points\": [3, 99]}]",
+       "6: /constraints/0/points/1: must be between 0 and 24 (got 99)"},
+      {"\"constraints\": [{\"type\": \"fixed\", \"box\": [[5, 5, 5], [6, 6, 6]]}]",
+       "6: /constraints/0/box: selects no point"},
+      {"\"constraints\": [{\"type\": \"glue\", \"points\": [1]}]",
+       "6: /constraints/0/type: unknown constraint type \"glue\""},
+      {"\"constraints\": [{\"type\": \"fixed\", \"points\": [1], \"near\": [[0, 0, 0]]}]",
+       "6: /constraints/0: give exactly one of"},
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"release\", \"name\": \"hand\"}]",
+       "6: /timeline/0/name: no grasp named \"hand\" is active"},
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"remove\", \"sphere\": {\"center\": [9, 9, "
+       "9], \"radius\": 0.1}}]",
+       "6: /timeline/0/sphere: removes no triangle"},
+      {"\"timeline\": [{\"from\": 0.05, \"to\": 0.01, \"action\": \"cut\", \"polyline\": [[0, "
+       "0.5, 0], [0.5, 0.5, 0]]}]",
+       "6: /timeline/0/to: must be after \"from\""},
+      {"\"timeline\": [{\"at\": 0.01, \"action\": \"grasp\", \"name\": \"g\", \"points\": [1], "
+       "\"path\": [[0.1, 0, 0, 0], [0.1, 1, 0, 0]]}]",
+       "6: /timeline/0/path/1/0: path times must increase strictly"},
+      {"\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.5, "
+       "0.5, 0]]}, {\"at\": 0.02, \"action\": \"cut\", \"polyline\": [[0.25, 0, 0], [0.25, 1, "
+       "0]]}]",
+       "6: /timeline/1/polyline: the cut cannot be made on the rest surface"},
+      {"\"timeline\": {}", "6: /timeline: expected an array, got an object"},
+      {"\"name\": \"a/b\"", "6: /name: must be a plain file name"},
+      {"\"duration\": 1", "6: /duration: duplicate key"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.extra);
+    EXPECT_THAT(parseError(scene(c.extra)), StartsWith("inline.json:" + c.expected));
+  }
+}
+
+TEST(Scene, MissingTopLevelKeysNameTheRoot) {
+  EXPECT_THAT(parseError("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}}, \"timeStep\": 1, "
+                         "\"duration\": 1}"),
+              StartsWith("inline.json:1: /: missing key \"mass\""));
+  EXPECT_THAT(parseError("[1, 2]"), StartsWith("inline.json:1: /: expected an object"));
+  EXPECT_THAT(parseError("{}\n{}"), StartsWith("inline.json:2: invalid JSON"));
+}
+
+TEST(Scene, PointersEscapeSlashAndTilde) {
+  EXPECT_THAT(parseError("{\n\"a/b~c\": 1}"),
+              StartsWith("inline.json:2: /a~1b~0c: unknown key \"a/b~c\""));
+}
+
+TEST(Scene, NumbersOnTheirOwnLine) {
+  // A number is recognised when the character after it is read: a newline must not count.
+  const std::string text = scene("\"output\": {\"every\":\n    0\n  }");
+  EXPECT_THAT(parseError(text), StartsWith("inline.json:7: /output/every: must be between 1"));
+}
+
+// ---- running ----
+
+TEST(SceneRunner, PlaysTheSmallScene) {
+  const Scene s = loadScene(kScenes / "small.json");
+  SceneRunner runner(s);
+  Simulation& sim = runner.simulation();
+  EXPECT_EQ(sim.numForceFields(), 2u);
+  EXPECT_EQ(sim.forceFieldLabel(0), "StretchSprings");
+  EXPECT_EQ(sim.fixed().size(), 2u);
+  const double mass0 = sim.mass().total();
+  EXPECT_NEAR(mass0, 0.5, 1e-12);
+  runner.start();
+  EXPECT_EQ(runner.cutsDone(), 0);
+  bool sawGrasp = false;
+  while (!runner.finished()) {
+    runner.advance();
+    if (sim.findGrasp("pin")) sawGrasp = true;
+    if (runner.currentStep() == 6) {
+      EXPECT_EQ(runner.cutsDone(), 1);                // the cut at 0.05
+      EXPECT_NEAR(sim.mass().total(), mass0, 1e-12);  // a cut conserves mass
+    }
+    const topology::ValidationReport report = sim.topology().validate();
+    ASSERT_TRUE(report.ok()) << "step " << runner.currentStep() << ": " << report.summary();
+  }
+  EXPECT_TRUE(sawGrasp);
+  EXPECT_EQ(sim.findGrasp("pin"), nullptr);  // released at 0.25
+  EXPECT_EQ(runner.currentStep(), 30);
+  EXPECT_NEAR(runner.time(), 0.3, 1e-12);
+  // The whole cut, the progressive cut in pieces (more than one), two removals.
+  EXPECT_GT(runner.cutsDone(), 2);
+  EXPECT_LT(sim.mass().total(), mass0);
+  // The removal at t = duration ran: no triangle has its rest centroid in the corner box.
+  for (topology::TriangleId t : sim.topology().triangles()) {
+    const auto v = sim.topology().triangleVertices(t);
+    double cx = 0, cy = 0;
+    for (int i = 0; i < 3; ++i) {
+      cx += sim.topology().restPosition(v[i])[0] / 3;
+      cy += sim.topology().restPosition(v[i])[1] / 3;
+    }
+    EXPECT_FALSE(cx >= 0.8 && cy >= 0.8) << "triangle " << t;
+  }
+  ASSERT_NE(runner.bendingField(), nullptr);
+}
+
+TEST(SceneRunner, ProgressiveCutEndsWhereTheWholeCutWould) {
+  // The same polyline cut at once and as a scalpel: both open the sheet along it, and the
+  // progressive one does it in several pieces that join (one path: no stray tips).
+  const std::string poly = "\"polyline\": [[0, 0.5, 0], [0.6, 0.55, 0], [0.75, 0.3, 0]]";
+  const Scene once =
+      parseScene(scene("\"timeline\": [{\"at\": 0.02, \"action\": \"cut\", " + poly + "}]"),
+                 "a.json", kScenes);
+  const Scene scalpel = parseScene(
+      scene("\"timeline\": [{\"from\": 0.0, \"to\": 0.1, \"action\": \"cut\", " + poly + "}]"),
+      "b.json", kScenes);
+  SceneRunner a(once), b(scalpel);
+  a.start();
+  b.start();
+  while (!a.finished()) a.advance();
+  while (!b.finished()) b.advance();
+  EXPECT_EQ(a.cutsDone(), 1);
+  EXPECT_GT(b.cutsDone(), 2);
+  auto boundary = [](const topology::Topology& t) {
+    std::size_t n = 0;
+    for (topology::EdgeId e : t.edges()) n += t.isBoundaryEdge(e);
+    return n;
+  };
+  EXPECT_TRUE(b.simulation().topology().validate().ok());
+  // Both opened: more border edges than the uncut grid's 16.
+  EXPECT_GT(boundary(a.simulation().topology()), 16u);
+  EXPECT_GT(boundary(b.simulation().topology()), 16u);
+  // Each cut ends at one interior tip: every point where the cut ends has one copy at most, and
+  // the number of points added differs only by the extra vertices where pieces meet.
+  EXPECT_GE(b.simulation().topology().numPoints(), a.simulation().topology().numPoints());
+}
+
+TEST(SceneRunner, TearingRunsAcrossThePull) {
+  // A 2 m x 0.75 m strip with a notch in the middle of its top border, pulled slowly along x by
+  // its two ends: the crack starts at the notch and runs across the strip to the bottom border.
+  const std::string text =
+      "{\n"
+      "  \"mesh\": {\"grid\": {\"nx\": 17, \"ny\": 7, \"size\": [2, 0.75]}},\n"
+      "  \"mass\": {\"total\": 0.1},\n"
+      "  \"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 100, \"damping\": 0.1}],\n"
+      "  \"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10,\n"
+      "             \"rayleighMass\": 1},\n"
+      "  \"timeStep\": 0.02,\n"
+      "  \"duration\": 4,\n"
+      "  \"timeline\": [\n"
+      "    {\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"maxPerStep\": 1},\n"
+      "    {\"at\": 0, \"action\": \"cut\", \"polyline\": [[1, 0.75, 0], [1, 0.5, 0]]},\n"
+      "    {\"at\": 0, \"action\": \"grasp\", \"name\": \"l\", \"box\": [[0, 0, -1], [0, 1, 1]],\n"
+      "     \"path\": [[0, 0, 0, 0], [4, -0.5, 0, 0]]},\n"
+      "    {\"at\": 0, \"action\": \"grasp\", \"name\": \"r\", \"box\": [[2, 0, -1], [2, 1, 1]],\n"
+      "     \"path\": [[0, 0, 0, 0], [4, 0.5, 0, 0]]}\n"
+      "  ]\n"
+      "}\n";
+  const Scene s = parseScene(text, "tear.json", kScenes);
+  SceneRunner runner(s);
+  runner.start();
+  double maxReaction = 0;
+  while (!runner.finished()) {
+    runner.advance();
+    maxReaction =
+        std::max(maxReaction, std::abs(runner.simulation().findGrasp("r")->reaction()[0]));
+    ASSERT_TRUE(runner.simulation().topology().validate().ok());
+  }
+  EXPECT_GT(runner.tornEdges(), 5);
+  const topology::Topology& topo = runner.simulation().topology();
+  // The copies made by the tears (points sharing a rest position) stay near the middle of the
+  // strip: the crack runs across the pull, not along it; one reached the bottom border.
+  const topology::MeshData m = topo.toMeshData();
+  std::size_t copies = 0;
+  bool bottom = false;
+  for (std::size_t i = 0; i < m.points.size(); ++i) {
+    for (std::size_t j = i + 1; j < m.points.size(); ++j) {
+      if (m.points[i] == m.points[j]) {
+        ++copies;
+        EXPECT_NEAR(m.points[i][0], 1.0, 0.55) << "copy at y = " << m.points[i][1];
+        bottom = bottom || m.points[i][1] == 0.0;
+      }
+    }
+  }
+  EXPECT_GT(copies, 6u);
+  EXPECT_TRUE(bottom);
+  // Parted: the right grasp ends up pulling (almost) nothing.
+  EXPECT_LT(std::abs(runner.simulation().findGrasp("r")->reaction()[0]), 0.01 * maxReaction);
+}
+
+// ---- strain measures ----
+
+TEST(Tearing, StrainOfAUniformStretch) {
+  const topology::MeshData m = makeGrid(GridSpec{3, 3, 1, 1, true, false, {0, 0, 0}});
+  topology::Topology topo(m);
+  std::vector<double> x;
+  for (const Vec3& p : m.points) {
+    x.push_back(1.2 * p[0]);  // 20 % along x
+    x.push_back(p[1]);
+    x.push_back(p[2]);
+  }
+  const double green = 0.5 * (1.2 * 1.2 - 1);
+  for (topology::TriangleId t : topo.triangles()) {
+    const auto e = triangleGreenStrain(topo, x, t);
+    EXPECT_NEAR(maxPrincipalStrain(topo, x, t), green, 1e-12);
+    EXPECT_NEAR(e[0] + e[2], green, 1e-12);  // the trace is frame-independent
+    for (topology::EdgeId edge : topo.triangleEdges(t)) {
+      const auto v = topo.edgeVertices(edge);
+      const Vec3 a = topo.restPosition(v[0]), b = topo.restPosition(v[1]);
+      const double s = strainNormalToEdge(topo, x, t, edge);
+      if (a[0] == b[0]) {
+        EXPECT_NEAR(s, green, 1e-12);  // an edge along y: its normal is x
+      } else if (a[1] == b[1]) {
+        EXPECT_NEAR(s, 0.0, 1e-12);  // an edge along x: its normal is y
+      } else {
+        EXPECT_NEAR(s, 0.5 * green, 1e-12);  // a diagonal: normal at 45 degrees
+      }
+    }
+  }
+  // Rigid motion: no strain anywhere, nothing to tear.
+  std::vector<double> rigid;
+  for (const Vec3& p : m.points) {
+    rigid.push_back(-p[1] + 3);  // rotated by 90 degrees about z, then moved
+    rigid.push_back(p[0]);
+    rigid.push_back(p[2] + 1);
+  }
+  for (topology::TriangleId t : topo.triangles()) {
+    EXPECT_NEAR(maxPrincipalStrain(topo, rigid, t), 0.0, 1e-12);
+  }
+  EXPECT_TRUE(tearCandidates(topo, rigid, 1e-6).empty());
+  // Under the stretch, only the interior edges along y are candidates.
+  const auto candidates = tearCandidates(topo, x, 0.5 * green + 0.01);
+  EXPECT_EQ(candidates.size(), 2u);  // the interior vertical edges of a 3 x 3 grid
+  for (const TearCandidate& c : candidates) {
+    const auto v = topo.edgeVertices(c.edge);
+    EXPECT_EQ(topo.restPosition(v[0])[0], topo.restPosition(v[1])[0]);
+  }
+}
+
+}  // namespace
+}  // namespace cutsim::core
