@@ -21,7 +21,9 @@ constexpr std::uint32_t kEdgeMask = ~kFallbackBit;
 constexpr std::uint32_t encode(HingeStatus s) {
   return kStatusBase + static_cast<std::uint32_t>(s);
 }
-constexpr bool isSpringSlot(std::uint32_t code) { return code < kStatusBase; }
+constexpr bool isSpringSlot(std::uint32_t code) {
+  return code < kStatusBase;
+}
 constexpr HingeStatus decode(std::uint32_t code) {
   return static_cast<HingeStatus>(code - kStatusBase);
 }
@@ -40,7 +42,9 @@ void checkParameter(const char* name, double v) {
   if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
 }
 
-std::string edgeName(EdgeId e) { return "edge " + std::to_string(e); }
+std::string edgeName(EdgeId e) {
+  return "edge " + std::to_string(e);
+}
 
 }  // namespace
 
@@ -52,8 +56,8 @@ void BendingParameters::validate() const {
   checkParameter("minDistValidity", minDistValidity);
   checkParameter("rayleighStiffness", rayleighStiffness);
   if (areaWeights != AreaWeights::Unsigned && areaWeights != AreaWeights::Signed) {
-    throw InvalidInput("areaWeights", "unknown value " +
-                                          std::to_string(static_cast<int>(areaWeights)));
+    throw InvalidInput("areaWeights",
+                       "unknown value " + std::to_string(static_cast<int>(areaWeights)));
   }
 }
 
@@ -81,7 +85,7 @@ FastTriangularBendingSprings::FastTriangularBendingSprings(Topology& topology,
   for (const HingeRecord& r : records) active += r.status == HingeStatus::Active ? 1 : 0;
   springs_.reserve(active);
   springEdge_.reserve(active);
-  for (const HingeRecord& r : records) setEdge(r.edge, r);
+  for (const HingeRecord& r : records) setEdge(r.edge, r, r.folded);
   subscription_ = topology.subscribe(*this);
 }
 
@@ -107,6 +111,7 @@ HingeRecord FastTriangularBendingSprings::hingeFromMesh(const Topology& t, EdgeI
     r.vertices = vid;
     r.alpha = w.alpha;
     r.lambda = w.lambda;
+    r.folded = foldedWeights(w);
     r.signedFallback = w.signedFallback;
   }
   return r;
@@ -122,7 +127,9 @@ std::vector<HingeRecord> FastTriangularBendingSprings::buildFromScratch(
 }
 
 void FastTriangularBendingSprings::countStatus(HingeStatus s, int delta) {
-  auto bump = [delta](std::size_t& c) { c = static_cast<std::size_t>(static_cast<long long>(c) + delta); };
+  auto bump = [delta](std::size_t& c) {
+    c = static_cast<std::size_t>(static_cast<long long>(c) + delta);
+  };
   switch (s) {
     case HingeStatus::Active:
       bump(counters_.activeSprings);
@@ -163,7 +170,8 @@ void FastTriangularBendingSprings::removeSpring(std::uint32_t slot) {
   springEdge_.pop_back();
 }
 
-void FastTriangularBendingSprings::setEdge(EdgeId e, const HingeRecord& r) {
+void FastTriangularBendingSprings::setEdge(EdgeId e, const HingeRecord& r,
+                                           const std::array<double, 4>& folded) {
   if (e >= kFallbackBit) throw std::length_error("FastTriangularBendingSprings: edge id too large");
   ensureEdgeSlots(static_cast<std::size_t>(e) + 1);
   const std::uint32_t old = edgeSlot_[e];
@@ -175,9 +183,11 @@ void FastTriangularBendingSprings::setEdge(EdgeId e, const HingeRecord& r) {
     edgeSlot_[e] = encode(r.status);
     return;
   }
+  // root = w_A + w_B = sqrt(lambda / k) (alpha_A + alpha_B), alpha_A + alpha_B = 1.
   const BendingSpring spring{{r.vertices[0], r.vertices[1], r.vertices[2], r.vertices[3]},
-                             r.alpha,
-                             r.lambda};
+                             folded[0],
+                             folded[2],
+                             folded[0] + folded[1]};
   const std::uint32_t edgeCode = e | (r.signedFallback ? kFallbackBit : 0u);
   if (r.signedFallback) ++counters_.signedFallbacks;
   if (wasActive) {
@@ -196,7 +206,8 @@ void FastTriangularBendingSprings::setEdge(EdgeId e, const HingeRecord& r) {
 
 void FastTriangularBendingSprings::recomputeEdge(const Topology& t, EdgeId e) {
   if (!t.isEdgeAlive(e)) return;  // its destruction event follows
-  setEdge(e, hingeFromMesh(t, e, params_));
+  const HingeRecord r = hingeFromMesh(t, e, params_);
+  setEdge(e, r, r.folded);
 }
 
 HingeRecord FastTriangularBendingSprings::hinge(EdgeId e) const {
@@ -211,12 +222,21 @@ HingeRecord FastTriangularBendingSprings::hinge(EdgeId e) const {
     r.status = decode(code);
     return r;
   }
-  const BendingSpring& s = springs_[code];
+  return springRecord(code);
+}
+
+HingeRecord FastTriangularBendingSprings::springRecord(std::size_t i) const {
+  const BendingSpring& s = springs_[i];
+  HingeRecord r;
+  r.edge = springEdge_[i] & kEdgeMask;
   r.status = HingeStatus::Active;
-  r.signedFallback = (springEdge_[code] & kFallbackBit) != 0;
+  r.signedFallback = (springEdge_[i] & kFallbackBit) != 0;
   r.vertices = {s.v[0], s.v[1], s.v[2], s.v[3]};
-  r.alpha = s.alpha;
-  r.lambda = s.lambda;
+  r.folded = s.weights();
+  // alpha_A + alpha_B = 1, so w_A + w_B = sqrt(lambda / k) > 0.
+  const double root = s.root;  // > 0 for an active spring
+  for (int k = 0; k < 4; ++k) r.alpha[k] = r.folded[k] / root;
+  r.lambda = params_.bendingStiffness * root * root;
   return r;
 }
 
@@ -252,13 +272,18 @@ void FastTriangularBendingSprings::checkSizes(std::span<const double> a, std::sp
 
 namespace {
 
-/// The force pass: f += c * (per spring: lambda alpha_i R(x)). Streams over the compact springs.
+/// The force pass: f += c w_i R'(x) per spring, streaming over the compact springs. Ids and
+/// weights are read into locals first (the table is __restrict: stores into f cannot change it).
 void scatterPass(std::span<const BendingSpring> springs, const double* __restrict x,
                  double* __restrict f, double c) {
-  for (const BendingSpring& s : springs) {
+  const BendingSpring* __restrict sp = springs.data();
+  const std::size_t n = springs.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::array<std::uint32_t, 4> v = sp[k].v;
+    const std::array<double, 4> w = sp[k].weights();
     double r[3];
-    hingeResidual(x, s.v.data(), s.alpha.data(), r);
-    hingeScatter(f, s.v.data(), s.alpha.data(), c * s.lambda, r);
+    hingeResidual(x, v.data(), w.data(), r);
+    hingeScatter(f, v.data(), w.data(), c, r);
   }
 }
 
@@ -268,7 +293,7 @@ void FastTriangularBendingSprings::addForce(std::span<const double> x,
                                             std::span<const double> /*v*/,
                                             std::span<double> f) const {
   checkSizes(x, f, "addForce");
-  scatterPass(springs_, x.data(), f.data(), -1.0);
+  scatterPass(springs_, x.data(), f.data(), -params_.bendingStiffness);
 }
 
 void FastTriangularBendingSprings::addDForce(std::span<const double> /*x*/,
@@ -277,7 +302,7 @@ void FastTriangularBendingSprings::addDForce(std::span<const double> /*x*/,
   checkSizes(dx, df, "addDForce");
   const double k = kFactor + bFactor * params_.rayleighStiffness;
   if (k == 0.0) return;
-  scatterPass(springs_, dx.data(), df.data(), -k);
+  scatterPass(springs_, dx.data(), df.data(), -k * params_.bendingStiffness);
 }
 
 double FastTriangularBendingSprings::potentialEnergy(std::span<const double> x) const {
@@ -285,20 +310,23 @@ double FastTriangularBendingSprings::potentialEnergy(std::span<const double> x) 
   double e = 0.0;
   for (const BendingSpring& s : springs_) {
     double r[3];
-    hingeResidual(x.data(), s.v.data(), s.alpha.data(), r);
-    e += hingeEnergy(s.lambda, r);
+    const std::array<double, 4> w = s.weights();
+    hingeResidual(x.data(), s.v.data(), w.data(), r);
+    e += hingeEnergy(params_.bendingStiffness, r);
   }
   return e;
 }
 
 namespace {
 
-void assemble(std::span<const BendingSpring> springs, MatrixAccumulator& m, double factor) {
+/// factor * K (k the bending stiffness): 16 scaled identities per spring.
+void assemble(std::span<const BendingSpring> springs, MatrixAccumulator& m, double factor,
+              double k) {
   for (const BendingSpring& s : springs) {
+    const std::array<double, 4> w = s.weights();
     for (int i = 0; i < 4; ++i) {
       for (int j = 0; j < 4; ++j) {
-        m.addScaledIdentity(s.v[i], s.v[j],
-                            factor * hingeBlockCoefficient(s.lambda, s.alpha.data(), i, j));
+        m.addScaledIdentity(s.v[i], s.v[j], factor * hingeBlockCoefficient(k, w.data(), i, j));
       }
     }
   }
@@ -306,16 +334,16 @@ void assemble(std::span<const BendingSpring> springs, MatrixAccumulator& m, doub
 
 }  // namespace
 
-void FastTriangularBendingSprings::addKToMatrix(std::span<const double> /*x*/,
-                                                MatrixAccumulator& m, double kFactor) const {
-  assemble(springs_, m, kFactor);
+void FastTriangularBendingSprings::addKToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m,
+                                                double kFactor) const {
+  assemble(springs_, m, kFactor, params_.bendingStiffness);
 }
 
-void FastTriangularBendingSprings::addBToMatrix(std::span<const double> /*x*/,
-                                                MatrixAccumulator& m, double bFactor) const {
+void FastTriangularBendingSprings::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m,
+                                                double bFactor) const {
   const double factor = bFactor * params_.rayleighStiffness;
   if (factor == 0.0) return;
-  assemble(springs_, m, factor);
+  assemble(springs_, m, factor, params_.bendingStiffness);
 }
 
 void FastTriangularBendingSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
@@ -330,6 +358,7 @@ void FastTriangularBendingSprings::addForceOfRecords(std::span<const HingeRecord
     if (h.status != HingeStatus::Active) continue;
     const std::array<std::uint32_t, 4> v{h.vertices[0], h.vertices[1], h.vertices[2],
                                          h.vertices[3]};
+    // The spec's form (alpha, lambda), independent of the folded weights of the table.
     double r[3];
     hingeResidual(x.data(), v.data(), h.alpha.data(), r);
     hingeScatter(f.data(), v.data(), h.alpha.data(), -h.lambda, r);
@@ -357,7 +386,7 @@ void FastTriangularBendingSprings::onEdgesDestroyed(const Topology&,
     HingeRecord dead;
     dead.edge = e;
     dead.status = HingeStatus::DeadEdge;
-    setEdge(e, dead);
+    setEdge(e, dead, dead.folded);
   }
 }
 
@@ -378,7 +407,7 @@ void FastTriangularBendingSprings::onEdgesCreated(const Topology& t,
     HingeRecord inactive;
     inactive.edge = e;
     inactive.status = HingeStatus::NoHinge;
-    setEdge(e, inactive);
+    setEdge(e, inactive, inactive.folded);
   }
 }
 
@@ -541,8 +570,9 @@ void FastTriangularBendingSprings::validate(const Topology& topology,
     const bool alive = e < topology.edgeCapacity() && topology.isEdgeAlive(e);
     const bool inTable = edgeSlot_[e] != encode(HingeStatus::DeadEdge);
     if (alive != inTable) {
-      problems.push_back(who + edgeName(e) + (alive ? " is alive but dead in the table"
-                                                    : " is dead but alive in the table"));
+      problems.push_back(
+          who + edgeName(e) +
+          (alive ? " is alive but dead in the table" : " is dead but alive in the table"));
     }
   }
 
@@ -580,13 +610,12 @@ void FastTriangularBendingSprings::validate(const Topology& topology,
     }
   }
   if (!(refCounters == counters_)) {
-    problems.push_back(who + "counters differ from a rebuild (active " +
-                       std::to_string(counters_.activeSprings) + " vs " +
-                       std::to_string(refCounters.activeSprings) + ", degenerate " +
-                       std::to_string(counters_.degenerate()) + " vs " +
-                       std::to_string(refCounters.degenerate()) + ", fallbacks " +
-                       std::to_string(counters_.signedFallbacks) + " vs " +
-                       std::to_string(refCounters.signedFallbacks) + ")");
+    problems.push_back(
+        who + "counters differ from a rebuild (active " + std::to_string(counters_.activeSprings) +
+        " vs " + std::to_string(refCounters.activeSprings) + ", degenerate " +
+        std::to_string(counters_.degenerate()) + " vs " + std::to_string(refCounters.degenerate()) +
+        ", fallbacks " + std::to_string(counters_.signedFallbacks) + " vs " +
+        std::to_string(refCounters.signedFallbacks) + ")");
   }
   if (springs_.size() != refCounters.activeSprings) {
     problems.push_back(who + std::to_string(springs_.size()) + " active springs, a rebuild has " +
@@ -611,7 +640,7 @@ void FastTriangularBendingSprings::validate(const Topology& topology,
   std::vector<double> x(3 * static_cast<std::size_t>(cap));
   for (double& xi : x) xi = dist(rng);
   std::vector<double> f(x.size(), 0.0), fRef(x.size(), 0.0);
-  scatterPass(springs_, x.data(), f.data(), -1.0);
+  scatterPass(springs_, x.data(), f.data(), -params_.bendingStiffness);
   addForceOfRecords(ref, x, fRef);
   double scale = 0.0, diff = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) {

@@ -8,10 +8,18 @@ namespace {
 
 using topology::Vec3;
 
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 scale(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+Vec3 sub(const Vec3& a, const Vec3& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+Vec3 scale(const Vec3& a, double s) {
+  return {a[0] * s, a[1] * s, a[2] * s};
+}
+double dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+double norm(const Vec3& a) {
+  return std::sqrt(dot(a, a));
+}
 
 /// Coordinates beyond this magnitude make the products of set-up (four lengths) overflow-prone.
 constexpr double kMaxCoordinate = 1e75;
@@ -54,8 +62,11 @@ HingeWeights finish(const Vec3& pA, const Vec3& pB, const Vec3& pC, const Vec3& 
                     double hA, double hB, double l, AreaWeights weights) {
   using std::fabs;
   const T a = hA, b = hB;
-  const T lambda = T(2) / T(3) * (a + b) / (a * a * b * b) * T(l) * T(k);
-  if (k > 0.0 && !(lambda < T(1e300) && lambda > T(1e-300))) {
+  const T perK = T(2) / T(3) * (a + b) / (a * a * b * b) * T(l);
+  if (!(perK < T(1e300) && perK > T(1e-300))) return deactivated(HingeStatus::Unrepresentable);
+  // lambda = perK * k, checked in long double before it is formed in double.
+  const long double lambdaL = static_cast<long double>(perK) * static_cast<long double>(k);
+  if (k > 0.0 && !(lambdaL < 1e300L && lambdaL > 1e-300L)) {
     return deactivated(HingeStatus::Unrepresentable);
   }
 
@@ -68,7 +79,8 @@ HingeWeights finish(const Vec3& pA, const Vec3& pB, const Vec3& pC, const Vec3& 
 
   HingeWeights w;
   w.status = HingeStatus::Active;
-  w.lambda = static_cast<double>(lambda);
+  w.lambdaPerStiffness = static_cast<double>(perK);
+  w.lambda = w.lambdaPerStiffness * k;
 
   bool useUnsigned = true;
   if (weights == AreaWeights::Signed) {
@@ -96,6 +108,11 @@ HingeWeights finish(const Vec3& pA, const Vec3& pB, const Vec3& pC, const Vec3& 
 }
 
 }  // namespace
+
+std::array<double, 4> foldedWeights(const HingeWeights& h) {
+  const double s = std::sqrt(h.lambdaPerStiffness);
+  return {s * h.alpha[0], s * h.alpha[1], s * h.alpha[2], s * h.alpha[3]};
+}
 
 std::string_view toString(HingeStatus status) {
   switch (status) {
@@ -143,12 +160,12 @@ HingeWeights computeHinge(const Vec3& pA, const Vec3& pB, const Vec3& pC, const 
     return deactivated(HingeStatus::SmallHeight);
   }
 
-  // The rest in double, exactly as SOFA computes it, when every length and k are of moderate
+  // The rest in double, exactly as SOFA computes it, when every length is of moderate
   // scale (then no intermediate can overflow or underflow); otherwise in long double with its
   // wider exponent, and rejected if lambda does not fit a double comfortably.
   const double k = bendingStiffness;
   const auto moderate = [](double v) { return std::abs(std::ilogb(v)) <= 100; };
-  if (moderate(hA) && moderate(hB) && moderate(l) && (k == 0.0 || moderate(k))) {
+  if (moderate(hA) && moderate(hB) && moderate(l)) {
     return finish<double>(pA, pB, pC, pD, k, hA, hB, l, weights);
   }
   return finish<long double>(pA, pB, pC, pD, k, hA, hB, l, weights);

@@ -34,7 +34,7 @@ class RandomTopologyEdits {
   std::string step() {
     std::ostringstream what;
     what.precision(17);
-    const int op = pick(0, 11);
+    const int op = pick(0, 13);
     try {
       if (op <= 2) {
         const EdgeId e = randomEdge(false);
@@ -64,14 +64,14 @@ class RandomTopologyEdits {
         what << "removeTriangles(";
         for (TriangleId tr : tris) what << tr << " ";
         what << ")";
+        for (TriangleId tr : tris) removed_.push_back(t_.triangleVertices(tr));
         announce(what);
         t_.removeTriangles(tris);
       } else if (op <= 9) {
-        // A short polyline of 1 or 2 segments, turning by less than 60 degrees (a cut that
-        // doubles back on itself is a different story).
+        // A short polyline of 1 or 2 segments, turning by any angle (it may double back).
         std::uniform_real_distribution<double> u(0.3, 9.7);
         std::uniform_real_distribution<double> len(0.5, 2.5);
-        std::uniform_real_distribution<double> turn(-1.0, 1.0);
+        std::uniform_real_distribution<double> turn(-3.14159, 3.14159);
         std::vector<Vec3> poly;
         const int n = pick(2, 3);
         Vec3 p{u(rng_), u(rng_), 0.0};
@@ -93,7 +93,33 @@ class RandomTopologyEdits {
       } else if (op == 10) {
         what << "compact()";
         announce(what);
+        removed_.clear();
         t_.compact();
+      } else if (op == 12) {
+        // Put back a removed triangle (rejected if its points or edges no longer allow it).
+        if (removed_.empty()) return "addTriangles skipped (nothing removed)";
+        const std::size_t i =
+            static_cast<std::size_t>(pick(0, static_cast<int>(removed_.size()) - 1));
+        const topology::TriangleVertices tv = removed_[i];
+        removed_.erase(removed_.begin() + static_cast<std::ptrdiff_t>(i));
+        for (PointId p : tv) {
+          if (p >= t_.pointCapacity() || !t_.isPointAlive(p))
+            return "addTriangles skipped (dead point)";
+        }
+        what << "addTriangles(" << tv[0] << " " << tv[1] << " " << tv[2] << ")";
+        announce(what);
+        t_.addTriangles(std::vector<topology::TriangleVertices>{tv});
+      } else if (op == 13) {
+        const std::vector<TriangleId> tris = t_.triangles();
+        const TriangleId tr =
+            tris[static_cast<std::size_t>(pick(0, static_cast<int>(tris.size()) - 1))];
+        std::uniform_real_distribution<double> u(0.1, 1.0);
+        std::array<double, 3> b{u(rng_), u(rng_), u(rng_)};
+        const double sum = b[0] + b[1] + b[2];
+        for (double& c : b) c /= sum;
+        what << "splitTriangle(" << tr << ", " << b[0] << " " << b[1] << " " << b[2] << ")";
+        announce(what);
+        t_.splitTriangle(tr, b);
       } else {
         const EdgeId e = randomEdge(false);
         what << "splitEdge(" << e << ", 0.5)";
@@ -146,6 +172,7 @@ class RandomTopologyEdits {
 
   Topology& t_;
   std::mt19937_64 rng_;
+  std::vector<topology::TriangleVertices> removed_;  // cleared by compaction (ids change)
   bool trace_ = std::getenv("CUTSIM_TEST_TRACE") != nullptr;
 };
 
@@ -190,7 +217,8 @@ TEST_P(BendingIncremental, TableEqualsRebuildAfterEveryOperation) {
 INSTANTIATE_TEST_SUITE_P(Sequences, BendingIncremental,
                          ::testing::Values(SequenceCase{1, 8, 150}, SequenceCase{2, 10, 200},
                                            SequenceCase{3, 12, 250}, SequenceCase{4, 6, 120},
-                                           SequenceCase{5, 10, 200}, SequenceCase{6, 9, 200}));
+                                           SequenceCase{5, 10, 200}, SequenceCase{6, 9, 200},
+                                           SequenceCase{7, 14, 400}, SequenceCase{8, 11, 300}));
 
 TEST(BendingIncrementalOps, SplittingAnInteriorEdgeAddsThreeSprings) {
   const topology::MeshData mesh = test::grid(5);

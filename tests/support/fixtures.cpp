@@ -70,7 +70,8 @@ MeshData shuffledVertices(const MeshData& mesh, std::uint64_t seed,
   MeshData out;
   out.points.resize(mesh.points.size());
   for (std::size_t i = 0; i < perm.size(); ++i) out.points[perm[i]] = mesh.points[i];
-  for (const auto& t : mesh.triangles) out.triangles.push_back({perm[t[0]], perm[t[1]], perm[t[2]]});
+  for (const auto& t : mesh.triangles)
+    out.triangles.push_back({perm[t[0]], perm[t[1]], perm[t[2]]});
   if (newOfOld) *newOfOld = perm;
   return out;
 }

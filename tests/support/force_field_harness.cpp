@@ -21,7 +21,9 @@ std::vector<double> forceAt(const forcefields::ForceField& ff, std::span<const d
 
 namespace {
 
-double relative(double err, double scale) { return scale > 0.0 ? err / scale : err; }
+double relative(double err, double scale) {
+  return scale > 0.0 ? err / scale : err;
+}
 
 }  // namespace
 

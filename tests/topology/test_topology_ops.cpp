@@ -450,5 +450,19 @@ TEST(TopologyCut, PolylineThroughAVertexAndEndingOnTheBorder) {
   w.check();
 }
 
+TEST(TopologyCut, PolylineThatDoublesBackOnItself) {
+  // The second segment runs back along the first: the path visits its own edges again.
+  Watched w(grid(9, 10.0, 0.25, 6));
+  auto r = w.t.cutPolyline(line({{7.8465674696881358, 7.8877157715082671, 0},
+                                 {7.0839251451425538, 6.7600548785742749, 0},
+                                 {7.2262576502102638, 6.9674882407819272, 0}}));
+  EXPECT_GE(r.path.size(), 3u);
+  w.check();
+  // And a zig-zag that comes back close to itself.
+  Watched z(grid(11));
+  z.t.cutPolyline(line({{1.3, 5.05, 0}, {8.7, 5.05, 0}, {1.3, 5.12, 0}}));
+  z.check();
+}
+
 }  // namespace
 }  // namespace cutsim::test

@@ -400,6 +400,7 @@ class Walker {
       HI h = I.findHalfedge(a, b);
       VI v = I.splitEdgeNoTxn(m.edge(h), a, u);
       inserted.push_back(PointId(v.idx()));
+      keepPathConnected(a, b, v);
       return v;
     }
     VI v = I.splitFaceNoTxn(l.face, l.bary);
@@ -407,9 +408,18 @@ class Walker {
     return v;
   }
 
+  /// A split of an edge that the path already runs along (the polyline comes back along itself)
+  /// puts the new point into the path between the edge's ends, so the path stays a chain of edges.
+  void keepPathConnected(VI a, VI b, VI m) {
+    for (std::size_t i = path_.size(); i-- > 1;)
+      if ((path_[i - 1] == a && path_[i] == b) || (path_[i - 1] == b && path_[i] == a))
+        path_.insert(path_.begin() + std::ptrdiff_t(i), m);
+  }
+
   /// The real walk: every crossing becomes a vertex. Returns the path of vertices.
   std::vector<VI> insert(const std::vector<Point3>& poly) {
-    std::vector<VI> path;
+    std::vector<VI>& path = path_;
+    path.clear();
     VI cur = insertAt(locate(poly[0], 0));
     path.push_back(cur);
     for (std::size_t k = 1; k < poly.size(); ++k) {
@@ -433,6 +443,7 @@ class Walker {
   std::vector<PointId> inserted;
 
  private:
+  std::vector<VI> path_;
   Topology::Impl& I;
   Mesh& m;
   double snap_;

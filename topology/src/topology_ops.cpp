@@ -176,10 +176,14 @@ void Topology::Impl::inciseNoTxn(std::vector<VI> path, IncisionResult& result) {
     result.insertedPoints.push_back(PointId(m.idx()));
     path = {path[0], m, path[1]};
   }
+  path.erase(std::unique(path.begin(), path.end()), path.end());
   std::unordered_set<std::uint32_t> cutEdges;
   std::unordered_map<std::uint32_t, FI> keep;
   for (std::size_t i = 0; i + 1 < path.size(); ++i) {
     HI h = findHalfedge(path[i], path[i + 1]);
+    if (!h.is_valid())
+      throw TopologyError("internal error in '" + operation + "': path points " +
+                          pt(path[i].idx()) + " and " + pt(path[i + 1].idx()) + " are not joined by an edge");
     cutEdges.insert(mesh.edge(h).idx());
     FI right = mesh.face(mesh.opposite(h));  // h runs along the path: its face is on the left
     if (right.is_valid()) {

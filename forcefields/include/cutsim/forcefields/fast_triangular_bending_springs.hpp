@@ -42,8 +42,9 @@ struct HingeRecord {
   /// A, B (wings), C, D (edge endpoints); kInvalidIndex unless status is Active.
   std::array<PointId, 4> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
                                   topology::kInvalidIndex, topology::kInvalidIndex};
-  std::array<double, 4> alpha{};  ///< zeros unless active
-  double lambda = 0.0;            ///< zero unless active
+  std::array<double, 4> alpha{};   ///< zeros unless active
+  double lambda = 0.0;             ///< zero unless active
+  std::array<double, 4> folded{};  ///< sqrt(lambda / k) alpha (zeros unless active)
 };
 
 /// The counters of the table (the current state, not a history).
@@ -61,13 +62,19 @@ struct BendingCounters {
   bool operator==(const BendingCounters&) const = default;
 };
 
-/// One active spring as stored: 4 vertex ids, 4 weights, the stiffness (56 bytes).
+/// One active spring as stored (40 bytes): 4 vertex ids and 3 numbers from which the folded
+/// weights w_i = sqrt(lambda / k) alpha_i (see hinge_kernel.hpp) follow, since alpha_A + alpha_B
+/// = 1 and alpha_C + alpha_D = -1: w_B = root - w_A, w_D = -root - w_C with root = sqrt(lambda /
+/// k). Then alpha_i = w_i / root and lambda = k root^2.
 struct BendingSpring {
   std::array<std::uint32_t, 4> v;  ///< A, B, C, D
-  std::array<double, 4> alpha;
-  double lambda;
+  double wA;                       ///< root alpha_A
+  double wC;                       ///< root alpha_C
+  double root;                     ///< sqrt(lambda / k)
+  /// w for A, B, C, D (the four weights sum to 0 up to one rounding).
+  std::array<double, 4> weights() const { return {wA, root - wA, wC, -root - wC}; }
 };
-static_assert(sizeof(BendingSpring) == 56);
+static_assert(sizeof(BendingSpring) == 40);
 
 class FastTriangularBendingSprings : public ForceField, public topology::TopologyObserver {
  public:
@@ -85,15 +92,14 @@ class FastTriangularBendingSprings : public ForceField, public topology::Topolog
   void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
                  double kFactor, double bFactor) const override;
   double potentialEnergy(std::span<const double> x) const override;
-  void addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
-                    double kFactor) const override;
-  void addBToMatrix(std::span<const double> x, MatrixAccumulator& m,
-                    double bFactor) const override;
+  void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
+  void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
   /// One segment per active spring, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
 
   // ---- TopologyObserver (spec section 6) ----
-  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed&) override;
+  void onTrianglesDestroyed(const topology::Topology&,
+                            const topology::TrianglesDestroyed&) override;
   void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
   void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed&) override;
   void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated&) override;
@@ -112,8 +118,11 @@ class FastTriangularBendingSprings : public ForceField, public topology::Topolog
   /// The active springs, compact (their order changes with removals and compaction).
   std::span<const BendingSpring> activeSprings() const { return springs_; }
   std::size_t numActiveSprings() const { return springs_.size(); }
-  /// The record of edge e (status DeadEdge for a slot that is dead or beyond the table).
+  /// The record of edge e (status DeadEdge for a slot that is dead or beyond the table); alpha and
+  /// lambda are recovered from the folded weights (to a few units of rounding).
   HingeRecord hinge(EdgeId e) const;
+  /// The record of active spring i (0 <= i < numActiveSprings()).
+  HingeRecord springRecord(std::size_t i) const;
   /// Records of every live edge of the table, ascending edge id.
   std::vector<HingeRecord> hinges() const;
   const BendingCounters& counters() const { return counters_; }
@@ -132,7 +141,7 @@ class FastTriangularBendingSprings : public ForceField, public topology::Topolog
                                 std::span<double> f);
 
  private:
-  void setEdge(EdgeId e, const HingeRecord& r);
+  void setEdge(EdgeId e, const HingeRecord& r, const std::array<double, 4>& folded);
   void recomputeEdge(const topology::Topology& t, EdgeId e);
   void ensureEdgeSlots(std::size_t n);
   void removeSpring(std::uint32_t slot);
