@@ -2,7 +2,8 @@
 //  - explicit: symplectic Euler;
 //  - implicit Euler linearised once per step (Baraff and Witkin 1998), with Rayleigh damping,
 //      (M (1 + h rM) - h B - (h^2 + h rK) K) dv = h (f0 + h K v0),
-//    f0 = F(x, v) + M g - rM M v + rK K v, solved by matrix-free conjugate gradients or by CHOLMOD
+//    f0 = F(x, v) + M g - rM M v + rK K v, solved by matrix-free conjugate gradients (Jacobi
+//    preconditioned, the diagonal gathered from the fields without assembly) or by CHOLMOD
 //    (supernodal Cholesky through Eigen's CholmodSupport) on the assembled matrix, whose symbolic
 //    analysis is kept until the sparsity pattern changes (a topology event, a new constraint).
 // Constrained points (fixed, grasped, and points without mass) get a prescribed velocity change.
@@ -41,6 +42,20 @@ void pinBlasThreads() {
   using SetThreads = void (*)(int);
   if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) fn(1);
 }
+
+/// Keeps only the diagonal entries of the blocks it is given.
+struct DiagonalAccumulator : forcefields::MatrixAccumulator {
+  explicit DiagonalAccumulator(Eigen::Index n) : diagonal(Vec::Zero(n)) {}
+  void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
+    if (i != j) return;
+    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += b(a, a);
+  }
+  void addScaledIdentity(PointId i, PointId j, double s) override {
+    if (i != j) return;
+    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += s;
+  }
+  Vec diagonal;
+};
 
 }  // namespace
 
@@ -262,6 +277,20 @@ StepStats Simulation::step(double dt) {
       if (solver_.cgWarmStart && S.warm.size() == N)
         for (std::size_t p = 0; p < n; ++p)
           if (!constrained[p]) dv.segment<3>(Eigen::Index(3 * p)) = S.warm.segment<3>(Eigen::Index(3 * p));
+      // Jacobi preconditioner: the diagonal of A (mass and the diagonal of the stiffness and
+      // damping blocks, gathered without assembling the matrix).
+      DiagonalAccumulator diagK(N);
+      for (auto& fl : fields_) {
+        fl.field->addKToMatrix(xs, diagK, -kFactor);
+        fl.field->addBToMatrix(xs, diagK, -bFactor);
+      }
+      Vec invDiag(N);
+      for (std::size_t p = 0; p < n; ++p)
+        for (int c = 0; c < 3; ++c) {
+          const Eigen::Index i = Eigen::Index(3 * p + c);
+          const double d = (1 + dt * rM) * ms[p] + diagK.diagonal[i];
+          invDiag[i] = constrained[p] || !(d > 0) ? 0.0 : 1.0 / d;
+        }
       Vec Ap;
       applyA(dv, Ap);
       Vec r = b - Ap;
@@ -269,25 +298,29 @@ StepStats Simulation::step(double dt) {
       Vec bFree = b;
       project(bFree);
       const double bNorm = bFree.norm();
-      Vec pdir = r;
-      double rr = r.squaredNorm();
+      Vec z = invDiag.cwiseProduct(r);
+      Vec pdir = z;
+      double rz = r.dot(z);
+      double rNorm = r.norm();
       int it = 0;
       const double stop = solver_.cgTolerance * std::max(bNorm, 1e-300);
-      while (it < solver_.cgMaxIterations && std::sqrt(rr) > stop) {
+      while (it < solver_.cgMaxIterations && rNorm > stop) {
         applyA(pdir, Ap);
         project(Ap);
         const double pAp = pdir.dot(Ap);
         if (!(pAp > 0)) break;  // not positive definite along pdir (or zero): stop
-        const double alpha = rr / pAp;
+        const double alpha = rz / pAp;
         dv += alpha * pdir;
         r -= alpha * Ap;
-        const double rrNew = r.squaredNorm();
-        pdir = r + (rrNew / rr) * pdir;
-        rr = rrNew;
+        z = invDiag.cwiseProduct(r);
+        const double rzNew = r.dot(z);
+        pdir = z + (rzNew / rz) * pdir;
+        rz = rzNew;
+        rNorm = r.norm();
         ++it;
       }
       stats.iterations = it;
-      stats.residual = bNorm > 0 ? std::sqrt(rr) / bNorm : 0.0;
+      stats.residual = bNorm > 0 ? rNorm / bNorm : 0.0;
       S.warm = dv;
     } else {
       auto& S = *solverImpl_;
