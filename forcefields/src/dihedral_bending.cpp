@@ -1,3 +1,4 @@
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 
 #include <algorithm>
@@ -33,19 +34,6 @@ constexpr bool isHingeSlot(std::uint32_t code) {
 }
 constexpr DihedralStatus decode(std::uint32_t code) {
   return static_cast<DihedralStatus>(code - kStatusBase);
-}
-
-std::string describe(double v) {
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
-
-void checkParameter(const char* name, double v) {
-  if (!std::isfinite(v)) {
-    throw InvalidInput(name, "must be a finite number >= 0, got " + describe(v));
-  }
-  if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
 }
 
 std::string edgeName(EdgeId e) {
@@ -138,9 +126,9 @@ inline bool hingeForce(const double* __restrict x, double* __restrict f,
 // Parameters and one hinge
 
 void DihedralBendingParameters::validate() const {
-  checkParameter("bendingStiffness", bendingStiffness);
-  checkParameter("minDist", minDist);
-  checkParameter("rayleighStiffness", rayleighStiffness);
+  requireFiniteNonNegative("bendingStiffness", bendingStiffness);
+  requireFiniteNonNegative("minDist", minDist);
+  requireFiniteNonNegative("rayleighStiffness", rayleighStiffness);
 }
 
 std::string_view toString(DihedralStatus status) {

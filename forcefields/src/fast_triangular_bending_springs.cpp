@@ -1,3 +1,4 @@
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 
 #include <algorithm>
@@ -28,20 +29,6 @@ constexpr HingeStatus decode(std::uint32_t code) {
   return static_cast<HingeStatus>(code - kStatusBase);
 }
 
-/// A double for messages, without arithmetic (so no floating-point exception for NaN or inf).
-std::string describe(double v) {
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
-
-void checkParameter(const char* name, double v) {
-  if (!std::isfinite(v)) {
-    throw InvalidInput(name, "must be a finite number >= 0, got " + describe(v));
-  }
-  if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
-}
-
 std::string edgeName(EdgeId e) {
   return "edge " + std::to_string(e);
 }
@@ -52,9 +39,9 @@ std::string edgeName(EdgeId e) {
 // Parameters
 
 void BendingParameters::validate() const {
-  checkParameter("bendingStiffness", bendingStiffness);
-  checkParameter("minDistValidity", minDistValidity);
-  checkParameter("rayleighStiffness", rayleighStiffness);
+  requireFiniteNonNegative("bendingStiffness", bendingStiffness);
+  requireFiniteNonNegative("minDistValidity", minDistValidity);
+  requireFiniteNonNegative("rayleighStiffness", rayleighStiffness);
   if (areaWeights != AreaWeights::Unsigned && areaWeights != AreaWeights::Signed) {
     throw InvalidInput("areaWeights",
                        "unknown value " + std::to_string(static_cast<int>(areaWeights)));

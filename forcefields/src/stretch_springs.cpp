@@ -1,3 +1,4 @@
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 
 #include <algorithm>
@@ -18,20 +19,6 @@ constexpr std::uint32_t kNoSpring = 0xFFFFFFFFu;
 /// Below this squared length a spring has no direction (u undefined): it is skipped. The smallest
 /// normal double keeps l^2 exact enough for u = d / l to be a unit vector.
 constexpr double kMinLength2 = std::numeric_limits<double>::min();
-
-/// A double for messages, without arithmetic (so no floating-point exception for NaN or inf).
-std::string describe(double v) {
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
-
-void checkParameter(const char* name, double v) {
-  if (!std::isfinite(v)) {
-    throw InvalidInput(name, "must be a finite number >= 0, got " + describe(v));
-  }
-  if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
-}
 
 std::string edgeName(EdgeId e) {
   return "edge " + std::to_string(e);
@@ -81,8 +68,8 @@ Eigen::Matrix3d stiffnessBlock(const double u[3], double a, double factorTimesKs
 // Parameters
 
 void StretchParameters::validate() const {
-  checkParameter("stiffness", stiffness);
-  checkParameter("damping", damping);
+  requireFiniteNonNegative("stiffness", stiffness);
+  requireFiniteNonNegative("damping", damping);
 }
 
 // ---------------------------------------------------------------------------------------------

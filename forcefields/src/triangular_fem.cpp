@@ -1,3 +1,4 @@
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 
 #include <Eigen/Core>
@@ -25,12 +26,6 @@ constexpr double kMinRestShape = 1e-12;
 constexpr double kMinCurrentShape = 1e-12;
 
 using Mat32 = Eigen::Matrix<double, 3, 2>;
-
-std::string describe(double v) {
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
 
 std::string triangleName(TriangleId t) {
   return "triangle " + std::to_string(t);
@@ -105,18 +100,12 @@ inline void scatter(double* out, std::uint32_t p, const Eigen::Vector3d& v) {
 // Parameters
 
 void TriangularFEMParameters::validate() const {
-  auto finiteNonNegative = [](const char* name, double v) {
-    if (!std::isfinite(v)) {
-      throw InvalidInput(name, "must be a finite number >= 0, got " + describe(v));
-    }
-    if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describe(v));
-  };
-  finiteNonNegative("youngModulus", youngModulus);
+  requireFiniteNonNegative("youngModulus", youngModulus);
   if (!std::isfinite(poissonRatio) || !(poissonRatio > -1.0) || !(poissonRatio < 0.5)) {
     throw InvalidInput("poissonRatio",
-                       "must be a finite number in (-1, 0.5), got " + describe(poissonRatio));
+                       "must be a finite number in (-1, 0.5), got " + describeNumber(poissonRatio));
   }
-  finiteNonNegative("thickness", thickness);
+  requireFiniteNonNegative("thickness", thickness);
 }
 
 // ---------------------------------------------------------------------------------------------

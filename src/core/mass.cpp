@@ -3,16 +3,10 @@
 #include <cmath>
 #include <numeric>
 
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 
 namespace cutsim::core {
-
-namespace {
-void checkPositive(double v, const char* name) {
-  if (!std::isfinite(v) || !(v > 0.0))
-    throw InvalidInput(name, "must be a finite number > 0 (got " + std::to_string(v) + ")");
-}
-}  // namespace
 
 double LumpedMass::triangleArea(const topology::Topology& t, topology::TriangleId f) {
   auto v = t.triangleVertices(f);
@@ -27,7 +21,7 @@ double LumpedMass::triangleArea(const topology::Topology& t, topology::TriangleI
 }
 
 double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass) {
-  checkPositive(totalMass, "mass.total");
+  forcefields::requireFinitePositive("mass.total", totalMass);
   double area = 0;
   for (auto f : t.triangles()) area += triangleArea(t, f);
   if (!(area > 0)) throw InvalidInput("mass.total", "the mesh has no area to spread a total mass over");
@@ -35,7 +29,7 @@ double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass
 }
 
 LumpedMass::LumpedMass(topology::Topology& t, double density) : density_(density) {
-  checkPositive(density, "mass.density");
+  forcefields::requireFinitePositive("mass.density", density);
   mass_.reserve(std::size_t(t.pointCapacity()) * 5 / 4 + 16);
   triangleArea_.reserve(std::size_t(t.triangleCapacity()) * 5 / 4 + 16);
   mass_.assign(t.pointCapacity(), 0.0);

@@ -18,6 +18,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 
 namespace cutsim::core {
@@ -27,11 +28,6 @@ using VecMap = Eigen::Map<Vec>;
 using ConstVecMap = Eigen::Map<const Vec>;
 
 namespace {
-
-void finiteNonNegative(double v, const char* name) {
-  if (!std::isfinite(v) || v < 0.0)
-    throw InvalidInput(name, "must be a finite number >= 0 (got " + std::to_string(v) + ")");
-}
 
 /// OpenBLAS (which CHOLMOD's supernodal factorisation uses when it is the installed BLAS) would
 /// pick its thread count from the machine; one thread keeps results identical from run to run.
@@ -62,10 +58,9 @@ struct DiagonalAccumulator : forcefields::MatrixAccumulator {
 void SolverSettings::validate() const {
   if (cgMaxIterations < 1)
     throw InvalidInput("solver.iterations", "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
-  if (!std::isfinite(cgTolerance) || !(cgTolerance > 0))
-    throw InvalidInput("solver.tolerance", "must be a finite number > 0 (got " + std::to_string(cgTolerance) + ")");
-  finiteNonNegative(rayleighMass, "solver.rayleighMass");
-  finiteNonNegative(rayleighStiffness, "solver.rayleighStiffness");
+  forcefields::requireFinitePositive("solver.tolerance", cgTolerance);
+  forcefields::requireFiniteNonNegative("solver.rayleighMass", rayleighMass);
+  forcefields::requireFiniteNonNegative("solver.rayleighStiffness", rayleighStiffness);
 }
 
 std::string_view toString(SolverSettings::Kind kind) {
@@ -194,8 +189,7 @@ void Simulation::checkFinite(std::span<const double> a, const char* what, const 
 }
 
 StepStats Simulation::step(double dt) {
-  if (!std::isfinite(dt) || !(dt > 0))
-    throw InvalidInput("timeStep", "must be a finite number > 0 (got " + std::to_string(dt) + ")");
+  forcefields::requireFinitePositive("timeStep", dt);
   if (!mass_) throw SolverError("the simulation has no mass: give a density or a total mass");
   pinBlasThreads();
   const std::size_t n = state_->numSlots();
