@@ -257,7 +257,10 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
     const std::string surface = frameName("surface", index, ".vtp");
     writeFileAtomically(dir_ / surface, [&](std::ostream& o) { writeSurfaceVtp(o, sim); });
     surfaceFrames_.emplace_back(r.time, surface);
-    writeFileAtomically(dir_ / "surface.pvd",
+    // While the run goes on the collections carry ".partial" in their names (ParaView can open
+    // them to watch); finish() writes the final surface.pvd and springs.pvd. A run that stops
+    // early leaves no collection that looks complete.
+    writeFileAtomically(dir_ / "surface.partial.pvd",
                         [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
     const auto* bending = firstBending(sim);
     if (settings_.springs && bending) {
@@ -265,7 +268,7 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
       writeFileAtomically(dir_ / springs,
                           [&](std::ostream& o) { writeNetworkVtp(o, sim, *bending); });
       springFrames_.emplace_back(r.time, springs);
-      writeFileAtomically(dir_ / "springs.pvd",
+      writeFileAtomically(dir_ / "springs.partial.pvd",
                           [&](std::ostream& o) { writePvd(o, springFrames_); });
     }
   } else {
@@ -278,6 +281,15 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
 }
 
 void OutputWriter::finish() {
+  std::error_code removeError;
+  if (settings_.vtk && !surfaceFrames_.empty()) {
+    writeFileAtomically(dir_ / "surface.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+    std::filesystem::remove(dir_ / "surface.partial.pvd", removeError);
+  }
+  if (!springFrames_.empty()) {
+    writeFileAtomically(dir_ / "springs.pvd", [&](std::ostream& o) { writePvd(o, springFrames_); });
+    std::filesystem::remove(dir_ / "springs.partial.pvd", removeError);
+  }
   if (!settings_.csv || !csv_.is_open()) return;
   csv_.flush();
   const bool ok = bool(csv_);

@@ -87,6 +87,8 @@ std::string escapePointerToken(const std::string& key) {
 /// (objects, arrays), keyed by its JSON pointer.
 class LineRecordingBuilder : public nlohmann::json_sax<json> {
  public:
+  static constexpr std::size_t kMaxDepth = 64;
+
   LineRecordingBuilder(LineCounter& counter, std::string source)
       : counter_(counter), source_(std::move(source)) {}
 
@@ -171,6 +173,12 @@ class LineRecordingBuilder : public nlohmann::json_sax<json> {
     return true;
   }
   bool open(json container) {
+    // A scene is a few levels deep; refusing deep nesting early keeps the pointer bookkeeping
+    // (a string per level) from growing quadratically on a malicious or broken file.
+    if (stack_.size() >= kMaxDepth) {
+      throw InvalidInput(source_ + ":" + std::to_string(counter_.line),
+                         "invalid JSON: nested deeper than " + std::to_string(kMaxDepth) + " levels");
+    }
     const std::string pointer = childPointer();
     lines[pointer] = counter_.line;
     json* inserted = insert(std::move(container));

@@ -335,7 +335,7 @@ TEST(ExtremeCuts, ACutPassingWithinTinyDistancesOfVerticesWithoutSnapping) {
 // point 3.5e-7 from the vertex, (0.99999975, 0.49999975), and leaves two sliver hinges
 // (small_height) although CutOptions promises that snapping "leaves no sliver triangles". The
 // start of the same cut (also 1e-7 from a border vertex) snaps as it should. Enable when fixed.
-TEST(ExtremeCuts, DISABLED_DefaultSnappingLeavesNoSliverAtTheEndOfACut) {
+TEST(ExtremeCuts, DefaultSnappingLeavesNoSliverAtTheEndOfACut) {
   for (double offset : {-1e-7, 1e-7}) {
     SCOPED_TRACE(offset);
     CutFixture c;  // grid(5, 1.0): one-way diagonals
