@@ -29,14 +29,17 @@ using ConstVecMap = Eigen::Map<const Vec>;
 
 namespace {
 
-/// OpenBLAS (which CHOLMOD's supernodal factorisation uses when it is the installed BLAS) would
-/// pick its thread count from the machine; one thread keeps results identical from run to run.
+/// OpenBLAS (which CHOLMOD's supernodal factorisation uses when it is the installed BLAS) and
+/// OpenMP (which Debian's CHOLMOD is built with) would pick their thread counts from the machine;
+/// one thread keeps results identical from run to run (and avoids spinning threads on a busy
+/// machine).
 void pinBlasThreads() {
   static bool done = false;
   if (done) return;
   done = true;
   using SetThreads = void (*)(int);
   if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) fn(1);
+  if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "omp_set_num_threads"))) fn(1);
 }
 
 /// Keeps only the diagonal entries of the blocks it is given.
