@@ -370,9 +370,7 @@ class Walker {
   /// snapTolerance of the local edge length; it never moves it ONTO the border (a border vertex or
   /// edge is used only where the polyline really meets it), so that the path cannot leave the
   /// surface that the checking walk found it on.
-  /// `isEnd`: the polyline's last point, from which the walk goes nowhere: it may snap onto the
-  /// border too.
-  VI insertAt(const Location& l, bool isEnd = false) {
+  VI insertAt(const Location& l) {
     const double exact = 1e-9;
     HI fh = m.halfedge(l.face);
     std::array<VI, 3> fv{m.source(fh), m.target(fh), m.target(m.next(fh))};
@@ -383,7 +381,7 @@ class Walker {
     for (int j = 0; j < 3; ++j)
       if (l.bary[j] <= exact && edgeIsBorder(j)) onBorderEdge = j;
     for (int k = 0; k < 3; ++k) {
-      bool mayMove = isEnd || !m.is_border(fv[k], true) || (onBorderEdge >= 0 && onBorderEdge != k);
+      bool mayMove = !m.is_border(fv[k], true) || (onBorderEdge >= 0 && onBorderEdge != k);
       if (l.bary[k] >= 1.0 - exact || (l.bary[k] >= 1.0 - snap_ && mayMove)) return fv[k];
     }
     int edge = -1;
@@ -391,7 +389,7 @@ class Walker {
       VI a = fv[(j + 1) % 3], b = fv[(j + 2) % 3];
       HI h = I.findHalfedge(a, b);
       bool border = m.is_border(m.edge(h));
-      if (l.bary[j] <= exact || (l.bary[j] <= snap_ && (!border || isEnd)))
+      if (l.bary[j] <= exact || (l.bary[j] <= snap_ && !border))
         if (edge < 0 || l.bary[j] < l.bary[edge]) edge = j;
     }
     if (edge >= 0) {
@@ -434,7 +432,7 @@ class Walker {
           throw TopologyError("internal error: cutPolyline's walk left the surface at point " +
                               std::to_string(cur.idx()) + " (the mesh stays valid)");
         const auto& [l, s] = *st;
-        VI v = insertAt({l.face, s.at}, s.reached && k + 1 == poly.size());
+        VI v = insertAt({l.face, s.at});
         if (v != cur) { path.push_back(v); cur = v; }
         if (s.reached) break;
       }
@@ -479,30 +477,6 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
                             " and " + std::to_string(j) + "); cut it as separate polylines");
     }
   Walker walker(I, options.snapTolerance);
-  // The polyline's ends snap first (onto a vertex, else onto an edge, within the tolerance), so
-  // that the walk aims exactly at them and leaves no sliver next to an end.
-  for (std::size_t end : {std::size_t(0), poly.size() - 1}) {
-    Location l = walker.locate(poly[end], end);
-    auto c = corners(I.mesh, l.face);
-    int vertex = -1, edge = -1;
-    for (int k = 0; k < 3; ++k)
-      if (l.bary[k] >= 1.0 - options.snapTolerance) vertex = k;
-    for (int j = 0; j < 3; ++j)
-      if (l.bary[j] <= options.snapTolerance && (edge < 0 || l.bary[j] < l.bary[edge])) edge = j;
-    if (vertex >= 0) {
-      poly[end] = c[std::size_t(vertex)];
-    } else if (edge >= 0) {
-      std::array<double, 3> b = l.bary;
-      b[std::size_t(edge)] = 0.0;
-      const double sum = b[0] + b[1] + b[2];
-      for (double& x : b) x /= sum;
-      poly[end] = fromBary(c, b);
-    } else {
-      poly[end] = fromBary(c, l.bary);
-    }
-  }
-  if (poly.front() == poly.back() && poly.size() == 2)
-    throw TopologyError("cutPolyline: the polyline is shorter than the snapping tolerance");
   walker.check(poly);  // throws before anything changes
 
   I.begin("cutPolyline");
