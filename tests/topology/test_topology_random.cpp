@@ -151,8 +151,12 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
     ASSERT_TRUE(r.ok()) << "seed " << seed << " step " << step << " after " << what << ":\n" << r.summary();
   }
   // Each kind of operation must actually have run.
-  for (int op = 0; op < 5; ++op) EXPECT_GT(done[op], 0) << "operation " << op << " never succeeded";
-  if (requireCuts) EXPECT_GT(done[5], 0) << "no polyline cut succeeded";
+  for (int op = 0; op < 5; ++op) {
+    EXPECT_GT(done[op], 0) << "operation " << op << " never succeeded";
+  }
+  if (requireCuts) {
+    EXPECT_GT(done[5], 0) << "no polyline cut succeeded";
+  }
   std::cout << "seed " << seed << ": done";
   for (int op = 0; op < 8; ++op) std::cout << " " << done[op] << "/" << rejected[op];
   std::cout << " (succeeded/rejected per operation), " << t.numTriangles() << " triangles left\n";

@@ -410,10 +410,10 @@ class Walker {
 
   /// A split of an edge that the path already runs along (the polyline comes back along itself)
   /// puts the new point into the path between the edge's ends, so the path stays a chain of edges.
-  void keepPathConnected(VI a, VI b, VI m) {
+  void keepPathConnected(VI a, VI b, VI mid) {
     for (std::size_t i = path_.size(); i-- > 1;)
       if ((path_[i - 1] == a && path_[i] == b) || (path_[i - 1] == b && path_[i] == a))
-        path_.insert(path_.begin() + std::ptrdiff_t(i), m);
+        path_.insert(path_.begin() + std::ptrdiff_t(i), mid);
   }
 
   /// The real walk: every crossing becomes a vertex. Returns the path of vertices.
