@@ -269,6 +269,9 @@ StepStats Simulation::step(double dt) {
       for (std::size_t p = 0; p < n; ++p)
         if (constrained[p]) a.segment<3>(Eigen::Index(3 * p)).setZero();
     };
+    Vec bFree = b;  // the right-hand side on the free DOFs: residuals are relative to it
+    project(bFree);
+    const double bNorm = bFree.norm();
     if (solver_.kind == SolverSettings::Kind::ImplicitCG) {
       auto& S = *solverImpl_;
       if (solver_.cgWarmStart && S.warm.size() == N)
@@ -292,9 +295,6 @@ StepStats Simulation::step(double dt) {
       applyA(dv, Ap);
       Vec r = b - Ap;
       project(r);
-      Vec bFree = b;
-      project(bFree);
-      const double bNorm = bFree.norm();
       Vec z = invDiag.cwiseProduct(r);
       Vec pdir = z;
       double rz = r.dot(z);
@@ -370,10 +370,8 @@ StepStats Simulation::step(double dt) {
       applyA(dv, check);
       Vec res = b - check;
       project(res);
-      Vec bFree = b;
-      project(bFree);
       stats.iterations = 1;
-      stats.residual = bFree.norm() > 0 ? res.norm() / bFree.norm() : 0.0;
+      stats.residual = bNorm > 0 ? res.norm() / bNorm : 0.0;
     }
     checkFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change", std::string(toString(solver_.kind)));
     vNew = v + dv;

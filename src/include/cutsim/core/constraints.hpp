@@ -69,7 +69,6 @@ class Grasp {
   const DisplacementPath& path() const { return path_; }
 
  private:
-  friend class Simulation;
   PointSet points_;
   double start_;
   DisplacementPath path_;
