@@ -1,5 +1,6 @@
 // The cost of a topology change must follow the size of the change, not of the mesh: one incision
-// along 20 edges, and one triangle removal, with the events delivered to a spring-table observer
+// along 20 edges, one polyline cut across 20 cells (located, checked, planned on a patch, then
+// inserted and incised: about 40 crossings), and one triangle removal, with the events delivered to a spring-table observer
 // (FastTriangularBendingSprings) and to the simulation state, on a 20k-triangle grid and on a
 // 2M-triangle grid. Every iteration works on a fresh part of the grid.
 //
@@ -27,6 +28,7 @@ struct Sheet {
   std::unique_ptr<cutsim::forcefields::FastTriangularBendingSprings> springs;
   std::unique_ptr<cutsim::core::MechanicalState> state;
   int nextRow = 2, nextCol = 1;
+  int cutRow = 3, cutCol = 1;  // polyline cuts run between the incisions' rows
 
   explicit Sheet(int side) : n(side) {
     std::vector<Vec3> pts;
@@ -56,6 +58,17 @@ struct Sheet {
     nextCol += 24;
     return path;
   }
+
+  /// A slanted polyline across 20 cells, between rows cutRow and cutRow + 1, not cut yet.
+  std::vector<Vec3> nextPolyline() {
+    if (cutCol + 22 >= n) {
+      cutCol = 1;
+      cutRow += 3;
+    }
+    std::vector<Vec3> line{{cutCol + 0.5, cutRow + 0.3, 0.0}, {cutCol + 20.5, cutRow + 0.7, 0.0}};
+    cutCol += 24;
+    return line;
+  }
 };
 
 Sheet& sheet(int side) {
@@ -76,6 +89,21 @@ void BM_Incise20Edges(benchmark::State& st) {
   st.counters["active_springs"] = double(s.springs->numActiveSprings());
 }
 
+void BM_CutPolyline20Cells(benchmark::State& st) {
+  Sheet& s = sheet(int(st.range(0)));
+  // The first cut builds the triangle locator (once per topology, O(mesh)): not timed.
+  s.topo->cutPolyline(s.nextPolyline());
+  std::size_t pathEdges = 0;
+  for (auto _ : st) {
+    auto line = s.nextPolyline();
+    auto r = s.topo->cutPolyline(line);
+    pathEdges += r.path.size() - 1;
+    benchmark::DoNotOptimize(r);
+  }
+  st.counters["path_edges"] = double(pathEdges) / double(st.iterations());
+  st.counters["triangles"] = double(s.topo->numTriangles());
+}
+
 void BM_RemoveOneTriangle(benchmark::State& st) {
   Sheet& s = sheet(int(st.range(0)));
   // Triangles far from the incisions (the top rows), one per iteration.
@@ -94,6 +122,7 @@ void BM_RemoveOneTriangle(benchmark::State& st) {
 
 // 101 x 101 vertices: 20,000 triangles; 1001 x 1001: 2,000,000 triangles.
 BENCHMARK(BM_Incise20Edges)->Arg(101)->Arg(1001)->Iterations(120)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CutPolyline20Cells)->Arg(101)->Arg(1001)->Iterations(120)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_RemoveOneTriangle)->Arg(101)->Arg(1001)->Iterations(1000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

@@ -330,15 +330,11 @@ TEST(ExtremeCuts, ACutPassingWithinTinyDistancesOfVerticesWithoutSnapping) {
   }
 }
 
-// BUG (docs/robustness.md): with the default snapTolerance (0.1, i.e. 0.025 on this grid) a
-// border-to-border cut whose end lies 1e-7 from a border vertex does not snap there: it inserts a
-// point 3.5e-7 from the vertex, (0.99999975, 0.49999975), and leaves two sliver hinges
-// (small_height) although CutOptions promises that snapping "leaves no sliver triangles". The
-// start of the same cut (also 1e-7 from a border vertex) snaps as it should. Enable when fixed.
-// OPEN (docs/robustness.md, finding 1): snapping the polyline's ends onto the border fixes this
-// case but made the inserting walk fail in random sequences; kept disabled until the walk's check
-// simulates snapping exactly.
-TEST(ExtremeCuts, DISABLED_DefaultSnappingLeavesNoSliverAtTheEndOfACut) {
+// Finding 1 of docs/robustness.md: with the default snapTolerance (0.1, i.e. 0.025 on this grid) a
+// border-to-border cut whose end lies 1e-7 from a border vertex inserted a point 3.5e-7 from the
+// vertex, (0.99999975, 0.49999975), and left two sliver hinges (small_height). The ends of the
+// polyline now snap first (the border included), so the walk aims exactly at the vertex.
+TEST(ExtremeCuts, DefaultSnappingLeavesNoSliverAtTheEndOfACut) {
   for (double offset : {-1e-7, 1e-7}) {
     SCOPED_TRACE(offset);
     CutFixture c;  // grid(5, 1.0): one-way diagonals

@@ -156,17 +156,16 @@ TEST(FuzzReplay, TopologyOps) {
   }
 }
 
-// BUG (docs/robustness.md), found by fuzz_topology_ops: on a 5 x 3 alternating grid, after
+// Finding 4 of docs/robustness.md, found by fuzz_topology_ops: on a 5 x 3 alternating grid, after
 //   splitEdge 11 t 0.087022, incise 9 14 8, splitTriangle, splitEdge 1 t 0.000580, splitTriangle,
 //   cutPolyline (snap 0.1) {-0.125, 1.25, 1e-9} {0.4375, -0.25, 1e-9} {1.125, 1.25, 1e-9},
 //   splitTriangle, tear 42, tear 40,
 // cutPolyline (snap 0) {0.968750001, 0.06250000000001, 1e-6} {0.49999999999999, 0.56249999999999,
-// 1e-14} throws TopologyError "internal error: cutPolyline's walk left the surface at point 22
-// (the mesh stays valid)" AFTER changing the mesh (topology_cut.cpp commits the partial walk and
-// rethrows), against the contract "a rejected request throws TopologyError and changes nothing".
-// The mesh and every observer stay valid. Enable when a failed walk is rolled back (or caught by
-// Walker::check before anything changes).
-TEST(FuzzReplay, DISABLED_RejectedCutChangesNothing) {
+// 1e-14} threw TopologyError "internal error: cutPolyline's walk left the surface at point 22
+// (the mesh stays valid)" AFTER changing the mesh, against the contract "a rejected request
+// throws TopologyError and changes nothing" (which the fuzz body checks). The insertion is now
+// planned on a patch first: the request is rejected before the mesh changes.
+TEST(FuzzReplay, RejectedCutChangesNothing) {
   const Input in = {
       0x6c, 0x7e, 0x46, 0x18, 0x28, 0x48, 0x77, 0x16, 0x47, 0x0a, 0x12, 0x49, 0xc1, 0xd9,
       0xd7, 0x0c, 0x58, 0x4f, 0x49, 0xfb, 0x35, 0xb6, 0x31, 0x00, 0x00, 0x00, 0x00, 0x00,
@@ -184,8 +183,8 @@ TEST(FuzzReplay, DISABLED_RejectedCutChangesNothing) {
 // (snap 0.01) {0.399, 0.999999999999, 1e-12} {0.399999999999, 0.999999, 1e-14}
 // {0.824999999999, 0.999999999999, 1e-12} {0.399999999999, 0.999999999999, 1e-12}: a polyline
 // running along the top border and doubling back: "walk left the surface at point 28" after
-// changing the mesh.
-TEST(FuzzReplay, DISABLED_RejectedCutAlongTheBorderChangesNothing) {
+// changing the mesh (now rejected before any change).
+TEST(FuzzReplay, RejectedCutAlongTheBorderChangesNothing) {
   const Input in = {
       0x40, 0x60, 0x17, 0x7b, 0x80, 0xda, 0x03, 0x40, 0x60, 0x00, 0x00, 0x2a, 0xa6, 0x5d, 0x9e,
       0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4, 0xd4,

@@ -56,6 +56,8 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
     if (t.numTriangles() < 20) break;
     int op = int(rng() % 8);
     std::string what;
+    const std::size_t before[3] = {t.numPoints(), t.numEdges(), t.numTriangles()};
+    const auto transactionsBefore = mirror.transactions;
     try {
       switch (op) {
         case 0: {  // split an edge
@@ -141,8 +143,12 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
       }
       ++done[op];
     } catch (const TopologyError& e) {
-      // A rejected request must leave everything consistent.
+      // A rejected request changes nothing and leaves everything consistent.
       what += std::string(" (rejected: ") + e.what() + ")";
+      EXPECT_EQ(t.numPoints(), before[0]) << what;
+      EXPECT_EQ(t.numEdges(), before[1]) << what;
+      EXPECT_EQ(t.numTriangles(), before[2]) << what;
+      EXPECT_EQ(mirror.transactions, transactionsBefore) << what << ": a rejected request sent events";
       EXPECT_EQ(std::string(e.what()).find("internal"), std::string::npos) << what;
       ++rejected[op];
       if (std::getenv("CUTSIM_DEBUG_RANDOM")) std::cout << what << "\n";

@@ -4,12 +4,17 @@
 // mesh): the start point is located with a hash grid of triangle boxes, then each segment of the
 // polyline is followed across triangles, projecting the target into each triangle's plane, so a
 // curved rest surface is followed too. The walk runs twice: first on the unchanged mesh to check
-// the request (a polyline that leaves the surface is rejected before anything changes), then for
-// real, from vertex to vertex: every crossing becomes a vertex (an edge split, or a triangle split
-// at a corner), snapped to an existing vertex or edge when closer than snapTolerance times the
-// local edge length. The resulting path of edges is then incised.
+// the request (a polyline that leaves the surface is rejected before anything changes), then from
+// vertex to vertex, inserting every crossing as a vertex (an edge split, or a triangle split at a
+// corner), snapped to an existing vertex or edge when closer than snapTolerance times the local
+// edge length. That inserting walk is planned on a copy of the triangles around the cut (a patch,
+// grown until the walk stays inside it), because snapping moves the path and the walk from a
+// snapped vertex can still fail: a failed plan rejects the request with the mesh untouched. A
+// successful plan is a list of edge and triangle splits, replayed on the mesh; the resulting
+// path of edges is then incised. The cost follows the size of the cut, not of the mesh.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <sstream>
 
@@ -229,9 +234,24 @@ struct Location {
   std::array<double, 3> bary;  // in face
 };
 
+/// Thrown by a walk on a patch that reached a triangle whose surroundings the patch lacks.
+struct PatchTooSmall {};
+
+/// One split of the planned insertion, in the patch's vertices.
+struct PlannedSplit {
+  bool onEdge = false;
+  VI a, b;                   // onEdge: the edge a-b split at parameter u from a
+  double u = 0.0;
+  std::array<VI, 3> corners; // otherwise: the triangle with these corners, at these weights
+  std::array<double, 3> weights{};
+  VI created;                // the patch vertex it created
+};
+
 class Walker {
  public:
   Walker(Topology::Impl& impl, double snap) : I(impl), m(impl.mesh), snap_(snap) {}
+  /// Walking on a patch: `frontier[v]` marks the patch vertices whose triangles are not all in it.
+  void setFrontier(const std::vector<char>* frontier) { frontier_ = frontier; }
 
   /// Nearest surface point to p, within `tolerance` times the local edge length.
   Location locate(const Point3& p, std::size_t index) {
@@ -331,6 +351,8 @@ class Walker {
   /// The checking walk on the unchanged mesh: throws if the polyline leaves the surface.
   void check(const std::vector<Point3>& poly) {
     Location loc = locate(poly[0], 0);
+    start = loc;
+    corridor.push_back(loc.face);
     for (std::size_t k = 1; k < poly.size(); ++k) {
       locate(poly[k], k);  // each polyline point must be on the surface too
       std::size_t guard = 0;
@@ -343,6 +365,7 @@ class Walker {
           throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
                               " leaves the surface at " + fmt(here));
         Location next{st->first.face, st->second.at};
+        corridor.push_back(next.face);
         if (st->second.reached) { loc = next; break; }
         // Crossing the exit edge: the face across must exist.
         int j = st->second.exitEdge;
@@ -374,6 +397,9 @@ class Walker {
     const double exact = 1e-9;
     HI fh = m.halfedge(l.face);
     std::array<VI, 3> fv{m.source(fh), m.target(fh), m.target(m.next(fh))};
+    if (frontier_)  // border tests need every triangle around the three corners
+      for (VI v : fv)
+        if (v.idx() < frontier_->size() && (*frontier_)[v.idx()]) throw PatchTooSmall{};
     auto edgeIsBorder = [&](int j) {
       return m.is_border(m.edge(I.findHalfedge(fv[(j + 1) % 3], fv[(j + 2) % 3])));
     };
@@ -400,11 +426,13 @@ class Walker {
       HI h = I.findHalfedge(a, b);
       VI v = I.splitEdgeNoTxn(m.edge(h), a, u);
       inserted.push_back(PointId(v.idx()));
+      plan.push_back({true, a, b, u, {}, {}, v});
       keepPathConnected(a, b, v);
       return v;
     }
     VI v = I.splitFaceNoTxn(l.face, l.bary);
     inserted.push_back(PointId(v.idx()));
+    plan.push_back({false, {}, {}, 0.0, fv, l.bary, v});
     return v;
   }
 
@@ -416,21 +444,24 @@ class Walker {
         path_.insert(path_.begin() + std::ptrdiff_t(i), mid);
   }
 
-  /// The real walk: every crossing becomes a vertex. Returns the path of vertices.
-  std::vector<VI> insert(const std::vector<Point3>& poly) {
+  /// The inserting walk from `from` (the located first point): every crossing becomes a vertex.
+  /// Returns the path of vertices.
+  std::vector<VI> insert(const std::vector<Point3>& poly, const Location& from) {
     std::vector<VI>& path = path_;
     path.clear();
-    VI cur = insertAt(locate(poly[0], 0));
+    VI cur = insertAt(from);
     path.push_back(cur);
     for (std::size_t k = 1; k < poly.size(); ++k) {
       std::size_t guard = 0;
       while (true) {
         if (++guard > 100000 + 4 * m.number_of_faces())
-          throw TopologyError("internal error: cutPolyline's walk does not end");
+          throw TopologyError("the walk along segment " + std::to_string(k - 1) + "-" +
+                              std::to_string(k) + " does not end");
         auto st = bestStep(aroundVertex(cur), poly[k]);
         if (!st)
-          throw TopologyError("internal error: cutPolyline's walk left the surface at point " +
-                              std::to_string(cur.idx()) + " (the mesh stays valid)");
+          throw TopologyError("segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
+                              " cannot be followed from " + fmt(m.point(cur)) +
+                              ", where a crossing snapped to");
         const auto& [l, s] = *st;
         VI v = insertAt({l.face, s.at});
         if (v != cur) { path.push_back(v); cur = v; }
@@ -441,13 +472,147 @@ class Walker {
   }
 
   std::vector<PointId> inserted;
+  std::vector<PlannedSplit> plan;  // the splits insert() made, in order
+  Location start{};                // check(): the located first point
+  std::vector<FI> corridor;        // check(): the triangles the walk went through
 
  private:
+  const std::vector<char>* frontier_ = nullptr;
   std::vector<VI> path_;
   Topology::Impl& I;
   Mesh& m;
   double snap_;
 };
+
+
+/// A copy of the triangles around a cut, on which the inserting walk is planned. A patch vertex
+/// whose triangles are not all in the patch is on its frontier: its border status in the patch is
+/// not the mesh's, so the walk stops (PatchTooSmall) before it uses a triangle touching one. Such
+/// a vertex gets one copy per fan of patch triangles around it, so that the patch is manifold.
+struct Patch {
+  Topology::Impl impl;
+  std::vector<VI> toMesh;       // patch vertex -> mesh vertex (the vertices the patch started with)
+  std::vector<char> frontier;   // by patch vertex
+  std::unordered_map<std::uint32_t, FI> faceOf;  // mesh triangle -> patch triangle
+  bool hasFrontier = false;
+};
+
+std::unique_ptr<Patch> buildPatch(const Topology::Impl& I, const std::unordered_set<std::uint32_t>& faces) {
+  const Mesh& m = I.mesh;
+  auto P = std::make_unique<Patch>();
+  std::vector<std::uint32_t> sorted(faces.begin(), faces.end());
+  std::sort(sorted.begin(), sorted.end());
+  std::unordered_map<std::uint64_t, VI> corner;  // (mesh face, mesh vertex) -> patch vertex
+  std::unordered_set<std::uint32_t> seen;
+  std::vector<HI> hs;
+  auto addVertex = [&](VI v, bool onFrontier) {
+    VI pv = P->impl.newFreePoint(m.point(v));
+    P->toMesh.push_back(v);
+    P->frontier.push_back(onFrontier ? 1 : 0);
+    return pv;
+  };
+  for (std::uint32_t fi : sorted) {
+    HI fh = m.halfedge(FI(fi));
+    for (VI v : {m.source(fh), m.target(fh), m.target(m.next(fh))}) {
+      if (!seen.insert(v.idx()).second) continue;
+      I.incomingHalfedges(v, hs);
+      std::vector<char> in(hs.size());
+      bool onFrontier = false;
+      for (std::size_t k = 0; k < hs.size(); ++k) {
+        FI f = m.face(hs[k]);
+        in[k] = f.is_valid() && faces.count(f.idx()) ? 1 : 0;
+        if (f.is_valid() && !in[k]) onFrontier = true;
+      }
+      if (!onFrontier) {
+        VI pv = addVertex(v, false);
+        for (std::size_t k = 0; k < hs.size(); ++k)
+          if (in[k]) corner[Topology::Impl::faceVertexKey(m.face(hs[k]), v)] = pv;
+        continue;
+      }
+      // One copy per run of consecutive patch triangles around v (consecutive ones share an edge).
+      P->hasFrontier = true;
+      std::size_t n = hs.size(), gap = 0;
+      while (in[gap]) ++gap;  // a frontier vertex has a triangle outside the patch
+      VI pv;
+      for (std::size_t s = 1; s <= n; ++s) {
+        std::size_t k = (gap + s) % n;
+        if (!in[k]) continue;
+        if (!in[(k + n - 1) % n]) pv = addVertex(v, true);
+        corner[Topology::Impl::faceVertexKey(m.face(hs[k]), v)] = pv;
+      }
+    }
+  }
+  std::vector<std::array<VI, 3>> tris;
+  for (std::uint32_t fi : sorted) {
+    HI fh = m.halfedge(FI(fi));
+    std::array<VI, 3> t;
+    int k = 0;
+    for (VI v : {m.source(fh), m.target(fh), m.target(m.next(fh))})
+      t[std::size_t(k++)] = corner.at(Topology::Impl::faceVertexKey(FI(fi), v));
+    tris.push_back(t);
+  }
+  std::vector<FI> made = P->impl.attachFaces(tris);
+  for (std::size_t k = 0; k < sorted.size(); ++k) P->faceOf[sorted[k]] = made[k];
+  P->impl.begin("cutPolyline (plan)");  // the splits below journal as in the mesh; never committed
+  return P;
+}
+
+/// Adds every triangle around a vertex of the given triangles.
+void growByOneRing(const Topology::Impl& I, std::unordered_set<std::uint32_t>& faces) {
+  const Mesh& m = I.mesh;
+  std::vector<std::uint32_t> current(faces.begin(), faces.end());
+  std::unordered_set<std::uint32_t> done;
+  std::vector<HI> hs;
+  for (std::uint32_t fi : current) {
+    HI fh = m.halfedge(FI(fi));
+    for (VI v : {m.source(fh), m.target(fh), m.target(m.next(fh))}) {
+      if (!done.insert(v.idx()).second) continue;
+      I.incomingHalfedges(v, hs);
+      for (HI h : hs)
+        if (m.face(h).is_valid()) faces.insert(m.face(h).idx());
+    }
+  }
+}
+
+/// The location of mesh location `l` in the patch.
+Location inPatch(const Patch& P, const Mesh& m, const Location& l) {
+  FI pf = P.faceOf.at(l.face.idx());
+  const Mesh& pm = P.impl.mesh;
+  HI fh = m.halfedge(l.face), ph = pm.halfedge(pf);
+  std::array<VI, 3> mv{m.source(fh), m.target(fh), m.target(m.next(fh))};
+  std::array<VI, 3> pv{pm.source(ph), pm.target(ph), pm.target(pm.next(ph))};
+  Location out{pf, {}};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (P.toMesh[pv[std::size_t(i)].idx()] == mv[std::size_t(j)]) out.bary[std::size_t(i)] = l.bary[std::size_t(j)];
+  return out;
+}
+
+/// The polyline with its two ends moved onto the nearest vertex within snap (in barycentric
+/// terms, as the walk snaps), else onto the nearest edge within snap, of the triangle each lies in.
+std::vector<Point3> snapEnds(Topology::Impl& I, std::vector<Point3> poly, double snap) {
+  Walker walker(I, snap);
+  for (std::size_t end : {std::size_t(0), poly.size() - 1}) {
+    Location l = walker.locate(poly[end], end);
+    auto c = corners(I.mesh, l.face);
+    int vertex = -1, edge = -1;
+    for (int k = 0; k < 3; ++k)
+      if (l.bary[std::size_t(k)] >= 1.0 - snap) vertex = k;
+    for (int j = 0; j < 3; ++j)
+      if (l.bary[std::size_t(j)] <= snap && (edge < 0 || l.bary[std::size_t(j)] < l.bary[std::size_t(edge)]))
+        edge = j;
+    if (vertex >= 0) {
+      poly[end] = c[std::size_t(vertex)];
+    } else if (edge >= 0) {
+      std::array<double, 3> b = l.bary;
+      b[std::size_t(edge)] = 0.0;
+      const double sum = b[0] + b[1] + b[2];
+      for (double& x : b) x /= sum;
+      poly[end] = fromBary(c, b);
+    }
+  }
+  return poly;
+}
 
 }  // namespace
 
@@ -476,19 +641,92 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
         throw TopologyError("cutPolyline: the polyline crosses itself (segments " + std::to_string(i) +
                             " and " + std::to_string(j) + "); cut it as separate polylines");
     }
-  Walker walker(I, options.snapTolerance);
-  walker.check(poly);  // throws before anything changes
+  {
+    Walker checker(I, options.snapTolerance);
+    checker.check(poly);  // throws before anything changes
+  }
 
+  // Plan the inserting walk on a patch around the checked walk, growing the patch until the walk
+  // stays inside. First with the polyline's ends snapped (onto a vertex, else an edge, within the
+  // tolerance, the border included) so that no sliver is left next to an end; if that variant
+  // leaves the surface or cannot be inserted, with the polyline as given. A request for which no
+  // plan succeeds is rejected before the mesh changes.
+  std::unique_ptr<Patch> patch;
+  std::vector<VI> planned;
+  std::optional<Walker> planner;
+  std::string failure;
+  auto plan = [&](const std::vector<Point3>& line) {
+    Walker walker(I, options.snapTolerance);
+    walker.check(line);
+    std::unordered_set<std::uint32_t> faces;
+    for (FI f : walker.corridor) faces.insert(f.idx());
+    growByOneRing(I, faces);
+    while (true) {
+      patch = buildPatch(I, faces);
+      planner.emplace(patch->impl, options.snapTolerance);
+      planner->setFrontier(&patch->frontier);
+      try {
+        planned = planner->insert(line, inPatch(*patch, I.mesh, walker.start));
+        return;
+      } catch (const PatchTooSmall&) {
+        if (!patch->hasFrontier) throw TopologyError("internal error: cutPolyline's patch cannot grow");
+        growByOneRing(I, faces);
+      }
+    }
+  };
+  bool done = false;
+  std::vector<Point3> snapped = snapEnds(I, poly, options.snapTolerance);
+  if (snapped != poly && !(snapped.size() == 2 && snapped[0] == snapped[1])) {
+    try {
+      plan(snapped);
+      done = true;
+    } catch (const TopologyError&) {  // fall back to the polyline as given
+    }
+  }
+  if (!done) {
+    try {
+      plan(poly);
+    } catch (const TopologyError& e) {
+      throw TopologyError("cutPolyline: the cut cannot be inserted with snapTolerance " +
+                          std::to_string(options.snapTolerance) + ": " + e.what() +
+                          "; nothing was changed (another snapTolerance may succeed)");
+    }
+  }
+
+  // Replay the plan on the mesh: the same splits, in the same order.
   I.begin("cutPolyline");
   IncisionResult result;
   std::vector<VI> path;
+  std::vector<PointId> inserted;
   try {
-    path = walker.insert(poly);
+    std::unordered_map<std::uint32_t, VI> toMesh;  // patch vertex -> mesh vertex
+    auto mapped = [&](VI pv) {
+      if (pv.idx() < patch->toMesh.size()) return patch->toMesh[pv.idx()];
+      return toMesh.at(pv.idx());
+    };
+    for (const PlannedSplit& s : planner->plan) {
+      VI v;
+      if (s.onEdge) {
+        VI a = mapped(s.a), b = mapped(s.b);
+        HI h = I.findHalfedge(a, b);
+        if (!h.is_valid()) throw TopologyError("internal error: cutPolyline's plan lost an edge");
+        v = I.splitEdgeNoTxn(I.mesh.edge(h), a, s.u);
+      } else {
+        std::array<VI, 3> c{mapped(s.corners[0]), mapped(s.corners[1]), mapped(s.corners[2])};
+        HI h = I.findHalfedge(c[0], c[1]);
+        if (!h.is_valid() || !I.mesh.face(h).is_valid() || I.mesh.target(I.mesh.next(h)) != c[2])
+          throw TopologyError("internal error: cutPolyline's plan lost a triangle");
+        v = I.splitFaceNoTxn(I.mesh.face(h), c, s.weights);
+      }
+      toMesh[s.created.idx()] = v;
+      inserted.push_back(PointId(v.idx()));
+    }
+    for (VI pv : planned) path.push_back(mapped(pv));
   } catch (...) {
     I.commit(*this);  // the mesh is valid: announce what was done, then report
     throw;
   }
-  result.insertedPoints = walker.inserted;
+  result.insertedPoints = inserted;
   if (path.size() >= 2) {
     std::vector<PointId> ins = result.insertedPoints;
     I.inciseNoTxn(path, result);

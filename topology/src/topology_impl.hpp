@@ -105,6 +105,9 @@ struct Topology::Impl {
   // operations used by several public ones
   VI splitEdgeNoTxn(EI e, VI from, double t);
   VI splitFaceNoTxn(FI f, const std::array<double, 3>& bary);
+  /// As above, the new point weighting f's corners listed in `corners` (any order) by `weights`,
+  /// summed in that order.
+  VI splitFaceNoTxn(FI f, const std::array<VI, 3>& corners, const std::array<double, 3>& weights);
   void inciseNoTxn(std::vector<VI> path, IncisionResult& result);
 
   static std::uint64_t faceVertexKey(FI f, VI v) {

@@ -135,7 +135,15 @@ VI Topology::Impl::splitEdgeNoTxn(EI e, VI from, double t) {
 
 VI Topology::Impl::splitFaceNoTxn(FI f, const std::array<double, 3>& bary) {
   TriangleVertices t = verticesOf(f);
-  VI m = newPoint({{t[0], bary[0]}, {t[1], bary[1]}, {t[2], bary[2]}});
+  return splitFaceNoTxn(f, {VI(t[0]), VI(t[1]), VI(t[2])}, bary);
+}
+
+VI Topology::Impl::splitFaceNoTxn(FI f, const std::array<VI, 3>& corners,
+                                  const std::array<double, 3>& weights) {
+  TriangleVertices t = verticesOf(f);
+  VI m = newPoint({{PointId(corners[0].idx()), weights[0]},
+                   {PointId(corners[1].idx()), weights[1]},
+                   {PointId(corners[2].idx()), weights[2]}});
   detachFace(f);
   VI a(t[0]), b(t[1]), c(t[2]);
   attachFaces({{a, b, m}, {b, c, m}, {c, a, m}});

@@ -48,7 +48,9 @@ struct IncisionResult {
 /// Options of cutPolyline.
 struct CutOptions {
   /// A crossing closer than snapTolerance * (local edge length) to a vertex (or, for a corner of
-  /// the polyline, to an edge) snaps to it, so that the cut leaves no sliver triangles.
+  /// the polyline, to an edge) snaps to it, so that the cut leaves no sliver triangles. The
+  /// polyline's ends snap likewise, onto the border too (a cut ending just inside it reaches it);
+  /// elsewhere snapping never moves the path onto the border.
   double snapTolerance = 0.1;
 };
 
@@ -128,7 +130,9 @@ class Topology {
   /// Separates the two triangles across an interior edge, opening the mesh there.
   IncisionResult tear(EdgeId e);
   /// Cuts along a polyline given in rest coordinates, from a surface point to a surface point:
-  /// inserts the path (splitting crossed edges and triangles, snapping), then incises it.
+  /// inserts the path (splitting crossed edges and triangles, snapping), then incises it. The
+  /// insertion is planned on a copy of the triangles around the cut first: a request that cannot
+  /// be carried out throws TopologyError and changes nothing.
   IncisionResult cutPolyline(std::span<const Vec3> polyline, const CutOptions& options = {});
   /// Renumbers every element densely and emits renumbering events (old -> new).
   void compact();
