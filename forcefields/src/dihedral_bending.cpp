@@ -9,14 +9,18 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "hinge_table_impl.hpp"
+
 namespace cutsim::forcefields {
+
+template class detail::HingeTable<DihedralBending, detail::DihedralHingeTraits>;
+
 namespace {
 
-using topology::kInvalidIndex;
+using detail::edgeName;
 using topology::Topology;
 using topology::Vec3;
 
-constexpr std::uint32_t kStatusBase = 0xFFFFFFF0u;
 constexpr double kPi = std::numbers::pi;
 
 /// Rest wing heights at or below this fraction of the edge length make a sliver: no hinge.
@@ -25,20 +29,6 @@ constexpr double kRelativeRestHeight = 1e-8;
 constexpr double kRelativeCurrentHeight2 = 1e-24;
 /// Rest coordinates beyond this are not representable (squares of cross products would overflow).
 constexpr double kMaxCoordinate = 1e60;
-
-constexpr std::uint32_t encode(DihedralStatus s) {
-  return kStatusBase + static_cast<std::uint32_t>(s);
-}
-constexpr bool isHingeSlot(std::uint32_t code) {
-  return code < kStatusBase;
-}
-constexpr DihedralStatus decode(std::uint32_t code) {
-  return static_cast<DihedralStatus>(code - kStatusBase);
-}
-
-std::string edgeName(EdgeId e) {
-  return "edge " + std::to_string(e);
-}
 
 inline double dot(const double* a, const double* b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -197,10 +187,7 @@ DihedralRecord dihedralHinge(const Vec3& a, const Vec3& b, const Vec3& c, const 
 DihedralBending::DihedralBending(Topology& topology, DihedralBendingParameters parameters)
     : topology_(&topology), params_(parameters) {
   params_.validate();
-  const std::vector<DihedralRecord> records = buildFromScratch(topology, params_);
-  edgeSlot_.assign(topology.edgeCapacity(), encode(DihedralStatus::DeadEdge));
-  for (const DihedralRecord& r : records) setEdge(r.edge, r);
-  subscription_ = topology.subscribe(*this);
+  attach(topology);
 }
 
 DihedralBending::~DihedralBending() = default;
@@ -209,125 +196,33 @@ DihedralRecord DihedralBending::hingeFromMesh(const Topology& t, EdgeId e,
                                               const DihedralBendingParameters& p) {
   DihedralRecord r;
   r.edge = e;
-  const std::array<TriangleId, 2> tris = t.edgeTriangles(e);
-  if (tris[0] == kInvalidIndex || tris[1] == kInvalidIndex) {
+  const auto vid = detail::hingeVertices(t, e);
+  if (!vid) {
     r.status = DihedralStatus::NoHinge;
     return r;
   }
-  const topology::EdgeVertices ev = t.edgeVertices(e);
-  const std::array<PointId, 4> vid{t.oppositeVertex(tris[0], e), t.oppositeVertex(tris[1], e),
-                                   ev[0], ev[1]};
-  DihedralRecord h = dihedralHinge(t.restPosition(vid[0]), t.restPosition(vid[1]),
-                                   t.restPosition(vid[2]), t.restPosition(vid[3]), p);
+  DihedralRecord h = dihedralHinge(t.restPosition((*vid)[0]), t.restPosition((*vid)[1]),
+                                   t.restPosition((*vid)[2]), t.restPosition((*vid)[3]), p);
   h.edge = e;
-  if (h.status == DihedralStatus::Active) h.vertices = vid;
+  if (h.status == DihedralStatus::Active) h.vertices = *vid;
   return h;
 }
 
 std::vector<DihedralRecord> DihedralBending::buildFromScratch(const Topology& topology,
                                                               const DihedralBendingParameters& p) {
-  std::vector<DihedralRecord> records;
-  const std::vector<EdgeId> edges = topology.edges();
-  records.reserve(edges.size());
-  for (EdgeId e : edges) records.push_back(hingeFromMesh(topology, e, p));
-  return records;
+  return detail::recordPerLiveEdge(topology,
+                                   [&](EdgeId e) { return hingeFromMesh(topology, e, p); });
 }
 
-void DihedralBending::countStatus(DihedralStatus s, int delta) {
-  auto bump = [delta](std::size_t& c) {
-    c = static_cast<std::size_t>(static_cast<long long>(c) + delta);
-  };
-  switch (s) {
-    case DihedralStatus::Active:
-      bump(counters_.active);
-      break;
-    case DihedralStatus::ShortEdge:
-      bump(counters_.shortEdge);
-      break;
-    case DihedralStatus::SmallHeight:
-      bump(counters_.smallHeight);
-      break;
-    case DihedralStatus::Unrepresentable:
-      bump(counters_.unrepresentable);
-      break;
-    case DihedralStatus::NoHinge:
-      bump(counters_.noHinge);
-      break;
-    case DihedralStatus::DeadEdge:
-      break;
-  }
-}
-
-void DihedralBending::ensureEdgeSlots(std::size_t n) {
-  if (edgeSlot_.size() < n) edgeSlot_.resize(n, encode(DihedralStatus::DeadEdge));
-}
-
-void DihedralBending::removeHinge(std::uint32_t slot) {
-  const std::uint32_t last = static_cast<std::uint32_t>(hinges_.size() - 1);
-  if (slot != last) {
-    hinges_[slot] = hinges_[last];
-    hingeEdge_[slot] = hingeEdge_[last];
-    edgeSlot_[hingeEdge_[slot]] = slot;
-  }
-  hinges_.pop_back();
-  hingeEdge_.pop_back();
-}
-
-void DihedralBending::setEdge(EdgeId e, const DihedralRecord& r) {
-  if (e >= kStatusBase) throw std::length_error("DihedralBending: edge id too large");
-  ensureEdgeSlots(static_cast<std::size_t>(e) + 1);
-  const std::uint32_t old = edgeSlot_[e];
-  const bool wasActive = isHingeSlot(old);
-  countStatus(wasActive ? DihedralStatus::Active : decode(old), -1);
-  countStatus(r.status, +1);
-  if (r.status != DihedralStatus::Active) {
-    if (wasActive) removeHinge(old);
-    edgeSlot_[e] = encode(r.status);
-    return;
-  }
-  const DihedralHinge h{
+DihedralHinge DihedralBending::toEntry(const DihedralRecord& r) {
+  return DihedralHinge{
       {r.vertices[0], r.vertices[1], r.vertices[2], r.vertices[3]}, r.coefficient, r.restAngle};
-  if (wasActive) {
-    hinges_[old] = h;
-    return;
-  }
-  if (hinges_.size() >= kStatusBase) throw std::length_error("DihedralBending: too many hinges");
-  edgeSlot_[e] = static_cast<std::uint32_t>(hinges_.size());
-  hinges_.push_back(h);
-  hingeEdge_.push_back(e);
 }
 
-void DihedralBending::recomputeEdge(const Topology& t, EdgeId e) {
-  if (!t.isEdgeAlive(e)) return;  // its destruction event follows
-  setEdge(e, hingeFromMesh(t, e, params_));
-}
-
-DihedralRecord DihedralBending::hinge(EdgeId e) const {
-  DihedralRecord r;
-  r.edge = e;
-  if (e >= edgeSlot_.size()) {
-    r.status = DihedralStatus::DeadEdge;
-    return r;
-  }
-  const std::uint32_t code = edgeSlot_[e];
-  if (!isHingeSlot(code)) {
-    r.status = decode(code);
-    return r;
-  }
-  const DihedralHinge& h = hinges_[code];
-  r.status = DihedralStatus::Active;
+void DihedralBending::fillRecord(const DihedralHinge& h, DihedralRecord& r) const {
   r.vertices = {h.v[0], h.v[1], h.v[2], h.v[3]};
   r.coefficient = h.coefficient;
   r.restAngle = h.restAngle;
-  return r;
-}
-
-std::vector<DihedralRecord> DihedralBending::records() const {
-  std::vector<DihedralRecord> out;
-  for (EdgeId e = 0; e < edgeSlot_.size(); ++e) {
-    if (edgeSlot_[e] != encode(DihedralStatus::DeadEdge)) out.push_back(hinge(e));
-  }
-  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -346,7 +241,7 @@ void DihedralBending::addForce(std::span<const double> x, std::span<const double
                                std::span<double> f) const {
   checkSize(x, "addForce");
   checkSize(f, "addForce");
-  for (const DihedralHinge& h : hinges_) {
+  for (const DihedralHinge& h : entries()) {
     hingeForce(x.data(), f.data(), h.v, h.coefficient, h.restAngle);
   }
 }
@@ -361,7 +256,7 @@ void DihedralBending::addDForce(std::span<const double> x, std::span<const doubl
   const double* xp = x.data();
   const double* dxp = dx.data();
   double* dfp = df.data();
-  for (const DihedralHinge& h : hinges_) {
+  for (const DihedralHinge& h : entries()) {
     double theta, g[12];
     if (!hingeGeometry(at(xp, h.v[0]), at(xp, h.v[1]), at(xp, h.v[2]), at(xp, h.v[3]), theta, g)) {
       continue;
@@ -382,7 +277,7 @@ double DihedralBending::potentialEnergy(std::span<const double> x) const {
   checkSize(x, "potentialEnergy");
   const double* xp = x.data();
   double e = 0.0;
-  for (const DihedralHinge& h : hinges_) {
+  for (const DihedralHinge& h : entries()) {
     double theta, g[12];
     hingeGeometry(at(xp, h.v[0]), at(xp, h.v[1]), at(xp, h.v[2]), at(xp, h.v[3]), theta, g);
     const double d = wrapped(theta, h.restAngle);
@@ -394,7 +289,7 @@ double DihedralBending::potentialEnergy(std::span<const double> x) const {
 std::size_t DihedralBending::numDegenerateAt(std::span<const double> x) const {
   checkSize(x, "numDegenerateAt");
   std::size_t n = 0;
-  for (const DihedralHinge& h : hinges_) {
+  for (const DihedralHinge& h : entries()) {
     double theta, g[12];
     const double* xp = x.data();
     if (!hingeGeometry(at(xp, h.v[0]), at(xp, h.v[1]), at(xp, h.v[2]), at(xp, h.v[3]), theta, g)) {
@@ -432,7 +327,7 @@ void assemble(std::span<const DihedralHinge> hinges, const double* x, MatrixAccu
 void DihedralBending::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
                                    double kFactor) const {
   checkSize(x, "addKToMatrix");
-  assemble(hinges_, x.data(), m, kFactor);
+  assemble(entries(), x.data(), m, kFactor);
 }
 
 void DihedralBending::addBToMatrix(std::span<const double> x, MatrixAccumulator& m,
@@ -440,12 +335,12 @@ void DihedralBending::addBToMatrix(std::span<const double> x, MatrixAccumulator&
   const double factor = bFactor * params_.rayleighStiffness;
   if (factor == 0.0) return;
   checkSize(x, "addBToMatrix");
-  assemble(hinges_, x.data(), m, factor);
+  assemble(entries(), x.data(), m, factor);
 }
 
 void DihedralBending::draw(std::vector<std::array<PointId, 2>>& segments) const {
-  segments.reserve(segments.size() + hinges_.size());
-  for (const DihedralHinge& h : hinges_) segments.push_back({h.v[0], h.v[1]});
+  segments.reserve(segments.size() + entries().size());
+  for (const DihedralHinge& h : entries()) segments.push_back({h.v[0], h.v[1]});
 }
 
 void DihedralBending::addForceOfRecords(std::span<const DihedralRecord> records,
@@ -459,125 +354,9 @@ void DihedralBending::addForceOfRecords(std::span<const DihedralRecord> records,
 }
 
 // ---------------------------------------------------------------------------------------------
-// Topology events (the same policy as FastTriangularBendingSprings, bending-springs.md section 6)
+// Validation (detail::HingeTable::validate): what is the model's own.
 
-void DihedralBending::onTrianglesDestroyed(const Topology& t,
-                                           const topology::TrianglesDestroyed& ev) {
-  for (const topology::TriangleEdges& te : ev.edges) {
-    for (EdgeId e : te) recomputeEdge(t, e);
-  }
-}
-
-void DihedralBending::onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& ev) {
-  for (EdgeId e : ev.edges) {
-    if (e >= edgeSlot_.size() || edgeSlot_[e] == encode(DihedralStatus::DeadEdge)) {
-      eventProblems_.push_back("edges destroyed: " + edgeName(e) + " was not in the table");
-      continue;
-    }
-    DihedralRecord dead;
-    dead.edge = e;
-    dead.status = DihedralStatus::DeadEdge;
-    setEdge(e, dead);
-  }
-}
-
-void DihedralBending::onEdgesCreated(const Topology& t, const topology::EdgesCreated& ev) {
-  ensureEdgeSlots(t.edgeCapacity());
-  for (EdgeId e : ev.edges) {
-    if (edgeSlot_[e] != encode(DihedralStatus::DeadEdge)) {
-      eventProblems_.push_back("edges created: " + edgeName(e) + " was already in the table");
-    }
-    DihedralRecord none;
-    none.edge = e;
-    none.status = DihedralStatus::NoHinge;
-    setEdge(e, none);
-  }
-}
-
-void DihedralBending::onTrianglesCreated(const Topology& t, const topology::TrianglesCreated& ev) {
-  ensureEdgeSlots(t.edgeCapacity());
-  for (const topology::TriangleEdges& te : ev.edges) {
-    for (EdgeId e : te) recomputeEdge(t, e);
-  }
-}
-
-void DihedralBending::onPointsRenumbered(const Topology&, const topology::Renumbering& ev) {
-  const std::span<const topology::Index> map = ev.oldToNew;
-  for (DihedralHinge& h : hinges_) {
-    for (std::uint32_t& v : h.v) {
-      const topology::Index n = v < map.size() ? map[v] : kInvalidIndex;
-      if (n == kInvalidIndex) {
-        eventProblems_.push_back("points renumbered: a hinge references dead point " +
-                                 std::to_string(v));
-      } else {
-        v = n;
-      }
-    }
-  }
-}
-
-void DihedralBending::onEdgesRenumbered(const Topology&, const topology::Renumbering& ev) {
-  std::vector<std::uint32_t> slots(ev.newSize, encode(DihedralStatus::DeadEdge));
-  for (std::size_t old = 0; old < edgeSlot_.size(); ++old) {
-    const topology::Index n = old < ev.oldToNew.size() ? ev.oldToNew[old] : kInvalidIndex;
-    if (n == kInvalidIndex || n >= ev.newSize) {
-      if (edgeSlot_[old] != encode(DihedralStatus::DeadEdge)) {
-        eventProblems_.push_back("edges renumbered: live " + edgeName(static_cast<EdgeId>(old)) +
-                                 " has no new index");
-      }
-      continue;
-    }
-    slots[n] = edgeSlot_[old];
-  }
-  std::vector<DihedralHinge> hinges;
-  std::vector<std::uint32_t> hingeEdge;
-  hinges.reserve(hinges_.size());
-  hingeEdge.reserve(hinges_.size());
-  for (EdgeId e = 0; e < slots.size(); ++e) {
-    if (!isHingeSlot(slots[e])) continue;
-    const std::uint32_t old = slots[e];
-    slots[e] = static_cast<std::uint32_t>(hinges.size());
-    hinges.push_back(hinges_[old]);
-    hingeEdge.push_back(e);
-  }
-  if (hinges.size() != hinges_.size()) {
-    eventProblems_.push_back("edges renumbered: hinges lost with their edges");
-  }
-  hinges_ = std::move(hinges);
-  hingeEdge_ = std::move(hingeEdge);
-  edgeSlot_ = std::move(slots);
-  DihedralCounters c;
-  for (const std::uint32_t code : edgeSlot_) {
-    if (isHingeSlot(code)) {
-      ++c.active;
-      continue;
-    }
-    switch (decode(code)) {
-      case DihedralStatus::ShortEdge:
-        ++c.shortEdge;
-        break;
-      case DihedralStatus::SmallHeight:
-        ++c.smallHeight;
-        break;
-      case DihedralStatus::Unrepresentable:
-        ++c.unrepresentable;
-        break;
-      case DihedralStatus::NoHinge:
-        ++c.noHinge;
-        break;
-      default:
-        break;
-    }
-  }
-  counters_ = c;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Validation against a rebuild
-
-namespace {
-
-std::string describeRecord(const DihedralRecord& r) {
+std::string DihedralBending::describe(const DihedralRecord& r) {
   std::ostringstream os;
   os.precision(17);
   os << edgeName(r.edge) << " [" << toString(r.status);
@@ -590,7 +369,7 @@ std::string describeRecord(const DihedralRecord& r) {
 }
 
 /// The same hinge up to the labelling (A, C) <-> (B, D), which leaves theta unchanged.
-bool sameHinge(const DihedralRecord& a, const DihedralRecord& b) {
+bool DihedralBending::sameHinge(const DihedralRecord& a, const DihedralRecord& b) {
   if (a.status != b.status) return false;
   if (a.status != DihedralStatus::Active) return true;
   const auto& u = a.vertices;
@@ -605,102 +384,18 @@ bool sameHinge(const DihedralRecord& a, const DihedralRecord& b) {
          close(a.restAngle, b.restAngle, 1.0);
 }
 
-}  // namespace
-
-void DihedralBending::validate(const Topology& topology, std::vector<std::string>& problems) const {
-  const std::string who = "DihedralBending: ";
-  const std::size_t before = problems.size();
-  for (const std::string& p : eventProblems_) problems.push_back(who + p);
-  if (hinges_.size() != hingeEdge_.size()) {
-    problems.push_back(who + "hinges and their edge back-references differ in size");
-    return;
-  }
-  for (std::size_t s = 0; s < hinges_.size(); ++s) {
-    const std::uint32_t e = hingeEdge_[s];
-    if (e >= edgeSlot_.size() || edgeSlot_[e] != s) {
-      problems.push_back(who + "hinge " + std::to_string(s) + " of " + edgeName(e) +
-                         " is not what the edge map points to");
-    }
-  }
-  if (edgeSlot_.size() < topology.edgeCapacity()) {
-    problems.push_back(who + "the table has " + std::to_string(edgeSlot_.size()) +
-                       " edge slots, the topology " + std::to_string(topology.edgeCapacity()));
-  }
-  for (EdgeId e = 0; e < edgeSlot_.size(); ++e) {
-    const bool alive = e < topology.edgeCapacity() && topology.isEdgeAlive(e);
-    const bool inTable = edgeSlot_[e] != encode(DihedralStatus::DeadEdge);
-    if (alive != inTable) {
-      problems.push_back(who + edgeName(e) +
-                         (alive ? " is alive but dead in the table" : " is dead but in the table"));
-    }
-  }
-  const std::vector<DihedralRecord> ref = buildFromScratch(topology, params_);
-  DihedralCounters rc;
-  for (const DihedralRecord& r : ref) {
-    switch (r.status) {
-      case DihedralStatus::Active:
-        ++rc.active;
-        break;
-      case DihedralStatus::ShortEdge:
-        ++rc.shortEdge;
-        break;
-      case DihedralStatus::SmallHeight:
-        ++rc.smallHeight;
-        break;
-      case DihedralStatus::Unrepresentable:
-        ++rc.unrepresentable;
-        break;
-      case DihedralStatus::NoHinge:
-        ++rc.noHinge;
-        break;
-      case DihedralStatus::DeadEdge:
-        break;
-    }
-    const DihedralRecord mine = hinge(r.edge);
-    if (!sameHinge(mine, r)) {
-      problems.push_back(who + "table has " + describeRecord(mine) + ", a rebuild gives " +
-                         describeRecord(r));
-    }
-  }
-  if (!(rc == counters_)) {
-    problems.push_back(who + "counters differ from a rebuild (active " +
-                       std::to_string(counters_.active) + " vs " + std::to_string(rc.active) +
-                       ", degenerate " + std::to_string(counters_.degenerate()) + " vs " +
-                       std::to_string(rc.degenerate()) + ")");
-  }
-  const Index cap = topology.pointCapacity();
-  for (std::size_t s = 0; s < hinges_.size(); ++s) {
-    for (std::uint32_t v : hinges_[s].v) {
-      if (v >= cap || !topology.isPointAlive(v)) {
-        problems.push_back(who + "hinge of " + edgeName(hingeEdge_[s]) + " references dead point " +
-                           std::to_string(v));
-      }
-    }
-  }
-  if (problems.size() != before) return;
-  // The same forces on a random non-flat x (rest positions plus noise).
+/// Rest positions plus noise: a random non-flat x.
+void DihedralBending::fillValidationPositions(const Topology& topology, std::span<double> x) const {
   std::mt19937_64 rng(12345);
   std::uniform_real_distribution<double> dist(-0.1, 0.1);
-  std::vector<double> x(3 * static_cast<std::size_t>(cap), 0.0);
   for (PointId p : topology.points()) {
     const Vec3 r = topology.restPosition(p);
     for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k] * (1.0 + dist(rng)) + dist(rng);
   }
-  std::vector<double> f(x.size(), 0.0), fRef(x.size(), 0.0);
+}
+
+void DihedralBending::addTableForces(std::span<const double> x, std::span<double> f) const {
   addForce(x, x, f);
-  addForceOfRecords(ref, x, fRef);
-  double scale = 0.0, diff = 0.0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    scale = std::max(scale, std::fabs(fRef[i]));
-    diff = std::max(diff, std::fabs(f[i] - fRef[i]));
-  }
-  if (diff > 1e-10 * std::max(scale, 1e-300)) {
-    std::ostringstream os;
-    os.precision(3);
-    os << who << "forces on a random x differ from a rebuild's by " << diff << " (max force "
-       << scale << ")";
-    problems.push_back(os.str());
-  }
 }
 
 }  // namespace cutsim::forcefields

@@ -46,6 +46,7 @@
 #include <string_view>
 #include <vector>
 
+#include "cutsim/forcefields/detail/hinge_table.hpp"
 #include "cutsim/forcefields/force_field.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
@@ -116,7 +117,52 @@ DihedralRecord dihedralHinge(const topology::Vec3& a, const topology::Vec3& b,
                              const topology::Vec3& c, const topology::Vec3& d,
                              const DihedralBendingParameters& parameters);
 
-class DihedralBending : public ForceField, public topology::TopologyObserver {
+namespace detail {
+
+/// What the hinge table of DihedralBending stores and counts (detail/hinge_table.hpp).
+struct DihedralHingeTraits {
+  using Entry = DihedralHinge;
+  using Record = DihedralRecord;
+  using Status = DihedralStatus;
+  using Counters = DihedralCounters;
+  using Counter = std::size_t DihedralCounters::*;
+
+  static constexpr Counter counter(DihedralStatus s) {
+    switch (s) {
+      case DihedralStatus::Active:
+        return &DihedralCounters::active;
+      case DihedralStatus::ShortEdge:
+        return &DihedralCounters::shortEdge;
+      case DihedralStatus::SmallHeight:
+        return &DihedralCounters::smallHeight;
+      case DihedralStatus::Unrepresentable:
+        return &DihedralCounters::unrepresentable;
+      case DihedralStatus::NoHinge:
+        return &DihedralCounters::noHinge;
+      case DihedralStatus::DeadEdge:
+        break;
+    }
+    return nullptr;
+  }
+  static constexpr std::string_view kName = "DihedralBending";
+  static constexpr std::string_view kNoun = "hinge";
+  static constexpr std::string_view kNouns = "hinges";
+  static constexpr std::string_view kDeadButInTable = " is dead but in the table";
+  static constexpr bool kChecksEntryCount = false;
+  /// No per-hinge flag.
+  static constexpr bool DihedralRecord::*kFlag = nullptr;
+  static constexpr Counter kFlagCounter = nullptr;
+  static constexpr std::string_view kFlagName = "";
+};
+
+}  // namespace detail
+
+/// The table and the events (hinge(e), counters(), numEdgeSlots(), the TopologyObserver handlers
+/// and validate()) come from detail::HingeTable, shared with FastTriangularBendingSprings; this
+/// class holds the model's own parts.
+class DihedralBending
+    : public ForceField,
+      public detail::HingeTable<DihedralBending, detail::DihedralHingeTraits> {
  public:
   /// Validates the parameters, builds the table once from the current mesh (rest positions from
   /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
@@ -126,7 +172,7 @@ class DihedralBending : public ForceField, public topology::TopologyObserver {
   ~DihedralBending() override;
 
   // ---- ForceField ----
-  std::string typeName() const override { return "DihedralBending"; }
+  std::string typeName() const override { return std::string(detail::DihedralHingeTraits::kName); }
   void addForce(std::span<const double> x, std::span<const double> v,
                 std::span<double> f) const override;
   /// df += (kFactor + bFactor rayleighStiffness) K_GN(x) dx (Gauss-Newton K: see the top).
@@ -139,31 +185,15 @@ class DihedralBending : public ForceField, public topology::TopologyObserver {
   /// One segment per active hinge, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
 
-  // ---- TopologyObserver ----
-  void onTrianglesDestroyed(const topology::Topology&,
-                            const topology::TrianglesDestroyed&) override;
-  void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
-  void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated&) override;
-  void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated&) override;
-  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
-  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering&) override;
-  std::string observerName() const override { return typeName(); }
-  /// Compares the table with buildFromScratch: statuses per edge, active hinges with the same
-  /// wings and edge ends (as sets), coefficient and rest angle (1e-12), the counters, and the
-  /// forces on a random non-flat x.
-  void validate(const topology::Topology& topology,
-                std::vector<std::string>& problems) const override;
-
-  // ---- the table ----
+  // ---- the table (its events are detail::HingeTable's) ----
+  // validate() compares the table with buildFromScratch: statuses per edge, active hinges with
+  // the same wings and edge ends (as sets), coefficient and rest angle (1e-12), the counters, and
+  // the forces on a random non-flat x.
   const DihedralBendingParameters& parameters() const { return params_; }
-  std::span<const DihedralHinge> activeHinges() const { return hinges_; }
-  std::size_t numActiveHinges() const { return hinges_.size(); }
-  /// The record of edge e (status DeadEdge for a dead slot or one beyond the table).
-  DihedralRecord hinge(EdgeId e) const;
+  std::span<const DihedralHinge> activeHinges() const { return entries(); }
+  std::size_t numActiveHinges() const { return entries().size(); }
   /// Records of every live edge of the table, ascending edge id.
-  std::vector<DihedralRecord> records() const;
-  const DihedralCounters& counters() const { return counters_; }
-  std::size_t numEdgeSlots() const { return edgeSlot_.size(); }
+  std::vector<DihedralRecord> records() const { return liveRecords(); }
   /// Hinges that are degenerate at x (no direction: no force, no stiffness there).
   std::size_t numDegenerateAt(std::span<const double> x) const;
 
@@ -178,21 +208,21 @@ class DihedralBending : public ForceField, public topology::TopologyObserver {
                                 std::span<double> f);
 
  private:
-  void setEdge(EdgeId e, const DihedralRecord& r);
-  void recomputeEdge(const topology::Topology& t, EdgeId e);
-  void ensureEdgeSlots(std::size_t n);
-  void removeHinge(std::uint32_t slot);
-  void countStatus(DihedralStatus s, int delta);
+  friend HingeTable;
+  // What detail::HingeTable asks of the field.
+  static DihedralHinge toEntry(const DihedralRecord& r);
+  void fillRecord(const DihedralHinge& h, DihedralRecord& r) const;
+  static bool sameHinge(const DihedralRecord& a, const DihedralRecord& b);
+  static std::string describe(const DihedralRecord& r);
+  void fillValidationPositions(const topology::Topology& topology, std::span<double> x) const;
+  void addTableForces(std::span<const double> x, std::span<double> f) const;
+
   void checkSize(std::span<const double> a, const char* what) const;
 
   const topology::Topology* topology_;
   DihedralBendingParameters params_;
-  std::vector<DihedralHinge> hinges_;     // compact, streamed by every pass
-  std::vector<std::uint32_t> hingeEdge_;  // hingeEdge_[s]: the edge of hinges_[s]
-  std::vector<std::uint32_t> edgeSlot_;   // index in hinges_, or kStatusBase + status
-  DihedralCounters counters_;
-  std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
-  topology::Subscription subscription_;
 };
+
+extern template class detail::HingeTable<DihedralBending, detail::DihedralHingeTraits>;
 
 }  // namespace cutsim::forcefields

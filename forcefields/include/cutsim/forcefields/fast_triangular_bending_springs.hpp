@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "cutsim/forcefields/detail/hinge_table.hpp"
 #include "cutsim/forcefields/force_field.hpp"
 #include "cutsim/forcefields/hinge_kernel.hpp"
 #include "cutsim/topology/events.hpp"
@@ -76,7 +77,53 @@ struct BendingSpring {
 };
 static_assert(sizeof(BendingSpring) == 40);
 
-class FastTriangularBendingSprings : public ForceField, public topology::TopologyObserver {
+namespace detail {
+
+/// What the hinge table of FastTriangularBendingSprings stores and counts (detail/hinge_table.hpp).
+struct BendingSpringTraits {
+  using Entry = BendingSpring;
+  using Record = HingeRecord;
+  using Status = HingeStatus;
+  using Counters = BendingCounters;
+  using Counter = std::size_t BendingCounters::*;
+
+  static constexpr Counter counter(HingeStatus s) {
+    switch (s) {
+      case HingeStatus::Active:
+        return &BendingCounters::activeSprings;
+      case HingeStatus::ShortWingDistance:
+        return &BendingCounters::shortWingDistance;
+      case HingeStatus::ShortEdge:
+        return &BendingCounters::shortEdge;
+      case HingeStatus::SmallHeight:
+        return &BendingCounters::smallHeight;
+      case HingeStatus::Unrepresentable:
+        return &BendingCounters::unrepresentable;
+      case HingeStatus::NoHinge:
+        return &BendingCounters::noHinge;
+      case HingeStatus::DeadEdge:
+        break;
+    }
+    return nullptr;
+  }
+  static constexpr std::string_view kName = "FastTriangularBendingSprings";
+  static constexpr std::string_view kNoun = "spring";
+  static constexpr std::string_view kNouns = "springs";
+  static constexpr std::string_view kDeadButInTable = " is dead but alive in the table";
+  static constexpr bool kChecksEntryCount = true;
+  /// The flag in the top bit of a spring's edge id: it fell back to the unsigned weights.
+  static constexpr bool HingeRecord::*kFlag = &HingeRecord::signedFallback;
+  static constexpr Counter kFlagCounter = &BendingCounters::signedFallbacks;
+  static constexpr std::string_view kFlagName = "fallbacks";
+};
+
+}  // namespace detail
+
+/// The table and the events (hinge(e), counters(), numEdgeSlots(), the TopologyObserver handlers
+/// and validate()) come from detail::HingeTable; this class holds the springs' own parts.
+class FastTriangularBendingSprings
+    : public ForceField,
+      public detail::HingeTable<FastTriangularBendingSprings, detail::BendingSpringTraits> {
  public:
   /// Validates the parameters, builds the table once from the current mesh (rest positions from
   /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
@@ -86,7 +133,7 @@ class FastTriangularBendingSprings : public ForceField, public topology::Topolog
   ~FastTriangularBendingSprings() override;
 
   // ---- ForceField ----
-  std::string typeName() const override { return "FastTriangularBendingSprings"; }
+  std::string typeName() const override { return std::string(detail::BendingSpringTraits::kName); }
   void addForce(std::span<const double> x, std::span<const double> v,
                 std::span<double> f) const override;
   void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
@@ -97,38 +144,21 @@ class FastTriangularBendingSprings : public ForceField, public topology::Topolog
   /// One segment per active spring, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
 
-  // ---- TopologyObserver (spec section 6) ----
-  void onTrianglesDestroyed(const topology::Topology&,
-                            const topology::TrianglesDestroyed&) override;
-  void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
-  void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed&) override;
-  void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated&) override;
-  void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated&) override;
-  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
-  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering&) override;
-  std::string observerName() const override { return typeName(); }
-  /// Compares the table with buildFromScratch on `topology`: statuses per edge, active hinges as
-  /// vertex sets with the same weight per vertex id and the same lambda (1e-12 relative), the
-  /// counters, and the forces on a random x.
-  void validate(const topology::Topology& topology,
-                std::vector<std::string>& problems) const override;
-
-  // ---- the table ----
+  // ---- the table (spec section 6: its events are detail::HingeTable's) ----
+  // validate() compares the table with buildFromScratch: statuses per edge, active hinges as
+  // vertex sets with the same weight per vertex id and the same lambda (1e-12 relative), the
+  // counters, and the forces on a random x. hinge(e) recovers alpha and lambda from the folded
+  // weights (to a few units of rounding).
   const BendingParameters& parameters() const { return params_; }
   /// The active springs, compact (their order changes with removals and compaction).
-  std::span<const BendingSpring> activeSprings() const { return springs_; }
-  std::size_t numActiveSprings() const { return springs_.size(); }
-  /// The record of edge e (status DeadEdge for a slot that is dead or beyond the table); alpha and
-  /// lambda are recovered from the folded weights (to a few units of rounding).
-  HingeRecord hinge(EdgeId e) const;
+  std::span<const BendingSpring> activeSprings() const { return entries(); }
+  std::size_t numActiveSprings() const { return entries().size(); }
   /// The record of active spring i (0 <= i < numActiveSprings()).
-  HingeRecord springRecord(std::size_t i) const;
+  HingeRecord springRecord(std::size_t i) const { return entryRecord(i); }
   /// Records of every live edge of the table, ascending edge id.
-  std::vector<HingeRecord> hinges() const;
-  const BendingCounters& counters() const { return counters_; }
+  std::vector<HingeRecord> hinges() const { return liveRecords(); }
   /// Bytes held by the table per edge slot (sizes, not capacities).
-  double bytesPerEdgeSlot() const;
-  std::size_t numEdgeSlots() const { return edgeSlot_.size(); }
+  using HingeTable::bytesPerEdgeSlot;
 
   /// The table built from scratch on the current mesh: one record per live edge, ascending id.
   static std::vector<HingeRecord> buildFromScratch(const topology::Topology& topology,
@@ -141,24 +171,22 @@ class FastTriangularBendingSprings : public ForceField, public topology::Topolog
                                 std::span<double> f);
 
  private:
-  void setEdge(EdgeId e, const HingeRecord& r, const std::array<double, 4>& folded);
-  void recomputeEdge(const topology::Topology& t, EdgeId e);
-  void ensureEdgeSlots(std::size_t n);
-  void removeSpring(std::uint32_t slot);
-  void countStatus(HingeStatus s, int delta);
+  friend HingeTable;
+  // What detail::HingeTable asks of the field.
+  static BendingSpring toEntry(const HingeRecord& r);
+  void fillRecord(const BendingSpring& s, HingeRecord& r) const;
+  static bool sameHinge(const HingeRecord& a, const HingeRecord& b);
+  static std::string describe(const HingeRecord& r);
+  void fillValidationPositions(const topology::Topology& topology, std::span<double> x) const;
+  void addTableForces(std::span<const double> x, std::span<double> f) const;
+
   void checkSizes(std::span<const double> a, std::span<const double> b, const char* what) const;
 
   const topology::Topology* topology_;
   BendingParameters params_;
-  // Hot: the active springs, streamed by every force pass.
-  std::vector<BendingSpring> springs_;
-  // springEdge_[s]: the edge of springs_[s], with kFallbackBit set if it fell back to unsigned.
-  std::vector<std::uint32_t> springEdge_;
-  // edgeSlot_[e]: index in springs_, or kStatusBase + status for an edge without a spring.
-  std::vector<std::uint32_t> edgeSlot_;
-  BendingCounters counters_;
-  std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
-  topology::Subscription subscription_;
 };
+
+extern template class detail::HingeTable<FastTriangularBendingSprings,
+                                         detail::BendingSpringTraits>;
 
 }  // namespace cutsim::forcefields
