@@ -3,7 +3,7 @@
 # Needs root (or sudo) when something is missing.
 set -euo pipefail
 packages=(build-essential cmake ninja-build ccache pkg-config
-          libeigen3-dev libcgal-dev libsuitesparse-dev libopenblas-dev
+          libeigen3-dev libcgal-dev libsuitesparse-dev libmetis-dev libopenblas-dev
           libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev)
 missing=()
 for p in "${packages[@]}"; do

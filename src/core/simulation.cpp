@@ -4,8 +4,8 @@
 //      (M (1 + h rM) - h B - (h^2 + h rK) K) dv = h (f0 + h K v0),
 //    f0 = F(x, v) + M g - rM M v + rK K v, solved by matrix-free conjugate gradients (Jacobi
 //    preconditioned, the diagonal gathered from the fields without assembly) or by CHOLMOD
-//    (supernodal Cholesky through Eigen's CholmodSupport) on the assembled matrix, whose symbolic
-//    analysis is kept until the sparsity pattern changes (a topology event, a new constraint).
+//    (supernodal Cholesky through Eigen's CholmodSupport) on the matrix assembled in place in a
+//    pattern kept, with its symbolic analysis, until the topology changes (system_matrix.hpp).
 // Constrained points (fixed, grasped, and points without mass) get a prescribed velocity change.
 #include "cutsim/core/simulation.hpp"
 
@@ -20,6 +20,7 @@
 
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
+#include "system_matrix.hpp"
 
 namespace cutsim::core {
 
@@ -83,10 +84,22 @@ SolverSettings::Kind parseSolverKind(std::string_view name) {
                                         "' (explicit, implicit-cg, implicit-cholmod)");
 }
 
+// Ordering policy of the CHOLMOD system's pattern (see step()).
+constexpr int kShortLivedPattern = 10;
+constexpr int kReorderAfter = 20;
+
 struct Simulation::Solver {
+  Solver() {
+    // The system matrix is numbered in a fill-reducing order already (METIS on the point graph).
+    cholmod.cholmod().nmethods = 1;
+    cholmod.cholmod().method[0].ordering = CHOLMOD_NATURAL;
+  }
   Vec warm;  // previous velocity change (CG warm start)
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
-  std::vector<int> outer, inner;  // the analysed pattern
+  SystemMatrix system;
+  std::uint64_t revision = 0;  // the topology's revision the pattern was built for
+  std::size_t numFields = 0;
+  int stepsOnPattern = 0;  // steps solved with the current pattern
   bool analysed = false;
 };
 
@@ -321,40 +334,39 @@ StepStats Simulation::step(double dt) {
       S.warm = dv;
     } else {
       auto& S = *solverImpl_;
-      forcefields::TripletAccumulator acc;
-      for (auto& fl : fields_) {
-        fl.field->addKToMatrix(xs, acc, -kFactor);
-        fl.field->addBToMatrix(xs, acc, -bFactor);
-      }
-      std::vector<Eigen::Triplet<double>> trip;
-      trip.reserve(acc.triplets().size() + std::size_t(N));
-      Vec rhs = b;
-      for (const auto& t : acc.triplets()) {
-        const bool rc = constrained[std::size_t(t.row()) / 3], cc = constrained[std::size_t(t.col()) / 3];
-        if (rc) continue;
-        if (cc) {
-          rhs[t.row()] -= t.value() * dv[t.col()];
-          continue;
+      SystemMatrix::Fields fl;
+      for (auto& field : fields_) fl.push_back(field.field.get());
+      // The pattern follows the topology and the list of fields; a field that adds a block
+      // outside it (it should not) gets the pattern rediscovered, once.
+      bool rebuild = !S.system.built() || S.revision != topology_->revision() ||
+                     S.numFields != fields_.size() || S.system.numSlots() != n;
+      // Nested dissection costs more to compute but factorises faster: worth it for a pattern
+      // that lasts. A pattern that lasted only a few steps (a progressive cut) is followed by
+      // minimum-degree ones, until one of those has lasted long enough to be worth reordering.
+      using Ordering = SystemMatrix::Ordering;
+      Ordering ordering = Ordering::NestedDissection;
+      if (rebuild && S.system.built() && S.stepsOnPattern < kShortLivedPattern) ordering = Ordering::MinimumDegree;
+      if (!rebuild && S.system.ordering() == Ordering::MinimumDegree && S.stepsOnPattern >= kReorderAfter)
+        rebuild = true;
+      if (rebuild) S.stepsOnPattern = 0;
+      ++S.stepsOnPattern;
+      std::vector<double> diagonalMass(n);
+      for (std::size_t p = 0; p < n; ++p) diagonalMass[p] = (1 + dt * rM) * ms[p];
+      for (int attempt = 0;; ++attempt) {
+        if (rebuild) {
+          S.system.build(fl, xs, n, ordering);
+          S.revision = topology_->revision();
+          S.numFields = fields_.size();
+          S.analysed = false;
         }
-        trip.push_back(t);
+        if (S.system.fill(fl, xs, kFactor, bFactor, diagonalMass)) break;
+        if (attempt > 0) throw SolverError("internal error: a force field's matrix blocks left the pattern it gave");
+        rebuild = true;
       }
-      for (std::size_t p = 0; p < n; ++p)
-        for (int c = 0; c < 3; ++c) {
-          const Eigen::Index i = Eigen::Index(3 * p + c);
-          trip.emplace_back(i, i, constrained[p] ? 1.0 : (1 + dt * rM) * ms[p]);
-          if (constrained[p]) rhs[i] = dv[i];
-        }
-      Eigen::SparseMatrix<double> A(N, N);
-      A.setFromTriplets(trip.begin(), trip.end());
-      A.makeCompressed();
-      const bool same = S.analysed && S.outer.size() == std::size_t(N + 1) &&
-                        std::equal(S.outer.begin(), S.outer.end(), A.outerIndexPtr()) &&
-                        S.inner.size() == std::size_t(A.nonZeros()) &&
-                        std::equal(S.inner.begin(), S.inner.end(), A.innerIndexPtr());
-      if (!same) {
-        S.cholmod.analyzePattern(A);
-        S.outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + N + 1);
-        S.inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+      const Vec rhs = S.system.eliminate(constrained, b, dv);
+      auto& A = S.system.matrix();
+      if (!S.analysed) {
+        S.cholmod.analyzePattern(A);  // keeps the fill-reducing order of the numbering
         S.analysed = true;
         stats.analysed = true;
       }
@@ -365,7 +377,7 @@ StepStats Simulation::step(double dt) {
           << "matrix (not positive definite): check the stiffness and damping parameters";
         throw SolverError(s.str());
       }
-      dv = S.cholmod.solve(rhs);
+      dv = S.system.toOriginal(S.cholmod.solve(rhs));
       Vec check;
       applyA(dv, check);
       Vec res = b - check;

@@ -116,6 +116,8 @@ bool Topology::isPointAlive(PointId p) const { return impl_->vertexAlive(VI(p));
 bool Topology::isEdgeAlive(EdgeId e) const { return impl_->edgeAlive(EI(e)); }
 bool Topology::isTriangleAlive(TriangleId t) const { return impl_->faceAlive(FI(t)); }
 
+std::uint64_t Topology::revision() const { return impl_->revision; }
+
 double Topology::garbageFraction() const {
   const Mesh& m = impl_->mesh;
   double slots = double(m.num_vertices() + m.num_edges() + m.num_faces());
@@ -610,6 +612,7 @@ void Topology::Impl::commit(Topology& self) {
   std::string op = operation;
   summary.operation = op;
   abortIfOpen();
+  ++revision;
 
   std::vector<TopologyObserver*> obs = registry->observers;
   if (obs.empty()) return;
@@ -659,6 +662,7 @@ void Topology::compact() {
   for (std::size_t i = 0; i < nE; ++i) edead[i] = m.is_removed(EI(Index(i)));
   for (std::size_t i = 0; i < nF; ++i) fdead[i] = m.is_removed(FI(Index(i)));
   m.collect_garbage(visitor);
+  ++I.revision;
   for (std::size_t i = 0; i < nV; ++i) if (vdead[i]) vmap[i] = kInvalidIndex;
   for (std::size_t i = 0; i < nE; ++i) if (edead[i]) emap[i] = kInvalidIndex;
   for (std::size_t i = 0; i < nF; ++i) if (fdead[i]) fmap[i] = kInvalidIndex;

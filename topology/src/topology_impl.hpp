@@ -53,6 +53,7 @@ struct Topology::Impl {
   Mesh mesh;
   std::shared_ptr<Subscription::Registry> registry = std::make_shared<Subscription::Registry>();
   TriangleGrid grid;
+  std::uint64_t revision = 0;  // see Topology::revision()
 
   // ---- the open transaction (journal) ----
   bool open = false;

@@ -85,6 +85,9 @@ class Topology {
   bool isTriangleAlive(TriangleId t) const;
   /// Fraction of dead slots over all slots (points, edges, triangles together).
   double garbageFraction() const;
+  /// Increases with every transaction that changes the mesh and with every compaction (for
+  /// caches of what depends on the connectivity, such as a solver's sparsity pattern).
+  std::uint64_t revision() const;
 
   // ---- geometry (rest configuration: material coordinates) ----
   Vec3 restPosition(PointId p) const;
