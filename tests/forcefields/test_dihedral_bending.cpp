@@ -4,64 +4,37 @@
 // topology sequences.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <iostream>
 #include <limits>
 #include <memory>
 #include <numbers>
-#include <random>
-#include <sstream>
 
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
+#include "support/random_ops.hpp"
 
 namespace cutsim::forcefields {
 namespace {
 
-using topology::kInvalidIndex;
+using test::SequenceCase;
 using topology::MeshData;
 using topology::Topology;
 using topology::Vec3;
 
 constexpr double kPi = std::numbers::pi;
 
-struct Model {
-  std::unique_ptr<Topology> topo;
-  std::unique_ptr<DihedralBending> ff;
-  std::vector<double> rest;
-  std::size_t n() const { return topo->pointCapacity(); }
-};
-
-std::vector<double> restOf(const Topology& t) {
-  std::vector<double> x(3 * static_cast<std::size_t>(t.pointCapacity()), 0.0);
-  for (PointId p : t.points()) {
-    const Vec3 r = t.restPosition(p);
-    for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k];
-  }
-  return x;
-}
+using Model = test::FieldModel<DihedralBending>;
 
 Model makeModel(const MeshData& mesh, const DihedralBendingParameters& p = {}) {
-  Model m;
-  m.topo = std::make_unique<Topology>(mesh.points, mesh.triangles);
-  m.ff = std::make_unique<DihedralBending>(*m.topo, p);
-  m.rest = restOf(*m.topo);
-  return m;
-}
-
-MeshData bumpyGrid(int n, std::uint64_t seed, double amplitude = 0.3) {
-  MeshData mesh = test::grid(n, 4.0, 0.3, seed);
-  for (Vec3& p : mesh.points) p[2] = amplitude * std::sin(p[0]) * std::cos(0.7 * p[1]);
-  return mesh;
+  return test::makeFieldModel<DihedralBending>(mesh, p);
 }
 
 /// A grid on [0, size]^2 wrapped onto a cylinder of radius r about an axis parallel to y.
@@ -86,66 +59,15 @@ std::vector<double> rolled(const MeshData& mesh, double r) {
 }
 
 std::vector<std::pair<std::string, MeshData>> corpus() {
-  return {{"bumpy5", bumpyGrid(5, 3)},
+  return {{"bumpy5", test::bumpyGrid(5, 3)},
           {"cylinder", cylinderPatch(5, 3.0, 2.0)},
           {"fan_closed", test::fan(7, true, 0.3)},
           {"fan_open", test::fan(5, false, 0.2)}};
 }
 
-double maxAbs(const std::vector<double>& v) {
-  double m = 0.0;
-  for (double x : v) m = std::max(m, std::fabs(x));
-  return m;
-}
-
-double maxAbsCoeff(const Eigen::MatrixXd& a) {
-  double m = 0.0;
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) m = std::max(m, std::fabs(a(i, j)));
-  }
-  return m;
-}
-
-std::vector<double> times(const Eigen::MatrixXd& a, const std::vector<double>& x) {
-  std::vector<double> y(static_cast<std::size_t>(a.rows()), 0.0);
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) {
-      y[static_cast<std::size_t>(i)] += a(i, j) * x[static_cast<std::size_t>(j)];
-    }
-  }
-  return y;
-}
-
-double relativeError(const std::vector<double>& a, const std::vector<double>& b) {
-  double err = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    err = std::max(err, std::fabs(a[i] - b[i]));
-    scale = std::max({scale, std::fabs(a[i]), std::fabs(b[i])});
-  }
-  return scale > 0.0 ? err / scale : err;
-}
-
-std::vector<double> symmetricEigenvalues(const Eigen::MatrixXd& a) {
-  using MatrixXld = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
-  MatrixXld al(a.rows(), a.cols());
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) al(i, j) = a(i, j);
-  }
-  const Eigen::SelfAdjointEigenSolver<MatrixXld> es(al, Eigen::EigenvaluesOnly);
-  EXPECT_EQ(es.info(), Eigen::Success);
-  std::vector<double> values(static_cast<std::size_t>(a.rows()));
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    values[i] = static_cast<double>(es.eigenvalues()[static_cast<Eigen::Index>(i)]);
-  }
-  return values;
-}
-
 /// x -> scale R x + t.
 std::vector<double> similarity(const std::vector<double>& x, std::uint64_t seed, double scale) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> d;
-  const Eigen::Matrix3d r =
-      Eigen::Quaterniond(d(rng), d(rng), d(rng), d(rng)).normalized().toRotationMatrix();
+  const Eigen::Matrix3d r = test::randomRotation(seed);
   const Eigen::Vector3d t(1.5, -2.0, 0.7);
   std::vector<double> y(x.size());
   for (std::size_t i = 0; i < x.size(); i += 3) {
@@ -251,15 +173,10 @@ TEST(DihedralBending, GaussNewtonStiffnessIsSymmetricNegativeSemiDefinite) {
     for (std::uint64_t seed : {1u, 2u}) {
       const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
       const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
-      const double scale = maxAbsCoeff(k);
+      const double scale = test::maxAbsCoeff(k);
       ASSERT_GT(scale, 0.0);
-      double asym = 0.0;
-      for (Eigen::Index i = 0; i < k.rows(); ++i) {
-        for (Eigen::Index j = 0; j < k.cols(); ++j)
-          asym = std::max(asym, std::fabs(k(i, j) - k(j, i)));
-      }
-      EXPECT_LE(asym, 1e-14 * scale);
-      EXPECT_LE(symmetricEigenvalues(k).back(), 1e-10 * scale);
+      EXPECT_LE(test::maxAsymmetry(k), 1e-14 * scale);
+      EXPECT_LE(test::symmetricEigenvalues(k).back(), 1e-10 * scale);
       // Matrix-free products equal the assembled matrix, with Rayleigh damping folded in.
       DihedralBendingParameters pr;
       pr.rayleighStiffness = 0.3;
@@ -272,7 +189,7 @@ TEST(DihedralBending, GaussNewtonStiffnessIsSymmetricNegativeSemiDefinite) {
         const Eigen::MatrixXd a(acc.toSparse(static_cast<Index>(mr.n())));
         std::vector<double> df(x.size(), 0.0);
         mr.ff->addDForce(x, dx, df, kf, bf);
-        EXPECT_LE(relativeError(df, times(a, dx)), 1e-12) << kf << " " << bf;
+        EXPECT_LE(test::relativeError(df, test::times(a, dx)), 1e-12) << kf << " " << bf;
       }
     }
   }
@@ -285,7 +202,7 @@ TEST(DihedralBending, StiffnessIsTheExactJacobianAtTheRestAngles) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh);
     const std::vector<double> x = similarity(m.rest, 4, 1.3);
-    EXPECT_LE(maxAbs(test::forceAt(*m.ff, x)), 1e-12);
+    EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, x)), 1e-12);
     EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-6), 1e-7);
     const std::vector<double> dx = test::perturbed(std::vector<double>(x.size(), 0.0), 1.0, 3);
     EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-6), 1e-7);
@@ -303,7 +220,7 @@ TEST(DihedralBending, RigidMotionsAndSimilaritiesAreForceFree) {
     const double e0 = m.ff->potentialEnergy(x0);
     const std::vector<double> f0 = test::forceAt(*m.ff, x0);
     for (std::uint64_t seed : {11u, 12u}) {
-      EXPECT_LE(maxAbs(test::forceAt(*m.ff, similarity(m.rest, seed, 1.0))), 1e-12);
+      EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, similarity(m.rest, seed, 1.0))), 1e-12);
       EXPECT_LE(m.ff->potentialEnergy(similarity(m.rest, seed, 0.5)), 1e-24);
       // A deformed shape moved rigidly keeps its energy; the net force and torque are zero.
       const std::vector<double> y = similarity(x0, seed, 1.0);
@@ -315,8 +232,8 @@ TEST(DihedralBending, RigidMotionsAndSimilaritiesAreForceFree) {
         net += fi;
         torque += yi.cross(fi);
       }
-      EXPECT_LE(net.norm(), 1e-12 * std::max(1.0, maxAbs(f0)));
-      EXPECT_LE(torque.norm(), 1e-11 * std::max(1.0, maxAbs(f0)));
+      EXPECT_LE(net.norm(), 1e-12 * std::max(1.0, test::maxAbs(f0)));
+      EXPECT_LE(torque.norm(), 1e-11 * std::max(1.0, test::maxAbs(f0)));
     }
   }
 }
@@ -324,11 +241,11 @@ TEST(DihedralBending, RigidMotionsAndSimilaritiesAreForceFree) {
 TEST(DihedralBending, CurvedRestShapeIsForceFreeUnlikeTheLinearSprings) {
   const MeshData mesh = cylinderPatch(7, 3.0, 1.5);
   Model m = makeModel(mesh);
-  EXPECT_LE(maxAbs(test::forceAt(*m.ff, m.rest)), 1e-13);
+  EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, m.rest)), 1e-13);
   EXPECT_EQ(m.ff->potentialEnergy(m.rest), 0.0);
   Topology topo(mesh.points, mesh.triangles);
   FastTriangularBendingSprings springs(topo, {});
-  EXPECT_GT(maxAbs(test::forceAt(springs, m.rest)), 1e-3);
+  EXPECT_GT(test::maxAbs(test::forceAt(springs, m.rest)), 1e-3);
 }
 
 TEST(DihedralBending, LargeFoldsHaveTheExactEnergy) {
@@ -368,7 +285,7 @@ TEST(DihedralBending, SmallFoldsAgreeWithTheLinearSprings) {
     EXPECT_LT(rel, previous);
     EXPECT_NEAR(rel, theta * theta / 12.0, 0.1 * theta * theta / 12.0);
     // Forces too: the springs' force has an in-plane part of relative size ~ theta / 2.
-    EXPECT_LE(relativeError(test::forceAt(*m.ff, y), test::forceAt(springs, y)), 0.6 * theta);
+    EXPECT_LE(test::relativeError(test::forceAt(*m.ff, y), test::forceAt(springs, y)), 0.6 * theta);
     previous = rel;
   }
   // A flat grid rolled onto a cylinder of growing radius: the relative difference -> 0.
@@ -396,7 +313,7 @@ TEST(DihedralBending, DegenerateHingesAreCountedAndNeverNaN) {
     EXPECT_EQ(m.ff->numActiveHinges(), 0u);
     EXPECT_EQ(m.ff->counters().smallHeight, 1u);
     EXPECT_EQ(m.ff->counters().degenerate(), 1u);
-    EXPECT_EQ(maxAbs(test::forceAt(*m.ff, m.rest)), 0.0);
+    EXPECT_EQ(test::maxAbs(test::forceAt(*m.ff, m.rest)), 0.0);
   }
   {
     const DihedralRecord r =
@@ -419,12 +336,12 @@ TEST(DihedralBending, DegenerateHingesAreCountedAndNeverNaN) {
     if (which == 2) x[9] = 0.0;  // D = C
     EXPECT_EQ(m.ff->numDegenerateAt(x), 1u) << which;
     const std::vector<double> f = test::forceAt(*m.ff, x);
-    EXPECT_EQ(maxAbs(f), 0.0);
+    EXPECT_EQ(test::maxAbs(f), 0.0);
     const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
-    EXPECT_EQ(maxAbsCoeff(k), 0.0);
+    EXPECT_EQ(test::maxAbsCoeff(k), 0.0);
     std::vector<double> df(x.size(), 0.0);
     m.ff->addDForce(x, x, df, 1.0, 0.0);
-    EXPECT_EQ(maxAbs(df), 0.0);
+    EXPECT_EQ(test::maxAbs(df), 0.0);
     EXPECT_TRUE(std::isfinite(m.ff->potentialEnergy(x)));
   }
   // Too short vectors are rejected.
@@ -462,142 +379,32 @@ TEST(DihedralBending, ImplicitSolversRelaxARolledSheet) {
     EXPECT_LT(sim.potentialEnergy(1), 0.2 * e0);
     finalX[run++].assign(sim.state().x().begin(), sim.state().x().end());
   }
-  EXPECT_LE(relativeError(finalX[0], finalX[1]), 1e-4);
+  EXPECT_LE(test::relativeError(finalX[0], finalX[1]), 1e-4);
 }
 
 // ---------------------------------------------------------------------------------------------
-// The incremental table against a rebuild, after every operation of random sequences (the
-// operations of test_stretch_springs.cpp)
-
-class RandomEdits {
- public:
-  RandomEdits(Topology& t, std::uint64_t seed) : t_(t), rng_(seed) {}
-
-  std::string step() {
-    std::ostringstream what;
-    what.precision(17);
-    const int op = pick(0, 11);
-    try {
-      if (op <= 2 || op == 11) {
-        const EdgeId e = randomEdge(false);
-        const double s = op == 11 ? 0.5 : std::uniform_real_distribution<double>(0.2, 0.8)(rng_);
-        what << "splitEdge(" << e << ", " << s << ")";
-        t_.splitEdge(e, s);
-      } else if (op <= 4) {
-        const EdgeId e = randomEdge(true);
-        if (e == kInvalidIndex) return "no interior edge";
-        what << "tear(" << e << ")";
-        t_.tear(e);
-      } else if (op <= 6) {
-        const std::vector<PointId> path = randomPath();
-        what << "incise(";
-        for (PointId p : path) what << p << " ";
-        what << ")";
-        if (path.size() < 2) return what.str() + " skipped";
-        t_.incise(path);
-      } else if (op == 7) {
-        std::vector<TriangleId> tris = t_.triangles();
-        std::shuffle(tris.begin(), tris.end(), rng_);
-        tris.resize(std::min<std::size_t>(tris.size(), static_cast<std::size_t>(pick(1, 3))));
-        std::sort(tris.begin(), tris.end());
-        what << "removeTriangles(" << tris.size() << ")";
-        t_.removeTriangles(tris);
-      } else if (op <= 9) {
-        std::uniform_real_distribution<double> u(0.3, 9.7), len(0.5, 2.5), turn(-1.0, 1.0);
-        std::vector<Vec3> poly;
-        Vec3 p{u(rng_), u(rng_), 0.0};
-        double angle = std::uniform_real_distribution<double>(0.0, 2.0 * kPi)(rng_);
-        poly.push_back(p);
-        const int n = pick(2, 3);
-        for (int i = 1; i < n; ++i) {
-          const double l = len(rng_);
-          p = {p[0] + l * std::cos(angle), p[1] + l * std::sin(angle), 0.0};
-          if (p[0] < 0.3 || p[0] > 9.7 || p[1] < 0.3 || p[1] > 9.7) break;
-          poly.push_back(p);
-          angle += turn(rng_);
-        }
-        if (poly.size() < 2) return "cutPolyline skipped";
-        what << "cutPolyline(" << poly.size() << " points)";
-        t_.cutPolyline(poly);
-      } else {
-        what << "compact()";
-        t_.compact();
-      }
-    } catch (const TopologyError& err) {
-      what << " rejected: " << err.what();
-    }
-    return what.str();
-  }
-
- private:
-  int pick(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
-  EdgeId randomEdge(bool interior) {
-    std::vector<EdgeId> edges = t_.edges();
-    if (interior) std::erase_if(edges, [this](EdgeId e) { return t_.isBoundaryEdge(e); });
-    if (edges.empty()) return kInvalidIndex;
-    return edges[static_cast<std::size_t>(pick(0, static_cast<int>(edges.size()) - 1))];
-  }
-  std::vector<PointId> randomPath() {
-    const EdgeId e0 = randomEdge(true);
-    if (e0 == kInvalidIndex) return {};
-    const auto ev = t_.edgeVertices(e0);
-    std::vector<PointId> path{ev[0], ev[1]};
-    const int len = pick(1, 4);
-    while (static_cast<int>(path.size()) <= len) {
-      std::vector<PointId> next;
-      for (EdgeId e : t_.edgesAroundPoint(path.back())) {
-        if (t_.isBoundaryEdge(e)) continue;
-        const auto v = t_.edgeVertices(e);
-        const PointId other = v[0] == path.back() ? v[1] : v[0];
-        if (std::find(path.begin(), path.end(), other) == path.end()) next.push_back(other);
-      }
-      if (next.empty()) break;
-      path.push_back(next[static_cast<std::size_t>(pick(0, static_cast<int>(next.size()) - 1))]);
-    }
-    return path;
-  }
-
-  Topology& t_;
-  std::mt19937_64 rng_;
-};
-
-struct SequenceCase {
-  std::uint64_t seed;
-  int gridSide;
-  int steps;
-};
+// The incremental table against a rebuild, after every operation of random sequences
 
 class DihedralIncremental : public ::testing::TestWithParam<SequenceCase> {};
 
 TEST_P(DihedralIncremental, TableEqualsRebuildAfterEveryOperation) {
   const SequenceCase c = GetParam();
   // A gently curved jittered sheet: rest angles are not zero, so they are compared too.
-  MeshData mesh = test::grid(c.gridSide, 10.0, 0.25, c.seed);
+  MeshData mesh = test::sequenceSheet(c);
   for (Vec3& p : mesh.points) p[2] = 0.2 * std::sin(0.6 * p[0]) * std::cos(0.4 * p[1]);
   Topology topo(mesh.points, mesh.triangles);
   DihedralBendingParameters p;
   p.bendingStiffness = 3.0;
   DihedralBending ff(topo, p);
   ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
-  RandomEdits edits(topo, c.seed);
-  int accepted = 0;
-  for (int i = 0; i < c.steps && topo.numTriangles() > 12; ++i) {
-    const std::string what = edits.step();
-    if (what.find("rejected") == std::string::npos) ++accepted;
-    const topology::ValidationReport r = topo.validate();
-    ASSERT_TRUE(r.ok()) << "after step " << i << ": " << what << "\n" << r.summary();
+  const auto everyEdgeCounted = [&](const test::RandomOp&) {
     ASSERT_EQ(ff.counters().active + ff.counters().noHinge + ff.counters().degenerate(),
-              topo.numEdges())
-        << what;
-  }
-  EXPECT_GT(accepted, c.steps / 4);
+              topo.numEdges());
+  };
+  ASSERT_NO_FATAL_FAILURE(test::runRandomOps(topo, c.seed, c.steps, everyEdgeCounted));
   // The rest shape of the cut mesh is force-free, and a fresh field agrees everywhere.
-  const std::vector<double> rest = restOf(topo);
-  EXPECT_LE(maxAbs(test::forceAt(ff, rest)), 1e-9);
   DihedralBending fresh(topo, p);
-  const std::vector<double> x = test::perturbed(rest, 0.2, c.seed + 7);
-  EXPECT_LE(relativeError(test::forceAt(ff, x), test::forceAt(fresh, x)), 1e-12);
-  EXPECT_NEAR(ff.potentialEnergy(x), fresh.potentialEnergy(x), 1e-12 * fresh.potentialEnergy(x));
+  test::expectSameAsFresh(ff, fresh, topo, 0.2, c.seed + 7, 1e-12);
 }
 
 INSTANTIATE_TEST_SUITE_P(DihedralSequences, DihedralIncremental,
@@ -606,7 +413,7 @@ INSTANTIATE_TEST_SUITE_P(DihedralSequences, DihedralIncremental,
                                            SequenceCase{5, 9, 200}));
 
 TEST(DihedralIncrementalOps, CompactionKeepsTheTable) {
-  Model m = makeModel(bumpyGrid(7, 3));
+  Model m = makeModel(test::bumpyGrid(7, 3));
   m.topo->removeTriangles(std::vector<TriangleId>{0, 1, 17, 40});
   for (EdgeId e : m.topo->edges()) {
     if (!m.topo->isBoundaryEdge(e)) {
@@ -619,7 +426,7 @@ TEST(DihedralIncrementalOps, CompactionKeepsTheTable) {
   m.topo->compact();
   EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
   EXPECT_EQ(m.ff->numEdgeSlots(), m.topo->edgeCapacity());
-  EXPECT_LE(maxAbs(test::forceAt(*m.ff, restOf(*m.topo))), 1e-12);
+  EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, test::restOf(*m.topo))), 1e-12);
 }
 
 }  // namespace

@@ -2,176 +2,40 @@
 // incremental table against a rebuild after every operation of random topology sequences.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <initializer_list>
-#include <iostream>
 #include <limits>
-#include <memory>
-#include <random>
 #include <set>
-#include <sstream>
 #include <utility>
 
 #include "cutsim/forcefields/stretch_springs.hpp"
-#include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
+#include "support/random_ops.hpp"
 
 namespace cutsim::forcefields {
 namespace {
 
+using test::SequenceCase;
 using topology::kInvalidIndex;
 using topology::MeshData;
 using topology::Topology;
 using topology::Vec3;
 
-/// A topology and the field on it (the field points to the topology: neither moves).
-struct Model {
-  std::unique_ptr<Topology> topo;
-  std::unique_ptr<StretchSprings> ff;
-  std::vector<double> rest;  ///< 3 * pointCapacity
-  std::size_t n() const { return topo->pointCapacity(); }
-};
-
-std::vector<double> restOf(const Topology& t) {
-  std::vector<double> x(3 * static_cast<std::size_t>(t.pointCapacity()), 0.0);
-  for (PointId p : t.points()) {
-    const Vec3 r = t.restPosition(p);
-    for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k];
-  }
-  return x;
-}
+using Model = test::FieldModel<StretchSprings>;
 
 Model makeModel(const MeshData& mesh, const StretchParameters& p = {}) {
-  Model m;
-  m.topo = std::make_unique<Topology>(mesh.points, mesh.triangles);
-  m.ff = std::make_unique<StretchSprings>(*m.topo, p);
-  m.rest = restOf(*m.topo);
-  return m;
-}
-
-/// A small bumpy, jittered sheet: springs in every direction, not all in one plane.
-MeshData bumpyGrid(int n, std::uint64_t seed) {
-  MeshData mesh = test::grid(n, 4.0, 0.3, seed);
-  for (Vec3& p : mesh.points) p[2] = 0.3 * std::sin(p[0]) * std::cos(0.7 * p[1]);
-  return mesh;
-}
-
-std::vector<std::pair<std::string, MeshData>> corpus() {
-  return {{"grid4", test::grid(4, 3.0)},
-          {"bumpy5", bumpyGrid(5, 3)},
-          {"fan_closed", test::fan(7, true, 0.3)},
-          {"fan_open", test::fan(5, false, 0.2)}};
-}
-
-double maxAbs(const std::vector<double>& v) {
-  double m = 0.0;
-  for (double x : v) m = std::max(m, std::fabs(x));
-  return m;
-}
-
-// Plain loops over dense matrices: GCC reports false -Wmaybe-uninitialized warnings inside Eigen's
-// vectorised dense kernels under -march=native.
-double maxAbsCoeff(const Eigen::MatrixXd& a) {
-  double m = 0.0;
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) m = std::max(m, std::fabs(a(i, j)));
-  }
-  return m;
-}
-
-std::vector<double> times(const Eigen::MatrixXd& a, const std::vector<double>& x) {
-  std::vector<double> y(static_cast<std::size_t>(a.rows()), 0.0);
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) {
-      y[static_cast<std::size_t>(i)] += a(i, j) * x[static_cast<std::size_t>(j)];
-    }
-  }
-  return y;
-}
-
-double maxAsymmetry(const Eigen::MatrixXd& k) {
-  double asym = 0.0;
-  for (Eigen::Index i = 0; i < k.rows(); ++i) {
-    for (Eigen::Index j = 0; j < k.cols(); ++j) {
-      asym = std::max(asym, std::fabs(k(i, j) - k(j, i)));
-    }
-  }
-  return asym;
-}
-
-/// max |a - b| / max(|a|, |b|).
-double relativeError(const std::vector<double>& a, const std::vector<double>& b) {
-  double err = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    err = std::max(err, std::fabs(a[i] - b[i]));
-    scale = std::max({scale, std::fabs(a[i]), std::fabs(b[i])});
-  }
-  return scale > 0.0 ? err / scale : err;
-}
-
-/// The eigenvalues of a symmetric matrix, ascending, by Eigen's SelfAdjointEigenSolver in long
-/// double: Eigen does not vectorise long double, and its AVX-512 kernels for double (reductions,
-/// GEMM) draw false -Wmaybe-uninitialized warnings from GCC 12 under -march=native.
-std::vector<double> symmetricEigenvalues(const Eigen::MatrixXd& a) {
-  using MatrixXld = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
-  MatrixXld al(a.rows(), a.cols());
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) al(i, j) = a(i, j);
-  }
-  const Eigen::SelfAdjointEigenSolver<MatrixXld> es(al, Eigen::EigenvaluesOnly);
-  EXPECT_EQ(es.info(), Eigen::Success);
-  std::vector<double> values(static_cast<std::size_t>(a.rows()));
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    values[i] = static_cast<double>(es.eigenvalues()[static_cast<Eigen::Index>(i)]);
-  }
-  return values;
+  return test::makeFieldModel<StretchSprings>(mesh, p);
 }
 
 Eigen::MatrixXd assembledB(const ForceField& ff, const std::vector<double>& x, std::size_t n) {
   TripletAccumulator acc;
   ff.addBToMatrix(x, acc, 1.0);
   return Eigen::MatrixXd(acc.toSparse(static_cast<Index>(n)));
-}
-
-Eigen::Matrix3d randomRotation(std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> d;
-  Eigen::Quaterniond q(d(rng), d(rng), d(rng), d(rng));
-  return q.normalized().toRotationMatrix();
-}
-
-std::vector<double> rigidMotion(const std::vector<double>& x, std::uint64_t seed) {
-  const Eigen::Matrix3d r = randomRotation(seed);
-  const Eigen::Vector3d t(1.5, -2.0, 0.7);
-  std::vector<double> y(x.size());
-  for (std::size_t i = 0; i < x.size(); i += 3) {
-    const Eigen::Vector3d p = r * Eigen::Vector3d(x[i], x[i + 1], x[i + 2]) + t;
-    for (int k = 0; k < 3; ++k) y[i + k] = p[k];
-  }
-  return y;
-}
-
-void expectZeroNetForceAndTorque(const std::vector<double>& x, const std::vector<double>& f) {
-  Eigen::Vector3d net = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
-  double scale = 0.0;
-  for (std::size_t i = 0; i < x.size(); i += 3) {
-    const Eigen::Vector3d xi(x[i], x[i + 1], x[i + 2]), fi(f[i], f[i + 1], f[i + 2]);
-    net += fi;
-    torque += xi.cross(fi);
-    scale = std::max(scale, fi.norm() * std::max(1.0, xi.norm()));
-  }
-  EXPECT_LE(net.norm(), 1e-12 * std::max(scale, 1.0));
-  EXPECT_LE(torque.norm(), 1e-12 * std::max(scale, 1.0));
-}
-
-std::vector<double> randomVector(std::size_t n, double amplitude, std::uint64_t seed) {
-  return test::perturbed(std::vector<double>(n, 0.0), amplitude, seed);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -223,7 +87,7 @@ TEST(StretchSprings, BadParametersAreRejectedNamingTheParameter) {
 // The table
 
 TEST(StretchSprings, OneSpringPerLiveEdgeWithItsRestLength) {
-  const MeshData mesh = bumpyGrid(5, 2);
+  const MeshData mesh = test::bumpyGrid(5, 2);
   Model m = makeModel(mesh);
   EXPECT_EQ(m.ff->numSprings(), m.topo->numEdges());
   EXPECT_EQ(m.ff->typeName(), "StretchSprings");
@@ -275,21 +139,21 @@ TEST(StretchSprings, VectorsTooShortAreRejected) {
 // Forces and matrices
 
 TEST(StretchSprings, RestConfigurationIsForceFree) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     StretchParameters p;
     p.damping = 2.0;
     Model m = makeModel(mesh, p);
     std::vector<double> f(m.rest.size(), 0.0), v(m.rest.size(), 0.0);
     m.ff->addForce(m.rest, v, f);
-    EXPECT_LE(maxAbs(f), 1e-12);
+    EXPECT_LE(test::maxAbs(f), 1e-12);
     EXPECT_LE(m.ff->potentialEnergy(m.rest), 1e-24);
   }
 }
 
 TEST(StretchSprings, ForceIsMinusEnergyGradient) {
   for (bool stable : {true, false}) {
-    for (const auto& [name, mesh] : corpus()) {
+    for (const auto& [name, mesh] : test::smallMeshes()) {
       SCOPED_TRACE(name + (stable ? " stable" : " exact"));
       StretchParameters p;
       p.stiffness = 37.0;
@@ -307,7 +171,7 @@ TEST(StretchSprings, ForceIsMinusEnergyGradient) {
 TEST(StretchSprings, ExactJacobianMatchesFiniteDifferences) {
   // stableJacobian = false: dForce and the assembled K are d(force)/dx everywhere, stretched and
   // compressed springs alike.
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     StretchParameters p;
     p.stiffness = 23.0;
@@ -315,7 +179,7 @@ TEST(StretchSprings, ExactJacobianMatchesFiniteDifferences) {
     Model m = makeModel(mesh, p);
     for (std::uint64_t seed : {1u, 2u, 3u}) {
       const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
-      const std::vector<double> dx = randomVector(x.size(), 1.0, seed + 100);
+      const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
       EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
       EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
     }
@@ -324,18 +188,18 @@ TEST(StretchSprings, ExactJacobianMatchesFiniteDifferences) {
 
 TEST(StretchSprings, StableJacobianIsExactForStretchedSprings) {
   // Every spring stretched (a uniform scaling by 1.3 plus small noise): the clamp is inactive.
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh);
     std::vector<double> x = test::perturbed(m.rest, 0.01, 5);
     for (double& xi : x) xi *= 1.3;
-    const std::vector<double> dx = randomVector(x.size(), 1.0, 105);
+    const std::vector<double> dx = test::randomVector(x.size(), 1.0, 105);
     EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
     EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
   }
   // Compressed (scaled by 0.7): the stable K drops the negative transverse stiffness, so it is
   // no longer the derivative; the exact one is.
-  const MeshData mesh = bumpyGrid(4, 9);
+  const MeshData mesh = test::bumpyGrid(4, 9);
   StretchParameters exact;
   exact.stableJacobian = false;
   Model ms = makeModel(mesh), me = makeModel(mesh, exact);
@@ -347,7 +211,7 @@ TEST(StretchSprings, StableJacobianIsExactForStretchedSprings) {
 
 TEST(StretchSprings, AssembledMatricesEqualMatrixFreeProducts) {
   for (bool stable : {true, false}) {
-    for (const auto& [name, mesh] : corpus()) {
+    for (const auto& [name, mesh] : test::smallMeshes()) {
       SCOPED_TRACE(name + (stable ? " stable" : " exact"));
       StretchParameters p;
       p.stiffness = 11.0;
@@ -355,7 +219,7 @@ TEST(StretchSprings, AssembledMatricesEqualMatrixFreeProducts) {
       p.stableJacobian = stable;
       Model m = makeModel(mesh, p);
       const std::vector<double> x = test::perturbed(m.rest, 0.3, 7);
-      const std::vector<double> dx = randomVector(x.size(), 1.0, 8);
+      const std::vector<double> dx = test::randomVector(x.size(), 1.0, 8);
       const std::initializer_list<std::pair<double, double>> factors = {
           {1.0, 0.0}, {0.0, 1.0}, {-0.3, 2.5}, {0.0, 0.0}};
       for (const auto& [kf, bf] : factors) {
@@ -365,8 +229,8 @@ TEST(StretchSprings, AssembledMatricesEqualMatrixFreeProducts) {
         const Eigen::MatrixXd a(acc.toSparse(static_cast<Index>(m.n())));
         std::vector<double> df(x.size(), 0.0);
         m.ff->addDForce(x, dx, df, kf, bf);
-        const std::vector<double> ref = times(a, dx);
-        EXPECT_LE(relativeError(df, ref), 1e-13) << "kFactor " << kf << " bFactor " << bf;
+        const std::vector<double> ref = test::times(a, dx);
+        EXPECT_LE(test::relativeError(df, ref), 1e-13) << "kFactor " << kf << " bFactor " << bf;
       }
       // The pattern depends on the topology only: 4 blocks of 9 entries per spring.
       TripletAccumulator acc;
@@ -377,7 +241,7 @@ TEST(StretchSprings, AssembledMatricesEqualMatrixFreeProducts) {
 }
 
 TEST(StretchSprings, StiffnessSymmetricAndStableOneNegativeSemiDefinite) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     StretchParameters exact;
     exact.stableJacobian = false;
@@ -388,13 +252,13 @@ TEST(StretchSprings, StiffnessSymmetricAndStableOneNegativeSemiDefinite) {
       const std::vector<double> x = test::perturbed(ms.rest, 0.4, seed);
       const Eigen::MatrixXd ks = test::assembledK(*ms.ff, x, ms.n());
       const Eigen::MatrixXd ke = test::assembledK(*me.ff, x, me.n());
-      const double scale = maxAbsCoeff(ks);
-      EXPECT_LE(maxAsymmetry(ks), 1e-14 * scale);
-      EXPECT_LE(maxAsymmetry(ke), 1e-14 * maxAbsCoeff(ke));
-      const std::vector<double> es = symmetricEigenvalues(ks);
+      const double scale = test::maxAbsCoeff(ks);
+      EXPECT_LE(test::maxAsymmetry(ks), 1e-14 * scale);
+      EXPECT_LE(test::maxAsymmetry(ke), 1e-14 * test::maxAbsCoeff(ke));
+      const std::vector<double> es = test::symmetricEigenvalues(ks);
       // The largest is zero (rigid translations are in the null space), none is positive.
       EXPECT_NEAR(es.back(), 0.0, 1e-10 * scale);
-      const std::vector<double> ee = symmetricEigenvalues(ke);
+      const std::vector<double> ee = test::symmetricEigenvalues(ke);
       if (ee.back() > 1e-6 * scale) exactIndefiniteSomewhere = true;
     }
     // The exact Jacobian of compressed springs is indefinite: the clamp is what makes K stable.
@@ -403,15 +267,15 @@ TEST(StretchSprings, StiffnessSymmetricAndStableOneNegativeSemiDefinite) {
 }
 
 TEST(StretchSprings, DampingMatrixIsTheVelocityDerivative) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     StretchParameters p;
     p.stiffness = 5.0;
     p.damping = 3.0;
     Model m = makeModel(mesh, p);
     const std::vector<double> x = test::perturbed(m.rest, 0.3, 3);
-    const std::vector<double> v = randomVector(x.size(), 2.0, 4);
-    const std::vector<double> dv = randomVector(x.size(), 1.0, 5);
+    const std::vector<double> v = test::randomVector(x.size(), 2.0, 4);
+    const std::vector<double> dv = test::randomVector(x.size(), 1.0, 5);
     // The force is affine in v: a central difference is exact up to rounding.
     std::vector<double> vp = v, vm = v;
     for (std::size_t i = 0; i < v.size(); ++i) {
@@ -425,12 +289,12 @@ TEST(StretchSprings, DampingMatrixIsTheVelocityDerivative) {
     for (std::size_t i = 0; i < x.size(); ++i) fd[i] = 0.5 * (fp[i] - fm[i]);
     std::vector<double> df(x.size(), 0.0);
     m.ff->addDForce(x, dv, df, 0.0, 1.0);
-    EXPECT_LE(relativeError(df, fd), 1e-11);
+    EXPECT_LE(test::relativeError(df, fd), 1e-11);
     const Eigen::MatrixXd b = assembledB(*m.ff, x, m.n());
-    EXPECT_LE(relativeError(times(b, dv), fd), 1e-11);
-    EXPECT_LE(maxAsymmetry(b), 1e-15 * maxAbsCoeff(b));
-    const std::vector<double> es = symmetricEigenvalues(b);
-    EXPECT_LE(es.back(), 1e-12 * maxAbsCoeff(b));
+    EXPECT_LE(test::relativeError(test::times(b, dv), fd), 1e-11);
+    EXPECT_LE(test::maxAsymmetry(b), 1e-15 * test::maxAbsCoeff(b));
+    const std::vector<double> es = test::symmetricEigenvalues(b);
+    EXPECT_LE(es.back(), 1e-12 * test::maxAbsCoeff(b));
     EXPECT_LT(es.front(), 0.0);
   }
   // No damping: no B at all.
@@ -441,7 +305,7 @@ TEST(StretchSprings, DampingMatrixIsTheVelocityDerivative) {
 }
 
 TEST(StretchSprings, RigidMotions) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     StretchParameters p;
     p.damping = 1.5;
@@ -449,8 +313,8 @@ TEST(StretchSprings, RigidMotions) {
     std::vector<double> zero(m.rest.size(), 0.0);
     for (std::uint64_t seed : {11u, 12u, 13u}) {
       // A rigid motion of the rest shape: no force, no energy.
-      const std::vector<double> x = rigidMotion(m.rest, seed);
-      EXPECT_LE(maxAbs(test::forceAt(*m.ff, x)), 1e-11);
+      const std::vector<double> x = test::rigidMotion(m.rest, seed);
+      EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, x)), 1e-11);
       EXPECT_LE(m.ff->potentialEnergy(x), 1e-22);
       // A rigid velocity (translation + rotation) of a deformed shape: no damping force.
       const std::vector<double> y = test::perturbed(m.rest, 0.3, seed);
@@ -463,19 +327,15 @@ TEST(StretchSprings, RigidMotions) {
       std::vector<double> f0(y.size(), 0.0), fv(y.size(), 0.0);
       m.ff->addForce(y, zero, f0);
       m.ff->addForce(y, v, fv);
-      EXPECT_LE(relativeError(fv, f0), 1e-12);
+      EXPECT_LE(test::relativeError(fv, f0), 1e-12);
       // Deformed, anywhere: zero net force and torque, and the forces turn with the body.
-      expectZeroNetForceAndTorque(y, f0);
-      const std::vector<double> ry = rigidMotion(y, seed + 50);
+      test::expectZeroNetForceAndTorque(y, f0);
+      const std::vector<double> ry = test::rigidMotion(y, seed + 50);
       const std::vector<double> rf = test::forceAt(*m.ff, ry);
-      expectZeroNetForceAndTorque(ry, rf);
-      const Eigen::Matrix3d r = randomRotation(seed + 50);
-      std::vector<double> turned(f0.size());
-      for (std::size_t i = 0; i < f0.size(); i += 3) {
-        const Eigen::Vector3d fi = r * Eigen::Vector3d(f0[i], f0[i + 1], f0[i + 2]);
-        for (int k = 0; k < 3; ++k) turned[i + k] = fi[k];
-      }
-      EXPECT_LE(relativeError(rf, turned), 1e-12);
+      test::expectZeroNetForceAndTorque(ry, rf);
+      const std::vector<double> turned =
+          test::transformed(f0, test::randomRotation(seed + 50), Eigen::Vector3d::Zero());
+      EXPECT_LE(test::relativeError(rf, turned), 1e-12);
       EXPECT_NEAR(m.ff->potentialEnergy(ry), m.ff->potentialEnergy(y),
                   1e-12 * m.ff->potentialEnergy(y));
     }
@@ -495,8 +355,8 @@ TEST(StretchSprings, ZeroLengthSpringIsFinite) {
     ASSERT_NE(e, kInvalidIndex);
     std::vector<double> x = m.rest;
     for (int k = 0; k < 3; ++k) x[3 * 5 + k] = x[3 * 4 + k];
-    const std::vector<double> v = randomVector(x.size(), 1.0, 9);
-    const std::vector<double> dx = randomVector(x.size(), 1.0, 10);
+    const std::vector<double> v = test::randomVector(x.size(), 1.0, 9);
+    const std::vector<double> dx = test::randomVector(x.size(), 1.0, 10);
     std::vector<double> f(x.size(), 0.0), df(x.size(), 0.0);
     m.ff->addForce(x, v, f);
     m.ff->addDForce(x, dx, df, 1.0, 1.0);
@@ -523,137 +383,18 @@ TEST(StretchSprings, ZeroLengthSpringIsFinite) {
   Model m = makeModel(test::grid(3, 2.0));
   std::vector<double> x(m.rest.size(), 0.25);
   const std::vector<double> f = test::forceAt(*m.ff, x);
-  EXPECT_EQ(maxAbs(f), 0.0);
+  EXPECT_EQ(test::maxAbs(f), 0.0);
   EXPECT_GT(m.ff->potentialEnergy(x), 0.0);
 }
 
 // ---------------------------------------------------------------------------------------------
 // The incremental table against a rebuild, after every operation of random sequences
 
-class RandomEdits {
- public:
-  RandomEdits(Topology& t, std::uint64_t seed) : t_(t), rng_(seed) {}
-
-  /// One random operation; returns its description ("... rejected: ..." when the topology
-  /// refused it, which changes nothing).
-  std::string step() {
-    std::ostringstream what;
-    what.precision(17);
-    const int op = pick(0, 11);
-    try {
-      if (op <= 2) {
-        const EdgeId e = randomEdge(false);
-        const double s = std::uniform_real_distribution<double>(0.2, 0.8)(rng_);
-        what << "splitEdge(" << e << ", " << s << ")";
-        trace(what);
-        t_.splitEdge(e, s);
-      } else if (op <= 4) {
-        const EdgeId e = randomEdge(true);
-        if (e == kInvalidIndex) return "no interior edge";
-        what << "tear(" << e << ")";
-        trace(what);
-        t_.tear(e);
-      } else if (op <= 6) {
-        const std::vector<PointId> path = randomPath();
-        what << "incise(";
-        for (PointId p : path) what << p << " ";
-        what << ")";
-        if (path.size() < 2) return what.str() + " skipped";
-        trace(what);
-        t_.incise(path);
-      } else if (op == 7) {
-        std::vector<TriangleId> tris = t_.triangles();
-        std::shuffle(tris.begin(), tris.end(), rng_);
-        tris.resize(std::min<std::size_t>(tris.size(), static_cast<std::size_t>(pick(1, 3))));
-        std::sort(tris.begin(), tris.end());
-        what << "removeTriangles(";
-        for (TriangleId tr : tris) what << tr << " ";
-        what << ")";
-        trace(what);
-        t_.removeTriangles(tris);
-      } else if (op <= 9) {
-        std::uniform_real_distribution<double> u(0.3, 9.7), len(0.5, 2.5), turn(-1.0, 1.0);
-        std::vector<Vec3> poly;
-        Vec3 p{u(rng_), u(rng_), 0.0};
-        double angle = std::uniform_real_distribution<double>(0.0, 6.283185307179586)(rng_);
-        poly.push_back(p);
-        const int n = pick(2, 3);
-        for (int i = 1; i < n; ++i) {
-          const double l = len(rng_);
-          p = {p[0] + l * std::cos(angle), p[1] + l * std::sin(angle), 0.0};
-          if (p[0] < 0.3 || p[0] > 9.7 || p[1] < 0.3 || p[1] > 9.7) break;
-          poly.push_back(p);
-          angle += turn(rng_);
-        }
-        if (poly.size() < 2) return "cutPolyline skipped";
-        what << "cutPolyline(";
-        for (const Vec3& q : poly) what << "(" << q[0] << "," << q[1] << ") ";
-        what << ")";
-        trace(what);
-        t_.cutPolyline(poly);
-      } else if (op == 10) {
-        what << "compact()";
-        trace(what);
-        t_.compact();
-      } else {
-        const EdgeId e = randomEdge(false);
-        what << "splitEdge(" << e << ", 0.5)";
-        trace(what);
-        t_.splitEdge(e, 0.5);
-      }
-    } catch (const TopologyError& err) {
-      what << " rejected: " << err.what();
-    }
-    return what.str();
-  }
-
- private:
-  void trace(const std::ostringstream& what) const {
-    if (trace_) std::cerr << "  op: " << what.str() << std::endl;
-  }
-  int pick(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
-  EdgeId randomEdge(bool interior) {
-    std::vector<EdgeId> edges = t_.edges();
-    if (interior) std::erase_if(edges, [this](EdgeId e) { return t_.isBoundaryEdge(e); });
-    if (edges.empty()) return kInvalidIndex;
-    return edges[static_cast<std::size_t>(pick(0, static_cast<int>(edges.size()) - 1))];
-  }
-  std::vector<PointId> randomPath() {
-    const EdgeId e0 = randomEdge(true);
-    if (e0 == kInvalidIndex) return {};
-    const auto ev = t_.edgeVertices(e0);
-    std::vector<PointId> path{ev[0], ev[1]};
-    const int len = pick(1, 4);
-    while (static_cast<int>(path.size()) <= len) {
-      std::vector<PointId> next;
-      for (EdgeId e : t_.edgesAroundPoint(path.back())) {
-        if (t_.isBoundaryEdge(e)) continue;
-        const auto v = t_.edgeVertices(e);
-        const PointId other = v[0] == path.back() ? v[1] : v[0];
-        if (std::find(path.begin(), path.end(), other) == path.end()) next.push_back(other);
-      }
-      if (next.empty()) break;
-      path.push_back(next[static_cast<std::size_t>(pick(0, static_cast<int>(next.size()) - 1))]);
-    }
-    return path;
-  }
-
-  Topology& t_;
-  std::mt19937_64 rng_;
-  bool trace_ = std::getenv("CUTSIM_TEST_TRACE") != nullptr;
-};
-
-struct SequenceCase {
-  std::uint64_t seed;
-  int gridSide;
-  int steps;
-};
-
 class StretchIncremental : public ::testing::TestWithParam<SequenceCase> {};
 
 TEST_P(StretchIncremental, TableEqualsRebuildAfterEveryOperation) {
   const SequenceCase c = GetParam();
-  const MeshData mesh = test::grid(c.gridSide, 10.0, 0.25, c.seed);
+  const MeshData mesh = test::sequenceSheet(c);
   Topology topo(mesh.points, mesh.triangles);
   StretchParameters p;
   p.stiffness = 7.0;
@@ -661,28 +402,19 @@ TEST_P(StretchIncremental, TableEqualsRebuildAfterEveryOperation) {
   StretchSprings ff(topo, p);
   ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
 
-  RandomEdits edits(topo, c.seed);
-  int accepted = 0;
-  for (int i = 0; i < c.steps && topo.numTriangles() > 12; ++i) {
-    const std::string what = edits.step();
-    if (what.find("rejected") == std::string::npos) ++accepted;
-    const topology::ValidationReport r = topo.validate();
-    ASSERT_TRUE(r.ok()) << "after step " << i << ": " << what << "\n" << r.summary();
-    ASSERT_EQ(ff.numSprings(), topo.numEdges()) << "after step " << i << ": " << what;
-  }
-  EXPECT_GT(accepted, c.steps / 4) << "too few operations were accepted";
-  // The rest shape of the cut mesh is still force-free (new points interpolate their ancestors).
-  const std::vector<double> rest = restOf(topo);
-  EXPECT_LE(maxAbs(test::forceAt(ff, rest)), 1e-9);
-  // A field built afresh on the final mesh gives the same forces, energy and matrices.
+  const auto oneSpringPerEdge = [&](const test::RandomOp&) {
+    ASSERT_EQ(ff.numSprings(), topo.numEdges());
+  };
+  ASSERT_NO_FATAL_FAILURE(test::runRandomOps(topo, c.seed, c.steps, oneSpringPerEdge));
+  // The rest shape of the cut mesh is still force-free, and a field built afresh on the final mesh
+  // gives the same forces (with damping too), energy and matrices.
   StretchSprings fresh(topo, p);
-  const std::vector<double> x = test::perturbed(rest, 0.3, c.seed + 7);
-  const std::vector<double> v = randomVector(x.size(), 1.0, c.seed + 8);
+  const std::vector<double> x = test::expectSameAsFresh(ff, fresh, topo, 0.3, c.seed + 7, 1e-12);
+  const std::vector<double> v = test::randomVector(x.size(), 1.0, c.seed + 8);
   std::vector<double> f1(x.size(), 0.0), f2(x.size(), 0.0);
   ff.addForce(x, v, f1);
   fresh.addForce(x, v, f2);
-  EXPECT_LE(relativeError(f1, f2), 1e-12);
-  EXPECT_NEAR(ff.potentialEnergy(x), fresh.potentialEnergy(x), 1e-12 * fresh.potentialEnergy(x));
+  EXPECT_LE(test::relativeError(f1, f2), 1e-12);
   TripletAccumulator a1, a2;
   ff.addKToMatrix(x, a1, 1.0);
   ff.addBToMatrix(x, a1, 0.5);
@@ -697,43 +429,6 @@ INSTANTIATE_TEST_SUITE_P(StretchSequences, StretchIncremental,
                          ::testing::Values(SequenceCase{1, 8, 150}, SequenceCase{2, 10, 200},
                                            SequenceCase{3, 12, 200}, SequenceCase{4, 6, 120},
                                            SequenceCase{5, 10, 200}, SequenceCase{6, 9, 200}));
-
-// TriangularFEM follows triangle events: the same random sequences (its other tests are in
-// test_stretch_triangular_fem.cpp).
-class TriangularFemIncremental : public ::testing::TestWithParam<SequenceCase> {};
-
-TEST_P(TriangularFemIncremental, TableEqualsRebuildAfterEveryOperation) {
-  const SequenceCase c = GetParam();
-  const MeshData mesh = test::grid(c.gridSide, 10.0, 0.25, c.seed);
-  Topology topo(mesh.points, mesh.triangles);
-  TriangularFEMParameters p;
-  p.youngModulus = 300.0;
-  p.poissonRatio = 0.25;
-  p.thickness = 0.2;
-  TriangularFEM ff(topo, p);
-  StretchSprings springs(topo, {});  // both follow the same transactions
-  ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
-  RandomEdits edits(topo, c.seed + 1000);
-  int accepted = 0;
-  for (int i = 0; i < c.steps && topo.numTriangles() > 12; ++i) {
-    const std::string what = edits.step();
-    if (what.find("rejected") == std::string::npos) ++accepted;
-    const topology::ValidationReport r = topo.validate();
-    ASSERT_TRUE(r.ok()) << "after step " << i << ": " << what << "\n" << r.summary();
-    ASSERT_EQ(ff.numElements() + ff.numDegenerate(), topo.numTriangles()) << what;
-  }
-  EXPECT_GT(accepted, c.steps / 4) << "too few operations were accepted";
-  const std::vector<double> rest = restOf(topo);
-  EXPECT_LE(maxAbs(test::forceAt(ff, rest)), 1e-9);
-  TriangularFEM fresh(topo, p);
-  const std::vector<double> x = test::perturbed(rest, 0.3, c.seed + 7);
-  EXPECT_LE(relativeError(test::forceAt(ff, x), test::forceAt(fresh, x)), 1e-10);
-  EXPECT_NEAR(ff.potentialEnergy(x), fresh.potentialEnergy(x), 1e-10 * fresh.potentialEnergy(x));
-}
-
-INSTANTIATE_TEST_SUITE_P(TriangularFemSequences, TriangularFemIncremental,
-                         ::testing::Values(SequenceCase{1, 8, 150}, SequenceCase{2, 10, 200},
-                                           SequenceCase{3, 9, 200}));
 
 TEST(StretchIncrementalOps, SplitEdgeGivesHalvesTheirRestLengths) {
   Model m = makeModel(test::grid(5, 4.0));
@@ -783,8 +478,8 @@ TEST(StretchIncrementalOps, CarvingAndCompactionRenumberTheTable) {
     const auto ev = m.topo->edgeVertices(e);
     EXPECT_EQ(std::minmax(springs[e].a, springs[e].b), std::minmax(ev[0], ev[1]));
   }
-  const std::vector<double> rest = restOf(*m.topo);
-  EXPECT_LE(maxAbs(test::forceAt(*m.ff, rest)), 1e-12);
+  const std::vector<double> rest = test::restOf(*m.topo);
+  EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, rest)), 1e-12);
 }
 
 }  // namespace

@@ -1,66 +1,36 @@
 // TriangularFEM: the analytic plane-stress energy, finite differences, matrices, invariants,
-// degenerate triangles and parameters. (Random topology sequences: test_stretch_springs.cpp.)
+// degenerate triangles, parameters, and the incremental table against a rebuild after every
+// operation of random topology sequences.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <memory>
-#include <random>
 #include <set>
 #include <string>
 #include <utility>
 
+#include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
+#include "support/random_ops.hpp"
 
 namespace cutsim::forcefields {
 namespace {
 
+using test::SequenceCase;
 using topology::kInvalidIndex;
 using topology::MeshData;
 using topology::Topology;
-using topology::Vec3;
 
-struct Model {
-  std::unique_ptr<Topology> topo;
-  std::unique_ptr<TriangularFEM> ff;
-  std::vector<double> rest;  ///< 3 * pointCapacity
-  std::size_t n() const { return topo->pointCapacity(); }
-};
-
-std::vector<double> restOf(const Topology& t) {
-  std::vector<double> x(3 * static_cast<std::size_t>(t.pointCapacity()), 0.0);
-  for (PointId p : t.points()) {
-    const Vec3 r = t.restPosition(p);
-    for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k];
-  }
-  return x;
-}
+using Model = test::FieldModel<TriangularFEM>;
 
 Model makeModel(const MeshData& mesh, const TriangularFEMParameters& p = {}) {
-  Model m;
-  m.topo = std::make_unique<Topology>(mesh.points, mesh.triangles);
-  m.ff = std::make_unique<TriangularFEM>(*m.topo, p);
-  m.rest = restOf(*m.topo);
-  return m;
-}
-
-MeshData bumpyGrid(int n, std::uint64_t seed) {
-  MeshData mesh = test::grid(n, 4.0, 0.3, seed);
-  for (Vec3& p : mesh.points) p[2] = 0.3 * std::sin(p[0]) * std::cos(0.7 * p[1]);
-  return mesh;
-}
-
-std::vector<std::pair<std::string, MeshData>> corpus() {
-  return {{"grid4", test::grid(4, 3.0)},
-          {"bumpy5", bumpyGrid(5, 3)},
-          {"fan_closed", test::fan(7, true, 0.3)},
-          {"fan_open", test::fan(5, false, 0.2)}};
+  return test::makeFieldModel<TriangularFEM>(mesh, p);
 }
 
 TriangularFEMParameters someParameters() {
@@ -69,106 +39,6 @@ TriangularFEMParameters someParameters() {
   p.poissonRatio = 0.35;
   p.thickness = 0.1;
   return p;
-}
-
-double maxAbs(const std::vector<double>& v) {
-  double m = 0.0;
-  for (double x : v) m = std::max(m, std::fabs(x));
-  return m;
-}
-
-// Plain loops over dense matrices: GCC 12 draws false -Wmaybe-uninitialized warnings from Eigen's
-// AVX-512 kernels for double under -march=native.
-double maxAbsCoeff(const Eigen::MatrixXd& a) {
-  double m = 0.0;
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) m = std::max(m, std::fabs(a(i, j)));
-  }
-  return m;
-}
-
-std::vector<double> times(const Eigen::MatrixXd& a, const std::vector<double>& x) {
-  std::vector<double> y(static_cast<std::size_t>(a.rows()), 0.0);
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) {
-      y[static_cast<std::size_t>(i)] += a(i, j) * x[static_cast<std::size_t>(j)];
-    }
-  }
-  return y;
-}
-
-double maxAsymmetry(const Eigen::MatrixXd& k) {
-  double asym = 0.0;
-  for (Eigen::Index i = 0; i < k.rows(); ++i) {
-    for (Eigen::Index j = 0; j < k.cols(); ++j) {
-      asym = std::max(asym, std::fabs(k(i, j) - k(j, i)));
-    }
-  }
-  return asym;
-}
-
-double relativeError(const std::vector<double>& a, const std::vector<double>& b) {
-  double err = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    err = std::max(err, std::fabs(a[i] - b[i]));
-    scale = std::max({scale, std::fabs(a[i]), std::fabs(b[i])});
-  }
-  return scale > 0.0 ? err / scale : err;
-}
-
-/// Eigenvalues, ascending, by SelfAdjointEigenSolver in long double (not vectorised by Eigen, so
-/// free of GCC 12's false AVX-512 warnings).
-std::vector<double> symmetricEigenvalues(const Eigen::MatrixXd& a) {
-  using MatrixXld = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
-  MatrixXld al(a.rows(), a.cols());
-  for (Eigen::Index j = 0; j < a.cols(); ++j) {
-    for (Eigen::Index i = 0; i < a.rows(); ++i) al(i, j) = a(i, j);
-  }
-  const Eigen::SelfAdjointEigenSolver<MatrixXld> es(al, Eigen::EigenvaluesOnly);
-  EXPECT_EQ(es.info(), Eigen::Success);
-  std::vector<double> values(static_cast<std::size_t>(a.rows()));
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    values[i] = static_cast<double>(es.eigenvalues()[static_cast<Eigen::Index>(i)]);
-  }
-  return values;
-}
-
-Eigen::Matrix3d randomRotation(std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> d;
-  Eigen::Quaterniond q(d(rng), d(rng), d(rng), d(rng));
-  return q.normalized().toRotationMatrix();
-}
-
-std::vector<double> transformed(const std::vector<double>& x, const Eigen::Matrix3d& a,
-                                const Eigen::Vector3d& t) {
-  std::vector<double> y(x.size());
-  for (std::size_t i = 0; i < x.size(); i += 3) {
-    const Eigen::Vector3d p = a * Eigen::Vector3d(x[i], x[i + 1], x[i + 2]) + t;
-    for (int k = 0; k < 3; ++k) y[i + k] = p[k];
-  }
-  return y;
-}
-
-std::vector<double> rigidMotion(const std::vector<double>& x, std::uint64_t seed) {
-  return transformed(x, randomRotation(seed), Eigen::Vector3d(1.5, -2.0, 0.7));
-}
-
-void expectZeroNetForceAndTorque(const std::vector<double>& x, const std::vector<double>& f) {
-  Eigen::Vector3d net = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
-  double scale = 0.0;
-  for (std::size_t i = 0; i < x.size(); i += 3) {
-    const Eigen::Vector3d xi(x[i], x[i + 1], x[i + 2]), fi(f[i], f[i + 1], f[i + 2]);
-    net += fi;
-    torque += xi.cross(fi);
-    scale = std::max(scale, fi.norm() * std::max(1.0, xi.norm()));
-  }
-  EXPECT_LE(net.norm(), 1e-12 * std::max(scale, 1.0));
-  EXPECT_LE(torque.norm(), 1e-12 * std::max(scale, 1.0));
-}
-
-std::vector<double> randomVector(std::size_t n, double amplitude, std::uint64_t seed) {
-  return test::perturbed(std::vector<double>(n, 0.0), amplitude, seed);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -246,8 +116,9 @@ TEST(TriangularFem, HomogeneousStretchGivesThePlaneStressEnergy) {
   for (auto [ex, ey] : {std::pair{0.1, 0.0}, std::pair{0.3, -0.35 * 0.3}, std::pair{-0.2, 0.15}}) {
     SCOPED_TRACE("ex " + std::to_string(ex) + " ey " + std::to_string(ey));
     const Eigen::Matrix3d a = Eigen::Vector3d(1.0 + ex, 1.0 + ey, 1.0).asDiagonal();
-    const std::vector<double> x = transformed(transformed(m.rest, a, Eigen::Vector3d::Zero()),
-                                              randomRotation(3), Eigen::Vector3d(0.5, 1.0, -2.0));
+    const std::vector<double> x =
+        test::transformed(test::transformed(m.rest, a, Eigen::Vector3d::Zero()),
+                          test::randomRotation(3), Eigen::Vector3d(0.5, 1.0, -2.0));
     const double expected =
         4.0 * p.thickness * (mu * (ex * ex + ey * ey) + 0.5 * lambda * (ex + ey) * (ex + ey));
     EXPECT_NEAR(m.ff->potentialEnergy(x), expected, 1e-12 * expected);
@@ -264,25 +135,25 @@ TEST(TriangularFem, HomogeneousStretchGivesThePlaneStressEnergy) {
 }
 
 TEST(TriangularFem, RestAndRigidMotionsAreForceFree) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh, someParameters());
-    EXPECT_LE(maxAbs(test::forceAt(*m.ff, m.rest)), 1e-12);
+    EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, m.rest)), 1e-12);
     EXPECT_LE(m.ff->potentialEnergy(m.rest), 1e-24);
     for (std::uint64_t seed : {11u, 12u, 13u}) {
-      const std::vector<double> x = rigidMotion(m.rest, seed);
-      EXPECT_LE(maxAbs(test::forceAt(*m.ff, x)), 1e-11);
+      const std::vector<double> x = test::rigidMotion(m.rest, seed);
+      EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, x)), 1e-11);
       EXPECT_LE(m.ff->potentialEnergy(x), 1e-22);
       // Deformed: zero net force and torque; the forces turn with the body.
       const std::vector<double> y = test::perturbed(m.rest, 0.2, seed);
       const std::vector<double> f = test::forceAt(*m.ff, y);
-      expectZeroNetForceAndTorque(y, f);
-      const std::vector<double> ry = rigidMotion(y, seed + 50);
+      test::expectZeroNetForceAndTorque(y, f);
+      const std::vector<double> ry = test::rigidMotion(y, seed + 50);
       const std::vector<double> rf = test::forceAt(*m.ff, ry);
-      expectZeroNetForceAndTorque(ry, rf);
-      EXPECT_LE(
-          relativeError(rf, transformed(f, randomRotation(seed + 50), Eigen::Vector3d::Zero())),
-          1e-11);
+      test::expectZeroNetForceAndTorque(ry, rf);
+      EXPECT_LE(test::relativeError(rf, test::transformed(f, test::randomRotation(seed + 50),
+                                                          Eigen::Vector3d::Zero())),
+                1e-11);
       EXPECT_NEAR(m.ff->potentialEnergy(ry), m.ff->potentialEnergy(y),
                   1e-11 * m.ff->potentialEnergy(y));
     }
@@ -290,7 +161,7 @@ TEST(TriangularFem, RestAndRigidMotionsAreForceFree) {
 }
 
 TEST(TriangularFem, ForceIsMinusEnergyGradient) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh, someParameters());
     for (std::uint64_t seed : {1u, 2u, 3u}) {
@@ -302,12 +173,12 @@ TEST(TriangularFem, ForceIsMinusEnergyGradient) {
 }
 
 TEST(TriangularFem, StiffnessIsExactForRigidMotionsOfTheRestShape) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh, someParameters());
     for (std::uint64_t seed : {21u, 22u}) {
-      const std::vector<double> x = rigidMotion(m.rest, seed);
-      const std::vector<double> dx = randomVector(x.size(), 1.0, seed + 100);
+      const std::vector<double> x = test::rigidMotion(m.rest, seed);
+      const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
       EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
       EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
     }
@@ -316,8 +187,8 @@ TEST(TriangularFem, StiffnessIsExactForRigidMotionsOfTheRestShape) {
 
 TEST(TriangularFem, StiffnessErrorIsOfTheOrderOfTheStrain) {
   // K holds the rotation constant: away from rest its error shrinks with the strain.
-  Model m = makeModel(bumpyGrid(4, 2), someParameters());
-  const std::vector<double> dir = randomVector(m.rest.size(), 1.0, 9);
+  Model m = makeModel(test::bumpyGrid(4, 2), someParameters());
+  const std::vector<double> dir = test::randomVector(m.rest.size(), 1.0, 9);
   double previous = 0.0;
   for (double amplitude : {1e-1, 1e-2, 1e-3}) {
     std::vector<double> x = m.rest;
@@ -332,33 +203,33 @@ TEST(TriangularFem, StiffnessErrorIsOfTheOrderOfTheStrain) {
 }
 
 TEST(TriangularFem, AssembledMatrixEqualsMatrixFreeProduct) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh, someParameters());
     const std::vector<double> x = test::perturbed(m.rest, 0.2, 7);
-    const std::vector<double> dx = randomVector(x.size(), 1.0, 8);
+    const std::vector<double> dx = test::randomVector(x.size(), 1.0, 8);
     for (double kf : {1.0, -0.4}) {
       TripletAccumulator acc;
       m.ff->addKToMatrix(x, acc, kf);
       const Eigen::MatrixXd k(acc.toSparse(static_cast<Index>(m.n())));
       std::vector<double> df(x.size(), 0.0);
       m.ff->addDForce(x, dx, df, kf, 3.0);  // bFactor ignored: no damping
-      EXPECT_LE(relativeError(df, times(k, dx)), 1e-13);
+      EXPECT_LE(test::relativeError(df, test::times(k, dx)), 1e-13);
       EXPECT_EQ(acc.triplets().size(), 81 * m.ff->numElements());
     }
   }
 }
 
 TEST(TriangularFem, StiffnessSymmetricNegativeSemiDefinite) {
-  for (const auto& [name, mesh] : corpus()) {
+  for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh, someParameters());
     for (std::uint64_t seed : {1u, 2u}) {
       const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
       const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
-      const double scale = maxAbsCoeff(k);
-      EXPECT_LE(maxAsymmetry(k), 1e-13 * scale);
-      const std::vector<double> ev = symmetricEigenvalues(k);
+      const double scale = test::maxAbsCoeff(k);
+      EXPECT_LE(test::maxAsymmetry(k), 1e-13 * scale);
+      const std::vector<double> ev = test::symmetricEigenvalues(k);
       EXPECT_NEAR(ev.back(), 0.0, 1e-10 * scale);  // rigid modes
       EXPECT_LT(ev.front(), -1e-3 * scale);
     }
@@ -367,7 +238,7 @@ TEST(TriangularFem, StiffnessSymmetricNegativeSemiDefinite) {
 
 TEST(TriangularFem, CollapsedTrianglesStayFinite) {
   Model m = makeModel(test::grid(4, 3.0), someParameters());
-  const std::vector<double> dx = randomVector(m.rest.size(), 1.0, 3);
+  const std::vector<double> dx = test::randomVector(m.rest.size(), 1.0, 3);
   // Flattened onto a line (zero area everywhere), then onto one point.
   std::vector<double> line = m.rest, point(m.rest.size(), 0.5);
   for (std::size_t i = 0; i < line.size(); i += 3) line[i + 1] = 0.0;
@@ -426,10 +297,38 @@ TEST(TriangularFem, FollowsSplitTearCarveAndCompact) {
   m.topo->compact();
   ASSERT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
   EXPECT_EQ(m.ff->numTriangleSlots(), m.topo->triangleCapacity());
-  const std::vector<double> rest = restOf(*m.topo);
-  EXPECT_LE(maxAbs(test::forceAt(*m.ff, rest)), 1e-10);
+  const std::vector<double> rest = test::restOf(*m.topo);
+  EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, rest)), 1e-10);
   EXPECT_LE(m.ff->potentialEnergy(rest), 1e-20);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The incremental table against a rebuild, after every operation of random sequences
+
+class TriangularFemIncremental : public ::testing::TestWithParam<SequenceCase> {};
+
+TEST_P(TriangularFemIncremental, TableEqualsRebuildAfterEveryOperation) {
+  const SequenceCase c = GetParam();
+  const MeshData mesh = test::sequenceSheet(c);
+  Topology topo(mesh.points, mesh.triangles);
+  TriangularFEMParameters p;
+  p.youngModulus = 300.0;
+  p.poissonRatio = 0.25;
+  p.thickness = 0.2;
+  TriangularFEM ff(topo, p);
+  StretchSprings springs(topo, {});  // both follow the same transactions
+  ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
+  const auto oneElementPerTriangle = [&](const test::RandomOp&) {
+    ASSERT_EQ(ff.numElements() + ff.numDegenerate(), topo.numTriangles());
+  };
+  ASSERT_NO_FATAL_FAILURE(test::runRandomOps(topo, c.seed + 1000, c.steps, oneElementPerTriangle));
+  TriangularFEM fresh(topo, p);
+  test::expectSameAsFresh(ff, fresh, topo, 0.3, c.seed + 7, 1e-10);
+}
+
+INSTANTIATE_TEST_SUITE_P(TriangularFemSequences, TriangularFemIncremental,
+                         ::testing::Values(SequenceCase{1, 8, 150}, SequenceCase{2, 10, 200},
+                                           SequenceCase{3, 9, 200}));
 
 }  // namespace
 }  // namespace cutsim::forcefields
