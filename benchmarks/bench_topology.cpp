@@ -1,8 +1,9 @@
 // The cost of a topology change must follow the size of the change, not of the mesh: one incision
 // along 20 edges, one polyline cut across 20 cells (located, checked, planned on a patch, then
-// inserted and incised: about 40 crossings), and one triangle removal, with the events delivered to a spring-table observer
-// (FastTriangularBendingSprings) and to the simulation state, on a 20k-triangle grid and on a
-// 2M-triangle grid. Every iteration works on a fresh part of the grid.
+// inserted and incised: about 40 crossings), and one triangle removal, with the events delivered
+// to the bending springs' table (FastTriangularBendingSprings), to the edge springs
+// (StretchSprings) and to the simulation state, on a 20k-triangle grid and on a 2M-triangle grid.
+// Every iteration works on a fresh part of the grid.
 //
 //   cutsim_bench_topology                      # both sizes (the 2M grid takes a few seconds to build)
 //   cutsim_bench_topology --benchmark_format=json > topology.json
@@ -13,6 +14,7 @@
 
 #include "cutsim/core/state.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/topology/topology.hpp"
 
 namespace {
@@ -26,6 +28,7 @@ struct Sheet {
   int n = 0;  // vertices per side
   std::unique_ptr<Topology> topo;
   std::unique_ptr<cutsim::forcefields::FastTriangularBendingSprings> springs;
+  std::unique_ptr<cutsim::forcefields::StretchSprings> stretch;
   std::unique_ptr<cutsim::core::MechanicalState> state;
   int nextRow = 2, nextCol = 1;
   int cutRow = 3, cutCol = 1;  // polyline cuts run between the incisions' rows
@@ -44,6 +47,8 @@ struct Sheet {
     topo = std::make_unique<Topology>(pts, tris);
     springs = std::make_unique<cutsim::forcefields::FastTriangularBendingSprings>(
         *topo, cutsim::forcefields::BendingParameters{});
+    stretch = std::make_unique<cutsim::forcefields::StretchSprings>(
+        *topo, cutsim::forcefields::StretchParameters{});
     state = std::make_unique<cutsim::core::MechanicalState>(*topo);
   }
 
@@ -71,9 +76,10 @@ struct Sheet {
   }
 };
 
-Sheet& sheet(int side) {
-  static std::unique_ptr<Sheet> small, large;
-  auto& s = side < 500 ? small : large;
+/// The sheets the cuts work on, and separate uncut ones for the removals.
+Sheet& sheet(int side, bool forRemovals = false) {
+  static std::unique_ptr<Sheet> sheets[2][2];
+  auto& s = sheets[forRemovals ? 1 : 0][side < 500 ? 0 : 1];
   if (!s) s = std::make_unique<Sheet>(side);
   return *s;
 }
@@ -105,16 +111,21 @@ void BM_CutPolyline20Cells(benchmark::State& st) {
 }
 
 void BM_RemoveOneTriangle(benchmark::State& st) {
-  Sheet& s = sheet(int(st.range(0)));
-  // Triangles far from the incisions (the top rows), one per iteration.
+  Sheet& s = sheet(int(st.range(0)), true);
+  // Triangles apart from each other (every third cell of every other row, from the top), one
+  // per iteration, on a sheet of their own.
   std::vector<cutsim::topology::TriangleId> ids;
   const int n = s.n;
-  for (int j = n - 2; j > n / 2 && ids.size() < 4000; j -= 2)
+  for (int j = n - 2; j >= 1 && ids.size() < 4000; j -= 2)
     for (int i = 1; i + 2 < n && ids.size() < 4000; i += 3) ids.push_back(cutsim::topology::TriangleId(2 * (j * (n - 1) + i)));
   std::size_t k = 0;
   for (auto _ : st) {
-    std::vector<cutsim::topology::TriangleId> one{ids[k++ % ids.size()]};
-    if (!s.topo->isTriangleAlive(one[0])) continue;
+    while (k < ids.size() && !s.topo->isTriangleAlive(ids[k])) ++k;
+    if (k == ids.size()) {
+      st.SkipWithError("no triangle left to remove");
+      break;
+    }
+    std::vector<cutsim::topology::TriangleId> one{ids[k++]};
     s.topo->removeTriangles(one);
   }
   st.counters["triangles"] = double(s.topo->numTriangles());

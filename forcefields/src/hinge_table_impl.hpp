@@ -72,11 +72,14 @@ void HingeTable<F, T>::countFlag(Counters& c, int delta) {
 template <class F, class T>
 void HingeTable<F, T>::attach(topology::Topology& topology) {
   const std::vector<Record> records = F::buildFromScratch(topology, field().parameters());
+  edgeSlot_.reserve(std::size_t(topology.edgeCapacity()) * 5 / 4);
   edgeSlot_.assign(topology.edgeCapacity(), encode(Status::DeadEdge));
   std::size_t active = 0;
   for (const Record& r : records) active += r.status == Status::Active ? 1 : 0;
-  entries_.reserve(active);
-  entryEdge_.reserve(active);
+  // A quarter more than the mesh has, as the topology reserves: the first cuts add entries
+  // without copying the table (later growth is geometric, by push_back).
+  entries_.reserve(active + active / 4);
+  entryEdge_.reserve(active + active / 4);
   for (const Record& r : records) setEdge(r.edge, r);
   subscription_ = topology.subscribe(*this);
 }

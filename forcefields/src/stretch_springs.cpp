@@ -79,9 +79,12 @@ StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
     : topology_(&topology), params_(parameters) {
   params_.validate();
   const std::vector<StretchRecord> records = buildFromScratch(topology);
+  edgeSlot_.reserve(std::size_t(topology.edgeCapacity()) * 5 / 4);
   edgeSlot_.assign(topology.edgeCapacity(), kNoSpring);
-  springs_.reserve(records.size());
-  springEdge_.reserve(records.size());
+  // A quarter more than the mesh has, as the topology reserves: the first cuts add springs
+  // without copying the table (later growth is geometric, by push_back).
+  springs_.reserve(records.size() + records.size() / 4);
+  springEdge_.reserve(records.size() + records.size() / 4);
   for (const StretchRecord& r : records) {
     addSpring(r.edge, r.vertices[0], r.vertices[1], r.restLength);
   }
@@ -307,8 +310,6 @@ void StretchSprings::onEdgesDestroyed(const Topology&, const topology::EdgesDest
 
 void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCreated& ev) {
   ensureEdgeSlots(t.edgeCapacity());
-  springs_.reserve(springs_.size() + ev.edges.size());
-  springEdge_.reserve(springEdge_.size() + ev.edges.size());
   for (std::size_t i = 0; i < ev.edges.size(); ++i) {
     const EdgeId e = ev.edges[i];
     const topology::EdgeVertices& v = ev.vertices[i];

@@ -118,9 +118,12 @@ TriangularFEM::TriangularFEM(Topology& topology, TriangularFEMParameters paramet
   mu_ = params_.thickness * params_.youngModulus / (2.0 * (1.0 + nu));
   lambda_ = params_.thickness * params_.youngModulus * nu / (1.0 - nu * nu);
   const std::vector<FemRecord> records = buildFromScratch(topology);
+  triSlot_.reserve(std::size_t(topology.triangleCapacity()) * 5 / 4);
   triSlot_.assign(topology.triangleCapacity(), kNoSlot);
-  elements_.reserve(records.size());
-  elementTriangle_.reserve(records.size());
+  // A quarter more than the mesh has, as the topology reserves: the first cuts add elements
+  // without copying the table (later growth is geometric, by push_back).
+  elements_.reserve(records.size() + records.size() / 4);
+  elementTriangle_.reserve(records.size() + records.size() / 4);
   for (const FemRecord& r : records) setTriangle(r.triangle, r);
   subscription_ = topology.subscribe(*this);
 }
@@ -334,8 +337,6 @@ void TriangularFEM::onTrianglesDestroyed(const Topology&, const topology::Triang
 
 void TriangularFEM::onTrianglesCreated(const Topology& t, const topology::TrianglesCreated& ev) {
   ensureSlots(t.triangleCapacity());
-  elements_.reserve(elements_.size() + ev.triangles.size());
-  elementTriangle_.reserve(elementTriangle_.size() + ev.triangles.size());
   for (TriangleId tri : ev.triangles) {
     if (triSlot_[tri] != kNoSlot) {
       eventProblems_.push_back("triangles created: " + triangleName(tri) +
