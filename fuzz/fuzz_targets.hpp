@@ -197,7 +197,10 @@ inline void fuzzSceneReader(const std::uint8_t* data, std::size_t size,
 
 /// fuzz_topology_ops: the bytes as a sequence of operations on a small grid, with the bending
 /// springs, the mechanical state and a MirrorObserver subscribed; validate() after every one.
-inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size) {
+/// `log` (optional) receives one line per operation: its description, then " -> done" or
+/// " -> rejected: " and the message.
+inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
+                            std::vector<std::string>* log = nullptr) {
   if (size > kMaxInputSize) return;
   detail::Bytes in(data, size);
   core::GridSpec g;
@@ -240,7 +243,9 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size) {
     const std::uint8_t code = in.byte() % 8;
     const std::size_t points = topo.numPoints(), edges = topo.numEdges(),
                       triangles = topo.numTriangles();
-    std::string name;
+    const std::uint64_t revision = topo.revision();
+    const std::size_t transactions = mirror.transactions;
+    std::string name, outcome = " -> done";
     try {
       switch (code) {
         case 0: {
@@ -322,19 +327,27 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size) {
         }
       }
     } catch (const TopologyError& e) {
-      // A rejected request changes nothing.
+      // A rejected request changes nothing, sends no event, and is not an internal error (which
+      // would also be how a transaction left open shows: "nested transaction").
+      outcome = std::string(" -> rejected: ") + e.what();
       detail::require(topo.numPoints() == points && topo.numEdges() == edges &&
-                          topo.numTriangles() == triangles,
+                          topo.numTriangles() == triangles && topo.revision() == revision &&
+                          mirror.transactions == transactions,
                       "op " + std::to_string(op) + " (" + name +
                           ") was rejected but changed the mesh: " + e.what() + "\nafter:\n" +
                           history);
-    } catch (const InvalidInput&) {
+      detail::require(std::string(e.what()).find("internal error") == std::string::npos,
+                      "op " + std::to_string(op) + " (" + name + "): " + e.what() + "\nafter:\n" +
+                          history);
+    } catch (const InvalidInput& e) {
+      outcome = std::string(" -> invalid input: ") + e.what();
       detail::require(
           topo.numPoints() == points && topo.numTriangles() == triangles,
           "op " + std::to_string(op) + " (" + name + ") threw InvalidInput but changed the mesh");
     }
     detail::requireValid(topo, "op " + std::to_string(op) + " (" + name + ") after:\n" + history);
     history += "  " + name + "\n";
+    if (log) log->push_back(name + outcome);
     // The state follows: positions finite (interpolated from finite ones), forces finite.
     detail::require(detail::allFinite(state.x()), "non-finite position after " + name);
     std::vector<double> f(state.x().size(), 0.0), v(state.x().size(), 0.0);

@@ -366,7 +366,9 @@ StepStats Simulation::step(double dt) {
       const Vec rhs = S.system.eliminate(constrained, b, dv);
       auto& A = S.system.matrix();
       if (!S.analysed) {
-        S.cholmod.analyzePattern(A);  // keeps the fill-reducing order of the numbering
+        // CHOLMOD keeps the numbering's fill-reducing order (only postordering its elimination
+        // tree, which changes no fill).
+        S.cholmod.analyzePattern(A);
         S.analysed = true;
         stats.analysed = true;
       }

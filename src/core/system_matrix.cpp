@@ -94,8 +94,7 @@ void SystemMatrix::build(const Fields& fields, std::span<const double> x, std::s
 
   // Fill-reducing order of the point graph.
   newIndex_.resize(numSlots);
-  oldIndex_.resize(numSlots);
-  for (std::int32_t p = 0; p < n; ++p) newIndex_[std::size_t(p)] = oldIndex_[std::size_t(p)] = p;
+  for (std::int32_t p = 0; p < n; ++p) newIndex_[std::size_t(p)] = p;
   if (!pc.pairs.empty()) {
     std::vector<idx_t> xadj(numSlots + 1, 0), adjncy(2 * pc.pairs.size());
     for (std::uint64_t pr : pc.pairs) {
@@ -124,10 +123,7 @@ void SystemMatrix::build(const Fields& fields, std::span<const double> x, std::s
       if (rc < AMD_OK) throw std::runtime_error("amd_order failed (code " + std::to_string(rc) + ")");
       for (std::int32_t k = 0; k < n; ++k) iperm[std::size_t(perm[std::size_t(k)])] = k;
     }
-    for (std::size_t p = 0; p < numSlots; ++p) {
-      newIndex_[p] = std::int32_t(iperm[p]);
-      oldIndex_[p] = std::int32_t(perm[p]);
-    }
+    for (std::size_t p = 0; p < numSlots; ++p) newIndex_[p] = std::int32_t(iperm[p]);
   }
   ordering_ = ordering;
 

@@ -58,7 +58,7 @@ class SystemMatrix {
   bool built_ = false;
   Ordering ordering_ = Ordering::NestedDissection;
   std::size_t numSlots_ = 0;
-  std::vector<std::int32_t> newIndex_, oldIndex_;  // point permutation and its inverse
+  std::vector<std::int32_t> newIndex_;  // point p -> its index in the matrix's numbering
   // Per block column J (new numbering): the block rows I >= J, sorted, first J itself.
   std::vector<std::int32_t> blockStart_, blockRow_;
   Eigen::SparseMatrix<double> A_;

@@ -588,6 +588,18 @@ Location inPatch(const Patch& P, const Mesh& m, const Location& l) {
   return out;
 }
 
+/// The first two non-adjacent segments of the polyline that meet, if any.
+std::optional<std::pair<std::size_t, std::size_t>> selfCrossing(const std::vector<Point3>& poly) {
+  for (std::size_t i = 0; i + 1 < poly.size(); ++i)
+    for (std::size_t j = i + 2; j + 1 < poly.size(); ++j) {
+      double d2 = segmentDistance2(poly[i], poly[i + 1], poly[j], poly[j + 1]);
+      double len = std::min(std::sqrt(CGAL::squared_distance(poly[i], poly[i + 1])),
+                            std::sqrt(CGAL::squared_distance(poly[j], poly[j + 1])));
+      if (d2 <= 1e-18 * len * len || d2 == 0.0) return std::make_pair(i, j);
+    }
+  return std::nullopt;
+}
+
 /// The polyline with its two ends moved onto the nearest vertex within snap (in barycentric
 /// terms, as the walk snaps), else onto the nearest edge within snap, of the triangle each lies in.
 std::vector<Point3> snapEnds(Topology::Impl& I, std::vector<Point3> poly, double snap) {
@@ -632,15 +644,10 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   if (poly.size() < 2) throw TopologyError("cutPolyline: a polyline needs two distinct points");
   if (I.mesh.number_of_faces() == 0) throw TopologyError("cutPolyline: the surface has no triangles");
   // A polyline that crosses itself would need the walk to split its own path: rejected.
-  for (std::size_t i = 0; i + 1 < poly.size(); ++i)
-    for (std::size_t j = i + 2; j + 1 < poly.size(); ++j) {
-      double d2 = segmentDistance2(poly[i], poly[i + 1], poly[j], poly[j + 1]);
-      double len = std::min(std::sqrt(CGAL::squared_distance(poly[i], poly[i + 1])),
-                            std::sqrt(CGAL::squared_distance(poly[j], poly[j + 1])));
-      if (d2 <= 1e-18 * len * len || d2 == 0.0)
-        throw TopologyError("cutPolyline: the polyline crosses itself (segments " + std::to_string(i) +
-                            " and " + std::to_string(j) + "); cut it as separate polylines");
-    }
+  if (auto crossing = selfCrossing(poly))
+    throw TopologyError("cutPolyline: the polyline crosses itself (segments " +
+                        std::to_string(crossing->first) + " and " + std::to_string(crossing->second) +
+                        "); cut it as separate polylines");
   {
     Walker checker(I, options.snapTolerance);
     checker.check(poly);  // throws before anything changes
@@ -654,7 +661,6 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   std::unique_ptr<Patch> patch;
   std::vector<VI> planned;
   std::optional<Walker> planner;
-  std::string failure;
   auto plan = [&](const std::vector<Point3>& line) {
     Walker walker(I, options.snapTolerance);
     walker.check(line);
@@ -676,7 +682,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   };
   bool done = false;
   std::vector<Point3> snapped = snapEnds(I, poly, options.snapTolerance);
-  if (snapped != poly && !(snapped.size() == 2 && snapped[0] == snapped[1])) {
+  // (Snapping may make the ends meet or touch another segment: then only the polyline as given.)
+  if (snapped != poly && snapped.front() != snapped.back() && !selfCrossing(snapped)) {
     try {
       plan(snapped);
       done = true;
@@ -722,17 +729,19 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       inserted.push_back(PointId(v.idx()));
     }
     for (VI pv : planned) path.push_back(mapped(pv));
+    result.insertedPoints = inserted;
+    if (path.size() >= 2) {
+      std::vector<PointId> ins = result.insertedPoints;
+      I.inciseNoTxn(path, result);
+      result.insertedPoints.insert(result.insertedPoints.begin(), ins.begin(), ins.end());
+    } else {
+      for (VI v : path) result.path.push_back(PointId(v.idx()));
+    }
   } catch (...) {
-    I.commit(*this);  // the mesh is valid: announce what was done, then report
+    // Not expected (the plan ran the same splits): the mesh is valid, so announce what was
+    // done, close the transaction, then report.
+    I.commit(*this);
     throw;
-  }
-  result.insertedPoints = inserted;
-  if (path.size() >= 2) {
-    std::vector<PointId> ins = result.insertedPoints;
-    I.inciseNoTxn(path, result);
-    result.insertedPoints.insert(result.insertedPoints.begin(), ins.begin(), ins.end());
-  } else {
-    for (VI v : path) result.path.push_back(PointId(v.idx()));
   }
   I.commit(*this);
   return result;

@@ -38,6 +38,8 @@ using topology::PointId;
 using topology::TriangleId;
 
 /// Receives 3x3 blocks of a 3N x 3N matrix (SOFA: the matrix accessor of addKToMatrix).
+/// K and B are symmetric and a field adds them whole: block (i, j) and block (j, i) = (i, j)^T
+/// both (solvers may keep only one triangle, in any numbering of the points).
 class MatrixAccumulator {
  public:
   virtual ~MatrixAccumulator();

@@ -49,8 +49,9 @@ struct IncisionResult {
 struct CutOptions {
   /// A crossing closer than snapTolerance * (local edge length) to a vertex (or, for a corner of
   /// the polyline, to an edge) snaps to it, so that the cut leaves no sliver triangles. The
-  /// polyline's ends snap likewise, onto the border too (a cut ending just inside it reaches it);
-  /// elsewhere snapping never moves the path onto the border.
+  /// polyline's ends snap likewise, onto the border too: a cut ending just inside the border
+  /// reaches it (so a cut with both ends within the tolerance of the border separates the piece
+  /// between them); elsewhere snapping never moves the path onto the border.
   double snapTolerance = 0.1;
 };
 
