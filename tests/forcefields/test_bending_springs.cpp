@@ -16,6 +16,7 @@
 
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
 
@@ -386,19 +387,6 @@ std::vector<double> rigidMotion(const std::vector<double>& x, std::uint64_t seed
   return y;
 }
 
-void expectZeroNetForceAndTorque(const std::vector<double>& x, const std::vector<double>& f) {
-  Eigen::Vector3d net = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
-  double scale = 0.0;
-  for (std::size_t i = 0; i < x.size(); i += 3) {
-    const Eigen::Vector3d xi(x[i], x[i + 1], x[i + 2]), fi(f[i], f[i + 1], f[i + 2]);
-    net += fi;
-    torque += xi.cross(fi);
-    scale = std::max(scale, fi.norm() * std::max(1.0, xi.norm()));
-  }
-  EXPECT_LE(net.norm(), 1e-12 * std::max(scale, 1.0));
-  EXPECT_LE(torque.norm(), 1e-12 * std::max(scale, 1.0));
-}
-
 TEST(BendingSprings, RigidMotionsOfFlatRestHinges) {
   // Flat convex rest: no force at all under any rigid motion.
   for (const MeshData& mesh : {test::grid(7), test::oneHinge(kHA, kHB, kHC, kHD)}) {
@@ -416,7 +404,7 @@ TEST(BendingSprings, RigidMotionsOfFlatRestHinges) {
     const std::vector<double> x = rigidMotion(m.rest, seed);
     const std::vector<double> f = test::forceAt(*m.ff, x);
     EXPECT_NEAR(m.ff->potentialEnergy(x), 3.84, 1e-12);
-    expectZeroNetForceAndTorque(x, f);
+    test::expectZeroNetForceAndTorque(x, f);
   }
 }
 
@@ -425,7 +413,7 @@ TEST(BendingSprings, ZeroNetForceAndTorqueAnywhere) {
     SCOPED_TRACE(name);
     Model m = makeModel(mesh);
     const std::vector<double> x = test::perturbed(m.rest, 0.5, 5);
-    expectZeroNetForceAndTorque(x, test::forceAt(*m.ff, x));
+    test::expectZeroNetForceAndTorque(x, test::forceAt(*m.ff, x));
   }
 }
 
