@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -211,29 +212,53 @@ void StretchSprings::addDForce(std::span<const double> x, std::span<const double
   const double k = kFactor * params_.stiffness;
   const double b = bFactor * params_.damping;
   if (k == 0.0 && b == 0.0) return;
-  const bool stable = params_.stableJacobian;
-  const double* __restrict xp = x.data();
+  const Linearisation* __restrict lin = linearisation(x).data();
   const double* __restrict dxp = dx.data();
   double* __restrict dfp = df.data();
-  for (const StretchSpring s : springs_) {
-    double u[3], l;
-    if (!direction(xp, s.a, s.b, u, l)) continue;
-    const double a = tangentFactor(s.restLength, l, stable);
+  const std::size_t count = springs_.size();
+  for (std::size_t i = 0; i < count; ++i) {
+    const StretchSpring s = springs_[i];
+    const Linearisation& L = lin[i];
     const double* da = dxp + 3 * static_cast<std::size_t>(s.a);
     const double* db = dxp + 3 * static_cast<std::size_t>(s.b);
     const double w[3] = {db[0] - da[0], db[1] - da[1], db[2] - da[2]};
-    const double uw = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
-    // g = (kFactor K_jj + bFactor B_jj) w = -k (a w + (1 - a) (u.w) u) - b (u.w) u.
-    const double cu = -(k * (1.0 - a) + b) * uw;
-    const double cw = -k * a;
+    const double uw = L.u[0] * w[0] + L.u[1] * w[1] + L.u[2] * w[2];
+    // g = (kFactor K_jj + bFactor B_jj) w = -k (a w + (1 - a) (u.w) u) - b (u.w) u. A spring
+    // without direction has u = 0 and a = 0: no contribution.
+    const double cu = -(k * (1.0 - L.a) + b) * uw;
+    const double cw = -k * L.a;
     double* fa = dfp + 3 * static_cast<std::size_t>(s.a);
     double* fb = dfp + 3 * static_cast<std::size_t>(s.b);
     for (int c = 0; c < 3; ++c) {
-      const double g = cw * w[c] + cu * u[c];
+      const double g = cw * w[c] + cu * L.u[c];
       fb[c] += g;
       fa[c] -= g;
     }
   }
+}
+
+const std::vector<StretchSprings::Linearisation>& StretchSprings::linearisation(
+    std::span<const double> x) const {
+  if (linValid_ && linX_.size() == x.size() && lin_.size() == springs_.size() &&
+      std::memcmp(linX_.data(), x.data(), x.size() * sizeof(double)) == 0)
+    return lin_;
+  const bool stable = params_.stableJacobian;
+  const double* __restrict xp = x.data();
+  lin_.resize(springs_.size());
+  for (std::size_t i = 0; i < springs_.size(); ++i) {
+    const StretchSpring s = springs_[i];
+    Linearisation& L = lin_[i];
+    double l;
+    if (direction(xp, s.a, s.b, L.u, l)) {
+      L.a = tangentFactor(s.restLength, l, stable);
+    } else {
+      L.u[0] = L.u[1] = L.u[2] = 0.0;
+      L.a = 0.0;
+    }
+  }
+  linX_.assign(x.begin(), x.end());
+  linValid_ = true;
+  return lin_;
 }
 
 double StretchSprings::potentialEnergy(std::span<const double> x) const {
@@ -299,6 +324,7 @@ void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
 // edges around it, whose destruction already removed their springs.
 
 void StretchSprings::onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& ev) {
+  linValid_ = false;
   for (EdgeId e : ev.edges) {
     if (e >= edgeSlot_.size() || edgeSlot_[e] == kNoSpring) {
       eventProblems_.push_back("edges destroyed: " + edgeName(e) + " had no spring");
@@ -309,6 +335,7 @@ void StretchSprings::onEdgesDestroyed(const Topology&, const topology::EdgesDest
 }
 
 void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCreated& ev) {
+  linValid_ = false;
   ensureEdgeSlots(t.edgeCapacity());
   for (std::size_t i = 0; i < ev.edges.size(); ++i) {
     const EdgeId e = ev.edges[i];
@@ -321,6 +348,7 @@ void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCrea
 }
 
 void StretchSprings::onPointsRenumbered(const Topology&, const topology::Renumbering& ev) {
+  linValid_ = false;
   const std::span<const topology::Index> map = ev.oldToNew;
   auto remap = [&](std::uint32_t& p) {
     const topology::Index n = p < map.size() ? map[p] : kInvalidIndex;
@@ -338,6 +366,7 @@ void StretchSprings::onPointsRenumbered(const Topology&, const topology::Renumbe
 }
 
 void StretchSprings::onEdgesRenumbered(const Topology&, const topology::Renumbering& ev) {
+  linValid_ = false;
   // Entries move old -> new with their edges; the springs are re-laid out in the new edge order,
   // which restores the streaming locality of a fresh mesh.
   std::vector<std::uint32_t> slots(ev.newSize, kNoSpring);

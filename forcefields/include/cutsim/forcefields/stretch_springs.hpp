@@ -120,6 +120,17 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   std::vector<std::uint32_t> edgeSlot_;
   std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
   topology::Subscription subscription_;
+  // Linearisation cache of addDForce: per spring, u and a = 1 - L0 / l at the positions linX_,
+  // reused while addDForce is called again at bitwise the same x (an implicit step's CG
+  // iterations) and the table has not changed. Not for concurrent calls on one field.
+  struct Linearisation {
+    double u[3];
+    double a;
+  };
+  mutable std::vector<Linearisation> lin_;
+  mutable std::vector<double> linX_;
+  mutable bool linValid_ = false;
+  const std::vector<Linearisation>& linearisation(std::span<const double> x) const;
 };
 
 }  // namespace cutsim::forcefields
