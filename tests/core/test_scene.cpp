@@ -11,6 +11,7 @@
 
 #include "../../src/core/tearing.hpp"
 #include "cutsim/core/scene.hpp"
+#include "support/scene_text.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -20,28 +21,10 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-const std::filesystem::path kScenes = std::filesystem::path(CUTSIM_TEST_DATA_DIR) / "scenes";
+using test::parseError;
+using test::scene;
+const std::filesystem::path& kScenes = test::kSceneDir;
 const std::filesystem::path kDemoScenes = std::filesystem::path(CUTSIM_DATA_DIR) / "scenes";
-
-/// The message of the InvalidInput that parsing `text` throws ("" if none).
-std::string parseError(const std::string& text) {
-  try {
-    parseScene(text, "inline.json", kScenes);
-  } catch (const InvalidInput& e) {
-    return e.what();
-  }
-  return "";
-}
-
-/// A valid scene with `extra` appended inside the top-level object (one line each).
-std::string scene(const std::string& extra = "") {
-  return "{\n"
-         "  \"mesh\": {\"grid\": {\"nx\": 5, \"ny\": 5}},\n"
-         "  \"mass\": {\"density\": 1},\n"
-         "  \"timeStep\": 0.01,\n"
-         "  \"duration\": 0.1" +
-         (extra.empty() ? "" : ",\n  " + extra) + "\n}\n";
-}
 
 // ---- loading ----
 

@@ -13,6 +13,7 @@
 
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
+#include "support/scene_text.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
@@ -25,7 +26,6 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-const fs::path kScenes = fs::path(CUTSIM_TEST_DATA_DIR) / "scenes";
 
 struct NoFpTraps {
   int saved = fegetexcept();
@@ -123,24 +123,6 @@ TEST(BadMeshInput, AHugeFlatTriangleBuildsWithoutOverflow) {
 
 // ---- scenes ----
 
-std::string parseError(const std::string& text) {
-  try {
-    core::parseScene(text, "inline.json", kScenes);
-  } catch (const InvalidInput& e) {
-    return e.what();
-  }
-  return "";
-}
-
-std::string scene(const std::string& extra = "") {
-  return "{\n"
-         "  \"mesh\": {\"grid\": {\"nx\": 5, \"ny\": 5}},\n"
-         "  \"mass\": {\"density\": 1},\n"
-         "  \"timeStep\": 0.01,\n"
-         "  \"duration\": 0.1" +
-         (extra.empty() ? "" : ",\n  " + extra) + "\n}\n";
-}
-
 TEST(BadSceneInput, EachCaseNamesItsPlaceAndProblem) {
   struct Case {
     std::string text;
@@ -229,7 +211,7 @@ TEST(BadSceneInput, ABadMeshFileIsReportedAtItsOwnLine) {
 
 /// What `cutsim run` does (src/cli/cmd_run.cpp): load, build, write frames while stepping, finish.
 void runLikeTheProgram(const std::string& text, const fs::path& out) {
-  const core::Scene s = core::parseScene(text, "inline.json", kScenes);
+  const core::Scene s = core::parseScene(text, "inline.json", kSceneDir);
   core::SceneRunner runner(s);
   core::OutputWriter writer(out, s.output, s.forceFieldLabels(), s.graspNames());
   runner.start();

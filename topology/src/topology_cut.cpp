@@ -648,10 +648,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     throw TopologyError("cutPolyline: the polyline crosses itself (segments " +
                         std::to_string(crossing->first) + " and " + std::to_string(crossing->second) +
                         "); cut it as separate polylines");
-  {
-    Walker checker(I, options.snapTolerance);
-    checker.check(poly);  // throws before anything changes
-  }
+  Walker checked(I, options.snapTolerance);
+  checked.check(poly);  // throws before anything changes; its corridor serves the plan below
 
   // Plan the inserting walk on a patch around the checked walk, growing the patch until the walk
   // stays inside. First with the polyline's ends snapped (onto a vertex, else an edge, within the
@@ -661,9 +659,7 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   std::unique_ptr<Patch> patch;
   std::vector<VI> planned;
   std::optional<Walker> planner;
-  auto plan = [&](const std::vector<Point3>& line) {
-    Walker walker(I, options.snapTolerance);
-    walker.check(line);
+  auto plan = [&](const std::vector<Point3>& line, const Walker& walker) {
     std::unordered_set<std::uint32_t> faces;
     for (FI f : walker.corridor) faces.insert(f.idx());
     growByOneRing(I, faces);
@@ -685,14 +681,16 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   // (Snapping may make the ends meet or touch another segment: then only the polyline as given.)
   if (snapped != poly && snapped.front() != snapped.back() && !selfCrossing(snapped)) {
     try {
-      plan(snapped);
+      Walker walker(I, options.snapTolerance);
+      walker.check(snapped);
+      plan(snapped, walker);
       done = true;
     } catch (const TopologyError&) {  // fall back to the polyline as given
     }
   }
   if (!done) {
     try {
-      plan(poly);
+      plan(poly, checked);
     } catch (const TopologyError& e) {
       throw TopologyError("cutPolyline: the cut cannot be inserted with snapTolerance " +
                           std::to_string(options.snapTolerance) + ": " + e.what() +
