@@ -94,6 +94,14 @@ class ForceField {
 
   /// Appends the drawable network as point pairs (drawn at the current positions by an output).
   virtual void draw(std::vector<std::array<PointId, 2>>& /*segments*/) const {}
+
+  /// Whether addDForce / addKToMatrix give the exact K = dF/dx at every x (true), or an
+  /// approximation kept negative semi-definite for implicit solvers (a Gauss-Newton or
+  /// corotational K, a clamped Jacobian): say which in the field's header.
+  virtual bool stiffnessIsExact() const { return true; }
+  /// Asks for the exact K (Newton's method converges quadratically only with it) or the field's
+  /// default. Returns false, changing nothing, when the field has no exact K to offer.
+  virtual bool setExactStiffness(bool exact) { return !exact || stiffnessIsExact(); }
 };
 
 }  // namespace cutsim::forcefields
