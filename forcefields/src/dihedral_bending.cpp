@@ -399,3 +399,29 @@ void DihedralBending::addTableForces(std::span<const double> x, std::span<double
 }
 
 }  // namespace cutsim::forcefields
+
+// ---- the component's registration (scenes, and every other front end) ----
+#include "cutsim/forcefields/registry.hpp"
+
+namespace cutsim::forcefields {
+namespace {
+const bool registered = ForceFieldRegistry::instance().add({
+    "DihedralBending",
+    "nonlinear bending on the dihedral angle (Discrete Shells): sharp folds, curved rest shapes",
+    {{"bendingStiffness", "k, >= 0 (default 1): the springs' k, so k = 3 D"},
+     {"minDist", "degenerate-hinge threshold, an absolute length >= 0 (default 1e-6)"},
+     {"rayleighStiffness", "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      DihedralBendingParameters p;
+      p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
+      p.minDist = s.nonNegative("minDist", p.minDist);
+      p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
+      s.check([&] { p.validate(); });
+      return p;
+    },
+    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+      return std::make_unique<DihedralBending>(t, std::any_cast<const DihedralBendingParameters&>(p));
+    }});
+}  // namespace
+}  // namespace cutsim::forcefields

@@ -266,3 +266,31 @@ void FastTriangularBendingSprings::addTableForces(std::span<const double> x,
 }
 
 }  // namespace cutsim::forcefields
+
+// ---- the component's registration (scenes, and every other front end) ----
+#include "cutsim/forcefields/registry.hpp"
+
+namespace cutsim::forcefields {
+namespace {
+const bool registered = ForceFieldRegistry::instance().add({
+    "FastTriangularBendingSprings",
+    "linear bending springs across interior edges (SOFA's FastTriangularBendingSprings)",
+    {{"bendingStiffness", "k, >= 0 (default 1); k = 3 D for cylindrical bending of a plate of rigidity D"},
+     {"minDistValidity", "degenerate-spring threshold, an absolute length >= 0 (default 1e-6)"},
+     {"rayleighStiffness", "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
+     {"areaWeights", "unsigned (SOFA's, default) or signed (no force at rest on cut meshes)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      BendingParameters p;
+      p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
+      p.minDistValidity = s.nonNegative("minDistValidity", p.minDistValidity);
+      p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
+      p.areaWeights = parseAreaWeights(s.choice("areaWeights", "unsigned", {"unsigned", "signed"}));
+      s.check([&] { p.validate(); });
+      return p;
+    },
+    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+      return std::make_unique<FastTriangularBendingSprings>(t, std::any_cast<const BendingParameters&>(p));
+    }});
+}  // namespace
+}  // namespace cutsim::forcefields

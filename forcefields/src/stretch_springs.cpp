@@ -480,3 +480,30 @@ void StretchSprings::validate(const Topology& topology, std::vector<std::string>
 }
 
 }  // namespace cutsim::forcefields
+
+// ---- the component's registration (scenes, and every other front end) ----
+#include "cutsim/forcefields/registry.hpp"
+
+namespace cutsim::forcefields {
+namespace {
+const bool registered = ForceFieldRegistry::instance().add({
+    "StretchSprings",
+    "one linear spring per edge (SOFA's MeshSpringForceField)",
+    {{"stiffness", "ks per spring, >= 0 (required)"},
+     {"damping", "kd per spring, >= 0 (default 0)"},
+     {"stableJacobian", "clamp compressed springs' K to keep it semi-definite (default true)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      StretchParameters p;
+      s.require("stiffness");
+      p.stiffness = s.nonNegative("stiffness", p.stiffness);
+      p.damping = s.nonNegative("damping", p.damping);
+      p.stableJacobian = s.boolean("stableJacobian", p.stableJacobian);
+      s.check([&] { p.validate(); });
+      return p;
+    },
+    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+      return std::make_unique<StretchSprings>(t, std::any_cast<const StretchParameters&>(p));
+    }});
+}  // namespace
+}  // namespace cutsim::forcefields

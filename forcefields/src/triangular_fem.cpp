@@ -511,3 +511,29 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
 }
 
 }  // namespace cutsim::forcefields
+
+// ---- the component's registration (scenes, and every other front end) ----
+#include "cutsim/forcefields/registry.hpp"
+
+namespace cutsim::forcefields {
+namespace {
+const bool registered = ForceFieldRegistry::instance().add({
+    "TriangularFEM",
+    "corotational linear membrane, one constant-strain triangle each (SOFA's TriangularFEMForceField)",
+    {{"youngModulus", "E, >= 0 (default 1000)"},
+     {"poissonRatio", "nu, in (-1, 0.5) (default 0.3)"},
+     {"thickness", "h, >= 0 (default 1)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      TriangularFEMParameters p;
+      p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
+      p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
+      p.thickness = s.nonNegative("thickness", p.thickness);
+      s.check([&] { p.validate(); });
+      return p;
+    },
+    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+      return std::make_unique<TriangularFEM>(t, std::any_cast<const TriangularFEMParameters&>(p));
+    }});
+}  // namespace
+}  // namespace cutsim::forcefields

@@ -11,6 +11,7 @@
 
 #include "../../src/core/tearing.hpp"
 #include "cutsim/core/scene.hpp"
+#include "cutsim/forcefields/stretch_springs.hpp"
 #include "support/scene_text.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/topology.hpp"
@@ -37,15 +38,19 @@ TEST(Scene, LoadsTheSmallScene) {
   EXPECT_DOUBLE_EQ(s.density, 0.5);
   EXPECT_DOUBLE_EQ(s.gravity[2], -9.81);
   ASSERT_EQ(s.forceFields.size(), 2u);
-  EXPECT_EQ(s.forceFields[0].kind, ForceFieldSpec::Kind::Stretch);
-  EXPECT_DOUBLE_EQ(s.forceFields[0].stiffness, 200);
-  EXPECT_EQ(s.forceFields[1].kind, ForceFieldSpec::Kind::Bending);
-  EXPECT_EQ(s.forceFields[1].bending.areaWeights, forcefields::AreaWeights::Signed);
+  EXPECT_EQ(s.forceFields[0].type, "StretchSprings");
+  EXPECT_DOUBLE_EQ(std::any_cast<const forcefields::StretchParameters&>(s.forceFields[0].parameters).stiffness, 200);
+  EXPECT_EQ(s.forceFields[1].type, "FastTriangularBendingSprings");
+  EXPECT_EQ(std::any_cast<const forcefields::BendingParameters&>(s.forceFields[1].parameters).areaWeights,
+            forcefields::AreaWeights::Signed);
   EXPECT_EQ(s.forceFieldLabels(),
             (std::vector<std::string>{"StretchSprings", "FastTriangularBendingSprings"}));
   EXPECT_EQ(s.fixed.size(), 2u);
-  EXPECT_EQ(s.solver.kind, SolverSettings::Kind::ImplicitCG);
-  EXPECT_EQ(s.solver.cgMaxIterations, 200);
+  // The "solver" shorthand implicit-cg: implicit Euler with CG.
+  EXPECT_EQ(s.integrator.type, "implicit-euler");
+  ASSERT_TRUE(s.linearSolver.has_value());
+  EXPECT_EQ(s.linearSolver->type, "cg");
+  EXPECT_EQ(std::any_cast<const core::CGSettings&>(s.linearSolver->parameters).maxIterations, 200);
   EXPECT_EQ(s.numSteps(), 30);
   EXPECT_EQ(s.output.every, 5);
   EXPECT_TRUE(s.output.obj);

@@ -18,6 +18,7 @@
 #include <optional>
 #include <sstream>
 
+#include "cutsim/topology/geometry.hpp"
 #include "topology_impl.hpp"
 
 namespace cutsim::topology {
@@ -49,32 +50,13 @@ std::optional<std::array<double, 3>> barycentric(const std::array<Point3, 3>& c,
   return std::array<double, 3>{1.0 - b - g, b, g};
 }
 
-/// Closest point of triangle c to p (Ericson, Real-Time Collision Detection, 5.1.5).
+/// Closest point of triangle c to p (geometry.hpp's, on CGAL points).
 Point3 closestOnTriangle(const std::array<Point3, 3>& c, const Point3& p) {
-  const Point3 &a = c[0], &b = c[1], &cc = c[2];
-  Vector3 ab = b - a, ac = cc - a, ap = p - a;
-  double d1 = ab * ap, d2 = ac * ap;
-  if (d1 <= 0 && d2 <= 0) return a;
-  Vector3 bp = p - b;
-  double d3 = ab * bp, d4 = ac * bp;
-  if (d3 >= 0 && d4 <= d3) return b;
-  double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
-  Vector3 cp = p - cc;
-  double d5 = ab * cp, d6 = ac * cp;
-  if (d6 >= 0 && d5 <= d6) return cc;
-  double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
-  double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (cc - b);
-  double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
+  return toPoint(geometry::closestOnTriangle(toVec(p), toVec(c[0]), toVec(c[1]), toVec(c[2])));
 }
 
 double longestEdge(const std::array<Point3, 3>& c) {
-  return std::sqrt(std::max({CGAL::squared_distance(c[0], c[1]), CGAL::squared_distance(c[1], c[2]),
-                             CGAL::squared_distance(c[2], c[0])}));
+  return geometry::longestEdge(toVec(c[0]), toVec(c[1]), toVec(c[2]));
 }
 
 /// Squared distance between segments p1q1 and p2q2 (Ericson 5.1.9).

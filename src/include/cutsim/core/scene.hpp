@@ -4,8 +4,11 @@
 // progressive cuts, carving, tearing, grasps). The format is documented in docs/scenes.md.
 //
 // loadScene() parses and validates a whole scene before anything runs: every problem is an
-// InvalidInput whose what() is "SCENE.json:LINE: /json/pointer: message". SceneRunner builds the
-// core::Simulation from a validated scene (nothing the scene does not ask for) and plays it.
+// InvalidInput whose what() is "SCENE.json:LINE: /json/pointer: message". Force fields,
+// integrators and linear solvers are read and built through their registries (registry.hpp,
+// registries.hpp). SceneRunner builds the core::Simulation from a validated scene (nothing the
+// scene does not ask for) and plays it.
+#include <any>
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -55,13 +58,18 @@ struct PointSelection {
   std::vector<PointId> resolve(const topology::Topology& topology) const;
 };
 
+/// A force field of the scene: its registered type and the parameters its entry read.
 struct ForceFieldSpec {
-  enum class Kind { Bending, Stretch };
-  Kind kind = Kind::Bending;
+  std::string type;   ///< a name of forcefields::ForceFieldRegistry
   std::string label;  ///< "" = the type name
-  forcefields::BendingParameters bending;
-  double stiffness = 0.0, damping = 0.0;  ///< StretchSprings
-  bool stableJacobian = true;             ///< StretchSprings
+  std::any parameters;  ///< the entry's parameter struct (e.g. forcefields::BendingParameters)
+  SceneLocation location;
+};
+
+/// An integrator or a linear solver of the scene: its registered type and parameters.
+struct ComponentSpec {
+  std::string type;
+  std::any parameters;
   SceneLocation location;
 };
 
@@ -115,7 +123,8 @@ struct Scene {
   Vec3 gravity{0, 0, 0};
   std::vector<ForceFieldSpec> forceFields;
   std::vector<FixedSpec> fixed;
-  SolverSettings solver;
+  ComponentSpec integrator;                  ///< by default implicit-euler
+  std::optional<ComponentSpec> linearSolver;  ///< for integrators that use one (default cg)
   double timeStep = 0.0, duration = 0.0;
   OutputSettings output;
   std::vector<SceneAction> timeline;  ///< sorted by start time (stable: file order at ties)
@@ -165,6 +174,8 @@ class SceneRunner {
 
   /// The first FastTriangularBendingSprings field, or null.
   const forcefields::FastTriangularBendingSprings* bendingField() const;
+  /// Builds the integrator (with its linear solver) a scene names.
+  static std::unique_ptr<Integrator> makeIntegrator(const Scene& scene);
   /// Edges torn so far, cuts done so far (pieces of progressive cuts count one each).
   long tornEdges() const { return tornEdges_; }
   long cutsDone() const { return cutsDone_; }

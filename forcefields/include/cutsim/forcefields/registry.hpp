@@ -1,0 +1,131 @@
+#pragma once
+// Components by name: every force field, integrator and linear solver registers, in its own
+// source file, its name, its keys with what each means, how to read its typed parameters (with
+// their checks) from a ParameterSource, and how to build itself. Scene files read through these
+// registries, and so will every other front end (Python dicts, SOFA .scn attributes): each one
+// only implements ParameterSource.
+//
+// Registration (in the component's .cpp, at namespace scope):
+//
+//   const bool registered = ForceFieldRegistry::instance().add({
+//       "MyField", "one line on what it is",
+//       {{"stiffness", "N/m, >= 0 (required)"}, ...},
+//       [](const ParameterSource& s) -> std::any { MyParameters p; ...; return p; },
+//       [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {...}});
+//
+// The libraries are linked whole (CMake's WHOLE_ARCHIVE), so such a file needs nothing else to
+// be found.
+#include <any>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/errors.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim {
+
+/// Where a component's parameters come from. Implementations report a problem with fail(key,
+/// message), which must throw (an InvalidInput naming the file, the line and the key).
+class ParameterSource {
+ public:
+  virtual ~ParameterSource();
+  virtual bool has(std::string_view key) const = 0;
+  /// The value of a present key, checked for its type: a finite number, an integer in [min, max],
+  /// a boolean, a string.
+  virtual double number(std::string_view key) const = 0;
+  virtual long integer(std::string_view key, long min, long max) const = 0;
+  virtual bool boolean(std::string_view key) const = 0;
+  virtual std::string string(std::string_view key) const = 0;
+  [[noreturn]] virtual void fail(std::string_view key, const std::string& message) const = 0;
+
+  // ---- conveniences: the value if present, else the fallback ----
+  double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }
+  double nonNegative(std::string_view key, double fallback) const;
+  double positive(std::string_view key, double fallback) const;
+  long integer(std::string_view key, long min, long max, long fallback) const {
+    return has(key) ? integer(key, min, max) : fallback;
+  }
+  bool boolean(std::string_view key, bool fallback) const { return has(key) ? boolean(key) : fallback; }
+  /// One of `choices` (the fallback when absent); anything else fails naming the choices.
+  std::string choice(std::string_view key, std::string fallback,
+                     std::initializer_list<std::string_view> choices) const;
+  /// A required key: fails "missing key" when absent.
+  void require(std::string_view key) const;
+  /// Runs a parameter struct's validate(); an InvalidInput it throws is reported at the key its
+  /// where() names (when that is one of this source's keys, else at the component).
+  template <class Validate>
+  void check(Validate&& validate) const {
+    try {
+      validate();
+    } catch (const InvalidInput& e) {
+      fail(e.where(), e.message());
+    }
+  }
+};
+
+/// A key of a component, with what it means (for messages and `cutsim components`).
+struct KeyInfo {
+  std::string name;
+  std::string what;
+};
+
+/// The registry of one kind of component (a force field, an integrator, a linear solver).
+template <class Product, class... BuildArgs>
+class Registry {
+ public:
+  struct Entry {
+    std::string name;
+    std::string summary;
+    std::vector<KeyInfo> keys;  ///< besides "type" (and "label" for force fields)
+    /// The other kinds of component it is built with ("linearSolver" for implicit integrators).
+    std::vector<std::string> uses;
+    /// Reads and checks the typed parameters (a struct, held in the std::any).
+    std::function<std::any(const ParameterSource&)> read;
+    std::function<std::unique_ptr<Product>(const std::any&, BuildArgs...)> build;
+  };
+
+  static Registry& instance() {
+    static Registry registry;
+    return registry;
+  }
+  /// Adds an entry; a second entry with the same name is a programming error (std::logic_error).
+  bool add(Entry entry) {
+    const std::string name = entry.name;
+    if (!entries_.emplace(name, std::move(entry)).second)
+      throw std::logic_error("component '" + name + "' registered twice");
+    return true;
+  }
+  const Entry* find(std::string_view name) const {
+    auto it = entries_.find(std::string(name));
+    return it == entries_.end() ? nullptr : &it->second;
+  }
+  /// Every registered name, sorted.
+  std::vector<std::string> names() const {
+    std::vector<std::string> out;
+    for (auto& [name, e] : entries_) out.push_back(name);
+    return out;
+  }
+  const std::map<std::string, Entry>& entries() const { return entries_; }
+  /// The other entries that have `key` (for "that key belongs to ..." messages).
+  std::vector<std::string> ownersOf(std::string_view key) const {
+    std::vector<std::string> out;
+    for (auto& [name, e] : entries_)
+      for (auto& k : e.keys)
+        if (k.name == key) out.push_back(name);
+    return out;
+  }
+
+ private:
+  std::map<std::string, Entry> entries_;
+};
+
+namespace forcefields {
+using ForceFieldRegistry = Registry<ForceField, topology::Topology&>;
+}  // namespace forcefields
+
+}  // namespace cutsim

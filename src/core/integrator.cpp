@@ -1,0 +1,204 @@
+// What the integrators share: step flags, the failure policy, the implicit base, the shorthand
+// settings of the first scenes (integrator.hpp).
+#include "cutsim/core/integrator.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::core {
+
+Integrator::~Integrator() = default;
+
+std::string StepStats::flagText() const {
+  if (!flags) return "ok";
+  std::string s;
+  auto add = [&](std::uint8_t bit, const char* name) {
+    if (!(flags & bit)) return;
+    if (!s.empty()) s.push_back('+');
+    s.append(name);
+  };
+  add(MissedTolerance, "missed-tolerance");
+  add(Indefinite, "indefinite");
+  add(FellBack, "fallback");
+  add(NewtonNotConverged, "newton");
+  return s;
+}
+
+std::string_view toString(SolveFailurePolicy p) {
+  switch (p) {
+    case SolveFailurePolicy::Warn: return "warn";
+    case SolveFailurePolicy::Fail: return "fail";
+    case SolveFailurePolicy::Fallback: return "fallback";
+  }
+  return "?";
+}
+
+SolveFailurePolicy parseSolveFailurePolicy(std::string_view name) {
+  if (name == "warn") return SolveFailurePolicy::Warn;
+  if (name == "fail") return SolveFailurePolicy::Fail;
+  if (name == "fallback") return SolveFailurePolicy::Fallback;
+  throw InvalidInput("onSolveFailure", "unknown value \"" + std::string(name) + "\" (warn, fail, fallback)");
+}
+
+void ImplicitSettings::validate() const {
+  forcefields::requireFiniteNonNegative("rayleighMass", rayleighMass);
+  forcefields::requireFiniteNonNegative("rayleighStiffness", rayleighStiffness);
+  forcefields::requireFinitePositive("fallbackAbove", fallbackAbove);
+}
+
+void NewtonSettings::validate() const {
+  if (maxIterations < 1)
+    throw InvalidInput("maxIterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
+  forcefields::requireFinitePositive("tolerance", tolerance);
+}
+
+ImplicitIntegrator::ImplicitIntegrator(ImplicitSettings settings, std::unique_ptr<LinearSolver> solver)
+    : settings_(settings), solver_(std::move(solver)) {
+  settings_.validate();
+  if (!solver_) throw InvalidInput("linearSolver", "an implicit integrator needs a linear solver");
+}
+ImplicitIntegrator::~ImplicitIntegrator() = default;
+
+void ImplicitIntegrator::reset() {
+  solver_->reset();
+  if (fallback_) fallback_->reset();
+}
+
+SystemOperator ImplicitIntegrator::systemOperator(const Model& model, std::span<const double> x,
+                                                  double c, const StepConstraints& constraints) {
+  auto m = model.mass().perPoint();
+  diagonalMass_.resize(m.size());
+  for (std::size_t p = 0; p < m.size(); ++p) diagonalMass_[p] = (1 + c * settings_.rayleighMass) * m[p];
+  return SystemOperator(model.fields(), x, diagonalMass_, constraints.constrained,
+                        c * c + c * settings_.rayleighStiffness, c,
+                        model.topology().revision());
+}
+
+namespace {
+std::string describe(const LinearSolver& s, const SolveReport& r) {
+  std::ostringstream o;
+  o << "the linear solve (" << s.name() << ") ";
+  if (r.indefinite)
+    o << (s.direct() ? "found the system matrix not positive definite (check the stiffness and "
+                       "damping parameters)"
+                     : "met a direction of non-positive curvature p^T A p <= 0");
+  else
+    o << "missed its tolerance";
+  o << ": relative residual " << r.residual << " after " << r.iterations
+    << (r.iterations == 1 ? " iteration" : " iterations");
+  return o.str();
+}
+}  // namespace
+
+void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv,
+                               StepStats& stats) {
+  const Eigen::VectorXd guess = dv;
+  SolveReport r = solver_->solve(A, b, dv);
+  stats.iterations += r.iterations;
+  ++stats.solves;
+  stats.analysed = stats.analysed || r.analysed;
+  auto record = [&](const SolveReport& rep) {
+    stats.residual = rep.residual;
+    if (!(rep.residual <= stats.worstResidual)) stats.worstResidual = rep.residual;
+  };
+  record(r);
+  if (r.converged && !r.indefinite) return;
+  stats.flags |= r.indefinite ? StepStats::Indefinite : StepStats::MissedTolerance;
+  if (!r.converged && !std::isfinite(r.residual)) stats.flags |= StepStats::MissedTolerance;
+  const bool far = !(r.residual <= settings_.fallbackAbove);
+  switch (settings_.onSolveFailure) {
+    case SolveFailurePolicy::Warn:
+      if (solver_->direct() && r.indefinite) throw StepFailure{describe(*solver_, r)};
+      return;
+    case SolveFailurePolicy::Fail:
+      throw StepFailure{describe(*solver_, r) + " (the scene's onSolveFailure is \"fail\")"};
+    case SolveFailurePolicy::Fallback:
+      break;
+  }
+  if (!far && !(solver_->direct() && r.indefinite)) return;  // close enough: flagged, kept
+  if (solver_->direct()) throw StepFailure{describe(*solver_, r)};
+  if (!fallback_) fallback_ = std::make_unique<CholmodSolver>();
+  dv = guess;
+  const SolveReport f = fallback_->solve(A, b, dv);
+  stats.iterations += f.iterations;
+  ++stats.solves;
+  stats.analysed = stats.analysed || f.analysed;
+  stats.flags |= StepStats::FellBack;
+  record(f);
+  if (f.indefinite || !f.converged)
+    throw StepFailure{describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4)};
+}
+
+// ---- the shorthand of the first scenes ----
+
+void SolverSettings::validate() const {
+  if (cgMaxIterations < 1)
+    throw InvalidInput("solver.iterations", "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
+  forcefields::requireFinitePositive("solver.tolerance", cgTolerance);
+  forcefields::requireFiniteNonNegative("solver.rayleighMass", rayleighMass);
+  forcefields::requireFiniteNonNegative("solver.rayleighStiffness", rayleighStiffness);
+  forcefields::requireFinitePositive("solver.fallbackAbove", fallbackAbove);
+}
+
+std::string_view toString(SolverSettings::Kind kind) {
+  switch (kind) {
+    case SolverSettings::Kind::Explicit: return "explicit";
+    case SolverSettings::Kind::ImplicitCG: return "implicit-cg";
+    case SolverSettings::Kind::ImplicitCholmod: return "implicit-cholmod";
+  }
+  return "?";
+}
+
+SolverSettings::Kind parseSolverKind(std::string_view name) {
+  if (name == "explicit") return SolverSettings::Kind::Explicit;
+  if (name == "implicit-cg") return SolverSettings::Kind::ImplicitCG;
+  if (name == "implicit-cholmod") return SolverSettings::Kind::ImplicitCholmod;
+  throw InvalidInput("solver.type", "unknown solver '" + std::string(name) +
+                                        "' (explicit, implicit-cg, implicit-cholmod)");
+}
+
+std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& s) {
+  s.validate();
+  if (s.kind == SolverSettings::Kind::Explicit) return std::make_unique<ExplicitEuler>();
+  ImplicitSettings is;
+  is.rayleighMass = s.rayleighMass;
+  is.rayleighStiffness = s.rayleighStiffness;
+  is.onSolveFailure = s.onSolveFailure;
+  is.fallbackAbove = s.fallbackAbove;
+  std::unique_ptr<LinearSolver> ls;
+  if (s.kind == SolverSettings::Kind::ImplicitCG)
+    ls = std::make_unique<ConjugateGradient>(CGSettings{s.cgMaxIterations, s.cgTolerance, s.cgWarmStart});
+  else
+    ls = std::make_unique<CholmodSolver>();
+  return std::make_unique<ImplicitEuler>(is, std::move(ls));
+}
+
+}  // namespace cutsim::core
+
+// ---- registration: the keys the implicit integrators share ----
+#include "cutsim/core/registries.hpp"
+
+namespace cutsim::core {
+
+std::vector<KeyInfo> implicitKeys() {
+  return {{"rayleighMass", "mass-proportional damping factor, >= 0 (default 0)"},
+          {"rayleighStiffness", "stiffness-proportional damping factor, >= 0 (default 0)"},
+          {"onSolveFailure",
+           "warn, fail or fallback (default): what a linear solve that misses its tolerance does"},
+          {"fallbackAbove", "relative residual above which fallback re-solves with CHOLMOD (default 1e-3)"}};
+}
+
+ImplicitSettings readImplicitSettings(const ParameterSource& s) {
+  ImplicitSettings p;
+  p.rayleighMass = s.nonNegative("rayleighMass", p.rayleighMass);
+  p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
+  p.onSolveFailure = parseSolveFailurePolicy(s.choice("onSolveFailure", "fallback", {"warn", "fail", "fallback"}));
+  p.fallbackAbove = s.positive("fallbackAbove", p.fallbackAbove);
+  s.check([&] { p.validate(); });
+  return p;
+}
+
+}  // namespace cutsim::core

@@ -1,0 +1,166 @@
+// SystemOperator and the Jacobi-preconditioned conjugate gradients (linear_solver.hpp).
+#include "cutsim/core/linear_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::core {
+
+using Vec = Eigen::VectorXd;
+using topology::PointId;
+
+namespace {
+
+/// Keeps only the diagonal entries of the blocks it is given.
+struct DiagonalAccumulator : forcefields::MatrixAccumulator {
+  explicit DiagonalAccumulator(Eigen::Index n) : diagonal(Vec::Zero(n)) {}
+  void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
+    if (i != j) return;
+    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += b(a, a);
+  }
+  void addScaledIdentity(PointId i, PointId j, double s) override {
+    if (i != j) return;
+    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += s;
+  }
+  Vec diagonal;
+};
+
+}  // namespace
+
+LinearSolver::~LinearSolver() = default;
+
+SystemOperator::SystemOperator(std::span<forcefields::ForceField* const> fields,
+                               std::span<const double> x, std::span<const double> diagonalMass,
+                               std::span<const char> constrained, double kFactor, double bFactor,
+                               std::uint64_t revision)
+    : fields_(fields),
+      x_(x),
+      mass_(diagonalMass),
+      constrained_(constrained),
+      kFactor_(kFactor),
+      bFactor_(bFactor),
+      revision_(revision) {
+  if (x.size() != 3 * mass_.size() || constrained.size() != mass_.size())
+    throw InvalidInput("linear system", "x, mass and constraint flags must cover the same point slots");
+}
+
+void SystemOperator::apply(const Vec& p, Vec& out) const {
+  const Eigen::Index N = size();
+  out.resize(N);
+  for (std::size_t q = 0; q < mass_.size(); ++q)
+    for (int c = 0; c < 3; ++c) out[Eigen::Index(3 * q + c)] = mass_[q] * p[Eigen::Index(3 * q + c)];
+  if (fields_.empty()) return;
+  Vec df = Vec::Zero(N);
+  std::span<double> dfs(df.data(), std::size_t(N));
+  std::span<const double> ps(p.data(), std::size_t(N));
+  for (auto* f : fields_) f->addDForce(x_, ps, dfs, kFactor_, bFactor_);
+  out -= df;
+}
+
+Vec SystemOperator::diagonal() const {
+  DiagonalAccumulator diagK(size());
+  for (auto* f : fields_) {
+    f->addKToMatrix(x_, diagK, -kFactor_);
+    f->addBToMatrix(x_, diagK, -bFactor_);
+  }
+  for (std::size_t q = 0; q < mass_.size(); ++q)
+    for (int c = 0; c < 3; ++c) diagK.diagonal[Eigen::Index(3 * q + c)] += mass_[q];
+  return diagK.diagonal;
+}
+
+void SystemOperator::project(Vec& a) const {
+  for (std::size_t p = 0; p < constrained_.size(); ++p)
+    if (constrained_[p]) a.segment<3>(Eigen::Index(3 * p)).setZero();
+}
+
+void CGSettings::validate() const {
+  if (maxIterations < 1)
+    throw InvalidInput("iterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
+  forcefields::requireFinitePositive("tolerance", tolerance);
+}
+
+ConjugateGradient::ConjugateGradient(CGSettings settings) : settings_(settings) { settings_.validate(); }
+
+SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec& dv) {
+  const Eigen::Index N = A.size();
+  const std::size_t n = A.numSlots();
+  if (b.size() != N || dv.size() != N)
+    throw InvalidInput("linear system", "the right-hand side and the unknowns must have 3 entries per point slot");
+  Vec bFree = b;
+  A.project(bFree);
+  const double bNorm = bFree.norm();
+  if (settings_.warmStart && warm_.size() == N)
+    for (std::size_t p = 0; p < n; ++p)
+      if (!A.isConstrained(p)) dv.segment<3>(Eigen::Index(3 * p)) = warm_.segment<3>(Eigen::Index(3 * p));
+  // Jacobi preconditioner (zero on the constrained points and where the diagonal is not positive).
+  Vec invDiag = A.diagonal();
+  for (std::size_t p = 0; p < n; ++p)
+    for (int c = 0; c < 3; ++c) {
+      double& d = invDiag[Eigen::Index(3 * p + c)];
+      d = A.isConstrained(p) || !(d > 0) ? 0.0 : 1.0 / d;
+    }
+  Vec Ap;
+  A.apply(dv, Ap);
+  Vec r = b - Ap;
+  A.project(r);
+  Vec z = invDiag.cwiseProduct(r);
+  Vec pdir = z;
+  double rz = r.dot(z);
+  double rNorm = r.norm();
+  SolveReport report;
+  const double stop = settings_.tolerance * std::max(bNorm, 1e-300);
+  while (report.iterations < settings_.maxIterations && rNorm > stop) {
+    A.apply(pdir, Ap);
+    A.project(Ap);
+    const double pAp = pdir.dot(Ap);
+    if (!(pAp > 0)) {  // not positive definite along pdir (or a zero direction): stop
+      report.indefinite = true;
+      break;
+    }
+    const double alpha = rz / pAp;
+    dv += alpha * pdir;
+    r -= alpha * Ap;
+    z = invDiag.cwiseProduct(r);
+    const double rzNew = r.dot(z);
+    pdir = z + (rzNew / rz) * pdir;
+    rz = rzNew;
+    rNorm = r.norm();
+    ++report.iterations;
+  }
+  report.residual = bNorm > 0 ? rNorm / bNorm : 0.0;
+  report.converged = std::isfinite(rNorm) && rNorm <= stop;
+  if (bNorm == 0 && rNorm == 0) report.converged = true;
+  warm_ = dv;
+  return report;
+}
+
+}  // namespace cutsim::core
+
+// ---- registration ----
+#include "cutsim/core/registries.hpp"
+
+namespace cutsim::core {
+namespace {
+const bool registered = LinearSolverRegistry::instance().add({
+    "cg",
+    "Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver)",
+    {{"iterations", "iteration cap, >= 1 (default 100)"},
+     {"tolerance", "relative residual to stop at, > 0 (default 1e-8)"},
+     {"warmStart", "start from the previous solve's result (default true)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      CGSettings p;
+      p.maxIterations = int(s.integer("iterations", 1, 1000000, p.maxIterations));
+      p.tolerance = s.positive("tolerance", p.tolerance);
+      p.warmStart = s.boolean("warmStart", p.warmStart);
+      s.check([&] { p.validate(); });
+      return p;
+    },
+    [](const std::any& p) -> std::unique_ptr<LinearSolver> {
+      return std::make_unique<ConjugateGradient>(std::any_cast<const CGSettings&>(p));
+    }});
+}  // namespace
+}  // namespace cutsim::core

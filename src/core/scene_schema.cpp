@@ -1,0 +1,601 @@
+// Scene files: the schema (every section and key checked before anything runs, force fields,
+// integrators and linear solvers read through their registries) and loadScene. The format is
+// described in docs/scenes.md.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "cutsim/core/registries.hpp"
+#include "cutsim/core/scene.hpp"
+#include "cutsim/topology/geometry.hpp"
+#include "scene_internal.hpp"
+#include "scene_json.hpp"
+
+namespace cutsim::core {
+
+using namespace detail;
+using topology::geometry::dist2;
+
+std::string SceneLocation::where(const std::string& file) const {
+  return line ? file + ":" + std::to_string(line) : file;
+}
+
+namespace detail {
+
+// ---------------------------------------------------------------------------------------------
+// The sections of a scene
+
+void parseGrid(const Reader& r, const json& j, const std::string& ptr, GridSpec& g) {
+  r.expectObject(j, ptr);
+  r.checkKeys(j, ptr, {"nx", "ny", "size", "diagonals", "plane", "origin"});
+  g.nx = int(r.integer(r.require(j, ptr, "nx"), ptr + "/nx", 2, 2000));
+  g.ny = int(r.integer(r.require(j, ptr, "ny"), ptr + "/ny", 2, 2000));
+  if (const json* s = r.find(j, "size")) {
+    if (!s->is_array() || s->size() != 2) r.fail(ptr + "/size", "expected [width, height]");
+    g.width = r.positive((*s)[0], ptr + "/size/0");
+    g.height = r.positive((*s)[1], ptr + "/size/1");
+  }
+  if (const json* d = r.find(j, "diagonals")) {
+    const std::string v = r.string(*d, ptr + "/diagonals");
+    if (v == "alternating") {
+      g.alternating = true;
+    } else if (v == "oneway") {
+      g.alternating = false;
+    } else {
+      r.fail(ptr + "/diagonals", "unknown value \"" + v + "\" (alternating, oneway)");
+    }
+  }
+  if (const json* p = r.find(j, "plane")) {
+    const std::string v = r.string(*p, ptr + "/plane");
+    if (v == "xy") {
+      g.planeXZ = false;
+    } else if (v == "xz") {
+      g.planeXZ = true;
+    } else {
+      r.fail(ptr + "/plane", "unknown value \"" + v + "\" (xy, xz)");
+    }
+  }
+  if (const json* o = r.find(j, "origin")) g.origin = r.vec3(*o, ptr + "/origin");
+}
+
+PointSelection parseSelection(const Reader& r, const json& j, const std::string& ptr,
+                              std::size_t numMeshPoints) {
+  PointSelection s;
+  const json* pts = r.find(j, "points");
+  const json* box = r.find(j, "box");
+  const json* near = r.find(j, "near");
+  const int given = (pts != nullptr) + (box != nullptr) + (near != nullptr);
+  if (given != 1) r.fail(ptr, "give exactly one of \"points\", \"box\" or \"near\"");
+  if (pts) {
+    s.kind = PointSelection::Kind::Points;
+    r.expectArray(*pts, ptr + "/points");
+    if (pts->empty()) r.fail(ptr + "/points", "lists no point");
+    for (std::size_t i = 0; i < pts->size(); ++i) {
+      s.points.push_back(PointId(
+          r.integer((*pts)[i], ptr + "/points/" + Reader::idx(i), 0, long(numMeshPoints) - 1)));
+    }
+  } else if (box) {
+    s.kind = PointSelection::Kind::Box;
+    std::tie(s.boxMin, s.boxMax) = r.box(*box, ptr + "/box");
+  } else {
+    s.kind = PointSelection::Kind::Near;
+    s.near = r.points(*near, ptr + "/near", 1);
+  }
+  return s;
+}
+
+std::string selectionPointer(const PointSelection& s, const std::string& ptr) {
+  switch (s.kind) {
+    case PointSelection::Kind::Points:
+      return ptr + "/points";
+    case PointSelection::Kind::Box:
+      return ptr + "/box";
+    case PointSelection::Kind::Near:
+      return ptr + "/near";
+  }
+  return ptr;
+}
+
+ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string& ptr) {
+  r.expectObject(j, ptr);
+  ForceFieldSpec f;
+  f.location = r.location(ptr);
+  f.type = r.string(r.require(j, ptr, "type"), ptr + "/type");
+  const auto& registry = forcefields::ForceFieldRegistry::instance();
+  const auto* entry = registry.find(f.type);
+  if (!entry) {
+    r.fail(ptr + "/type", "unknown force field type \"" + f.type + "\" (registered: " +
+                              registeredNames(registry) + ")");
+  }
+  checkComponentKeys(r, j, ptr, registry, *entry, {"label"});
+  if (const json* l = r.find(j, "label")) f.label = r.string(*l, ptr + "/label");
+  f.parameters = entry->read(JsonParameterSource(r, j, ptr));
+  return f;
+}
+
+/// A component of the integrator's or the linear solver's registry, read from its object.
+/// The components of the other stepping registry that have a key (a linear solver's key given to
+/// an integrator, or the other way round).
+std::vector<std::string> linearSolversWithKey(const std::string& key) {
+  std::vector<std::string> out;
+  for (std::string& o : LinearSolverRegistry::instance().ownersOf(key)) out.push_back("the linear solver " + o);
+  return out;
+}
+std::vector<std::string> integratorsWithKey(const std::string& key) {
+  std::vector<std::string> out;
+  for (std::string& o : IntegratorRegistry::instance().ownersOf(key)) out.push_back("the integrator " + o);
+  return out;
+}
+
+template <class Registry>
+ComponentSpec parseComponent(const Reader& r, const json& j, const std::string& ptr,
+                             const Registry& registry, const char* kind, std::string defaultType,
+                             std::vector<std::string> (*elsewhere)(const std::string&)) {
+  r.expectObject(j, ptr);
+  ComponentSpec c;
+  c.location = r.location(ptr);
+  c.type = defaultType;
+  if (const json* t = r.find(j, "type")) c.type = r.string(*t, ptr + "/type");
+  else if (defaultType.empty()) r.fail(ptr, "missing key \"type\"");
+  const auto* entry = registry.find(c.type);
+  if (!entry) {
+    r.fail(ptr + "/type", "unknown " + std::string(kind) + " type \"" + c.type +
+                              "\" (registered: " + registeredNames(registry) + ")");
+  }
+  checkComponentKeys(r, j, ptr, registry, *entry, {}, elsewhere);
+  c.parameters = entry->read(JsonParameterSource(r, j, ptr));
+  return c;
+}
+
+/// The "solver" shorthand of the first scenes: "explicit", "implicit-cg", "implicit-cholmod"
+/// with CG's and the damping's settings, read as the integrator and linear solver it stands for.
+void parseSolverShorthand(const Reader& r, const json& j, const std::string& ptr, Scene& s) {
+  r.expectObject(j, ptr);
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    static const std::vector<std::string> keys{"type", "iterations", "tolerance", "warmStart",
+                                               "rayleighMass", "rayleighStiffness"};
+    if (std::find(keys.begin(), keys.end(), it.key()) == keys.end())
+      r.fail(ptr + "/" + escapePointerToken(it.key()),
+             "unknown key \"" + it.key() +
+                 "\" (expected one of: type, iterations, tolerance, warmStart, rayleighMass, "
+                 "rayleighStiffness; \"solver\" is the shorthand of the first scenes: give "
+                 "\"integrator\" and \"linearSolver\" for every other setting)");
+  }
+  SolverSettings legacy;
+  if (const json* v = r.find(j, "type")) {
+    const std::string type = r.string(*v, ptr + "/type");
+    try {
+      legacy.kind = parseSolverKind(type);
+    } catch (const InvalidInput&) {
+      r.fail(ptr + "/type", "unknown solver type \"" + type +
+                                "\" (explicit, implicit-cg, implicit-cholmod; or give \"integrator\" "
+                                "and \"linearSolver\")");
+    }
+  }
+  const bool isExplicit = legacy.kind == SolverSettings::Kind::Explicit;
+  const bool cg = legacy.kind == SolverSettings::Kind::ImplicitCG;
+  for (const char* key : {"iterations", "tolerance", "warmStart", "rayleighMass", "rayleighStiffness"}) {
+    const bool cgKey = std::string_view(key) == "iterations" || std::string_view(key) == "tolerance" ||
+                       std::string_view(key) == "warmStart";
+    if (r.find(j, key) && (isExplicit || (cgKey && !cg)))
+      r.fail(ptr + "/" + key, "the solver \"" + std::string(toString(legacy.kind)) + "\" does not use \"" +
+                                  key + "\"");
+  }
+  CGSettings cgs;
+  if (const json* v = r.find(j, "iterations")) cgs.maxIterations = int(r.integer(*v, ptr + "/iterations", 1, 1000000));
+  if (const json* v = r.find(j, "tolerance")) cgs.tolerance = r.positive(*v, ptr + "/tolerance");
+  if (const json* v = r.find(j, "warmStart")) cgs.warmStart = r.boolean(*v, ptr + "/warmStart");
+  ImplicitSettings is;
+  if (const json* v = r.find(j, "rayleighMass")) is.rayleighMass = r.nonNegative(*v, ptr + "/rayleighMass");
+  if (const json* v = r.find(j, "rayleighStiffness")) is.rayleighStiffness = r.nonNegative(*v, ptr + "/rayleighStiffness");
+  const SceneLocation loc = r.location(ptr);
+  if (isExplicit) {
+    s.integrator = {"explicit-euler", std::any{}, loc};
+    s.linearSolver.reset();
+    return;
+  }
+  s.integrator = {"implicit-euler", is, loc};
+  if (cg)
+    s.linearSolver = ComponentSpec{"cg", cgs, loc};
+  else
+    s.linearSolver = ComponentSpec{"cholmod", CholmodSettings{}, loc};
+}
+
+/// "integrator" and "linearSolver" (or the "solver" shorthand); by default implicit Euler with CG.
+void parseStepping(const Reader& r, const json& root, Scene& s) {
+  const json* solver = r.find(root, "solver");
+  const json* integrator = r.find(root, "integrator");
+  const json* linear = r.find(root, "linearSolver");
+  if (solver && (integrator || linear)) {
+    r.fail(integrator ? "/integrator" : "/linearSolver",
+           "give either \"solver\" (the shorthand of the first scenes) or \"integrator\" and "
+           "\"linearSolver\", not both");
+  }
+  if (solver) {
+    parseSolverShorthand(r, *solver, "/solver", s);
+    return;
+  }
+  const auto& integrators = IntegratorRegistry::instance();
+  if (integrator) {
+    s.integrator = parseComponent(r, *integrator, "/integrator", integrators, "integrator", "",
+                                  linearSolversWithKey);
+  } else {
+    s.integrator = {"implicit-euler", ImplicitSettings{}, r.location("")};
+  }
+  const auto& uses = integrators.find(s.integrator.type)->uses;
+  const bool usesSolver = std::find(uses.begin(), uses.end(), "linearSolver") != uses.end();
+  if (linear && !usesSolver) {
+    std::string with;
+    for (auto& [name, e] : integrators.entries())
+      if (std::find(e.uses.begin(), e.uses.end(), "linearSolver") != e.uses.end())
+        with += (with.empty() ? "" : ", ") + name;
+    r.fail("/linearSolver", "the integrator \"" + s.integrator.type +
+                                "\" uses no linear solver (the integrators that do: " + with + ")");
+  }
+  if (linear) {
+    s.linearSolver = parseComponent(r, *linear, "/linearSolver", LinearSolverRegistry::instance(),
+                                    "linear solver", "", integratorsWithKey);
+  } else if (usesSolver) {
+    s.linearSolver = ComponentSpec{"cg", CGSettings{}, s.integrator.location};
+  } else {
+    s.linearSolver.reset();
+  }
+}
+
+void parseOutput(const Reader& r, const json& j, const std::string& ptr, OutputSettings& o) {
+  r.expectObject(j, ptr);
+  r.checkKeys(j, ptr, {"every", "vtk", "springs", "obj", "csv"});
+  if (const json* v = r.find(j, "every")) o.every = int(r.integer(*v, ptr + "/every", 1, 1 << 30));
+  if (const json* v = r.find(j, "vtk")) o.vtk = r.boolean(*v, ptr + "/vtk");
+  if (const json* v = r.find(j, "springs")) o.springs = r.boolean(*v, ptr + "/springs");
+  if (const json* v = r.find(j, "obj")) o.obj = r.boolean(*v, ptr + "/obj");
+  if (const json* v = r.find(j, "csv")) o.csv = r.boolean(*v, ptr + "/csv");
+}
+
+/// A time of the timeline: finite, in [0, duration].
+double actionTime(const Reader& r, const json& j, const std::string& ptr, double duration) {
+  const double t = r.number(j, ptr);
+  if (t < 0)
+    r.fail(ptr, "an action cannot happen at a negative time (got " + Reader::text(t) + ")");
+  if (t > duration) {
+    r.fail(ptr, "time " + Reader::text(t) + " is after the end of the scene (duration " +
+                    Reader::text(duration) + ")");
+  }
+  return t;
+}
+
+SceneAction parseAction(const Reader& r, const json& j, const std::string& ptr, double duration,
+                        std::size_t numMeshPoints) {
+  r.expectObject(j, ptr);
+  SceneAction a;
+  a.location = r.location(ptr);
+  const std::string kind = r.string(r.require(j, ptr, "action"), ptr + "/action");
+  const bool progressive = kind == "cut" && (r.find(j, "from") || r.find(j, "to"));
+  if (progressive) {
+    a.kind = SceneAction::Kind::ProgressiveCut;
+    if (r.find(j, "at")) r.fail(ptr + "/at", "a cut has either \"at\" or \"from\" and \"to\"");
+    a.from = actionTime(r, r.require(j, ptr, "from"), ptr + "/from", duration);
+    a.to = actionTime(r, r.require(j, ptr, "to"), ptr + "/to", duration);
+    if (!(a.to > a.from)) r.fail(ptr + "/to", "must be after \"from\"");
+  } else if (kind == "cut" || kind == "remove" || kind == "tearing" || kind == "grasp" ||
+             kind == "release") {
+    a.at = actionTime(r, r.require(j, ptr, "at"), ptr + "/at", duration);
+  }
+  if (kind == "cut") {
+    if (!progressive) a.kind = SceneAction::Kind::Cut;
+    r.checkKeys(j, ptr,
+                progressive ? std::initializer_list<std::string_view>{"action", "from", "to",
+                                                                      "polyline", "snapTolerance"}
+                            : std::initializer_list<std::string_view>{"action", "at", "polyline",
+                                                                      "snapTolerance"});
+    a.polyline = r.points(r.require(j, ptr, "polyline"), ptr + "/polyline", 2);
+    if (const json* v = r.find(j, "snapTolerance")) {
+      a.snapTolerance = r.nonNegative(*v, ptr + "/snapTolerance");
+      if (!(a.snapTolerance < 0.5)) r.fail(ptr + "/snapTolerance", "must be < 0.5");
+    }
+  } else if (kind == "remove") {
+    a.kind = SceneAction::Kind::Remove;
+    r.checkKeys(j, ptr, {"action", "at", "sphere", "box"});
+    const json* sphere = r.find(j, "sphere");
+    const json* box = r.find(j, "box");
+    if ((sphere != nullptr) == (box != nullptr)) {
+      r.fail(ptr, "give exactly one of \"sphere\" or \"box\"");
+    }
+    if (sphere) {
+      const std::string sp = ptr + "/sphere";
+      r.expectObject(*sphere, sp);
+      r.checkKeys(*sphere, sp, {"center", "radius"});
+      a.region.kind = Region::Kind::Sphere;
+      a.region.center = r.vec3(r.require(*sphere, sp, "center"), sp + "/center");
+      a.region.radius = r.positive(r.require(*sphere, sp, "radius"), sp + "/radius");
+    } else {
+      a.region.kind = Region::Kind::Box;
+      std::tie(a.region.boxMin, a.region.boxMax) = r.box(*box, ptr + "/box");
+    }
+  } else if (kind == "tearing") {
+    a.kind = SceneAction::Kind::Tearing;
+    r.checkKeys(j, ptr, {"action", "at", "threshold", "maxPerStep"});
+    a.threshold = r.positive(r.require(j, ptr, "threshold"), ptr + "/threshold");
+    if (const json* v = r.find(j, "maxPerStep")) {
+      a.maxPerStep = int(r.integer(*v, ptr + "/maxPerStep", 1, 1000000));
+    }
+  } else if (kind == "grasp") {
+    a.kind = SceneAction::Kind::Grasp;
+    r.checkKeys(j, ptr, {"action", "at", "name", "points", "box", "near", "path"});
+    a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
+    if (a.name.empty()) r.fail(ptr + "/name", "must not be empty");
+    a.selection = parseSelection(r, j, ptr, numMeshPoints);
+    const std::string pp = ptr + "/path";
+    const json& path = r.require(j, ptr, "path");
+    r.expectArray(path, pp);
+    if (path.empty()) r.fail(pp, "expected at least one key [t, dx, dy, dz]");
+    for (std::size_t i = 0; i < path.size(); ++i) {
+      const std::string kp = pp + "/" + Reader::idx(i);
+      const json& key = path[i];
+      if (!key.is_array() || key.size() != 4) r.fail(kp, "expected [t, dx, dy, dz]");
+      const double t = r.number(key[0], kp + "/0");
+      if (t < 0) r.fail(kp + "/0", "path times are relative to the grasp's start: must be >= 0");
+      if (!a.path.times.empty() && !(t > a.path.times.back())) {
+        r.fail(kp + "/0", "path times must increase strictly");
+      }
+      a.path.times.push_back(t);
+      a.path.displacements.push_back(
+          {r.number(key[1], kp + "/1"), r.number(key[2], kp + "/2"), r.number(key[3], kp + "/3")});
+    }
+  } else if (kind == "release") {
+    a.kind = SceneAction::Kind::Release;
+    r.checkKeys(j, ptr, {"action", "at", "name"});
+    a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
+  } else {
+    r.fail(ptr + "/action",
+           "unknown action \"" + kind + "\" (cut, remove, tearing, grasp, release)");
+  }
+  return a;
+}
+
+/// Checks what can only be checked against the mesh: cut polylines on the rest surface, regions
+/// and selections that hold something, grasps released by name. Cuts and removals are carried
+}  // namespace detail
+
+topology::MeshData makeGrid(const GridSpec& g) {
+  topology::MeshData m;
+  for (int j = 0; j < g.ny; ++j) {
+    for (int i = 0; i < g.nx; ++i) {
+      const double u = g.width * i / (g.nx - 1), v = g.height * j / (g.ny - 1);
+      if (g.planeXZ) {
+        m.points.push_back({g.origin[0] + u, g.origin[1], g.origin[2] + v});
+      } else {
+        m.points.push_back({g.origin[0] + u, g.origin[1] + v, g.origin[2]});
+      }
+    }
+  }
+  auto id = [&](int i, int j) { return PointId(j * g.nx + i); };
+  for (int j = 0; j + 1 < g.ny; ++j) {
+    for (int i = 0; i + 1 < g.nx; ++i) {
+      const PointId a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
+      if (!g.alternating || (i + j) % 2 == 0) {
+        m.triangles.push_back({a, b, c});
+        m.triangles.push_back({a, c, d});
+      } else {
+        m.triangles.push_back({a, b, d});
+        m.triangles.push_back({b, c, d});
+      }
+    }
+  }
+  m.source = "grid";
+  return m;
+}
+
+std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) const {
+  std::vector<PointId> out;
+  switch (kind) {
+    case Kind::Points:
+      for (PointId p : points) {
+        if (p < topo.pointCapacity() && topo.isPointAlive(p)) out.push_back(p);
+      }
+      break;
+    case Kind::Box:
+      for (PointId p : topo.points()) {
+        const Vec3 x = topo.restPosition(p);
+        bool inside = true;
+        for (int k = 0; k < 3; ++k) inside = inside && x[k] >= boxMin[k] && x[k] <= boxMax[k];
+        if (inside) out.push_back(p);
+      }
+      break;
+    case Kind::Near: {
+      const std::vector<PointId> live = topo.points();
+      if (live.empty()) break;
+      for (const Vec3& q : near) {
+        PointId best = live.front();
+        double bestD = dist2(topo.restPosition(best), q);
+        for (PointId p : live) {
+          const double d = dist2(topo.restPosition(p), q);
+          if (d < bestD) {
+            bestD = d;
+            best = p;
+          }
+        }
+        out.push_back(best);
+      }
+      break;
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+bool Region::contains(const Vec3& p) const {
+  if (kind == Kind::Sphere) return dist2(p, center) <= radius * radius;
+  for (int k = 0; k < 3; ++k) {
+    if (p[k] < boxMin[k] || p[k] > boxMax[k]) return false;
+  }
+  return true;
+}
+
+long Scene::numSteps() const {
+  const double n = duration / timeStep;
+  const double r = std::round(n);
+  if (std::abs(n - r) <= 1e-9 * std::max(1.0, r)) return long(r);
+  return long(std::ceil(n));
+}
+
+topology::MeshData Scene::mesh() const {
+  if (grid) return makeGrid(*grid);
+  return topology::readMesh(*meshFile);
+}
+
+std::vector<std::string> Scene::forceFieldLabels() const {
+  std::vector<std::string> labels;
+  std::map<std::string, int> seen;
+  for (const ForceFieldSpec& f : forceFields) {
+    const std::string base = !f.label.empty() ? f.label : f.type;
+    const int n = ++seen[base];
+    labels.push_back(n == 1 ? base : base + "_" + std::to_string(n));
+  }
+  return labels;
+}
+
+std::vector<std::string> Scene::graspNames() const {
+  std::vector<std::string> names;
+  for (const SceneAction& a : timeline) {
+    if (a.kind == SceneAction::Kind::Grasp &&
+        std::find(names.begin(), names.end(), a.name) == names.end()) {
+      names.push_back(a.name);
+    }
+  }
+  return names;
+}
+
+Scene parseScene(std::string_view text, const std::string& sourceName,
+                 const std::filesystem::path& baseDir) {
+  const JsonDocument doc = parseJsonWithLines(text, sourceName);
+  const Reader r(sourceName, doc.lines);
+  const json& root = doc.root;
+  r.expectObject(root, "");
+  r.checkKeys(root, "",
+              {"name", "description", "mesh", "mass", "gravity", "forceFields", "constraints",
+               "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline"});
+
+  Scene s;
+  s.file = sourceName;
+  s.name = std::filesystem::path(sourceName).stem().string();
+  if (const json* v = r.find(root, "name")) {
+    s.name = r.string(*v, "/name");
+    if (s.name.empty() || s.name.find_first_of("/\\") != std::string::npos || s.name == "." ||
+        s.name == "..") {
+      r.fail("/name", "must be a plain file name (no slash)");
+    }
+  }
+  if (const json* v = r.find(root, "description")) s.description = r.string(*v, "/description");
+
+  // mesh
+  const json& mesh = r.require(root, "", "mesh");
+  std::string meshPtr = "/mesh";
+  const json* meshFile = nullptr;
+  if (mesh.is_string()) {
+    meshFile = &mesh;
+  } else if (mesh.is_object()) {
+    r.checkKeys(mesh, meshPtr, {"file", "grid"});
+    const json* file = r.find(mesh, "file");
+    const json* grid = r.find(mesh, "grid");
+    if ((file != nullptr) == (grid != nullptr)) {
+      r.fail(meshPtr, "give exactly one of \"file\" or \"grid\"");
+    }
+    if (file) {
+      meshFile = file;
+      meshPtr += "/file";
+    } else {
+      GridSpec g;
+      parseGrid(r, *grid, meshPtr + "/grid", g);
+      s.grid = g;
+    }
+  } else {
+    r.fail(meshPtr, "expected a file name or an object {\"file\"} or {\"grid\"}, got " +
+                        Reader::typeName(mesh));
+  }
+  if (meshFile) {
+    const std::string name = r.string(*meshFile, meshPtr);
+    const std::filesystem::path p = baseDir / name;
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(p, ec)) {
+      r.fail(meshPtr, "mesh file \"" + name + "\" not found (looked for " + p.string() + ")");
+    }
+    s.meshFile = p;
+  }
+
+  // mass
+  {
+    const std::string ptr = "/mass";
+    const json& m = r.require(root, "", "mass");
+    r.expectObject(m, ptr);
+    r.checkKeys(m, ptr, {"density", "total"});
+    const json* d = r.find(m, "density");
+    const json* t = r.find(m, "total");
+    if ((d != nullptr) == (t != nullptr))
+      r.fail(ptr, "give exactly one of \"density\" or \"total\"");
+    if (d) {
+      s.density = r.positive(*d, ptr + "/density");
+    } else {
+      s.massByTotal = true;
+      s.totalMass = r.positive(*t, ptr + "/total");
+    }
+  }
+  if (const json* v = r.find(root, "gravity")) s.gravity = r.vec3(*v, "/gravity");
+
+  if (const json* v = r.find(root, "forceFields")) {
+    r.expectArray(*v, "/forceFields");
+    for (std::size_t i = 0; i < v->size(); ++i) {
+      s.forceFields.push_back(parseForceField(r, (*v)[i], "/forceFields/" + Reader::idx(i)));
+    }
+  }
+  parseStepping(r, root, s);
+  s.timeStep = r.positive(r.require(root, "", "timeStep"), "/timeStep");
+  s.duration = r.nonNegative(r.require(root, "", "duration"), "/duration");
+  if (s.duration / s.timeStep > 1e8) r.fail("/duration", "more than 1e8 steps of timeStep");
+  if (const json* v = r.find(root, "output")) parseOutput(r, *v, "/output", s.output);
+
+  // The mesh is needed for point ids and for the dry run.
+  const topology::MeshData meshData = s.mesh();
+  if (meshData.triangles.empty()) r.fail(meshPtr, "the mesh has no triangle");
+  topology::checkManifold(meshData);
+
+  if (const json* v = r.find(root, "constraints")) {
+    r.expectArray(*v, "/constraints");
+    for (std::size_t i = 0; i < v->size(); ++i) {
+      const std::string ptr = "/constraints/" + Reader::idx(i);
+      const json& c = (*v)[i];
+      r.expectObject(c, ptr);
+      const std::string type = r.string(r.require(c, ptr, "type"), ptr + "/type");
+      if (type != "fixed")
+        r.fail(ptr + "/type", "unknown constraint type \"" + type + "\" (fixed)");
+      r.checkKeys(c, ptr, {"type", "points", "box", "near"});
+      s.fixed.push_back({parseSelection(r, c, ptr, meshData.points.size()), r.location(ptr)});
+    }
+  }
+  if (const json* v = r.find(root, "timeline")) {
+    r.expectArray(*v, "/timeline");
+    for (std::size_t i = 0; i < v->size(); ++i) {
+      s.timeline.push_back(parseAction(r, (*v)[i], "/timeline/" + Reader::idx(i), s.duration,
+                                       meshData.points.size()));
+    }
+    std::stable_sort(
+        s.timeline.begin(), s.timeline.end(),
+        [](const SceneAction& a, const SceneAction& b) { return a.startTime() < b.startTime(); });
+  }
+  dryRun(r, s, meshData);
+  return s;
+}
+
+Scene loadScene(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InvalidInput(file.string(), "cannot open the scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InvalidInput(file.string(), "cannot read the scene file");
+  return parseScene(text.str(), file.string(), file.parent_path());
+}
+
+}  // namespace cutsim::core

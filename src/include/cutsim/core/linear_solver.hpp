@@ -1,0 +1,146 @@
+#pragma once
+// Linear solvers of the implicit integrators, behind one interface.
+//
+// Every implicit step of cutsim solves one system of the same shape,
+//
+//   A dv = b,   A = diag(m') - kFactor K(x) - bFactor B(x),
+//
+// over the free degrees of freedom of the model (m' is the lumped mass scaled by the integrator,
+// K = dF/dx and B = dF/dv summed over the force fields, NSD as SOFA's). A constrained point's
+// three unknowns are prescribed: dv there is given and never changed, its rows are dropped and its
+// columns move to the right-hand side. SystemOperator describes A without assembling it; a
+// LinearSolver solves with it, matrix-free (ConjugateGradient) or assembled (CholmodSolver).
+// Residuals are relative to the norm of b over the free degrees of freedom.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cutsim/forcefields/force_field.hpp"
+
+namespace cutsim::core {
+
+/// The system matrix A of one solve, matrix-free.
+class SystemOperator {
+ public:
+  /// fields: the model's force fields; x: positions at which K and B are taken (3 doubles per
+  /// point slot); diagonalMass: m' per point slot; constrained: per point slot, 1 if its dv is
+  /// prescribed (also every point with m' <= 0); revision: a number that changes whenever the
+  /// pattern of K may change (the topology's revision), for solvers that keep a factorisation.
+  SystemOperator(std::span<forcefields::ForceField* const> fields, std::span<const double> x,
+                 std::span<const double> diagonalMass, std::span<const char> constrained,
+                 double kFactor, double bFactor, std::uint64_t revision);
+
+  std::size_t numSlots() const { return mass_.size(); }
+  Eigen::Index size() const { return Eigen::Index(3 * mass_.size()); }
+  /// out = A p (every entry, constrained rows included).
+  void apply(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
+  /// The diagonal of A, gathered from the fields' blocks without assembling the matrix.
+  Eigen::VectorXd diagonal() const;
+  /// Zeroes the entries of the constrained points.
+  void project(Eigen::VectorXd& a) const;
+  bool isConstrained(std::size_t point) const { return constrained_[point] != 0; }
+
+  std::span<forcefields::ForceField* const> fields() const { return fields_; }
+  std::span<const double> x() const { return x_; }
+  std::span<const double> diagonalMass() const { return mass_; }
+  std::span<const char> constrained() const { return constrained_; }
+  double kFactor() const { return kFactor_; }
+  double bFactor() const { return bFactor_; }
+  std::uint64_t revision() const { return revision_; }
+
+ private:
+  std::span<forcefields::ForceField* const> fields_;
+  std::span<const double> x_, mass_;
+  std::span<const char> constrained_;
+  double kFactor_, bFactor_;
+  std::uint64_t revision_;
+};
+
+/// What one solve did.
+struct SolveReport {
+  int iterations = 0;         ///< CG iterations; 1 for a direct solve
+  double residual = 0.0;      ///< |b - A dv| / |b| over the free degrees of freedom (0 if b = 0)
+  bool converged = true;      ///< the residual met the solver's tolerance
+  bool indefinite = false;    ///< CG met p^T A p <= 0, or the factorisation found A not positive definite
+  bool analysed = false;      ///< a direct solver redid its symbolic analysis
+};
+
+class LinearSolver {
+ public:
+  virtual ~LinearSolver();
+  /// The registered name ("cg", "cholmod").
+  virtual std::string_view name() const = 0;
+  /// Whether it solves to rounding (a factorisation) rather than iterating to a tolerance.
+  virtual bool direct() const = 0;
+  /// Solves A dv = b on the free degrees of freedom. On entry dv holds the prescribed values on
+  /// the constrained points (kept) and a starting guess elsewhere (an iterative solver may use
+  /// it); b has size A.size(). Never throws for a system it cannot solve: it says so in the
+  /// report (the integrator's failure policy decides).
+  virtual SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b,
+                            Eigen::VectorXd& dv) = 0;
+  /// Forgets what it kept from earlier solves (a warm start, a factorisation).
+  virtual void reset() {}
+};
+
+/// Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver, with a
+/// preconditioner). Stops when |r| <= tolerance |b| or after maxIterations, or when it meets a
+/// direction of non-positive curvature (reported as indefinite).
+struct CGSettings {
+  int maxIterations = 100;   ///< >= 1
+  double tolerance = 1e-8;   ///< relative residual to stop at, > 0
+  bool warmStart = true;     ///< start from the previous solve's dv on the free points
+  /// Throws InvalidInput (where = the setting's name) for values out of range.
+  void validate() const;
+};
+
+class ConjugateGradient final : public LinearSolver {
+ public:
+  explicit ConjugateGradient(CGSettings settings = {});
+  std::string_view name() const override { return "cg"; }
+  bool direct() const override { return false; }
+  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  void reset() override { warm_.resize(0); }
+  const CGSettings& settings() const { return settings_; }
+
+ private:
+  CGSettings settings_;
+  Eigen::VectorXd warm_;
+};
+
+/// Supernodal Cholesky (CHOLMOD) of A assembled in place in a kept pattern: the pattern and its
+/// symbolic analysis are redone only when A.revision() or the fields change. Points are numbered
+/// by METIS nested dissection of the point graph; while the pattern changes every few steps (a
+/// progressive cut) a cheaper minimum-degree numbering is used, and a pattern that then rests
+/// reorderAfter solves is numbered again by nested dissection.
+struct CholmodSettings {
+  int shortLivedPattern = 10;  ///< a pattern replaced within this many solves counts as short-lived
+  int reorderAfter = 20;       ///< solves on a minimum-degree pattern before reordering it
+  void validate() const;
+};
+
+class CholmodSolver final : public LinearSolver {
+ public:
+  explicit CholmodSolver(CholmodSettings settings = {});
+  ~CholmodSolver() override;
+  std::string_view name() const override { return "cholmod"; }
+  bool direct() const override { return true; }
+  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  void reset() override;
+  /// Symbolic analyses done so far, for tests of the reuse policy.
+  long analyses() const;
+
+ private:
+  struct Impl;
+  CholmodSettings settings_;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// OpenBLAS and OpenMP (which CHOLMOD uses) would pick their thread counts from the machine; one
+/// thread keeps results identical from run to run. Called once, by the first direct solve.
+void pinBlasThreads();
+
+}  // namespace cutsim::core

@@ -1,0 +1,299 @@
+// Each integrator through the seam: the free-fall recurrence it must follow exactly, its order of
+// accuracy, Newton against the linearised step, and the failure policy of the solves.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cutsim/core/integrator.hpp"
+#include "cutsim/core/simulation.hpp"
+#include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/forcefields/stretch_springs.hpp"
+#include "support/fixtures.hpp"
+
+namespace cutsim::test {
+namespace {
+
+using core::BDF2;
+using core::CGSettings;
+using core::CholmodSolver;
+using core::ConjugateGradient;
+using core::ExplicitEuler;
+using core::ImplicitEuler;
+using core::ImplicitSettings;
+using core::Integrator;
+using core::NewtonImplicitEuler;
+using core::NewtonSettings;
+using core::Simulation;
+using core::StepStats;
+using topology::Topology;
+using topology::Vec3;
+using ::testing::HasSubstr;
+
+struct Config {
+  std::string name;
+  std::function<std::unique_ptr<Integrator>(ImplicitSettings)> make;
+};
+
+std::unique_ptr<core::LinearSolver> tightCG() {
+  return std::make_unique<ConjugateGradient>(CGSettings{5000, 1e-14, false});
+}
+
+std::vector<Config> allConfigs() {
+  return {
+      {"explicit_euler", [](ImplicitSettings) { return std::make_unique<ExplicitEuler>(); }},
+      {"implicit_euler_cg", [](ImplicitSettings s) { return std::make_unique<ImplicitEuler>(s, tightCG()); }},
+      {"implicit_euler_cholmod",
+       [](ImplicitSettings s) { return std::make_unique<ImplicitEuler>(s, std::make_unique<CholmodSolver>()); }},
+      {"bdf2_cg", [](ImplicitSettings s) { return std::make_unique<BDF2>(s, tightCG()); }},
+      {"bdf2_cholmod", [](ImplicitSettings s) { return std::make_unique<BDF2>(s, std::make_unique<CholmodSolver>()); }},
+      {"newton_cg",
+       [](ImplicitSettings s) { return std::make_unique<NewtonImplicitEuler>(s, NewtonSettings{}, tightCG()); }},
+      {"newton_cholmod",
+       [](ImplicitSettings s) {
+         return std::make_unique<NewtonImplicitEuler>(s, NewtonSettings{}, std::make_unique<CholmodSolver>());
+       }},
+  };
+}
+
+class EveryIntegrator : public ::testing::TestWithParam<Config> {};
+
+// Without force fields every method reduces to a recurrence on each point, which the step must
+// follow to rounding: symplectic and backward Euler v_k+1 = (v_k + h g) / (1 + h rM) (rM = 0 for
+// the explicit one), x_k+1 = x_k + h v_k+1; BDF2 from its implicit Euler start,
+// v_k+1 = (4 v_k - v_k-1 + 2 h g) / (3 + 2 h rM), x_k+1 = (4 x_k - x_k-1 + 2 h v_k+1) / 3.
+TEST_P(EveryIntegrator, FreeFallFollowsTheMethodsRecurrence) {
+  const Config& config = GetParam();
+  const bool isExplicit = config.name == "explicit_euler";
+  const bool bdf2 = config.name.rfind("bdf2", 0) == 0;
+  ImplicitSettings settings;
+  settings.rayleighMass = isExplicit ? 0.0 : 0.7;
+  Simulation sim(std::make_unique<Topology>(grid(4, 1.0)), 2.0);
+  const Vec3 g{0.3, -9.81, 0.5};
+  sim.setGravity(g);
+  sim.setIntegrator(config.make(settings));
+  const double h = 0.01, rM = settings.rayleighMass;
+  std::vector<double> x(sim.state().x().begin(), sim.state().x().end());
+  std::vector<double> v(x.size(), 0.0), xPrev, vPrev;
+  for (int k = 0; k < 30; ++k) {
+    sim.step(h);
+    std::vector<double> xn(x.size()), vn(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (bdf2 && k > 0) {
+        vn[i] = (4 * v[i] - vPrev[i] + 2 * h * g[i % 3]) / (3 + 2 * h * rM);
+        xn[i] = (4 * x[i] - xPrev[i] + 2 * h * vn[i]) / 3;
+      } else {
+        vn[i] = (v[i] + h * g[i % 3]) / (1 + h * rM);
+        xn[i] = x[i] + h * vn[i];
+      }
+    }
+    xPrev = x;
+    vPrev = v;
+    x = xn;
+    v = vn;
+    auto sx = sim.state().x();
+    auto sv = sim.state().v();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      ASSERT_NEAR(sv[i], v[i], 1e-12) << "step " << k + 1 << " dof " << i;
+      ASSERT_NEAR(sx[i], x[i], 1e-12) << "step " << k + 1 << " dof " << i;
+    }
+  }
+  EXPECT_FALSE(sim.solveSummary().flaggedSteps);
+}
+
+INSTANTIATE_TEST_SUITE_P(Core, EveryIntegrator, ::testing::ValuesIn(allConfigs()),
+                         [](const auto& info) { return info.param.name; });
+
+/// A hanging sheet of stretch and bending springs, fixed along one side, swinging.
+std::unique_ptr<Simulation> swingingSheet(std::unique_ptr<Integrator> integrator) {
+  auto sim = std::make_unique<Simulation>(std::make_unique<Topology>(grid(5, 1.0)), 1.0);
+  forcefields::StretchParameters sp;
+  sp.stiffness = 60.0;
+  sp.stableJacobian = false;
+  sim->addForceField(std::make_unique<forcefields::StretchSprings>(sim->topology(), sp));
+  forcefields::BendingParameters bp;
+  bp.bendingStiffness = 0.05;
+  sim->addForceField(std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
+  for (topology::PointId p = 0; p < 5; ++p) sim->fixed().add(p);
+  sim->setGravity({0, 0, -9.81});
+  sim->setIntegrator(std::move(integrator));
+  return sim;
+}
+
+std::vector<double> runTo(std::unique_ptr<Integrator> integrator, double T, int steps) {
+  auto sim = swingingSheet(std::move(integrator));
+  for (int i = 0; i < steps; ++i) sim->step(T / steps);
+  return {sim->state().x().begin(), sim->state().x().end()};
+}
+
+double distance(const std::vector<double>& a, const std::vector<double>& b) {
+  double s = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) s += (a[i] - b[i]) * (a[i] - b[i]);
+  return std::sqrt(s);
+}
+
+// The error against a fine reference falls by 2 per halving of h for implicit Euler and by 4 for
+// BDF2 (first and second order).
+TEST(IntegratorOrder, ImplicitEulerIsFirstOrderAndBDF2SecondOrder) {
+  const double T = 0.2;
+  auto cholmod = [] { return std::make_unique<CholmodSolver>(); };
+  const std::vector<double> reference =
+      runTo(std::make_unique<BDF2>(ImplicitSettings{}, cholmod()), T, 3200);
+  std::vector<double> eulerErr, bdfErr;
+  for (int steps : {25, 50, 100}) {
+    eulerErr.push_back(distance(runTo(std::make_unique<ImplicitEuler>(ImplicitSettings{}, cholmod()), T, steps), reference));
+    bdfErr.push_back(distance(runTo(std::make_unique<BDF2>(ImplicitSettings{}, cholmod()), T, steps), reference));
+  }
+  for (std::size_t i = 0; i + 1 < eulerErr.size(); ++i) {
+    const double eulerOrder = std::log2(eulerErr[i] / eulerErr[i + 1]);
+    const double bdfOrder = std::log2(bdfErr[i] / bdfErr[i + 1]);
+    EXPECT_NEAR(eulerOrder, 1.0, 0.25) << "implicit Euler errors " << eulerErr[i] << ", " << eulerErr[i + 1];
+    EXPECT_NEAR(bdfOrder, 2.0, 0.3) << "BDF2 errors " << bdfErr[i] << ", " << bdfErr[i + 1];
+    EXPECT_LT(bdfErr[i], eulerErr[i]);
+  }
+}
+
+// On a field whose force is linear in x (the bending springs alone), Newton converges in one
+// iteration to the linearised implicit Euler step.
+TEST(Newton, OnALinearFieldItIsTheLinearisedStepInOneIteration) {
+  auto make = [](std::unique_ptr<Integrator> integrator) {
+    auto sim = std::make_unique<Simulation>(std::make_unique<Topology>(grid(5, 1.0, 0.2)), 1.0);
+    forcefields::BendingParameters bp;
+    bp.bendingStiffness = 3.0;
+    sim->addForceField(std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
+    sim->fixed().add(0);
+    sim->fixed().add(1);
+    sim->setGravity({0, 0, -9.81});
+    sim->setIntegrator(std::move(integrator));
+    return sim;
+  };
+  auto newtonSim = make(std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{},
+                                                              std::make_unique<CholmodSolver>()));
+  auto eulerSim = make(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
+  for (int i = 0; i < 10; ++i) {
+    const StepStats s = newtonSim->step(0.02);
+    eulerSim->step(0.02);
+    EXPECT_LE(s.newtonIterations, 1);
+    EXPECT_FALSE(s.flagged());
+  }
+  auto a = newtonSim->state().x();
+  auto b = eulerSim->state().x();
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-10);
+}
+
+// On a nonlinear field Newton iterates until the implicit Euler equations hold.
+TEST(Newton, SolvesTheImplicitEulerEquationsOfANonlinearField) {
+  auto integrator = std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{30, 1e-10, true, true},
+                                                           std::make_unique<CholmodSolver>());
+  auto* newton = integrator.get();
+  auto sim = swingingSheet(std::move(integrator));
+  const double h = 0.05;
+  for (int i = 0; i < 8; ++i) {
+    std::vector<double> x0(sim->state().x().begin(), sim->state().x().end());
+    std::vector<double> v0(sim->state().v().begin(), sim->state().v().end());
+    const StepStats s = sim->step(h);
+    EXPECT_FALSE(s.flagged());
+    EXPECT_GE(s.newtonIterations, 2);
+    // M (v1 - v0) = h F(x1) on the free points.
+    const std::vector<double> f = sim->totalForce();
+    auto m = sim->mass().perPoint();
+    auto v1 = sim->state().v();
+    double worst = 0, scale = 0;
+    for (std::size_t p = 5; p < m.size(); ++p)
+      for (int c = 0; c < 3; ++c) {
+        const std::size_t k = 3 * p + std::size_t(c);
+        worst = std::max(worst, std::abs(m[p] * (v1[k] - v0[k]) - h * f[k]));
+        scale = std::max(scale, std::abs(h * f[k]));
+      }
+    EXPECT_LT(worst, 1e-8 * scale);
+    const auto& r = newton->lastResiduals();
+    ASSERT_GE(r.size(), 2u);
+    EXPECT_LT(r.back(), 1e-10 * r.front());
+  }
+}
+
+// ---- the failure policy ----
+
+std::unique_ptr<Simulation> stiffCappedCG(core::SolveFailurePolicy policy, double fallbackAbove) {
+  ImplicitSettings s;
+  s.onSolveFailure = policy;
+  s.fallbackAbove = fallbackAbove;
+  auto sim = swingingSheet(
+      std::make_unique<ImplicitEuler>(s, std::make_unique<ConjugateGradient>(CGSettings{2, 1e-10, false})));
+  return sim;
+}
+
+TEST(SolveFailurePolicy, WarnFlagsTheStepAndKeepsTheCappedSolve) {
+  auto sim = stiffCappedCG(core::SolveFailurePolicy::Warn, 1e-3);
+  const StepStats s = sim->step(0.05);
+  EXPECT_TRUE(s.flags & StepStats::MissedTolerance);
+  EXPECT_FALSE(s.flags & StepStats::FellBack);
+  EXPECT_EQ(s.solves, 1);
+  EXPECT_GT(s.residual, 1e-10);
+  EXPECT_EQ(s.flagText(), "missed-tolerance");
+  EXPECT_EQ(sim->solveSummary().flaggedSteps, 1);
+  EXPECT_EQ(sim->solveSummary().missedTolerance, 1);
+  EXPECT_EQ(sim->solveSummary().worstStep, 1);
+}
+
+TEST(SolveFailurePolicy, FallbackResolvesWithTheDirectSolverAboveItsThreshold) {
+  auto sim = stiffCappedCG(core::SolveFailurePolicy::Fallback, 1e-9);
+  const StepStats s = sim->step(0.05);
+  EXPECT_TRUE(s.flags & StepStats::MissedTolerance);
+  EXPECT_TRUE(s.flags & StepStats::FellBack);
+  EXPECT_EQ(s.solves, 2);
+  EXPECT_LT(s.residual, 1e-10);
+  EXPECT_GT(s.worstResidual, 1e-9);
+  EXPECT_EQ(s.flagText(), "missed-tolerance+fallback");
+  // The same step as CHOLMOD's.
+  auto direct = swingingSheet(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
+  direct->step(0.05);
+  auto a = sim->state().x();
+  auto b = direct->state().x();
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-12);
+}
+
+TEST(SolveFailurePolicy, FallbackKeepsACappedSolveThatGotClose) {
+  auto sim = stiffCappedCG(core::SolveFailurePolicy::Fallback, 0.99);
+  const StepStats s = sim->step(0.05);
+  EXPECT_TRUE(s.flags & StepStats::MissedTolerance);
+  EXPECT_FALSE(s.flags & StepStats::FellBack);
+}
+
+TEST(SolveFailurePolicy, FailNamesTheStepAndTheResidual) {
+  auto sim = stiffCappedCG(core::SolveFailurePolicy::Fail, 1e-3);
+  const std::vector<double> before(sim->state().x().begin(), sim->state().x().end());
+  try {
+    sim->step(0.05);
+    FAIL() << "the capped solve did not fail";
+  } catch (const SolverError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("step 1 (t = 0)"));
+    EXPECT_THAT(e.what(), HasSubstr("the linear solve (cg) missed its tolerance: relative residual"));
+    EXPECT_THAT(e.what(), HasSubstr("after 2 iterations"));
+  }
+  // The state is left as before the step.
+  EXPECT_EQ(std::vector<double>(sim->state().x().begin(), sim->state().x().end()), before);
+  EXPECT_EQ(sim->steps(), 0);
+}
+
+TEST(BDF2, RestartsAfterATopologyChangeOrAnEditOfTheState) {
+  auto integrator = std::make_unique<BDF2>(ImplicitSettings{}, std::make_unique<CholmodSolver>());
+  BDF2* bdf = integrator.get();
+  auto sim = swingingSheet(std::move(integrator));
+  sim->step(0.01);
+  sim->step(0.01);
+  EXPECT_EQ(bdf->restarts(), 1);
+  sim->state().x()[3 * 12] += 1e-3;  // an edit between steps
+  sim->step(0.01);
+  EXPECT_EQ(bdf->restarts(), 2);
+  sim->step(0.02);  // a new time step
+  EXPECT_EQ(bdf->restarts(), 3);
+  sim->topology().removeTriangles(std::vector<topology::TriangleId>{sim->topology().triangles().back()});
+  sim->step(0.02);
+  EXPECT_EQ(bdf->restarts(), 4);
+  sim->step(0.02);
+  EXPECT_EQ(bdf->restarts(), 4);
+}
+
+}  // namespace
+}  // namespace cutsim::test

@@ -1,0 +1,182 @@
+// The component registries: every registered force field, integrator and linear solver is read
+// from a scene, built and stepped; unknown types and keys name the alternatives.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cutsim/core/registries.hpp"
+#include "cutsim/core/scene.hpp"
+#include "support/scene_text.hpp"
+
+namespace cutsim::test {
+namespace {
+
+using ::testing::HasSubstr;
+
+/// What a force field needs besides its type (its required keys).
+std::string requiredKeys(const std::string& type) {
+  return type == "StretchSprings" ? ", \"stiffness\": 50" : "";
+}
+
+std::string sceneWith(const std::string& forceFields, const std::string& stepping) {
+  return "{\n"
+         "  \"mesh\": {\"grid\": {\"nx\": 6, \"ny\": 6, \"size\": [0.5, 0.5]}},\n"
+         "  \"mass\": {\"density\": 1},\n"
+         "  \"gravity\": [0, 0, -9.81],\n"
+         "  \"constraints\": [{\"type\": \"fixed\", \"points\": [0, 5]}],\n"
+         "  \"forceFields\": [" + forceFields + "],\n" +
+         (stepping.empty() ? "" : "  " + stepping + ",\n") +
+         "  \"timeStep\": 0.001,\n"
+         "  \"duration\": 0.005\n"
+         "}\n";
+}
+
+/// Loads, builds and runs the scene; every point stays finite and the free ones fall.
+void runsAndFalls(const std::string& text) {
+  const core::Scene s = core::parseScene(text, "inline.json", kSceneDir);
+  core::SceneRunner runner(s);
+  runner.start();
+  while (!runner.finished()) runner.advance();
+  const auto& sim = runner.simulation();
+  auto x = sim.state().x();
+  for (double c : x) ASSERT_TRUE(std::isfinite(c));
+  EXPECT_LT(x[3 * 20 + 2], 0.0);  // an interior point moved down
+  EXPECT_EQ(x[3 * 5 + 2], 0.0);   // a fixed one did not
+}
+
+TEST(Registry, HasEveryForceFieldIntegratorAndLinearSolverOfTheProject) {
+  EXPECT_EQ(forcefields::ForceFieldRegistry::instance().names(),
+            (std::vector<std::string>{"DihedralBending", "FastTriangularBendingSprings", "StretchSprings",
+                                      "TriangularFEM"}));
+  EXPECT_EQ(core::IntegratorRegistry::instance().names(),
+            (std::vector<std::string>{"bdf2", "explicit-euler", "implicit-euler", "newton"}));
+  EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod"}));
+}
+
+TEST(Registry, EveryForceFieldParsesBuildsAndSteps) {
+  for (const std::string& type : forcefields::ForceFieldRegistry::instance().names()) {
+    SCOPED_TRACE(type);
+    // Stretch springs keep the sheet together under every field.
+    const std::string fields = "{\"type\": \"StretchSprings\", \"stiffness\": 100}, {\"type\": \"" + type + "\"" +
+                               requiredKeys(type) + ", \"label\": \"under test\"}";
+    runsAndFalls(sceneWith(fields, ""));
+  }
+}
+
+TEST(Registry, EveryForceFieldTakesEachOfItsKeys) {
+  const auto& registry = forcefields::ForceFieldRegistry::instance();
+  for (const auto& [type, entry] : registry.entries()) {
+    for (const KeyInfo& key : entry.keys) {
+      SCOPED_TRACE(type + "." + key.name);
+      // A value of the right JSON type for each key: parsing must accept it.
+      std::string value = "0.2";
+      if (key.name == "areaWeights") value = "\"signed\"";
+      if (key.name == "stableJacobian") value = "false";
+      if (key.name == "exactHessian") value = "false";
+      const std::string field = "{\"type\": \"" + type + "\", \"" + key.name + "\": " + value +
+                                (key.name == "stiffness" ? "" : requiredKeys(type)) + "}";
+      EXPECT_EQ(parseError(sceneWith(field, "")), "");
+    }
+  }
+}
+
+TEST(Registry, EveryIntegratorWithEveryLinearSolverSteps) {
+  for (const auto& [name, entry] : core::IntegratorRegistry::instance().entries()) {
+    const bool usesSolver = !entry.uses.empty();
+    const std::vector<std::string> solvers =
+        usesSolver ? core::LinearSolverRegistry::instance().names() : std::vector<std::string>{""};
+    for (const std::string& solver : solvers) {
+      SCOPED_TRACE(name + " " + solver);
+      std::string stepping = "\"integrator\": {\"type\": \"" + name + "\"}";
+      if (!solver.empty()) stepping += ", \"linearSolver\": {\"type\": \"" + solver + "\"}";
+      const std::string fields = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+      const core::Scene s = core::parseScene(sceneWith(fields, stepping), "inline.json", kSceneDir);
+      EXPECT_EQ(s.integrator.type, name);
+      core::SceneRunner runner(s);
+      EXPECT_EQ(runner.simulation().integrator().name(), name);
+      if (usesSolver) EXPECT_EQ(runner.simulation().integrator().linearSolver()->name(), solver);
+      runsAndFalls(sceneWith(fields, stepping));
+    }
+  }
+}
+
+TEST(Registry, IntegratorSettingsReachTheIntegrator) {
+  const std::string text = sceneWith("{\"type\": \"StretchSprings\", \"stiffness\": 20}",
+                                     "\"integrator\": {\"type\": \"newton\", \"maxIterations\": 7, "
+                                     "\"rayleighMass\": 0.25, \"onSolveFailure\": \"warn\"}, "
+                                     "\"linearSolver\": {\"type\": \"cg\", \"iterations\": 33}");
+  core::SceneRunner runner(core::parseScene(text, "inline.json", kSceneDir));
+  auto& newton = dynamic_cast<core::NewtonImplicitEuler&>(runner.simulation().integrator());
+  EXPECT_EQ(newton.newtonSettings().maxIterations, 7);
+  EXPECT_EQ(newton.settings().rayleighMass, 0.25);
+  EXPECT_EQ(newton.settings().onSolveFailure, core::SolveFailurePolicy::Warn);
+  auto& cg = dynamic_cast<core::ConjugateGradient&>(*newton.linearSolver());
+  EXPECT_EQ(cg.settings().maxIterations, 33);
+}
+
+struct BadCase {
+  std::string forceFields, stepping, where, phrase;
+};
+
+TEST(Registry, BadComponentsNameTheAlternatives) {
+  const std::string ok = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+  const std::vector<BadCase> cases = {
+      {"{\"type\": \"Magnet\"}", "", "inline.json:6: /forceFields/0/type: ",
+       "unknown force field type \"Magnet\" (registered: DihedralBending, FastTriangularBendingSprings, "
+       "StretchSprings, TriangularFEM)"},
+      {"{\"type\": \"FastTriangularBendingSprings\", \"youngModulus\": 3}", "",
+       "inline.json:6: /forceFields/0/youngModulus: ",
+       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to TriangularFEM); expected one of: "
+       "type, label, bendingStiffness"},
+      {"{\"type\": \"TriangularFEM\", \"poissonRatio\": 0.5}", "", "inline.json:6: /forceFields/0/poissonRatio: ",
+       "0.5"},
+      {ok, "\"integrator\": {\"type\": \"rk4\"}", "inline.json:7: /integrator/type: ",
+       "unknown integrator type \"rk4\" (registered: bdf2, explicit-euler, implicit-euler, newton)"},
+      {ok, "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"pardiso\"}",
+       "inline.json:7: /linearSolver/type: ", "unknown linear solver type \"pardiso\" (registered: cg, cholmod)"},
+      {ok, "\"integrator\": {\"type\": \"implicit-euler\", \"iterations\": 20}", "inline.json:7: /integrator/iterations: ",
+       "unknown key \"iterations\" for implicit-euler (it belongs to the linear solver cg); expected one of: type, rayleighMass"},
+      {ok, "\"integrator\": {\"type\": \"explicit-euler\"}, \"linearSolver\": {\"type\": \"cg\"}",
+       "inline.json:7: /linearSolver: ",
+       "the integrator \"explicit-euler\" uses no linear solver (the integrators that do: bdf2, implicit-euler, "
+       "newton)"},
+      {ok, "\"integrator\": {\"type\": \"explicit-euler\", \"rayleighMass\": 0.1}",
+       "inline.json:7: /integrator/rayleighMass: ", "unknown key \"rayleighMass\" for explicit-euler (it belongs to "
+       "bdf2, implicit-euler, newton)"},
+      {ok, "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"retry\"}",
+       "inline.json:7: /integrator/onSolveFailure: ", "unknown value \"retry\" (warn, fail, fallback)"},
+      {ok, "\"solver\": {\"type\": \"implicit-cg\"}, \"integrator\": {\"type\": \"bdf2\"}", "inline.json:7: /integrator: ",
+       "give either \"solver\" (the shorthand of the first scenes) or \"integrator\" and \"linearSolver\""},
+      {ok, "\"solver\": {\"type\": \"implicit-cg\", \"onSolveFailure\": \"warn\"}",
+       "inline.json:7: /solver/onSolveFailure: ", "give \"integrator\" and \"linearSolver\" for every other setting"},
+      {ok, "\"solver\": {\"type\": \"explicit\", \"iterations\": 20}", "inline.json:7: /solver/iterations: ",
+       "the solver \"explicit\" does not use \"iterations\""},
+      {ok, "\"linearSolver\": {\"type\": \"cg\", \"iterations\": 0}", "inline.json:7: /linearSolver/iterations: ",
+       "must be between 1 and 1000000"},
+  };
+  for (const BadCase& c : cases) {
+    SCOPED_TRACE(c.stepping + " " + c.forceFields);
+    const std::string message = parseError(sceneWith(c.forceFields, c.stepping));
+    EXPECT_THAT(message, ::testing::StartsWith(c.where));
+    EXPECT_THAT(message, HasSubstr(c.phrase));
+  }
+}
+
+TEST(Registry, TheSolverShorthandStillReadsTheFirstScenes) {
+  const std::string ok = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+  struct Case {
+    std::string solver, integrator, linear;
+  };
+  for (const Case& c : std::vector<Case>{{"explicit", "explicit-euler", ""},
+                                         {"implicit-cg", "implicit-euler", "cg"},
+                                         {"implicit-cholmod", "implicit-euler", "cholmod"}}) {
+    const core::Scene s = core::parseScene(sceneWith(ok, "\"solver\": {\"type\": \"" + c.solver + "\"}"),
+                                           "inline.json", kSceneDir);
+    EXPECT_EQ(s.integrator.type, c.integrator);
+    EXPECT_EQ(s.linearSolver ? s.linearSolver->type : "", c.linear);
+  }
+}
+
+}  // namespace
+}  // namespace cutsim::test
