@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "commands.hpp"
@@ -58,6 +59,12 @@ class Progress {
   int lastPercent_ = -1;
 };
 
+std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceField* field) {
+  for (std::size_t i = 0; i < sim.numForceFields(); ++i)
+    if (&sim.forceField(i) == field) return i;
+  return 0;
+}
+
 void runScene(const RunOptions& options) {
   const core::Scene scene = core::loadScene(options.scene);
   const std::filesystem::path outDir = options.out.empty()
@@ -82,6 +89,8 @@ void runScene(const RunOptions& options) {
   if (!options.dumpFinal.empty()) {
     core::dumpFinal(options.dumpFinal, runner.simulation(), runner.bendingField());
   }
+  const core::Simulation& sim = runner.simulation();
+  const core::SolveSummary& solves = sim.solveSummary();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -100,7 +109,27 @@ void runScene(const RunOptions& options) {
             << "topology   " << runner.cutsDone() << " cuts, " << runner.tornEdges()
             << " torn edges\n"
             << "output     " << writer.framesWritten() << " frames in " << outDir.string() << "\n";
-  if (!options.dumpFinal.empty()) std::cout << "final dump " << options.dumpFinal << "\n";
+  std::cout << "solver     " << sim.integrator().name();
+  if (const auto* ls = sim.integrator().linearSolver()) std::cout << " with " << ls->name();
+  std::cout << ", " << solves.flaggedSteps << " flagged steps\n";
+  if (solves.flaggedSteps > 0) {
+    std::ostringstream w;
+    w << "warning: " << solves.flaggedSteps << " of " << runner.numSteps()
+      << " steps had a solve that missed its tolerance (" << solves.missedTolerance << " missed, "
+      << solves.indefinite << " indefinite, " << solves.fellBack << " fell back to CHOLMOD, "
+      << solves.newtonNotConverged << " Newton unconverged); worst relative residual "
+      << solves.worstResidual << " at step " << solves.worstStep
+      << "; the steps are flagged in the solver_flags column of steps.csv";
+    std::cerr << w.str() << "\n";
+  }
+  if (!options.dumpFinal.empty()) {
+    if (const auto* b = runner.bendingField())
+      std::cout << "final dump " << options.dumpFinal << " (forces of the FastTriangularBendingSprings field '"
+                << sim.forceFieldLabel(fieldIndex(sim, b)) << "')\n";
+    else
+      std::cout << "final dump " << options.dumpFinal
+                << " (meshes only: the scene has no FastTriangularBendingSprings field)\n";
+  }
   std::cout.flush();
   if (!std::cout) throw Error("cannot write to standard output");
 }

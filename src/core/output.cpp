@@ -1,5 +1,7 @@
 #include "cutsim/core/output.hpp"
 
+#include <cctype>
+
 #include <array>
 #include <charconv>
 #include <cstdio>
@@ -188,6 +190,14 @@ const forcefields::FastTriangularBendingSprings* firstBending(const Simulation& 
   return nullptr;
 }
 
+/// "network_" and the label with every character outside [A-Za-z0-9_-] replaced by '_'.
+std::string networkSeriesName(const std::string& label) {
+  std::string out = "network_";
+  for (char c : label)
+    out += (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-') ? c : '_';
+  return out;
+}
+
 std::string frameName(const std::string& prefix, std::size_t index, const std::string& ext) {
   std::array<char, 32> buf{};
   std::snprintf(buf.data(), buf.size(), "%06zu", index);
@@ -223,7 +233,8 @@ OutputWriter::~OutputWriter() = default;
 std::string OutputWriter::csvHeader() const {
   std::string h = "time,kinetic_energy";
   for (const std::string& l : labels_) h += ",potential_" + l;
-  h += ",gravity_energy,solver_iterations,solver_residual,active_springs,points,edges,triangles";
+  h += ",gravity_energy,solver_iterations,solver_residual,solver_flags,newton_iterations,active_springs,"
+       "points,edges,triangles";
   for (const std::string& g : grasps_) h += "," + g + "_fx," + g + "_fy," + g + "_fz";
   return h;
 }
@@ -237,7 +248,8 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
     }
     const auto* bending = firstBending(sim);
     row << ',' << formatNumber(sim.gravityEnergy()) << ',' << r.stats.iterations << ','
-        << formatNumber(r.stats.residual) << ',' << (bending ? bending->numActiveSprings() : 0)
+        << formatNumber(r.stats.residual) << ',' << r.stats.flagText() << ',' << r.stats.newtonIterations
+        << ',' << (bending ? bending->numActiveSprings() : 0)
         << ',' << sim.topology().numPoints() << ',' << sim.topology().numEdges() << ','
         << sim.topology().numTriangles();
     for (const std::string& g : grasps_) {
@@ -262,14 +274,22 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
     // early leaves no collection that looks complete.
     writeFileAtomically(dir_ / "surface.partial.pvd",
                         [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
-    const auto* bending = firstBending(sim);
-    if (settings_.springs && bending) {
-      const std::string springs = frameName("springs", index, ".vtp");
-      writeFileAtomically(dir_ / springs,
-                          [&](std::ostream& o) { writeNetworkVtp(o, sim, *bending); });
-      springFrames_.emplace_back(r.time, springs);
-      writeFileAtomically(dir_ / "springs.partial.pvd",
-                          [&](std::ostream& o) { writePvd(o, springFrames_); });
+    if (settings_.springs) {
+      // Every field that draws: the first FastTriangularBendingSprings as "springs", the others
+      // as "network_<label>".
+      const auto* bending = firstBending(sim);
+      for (std::size_t i = 0; i < sim.numForceFields(); ++i) {
+        const forcefields::ForceField& field = sim.forceField(i);
+        std::vector<std::array<PointId, 2>> probe;
+        field.draw(probe);
+        if (probe.empty() && &field != bending) continue;
+        const std::string series = &field == bending ? "springs" : networkSeriesName(sim.forceFieldLabel(i));
+        auto& frames = networkFrames_[series];
+        const std::string name = frameName(series, index, ".vtp");
+        writeFileAtomically(dir_ / name, [&](std::ostream& o) { writeNetworkVtp(o, sim, field); });
+        frames.emplace_back(r.time, name);
+        writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
+      }
     }
   } else {
     surfaceFrames_.emplace_back(r.time, "");
@@ -286,9 +306,9 @@ void OutputWriter::finish() {
     writeFileAtomically(dir_ / "surface.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
     std::filesystem::remove(dir_ / "surface.partial.pvd", removeError);
   }
-  if (!springFrames_.empty()) {
-    writeFileAtomically(dir_ / "springs.pvd", [&](std::ostream& o) { writePvd(o, springFrames_); });
-    std::filesystem::remove(dir_ / "springs.partial.pvd", removeError);
+  for (const auto& [series, frames] : networkFrames_) {
+    writeFileAtomically(dir_ / (series + ".pvd"), [&](std::ostream& o) { writePvd(o, frames); });
+    std::filesystem::remove(dir_ / (series + ".partial.pvd"), removeError);
   }
   if (!settings_.csv || !csv_.is_open()) return;
   csv_.flush();

@@ -188,6 +188,8 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
     std::snprintf(name, sizeof name, "%06d", i);
     EXPECT_TRUE(std::filesystem::exists(dir / ("surface_" + std::string(name) + ".vtp")));
     EXPECT_TRUE(std::filesystem::exists(dir / ("springs_" + std::string(name) + ".vtp")));
+    // Every other field that draws has its own series.
+    EXPECT_TRUE(std::filesystem::exists(dir / ("network_StretchSprings_" + std::string(name) + ".vtp")));
     EXPECT_TRUE(std::filesystem::exists(dir / ("frame_" + std::string(name) + ".obj")));
   }
   // No temporary file is left behind.
@@ -199,6 +201,7 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
   EXPECT_THAT(pvd, HasSubstr("timestep=\"0.3\""));
   EXPECT_THAT(pvd, HasSubstr("file=\"surface_000006.vtp\""));
   expectBalanced(readText(dir / "springs.pvd"));
+  expectBalanced(readText(dir / "network_StretchSprings.pvd"));
   // The last surface frame: the counts of the final mesh.
   const std::string last = readText(dir / "surface_000006.vtp");
   EXPECT_EQ(attribute(last, "NumberOfPoints"), long(runner.simulation().topology().numPoints()));
@@ -208,8 +211,8 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
   std::getline(csv, header);
   EXPECT_EQ(header,
             "time,kinetic_energy,potential_StretchSprings,potential_FastTriangularBendingSprings,"
-            "gravity_energy,solver_iterations,solver_residual,active_springs,points,edges,"
-            "triangles,pin_fx,pin_fy,pin_fz");
+            "gravity_energy,solver_iterations,solver_residual,solver_flags,newton_iterations,"
+            "active_springs,points,edges,triangles,pin_fx,pin_fy,pin_fz");
   const std::size_t columns = std::count(header.begin(), header.end(), ',') + 1;
   std::string line;
   std::vector<std::string> rows;

@@ -115,7 +115,7 @@ class Integrator {
   /// One step of in.dt from the model's current state.
   virtual void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) = 0;
   /// The linear solver, if the method uses one.
-  virtual LinearSolver* linearSolver() { return nullptr; }
+  virtual LinearSolver* linearSolver() const { return nullptr; }
   /// Forgets what it kept from earlier steps (history, warm starts, factorisations).
   virtual void reset() {}
 };
@@ -132,7 +132,7 @@ class ImplicitIntegrator : public Integrator {
  public:
   ImplicitIntegrator(ImplicitSettings settings, std::unique_ptr<LinearSolver> solver);
   ~ImplicitIntegrator() override;
-  LinearSolver* linearSolver() override { return solver_.get(); }
+  LinearSolver* linearSolver() const override { return solver_.get(); }
   const ImplicitSettings& settings() const { return settings_; }
   void reset() override;
 

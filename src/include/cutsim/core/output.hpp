@@ -3,8 +3,9 @@
 // run twice gives byte-identical files):
 //  - VTK XML PolyData frames (.vtp, ASCII, shortest round-trip numbers) of the surface at its
 //    current positions (point data: velocity, rest_position, slot; cell data: strain = the
-//    largest principal Green strain of the triangle in its rest plane), and of the first bending
-//    field's spring network (one line per spring from wing A to wing B);
+//    largest principal Green strain of the triangle in its rest plane), and of the network every
+//    force field draws (the first FastTriangularBendingSprings' springs, one line per spring
+//    from wing A to wing B, as the "springs" series; every other field's as "network_<label>");
 //  - .pvd collections listing the frames with their times (ParaView opens them as animations);
 //  - OBJ frames on request;
 //  - a CSV row per step (energies, solver figures, counts, grasp reaction forces).
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <functional>
 #include <iosfwd>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -52,8 +54,10 @@ struct StepRecord {
 
 /// The writer of a run's output folder.
 ///   surface.pvd, surface_NNNNNN.vtp   springs.pvd, springs_NNNNNN.vtp   frame_NNNNNN.obj
+///   network_<label>.pvd, network_<label>_NNNNNN.vtp (every other field that draws)
 ///   steps.csv: time, kinetic_energy, potential_<label> per force field, gravity_energy,
-///     solver_iterations, solver_residual, active_springs, points, edges, triangles,
+///     solver_iterations, solver_residual, solver_flags ("ok" or the StepStats flags joined by
+///     '+'), newton_iterations, active_springs, points, edges, triangles,
 ///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active)
 class OutputWriter {
  public:
@@ -82,7 +86,8 @@ class OutputWriter {
   std::vector<std::string> labels_, grasps_;
   std::ofstream csv_;
   std::filesystem::path csvTemp_;
-  std::vector<std::pair<double, std::string>> surfaceFrames_, springFrames_;
+  std::vector<std::pair<double, std::string>> surfaceFrames_;
+  std::map<std::string, std::vector<std::pair<double, std::string>>> networkFrames_;  // by series
   long lastFrameStep_ = -1;
 };
 
