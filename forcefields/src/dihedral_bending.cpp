@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dual.hpp"
 #include "hinge_table_impl.hpp"
 
 namespace cutsim::forcefields {
@@ -29,11 +30,26 @@ constexpr double kRelativeRestHeight = 1e-8;
 constexpr double kRelativeCurrentHeight2 = 1e-24;
 /// Rest coordinates beyond this are not representable (squares of cross products would overflow).
 constexpr double kMaxCoordinate = 1e60;
+/// Current l^2 at or beyond this (or not finite): the exact stiffness gives the hinge zero blocks
+/// (its force overflows long before).
+constexpr double kMaxLength2 = 1e300;
 
-inline double dot(const double* a, const double* b) {
+// The geometry is written once for a scalar type T: double (forces, the Gauss-Newton K), or a
+// forward-mode dual (dual.hpp) whose derivatives give the exact Hessian of theta.
+using detail::Dual;
+using detail::value;
+
+template <class T>
+inline T dot(const T* a, const T* b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
-inline void cross(const double* a, const double* b, double* c) {
+/// dot(a, b) of the values (the same operations as dot for T = double).
+template <class T>
+inline double dotValue(const T* a, const T* b) {
+  return value(a[0]) * value(b[0]) + value(a[1]) * value(b[1]) + value(a[2]) * value(b[2]);
+}
+template <class T>
+inline void cross(const T* a, const T* b, T* c) {
   c[0] = a[1] * b[2] - a[2] * b[1];
   c[1] = a[2] * b[0] - a[0] * b[2];
   c[2] = a[0] * b[1] - a[1] * b[0];
@@ -49,35 +65,38 @@ inline double wrapped(double theta, double theta0) {
 
 /// The geometry of one hinge at x: its angle and, if it has a direction, the gradient of theta
 /// (g[0..2] for A, g[3..5] for B, g[6..8] for C, g[9..11] for D). Returns false (theta still
-/// set, g untouched) for a hinge that is degenerate at x.
-inline bool hingeGeometry(const double* xa, const double* xb, const double* xc, const double* xd,
-                          double& theta, double* g) {
-  const double e[3] = {xd[0] - xc[0], xd[1] - xc[1], xd[2] - xc[2]};
-  const double ac[3] = {xa[0] - xc[0], xa[1] - xc[1], xa[2] - xc[2]};
-  const double ad[3] = {xa[0] - xd[0], xa[1] - xd[1], xa[2] - xd[2]};
-  const double bc[3] = {xb[0] - xc[0], xb[1] - xc[1], xb[2] - xc[2]};
-  const double bd[3] = {xb[0] - xd[0], xb[1] - xd[1], xb[2] - xd[2]};
-  double na[3], nb[3], nba[3];
+/// set, g untouched) for a hinge that is degenerate at x. The angle and the tests of degeneracy
+/// read values only, so a dual T takes the same branches as double (and only g is
+/// differentiated: the derivative of theta is g).
+template <class T>
+inline bool hingeGeometry(const T* xa, const T* xb, const T* xc, const T* xd, double& theta, T* g) {
+  using std::sqrt;
+  const T e[3] = {xd[0] - xc[0], xd[1] - xc[1], xd[2] - xc[2]};
+  const T ac[3] = {xa[0] - xc[0], xa[1] - xc[1], xa[2] - xc[2]};
+  const T ad[3] = {xa[0] - xd[0], xa[1] - xd[1], xa[2] - xd[2]};
+  const T bc[3] = {xb[0] - xc[0], xb[1] - xc[1], xb[2] - xc[2]};
+  const T bd[3] = {xb[0] - xd[0], xb[1] - xd[1], xb[2] - xd[2]};
+  T na[3], nb[3], nba[3];
   cross(ac, ad, na);
   cross(bd, bc, nb);
   cross(nb, na, nba);
-  const double l2 = dot(e, e);
-  const double na2 = dot(na, na), nb2 = dot(nb, nb);
+  const T l2 = dot(e, e);
+  const T na2 = dot(na, na), nb2 = dot(nb, nb);
   // atan2 of (NB x NA).e and (NA.NB) |e|: the angle's sine and cosine times |NA| |NB| |e|.
-  const double l = std::sqrt(l2);
-  const double s = dot(nba, e), c = dot(na, nb) * l;
+  const T l = sqrt(l2);
+  const double s = dotValue(nba, e), c = dotValue(na, nb) * value(l);
   theta = (s == 0.0 && c == 0.0) ? 0.0 : std::atan2(s, c);
-  const double size2 = l2 + std::max(dot(ac, ac), dot(bc, bc));
-  if (!(l2 > kRelativeCurrentHeight2 * size2) || !(l2 > 1e-280) ||
-      !(na2 > kRelativeCurrentHeight2 * l2 * size2) ||
-      !(nb2 > kRelativeCurrentHeight2 * l2 * size2)) {
+  const double size2 = value(l2) + std::max(dotValue(ac, ac), dotValue(bc, bc));
+  if (!(value(l2) > kRelativeCurrentHeight2 * size2) || !(value(l2) > 1e-280) ||
+      !(value(na2) > kRelativeCurrentHeight2 * value(l2) * size2) ||
+      !(value(nb2) > kRelativeCurrentHeight2 * value(l2) * size2)) {
     return false;
   }
-  const double invL = 1.0 / l;
-  const double ia = 1.0 / na2, ib = 1.0 / nb2;
-  const double pa = l * ia, pb = l * ib;
-  const double ca = dot(ad, e) * invL * ia, cb = dot(bd, e) * invL * ib;
-  const double da = -dot(ac, e) * invL * ia, db = -dot(bc, e) * invL * ib;
+  const T invL = 1.0 / l;
+  const T ia = 1.0 / na2, ib = 1.0 / nb2;
+  const T pa = l * ia, pb = l * ib;
+  const T ca = dot(ad, e) * invL * ia, cb = dot(bd, e) * invL * ib;
+  const T da = -dot(ac, e) * invL * ia, db = -dot(bc, e) * invL * ib;
   for (int k = 0; k < 3; ++k) {
     g[k] = pa * na[k];
     g[3 + k] = pb * nb[k];
@@ -108,6 +127,78 @@ inline bool hingeForce(const double* __restrict x, double* __restrict f,
     fi[2] += m * g[3 * i + 2];
   }
   return true;
+}
+
+/// The hinge's points as duals, relative to C and scaled by a power of two sigma that brings its
+/// current edge length into [1, 2): theta is unchanged, g(x) = sigma g(x'), d2theta/dx2 =
+/// sigma^2 d2theta/dx'2, and the duals' intermediate terms (up to the 8th power of lengths) stay
+/// far from overflow and underflow whatever the mesh's scale. Values only; derivatives unset.
+/// Returns sigma, or 0 for an edge too short for hingeGeometry on x (degenerate at x).
+template <int N>
+inline double scaledHinge(const double* x, const DihedralHinge& h, Dual<N> (&p)[4][3]) {
+  const double* xc = at(x, h.v[2]);
+  const double* xd = at(x, h.v[3]);
+  const double e[3] = {xd[0] - xc[0], xd[1] - xc[1], xd[2] - xc[2]};
+  const double l2 = dot(e, e);
+  if (!(l2 > 1e-280) || !(l2 < kMaxLength2)) return 0.0;
+  const double sigma = std::ldexp(1.0, -std::ilogb(std::sqrt(l2)));
+  for (int i = 0; i < 4; ++i) {
+    const double* xi = at(x, h.v[i]);
+    for (int k = 0; k < 3; ++k) p[i][k].v = (xi[k] - xc[k]) * sigma;
+  }
+  return sigma;
+}
+
+/// The exact stiffness of one hinge, matrix-free: df += (kFactor K + bFactor B) dx with
+/// K = -2 c (g g^T + (theta - theta0) d2theta/dx2) and B = -2 c rayleighStiffness g g^T, where
+/// gn = kFactor + bFactor rayleighStiffness. d2theta/dx2 dx is the derivative of g along dx,
+/// from one pass of the geometry in Dual<1> seeded with dx. Nothing for a hinge degenerate at x.
+inline void hingeExactDForce(const double* __restrict x, const double* __restrict dx,
+                             double* __restrict df, const DihedralHinge& h, double kFactor,
+                             double gn) {
+  Dual<1> p[4][3];
+  const double sigma = scaledHinge(x, h, p);
+  if (sigma == 0.0) return;
+  for (int i = 0; i < 4; ++i) {
+    const double* dxi = at(dx, h.v[i]);
+    for (int k = 0; k < 3; ++k) p[i][k].d[0] = dxi[k] * sigma;
+  }
+  double theta;
+  Dual<1> g[12];
+  if (!hingeGeometry(p[0], p[1], p[2], p[3], theta, g)) return;
+  // g = sigma g', (d2theta/dx2) dx = sigma g'.d (the seeds carry the other sigma).
+  double s = 0.0;
+  for (int j = 0; j < 12; ++j) s += g[j].v * p[j / 3][j % 3].d[0];  // g' . (sigma dx) = g . dx
+  const double mg = -2.0 * gn * h.coefficient * s * sigma;
+  const double mh = -2.0 * kFactor * h.coefficient * wrapped(theta, h.restAngle) * sigma;
+  for (int i = 0; i < 4; ++i) {
+    double* fi = at(df, h.v[i]);
+    for (int k = 0; k < 3; ++k) fi[k] += mg * g[3 * i + k].v + mh * g[3 * i + k].d[0];
+  }
+}
+
+/// The exact 12 x 12 stiffness of one hinge times `factor` (zero for a hinge degenerate at x):
+/// -2 c factor (g g^T + (theta - theta0) H), H = d2theta/dx2 from one pass of the geometry in
+/// Dual<12> (the Jacobian of g), symmetrised (it is symmetric up to rounding).
+inline Eigen::Matrix<double, 12, 12> hingeExactStiffness(const double* x, const DihedralHinge& h,
+                                                         double factor) {
+  Eigen::Matrix<double, 12, 12> kh = Eigen::Matrix<double, 12, 12>::Zero();
+  Dual<12> p[4][3];
+  const double sigma = scaledHinge(x, h, p);
+  if (sigma == 0.0) return kh;
+  for (int i = 0; i < 4; ++i) {
+    for (int k = 0; k < 3; ++k) p[i][k].d[3 * i + k] = 1.0;
+  }
+  double theta;
+  Dual<12> g[12];
+  if (!hingeGeometry(p[0], p[1], p[2], p[3], theta, g)) return kh;
+  // g = sigma g', H = sigma^2 H'.
+  const double cg = -2.0 * factor * h.coefficient * sigma * sigma;
+  const double ch = 0.5 * cg * wrapped(theta, h.restAngle);
+  for (int r = 0; r < 12; ++r) {
+    for (int q = 0; q < 12; ++q) kh(r, q) = cg * g[r].v * g[q].v + ch * (g[r].d[q] + g[q].d[r]);
+  }
+  return kh;
 }
 
 }  // namespace
@@ -252,10 +343,15 @@ void DihedralBending::addDForce(std::span<const double> x, std::span<const doubl
   checkSize(dx, "addDForce");
   checkSize(df, "addDForce");
   const double k = kFactor + bFactor * params_.rayleighStiffness;
-  if (k == 0.0) return;
   const double* xp = x.data();
   const double* dxp = dx.data();
   double* dfp = df.data();
+  if (params_.exactHessian) {
+    if (k == 0.0 && kFactor == 0.0) return;
+    for (const DihedralHinge& h : entries()) hingeExactDForce(xp, dxp, dfp, h, kFactor, k);
+    return;
+  }
+  if (k == 0.0) return;
   for (const DihedralHinge& h : entries()) {
     double theta, g[12];
     if (!hingeGeometry(at(xp, h.v[0]), at(xp, h.v[1]), at(xp, h.v[2]), at(xp, h.v[3]), theta, g)) {
@@ -327,7 +423,23 @@ void assemble(std::span<const DihedralHinge> hinges, const double* x, MatrixAccu
 void DihedralBending::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
                                    double kFactor) const {
   checkSize(x, "addKToMatrix");
-  assemble(entries(), x.data(), m, kFactor);
+  if (!params_.exactHessian) {
+    assemble(entries(), x.data(), m, kFactor);
+    return;
+  }
+  for (const DihedralHinge& h : entries()) {
+    const Eigen::Matrix<double, 12, 12> kh = hingeExactStiffness(x.data(), h, kFactor);
+    for (int i = 0; i < 4; ++i) {
+      for (int j = 0; j < 4; ++j) {
+        m.addBlock(h.v[i], h.v[j], kh.block<3, 3>(3 * i, 3 * j));
+      }
+    }
+  }
+}
+
+bool DihedralBending::setExactStiffness(bool exact) {
+  params_.exactHessian = exact;
+  return true;
 }
 
 void DihedralBending::addBToMatrix(std::span<const double> x, MatrixAccumulator& m,

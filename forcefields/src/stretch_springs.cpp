@@ -77,7 +77,9 @@ void StretchParameters::validate() const {
 // Construction and the table
 
 StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
-    : topology_(&topology), params_(parameters) {
+    : topology_(&topology),
+      params_(parameters),
+      constructedStableJacobian_(parameters.stableJacobian) {
   params_.validate();
   const std::vector<StretchRecord> records = buildFromScratch(topology);
   edgeSlot_.reserve(std::size_t(topology.edgeCapacity()) * 5 / 4);
@@ -310,6 +312,15 @@ void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& 
     m.addBlock(s.a, s.b, -block);
     m.addBlock(s.b, s.a, -block);
   }
+}
+
+bool StretchSprings::setExactStiffness(bool exact) {
+  const bool stable = exact ? false : constructedStableJacobian_;
+  if (stable != params_.stableJacobian) {
+    params_.stableJacobian = stable;
+    linValid_ = false;  // the cached tangent factors were clamped (or not) for the other K
+  }
+  return true;
 }
 
 void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {

@@ -82,6 +82,32 @@ inline Eigen::Matrix2d stress(const Eigen::Matrix2d& eps, double mu, double lamb
   return sigma;
 }
 
+/// The exact derivative of P = R sigma(S - I) along dF, for an element with a rotation (see the
+/// header): dP = 2 mu dF + (lambda tr(eps) - 2 mu) dR + lambda tr(dS) R, with dS the solution of
+/// S dS + dS S = F^T dF + dF^T F and dR = (dF - R dS) S^-1.
+Mat32 exactDP(const ElementState& st, const Mat32& dF, double mu, double lambda) {
+  const Eigen::Matrix2d ftdf = st.f.transpose() * dF;
+  const Eigen::Matrix2d c = ftdf + ftdf.transpose();
+  // The 2x2 Sylvester equation S X + X S = C in closed form: with t = tr S, d = det S, the 2x2
+  // identity S X + X S = t X + tr(X) S + (tr(S X) - t tr X) I gives tr(S X) = tr(C) / 2 and
+  // tr X = (t tr C - tr(S C)) / (2 d), then X = (C - tr(X) S - (tr(S X) - t tr X) I) / t.
+  const double t = st.s(0, 0) + st.s(1, 1), d = st.detS;
+  const double trC = c(0, 0) + c(1, 1);
+  const double trSC = st.s(0, 0) * c(0, 0) + 2.0 * st.s(0, 1) * c(0, 1) + st.s(1, 1) * c(1, 1);
+  const double trX = (t * trC - trSC) / (2.0 * d);
+  const double shift = 0.5 * trC - t * trX;
+  Eigen::Matrix2d dS = c - trX * st.s;
+  dS(0, 0) -= shift;
+  dS(1, 1) -= shift;
+  dS /= t;
+  Eigen::Matrix2d sInv;
+  sInv << st.s(1, 1), -st.s(0, 1), -st.s(1, 0), st.s(0, 0);
+  sInv /= d;
+  const Mat32 dR = (dF - st.r * dS) * sInv;
+  const double trEps = t - 2.0;
+  return 2.0 * mu * dF + (lambda * trEps - 2.0 * mu) * dR + (lambda * (dS(0, 0) + dS(1, 1))) * st.r;
+}
+
 inline std::array<Eigen::Vector2d, 3> gradients(const FemTriangle& e) {
   const Eigen::Vector2d gb(e.g[0], e.g[1]), gc(e.g[2], e.g[3]);
   return {-gb - gc, gb, gc};
@@ -264,9 +290,14 @@ void TriangularFEM::addDForce(std::span<const double> x, std::span<const double>
     Mat32 dF;
     dF.col(0) = db * e.g[0] + dc * e.g[2];
     dF.col(1) = db * e.g[1] + dc * e.g[3];
-    const Eigen::Matrix2d local = st.r.transpose() * dF;
-    const Eigen::Matrix2d dEps = 0.5 * (local + local.transpose());
-    const Mat32 dP = (-kFactor * e.area) * (st.r * stress(dEps, mu_, lambda_));
+    Mat32 dP;
+    if (params_.exactHessian) {
+      dP = (-kFactor * e.area) * exactDP(st, dF, mu_, lambda_);
+    } else {
+      const Eigen::Matrix2d local = st.r.transpose() * dF;
+      const Eigen::Matrix2d dEps = 0.5 * (local + local.transpose());
+      dP = (-kFactor * e.area) * (st.r * stress(dEps, mu_, lambda_));
+    }
     const Eigen::Vector3d fb = dP * Eigen::Vector2d(e.g[0], e.g[1]);
     const Eigen::Vector3d fc = dP * Eigen::Vector2d(e.g[2], e.g[3]);
     scatter(df.data(), e.v[1], fb);
@@ -292,6 +323,10 @@ double TriangularFEM::potentialEnergy(std::span<const double> x) const {
 void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
                                  double kFactor) const {
   checkSize(x, "x", "addKToMatrix");
+  if (params_.exactHessian) {
+    addExactKToMatrix(x, m, kFactor);
+    return;
+  }
   for (const FemTriangle& e : elements_) {
     const ElementState st = evaluate(e, x.data());
     const std::array<Eigen::Vector2d, 3> g = gradients(e);
@@ -307,6 +342,38 @@ void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m
       }
     }
   }
+}
+
+void TriangularFEM::addExactKToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                                      double kFactor) const {
+  using Mat9 = Eigen::Matrix<double, 9, 9>;
+  for (const FemTriangle& e : elements_) {
+    const ElementState st = evaluate(e, x.data());
+    const std::array<Eigen::Vector2d, 3> g = gradients(e);
+    Mat9 ke = Mat9::Zero();
+    if (st.hasRotation) {
+      // Column (3 l + i): the force derivatives for dx = unit vector i at vertex l, dF = e_i g_l^T.
+      for (int l = 0; l < 3; ++l) {
+        for (int i = 0; i < 3; ++i) {
+          Mat32 dF = Mat32::Zero();
+          dF.row(i) = g[l].transpose();
+          const Mat32 dP = (-kFactor * e.area) * exactDP(st, dF, mu_, lambda_);
+          for (int k = 0; k < 3; ++k) ke.block<3, 1>(3 * k, 3 * l + i) = dP * g[k];
+        }
+      }
+      ke = (0.5 * (ke + ke.transpose())).eval();  // symmetric up to rounding: make it exactly so
+    }
+    for (int k = 0; k < 3; ++k) {
+      for (int l = 0; l < 3; ++l) {
+        m.addBlock(e.v[k], e.v[l], ke.block<3, 3>(3 * k, 3 * l));
+      }
+    }
+  }
+}
+
+bool TriangularFEM::setExactStiffness(bool exact) {
+  params_.exactHessian = exact;
+  return true;
 }
 
 void TriangularFEM::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& /*m*/,

@@ -212,6 +212,189 @@ TEST(DihedralBending, StiffnessIsTheExactJacobianAtTheRestAngles) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// The exact Hessian (exactHessian, setExactStiffness)
+
+/// The configurations of the exact-Hessian tests, each with its model: single hinges (flat or
+/// curved at rest) folded 60 to 150 degrees, and sheets bent far from their rest shapes, all
+/// moved rigidly and jittered so that nothing is axis-aligned.
+struct FoldedCase {
+  std::string name;
+  Model model;
+  std::vector<double> x;
+};
+
+std::vector<FoldedCase> foldedCases(const DihedralBendingParameters& p) {
+  std::vector<FoldedCase> cases;
+  const auto flatten = [](const MeshData& mesh) {
+    std::vector<double> x;
+    for (const Vec3& q : mesh.points) x.insert(x.end(), q.begin(), q.end());
+    return x;
+  };
+  std::uint64_t seed = 20;
+  for (double restDeg : {0.0, 25.0}) {
+    for (double deg : {60.0, 90.0, 120.0, 150.0}) {
+      Model m = makeModel(foldedHinge(restDeg * kPi / 180.0), p);
+      const std::vector<double> y = flatten(foldedHinge(-deg * kPi / 180.0));
+      cases.push_back({"hinge " + std::to_string(int(restDeg)) + " -> " + std::to_string(int(deg)),
+                       std::move(m), test::perturbed(similarity(y, ++seed, 1.0), 0.02, seed)});
+    }
+  }
+  // A grid rolled onto a cylinder of radius 0.2: the hinges across the roll fold by about 70
+  // degrees (and the diagonal ones by about 40).
+  {
+    const MeshData grid = test::grid(5, 1.0);
+    Model m = makeModel(grid, p);
+    const std::vector<double> y = rolled(grid, 0.2);
+    cases.push_back(
+        {"rolled grid", std::move(m), test::perturbed(similarity(y, 30, 1.0), 0.02, 31)});
+  }
+  {
+    Model m = makeModel(cylinderPatch(5, 3.0, 2.0), p);
+    std::vector<double> y = test::perturbed(m.rest, 0.4, 32);
+    cases.push_back({"cylinder jittered", std::move(m), similarity(y, 33, 1.0)});
+  }
+  return cases;
+}
+
+/// The largest |theta - theta0| over the active hinges at x.
+double largestFold(const DihedralBending& ff, const std::vector<double>& x) {
+  double largest = 0.0;
+  for (const DihedralHinge& h : ff.activeHinges()) {
+    const auto at = [&](std::uint32_t v) { return Vec3{x[3 * v], x[3 * v + 1], x[3 * v + 2]}; };
+    const double theta = dihedralAngle(at(h.v[0]), at(h.v[1]), at(h.v[2]), at(h.v[3]));
+    double d = std::fabs(theta - h.restAngle);
+    if (d > kPi) d = 2.0 * kPi - d;
+    largest = std::max(largest, d);
+  }
+  return largest;
+}
+
+TEST(DihedralBending, ExactHessianMatchesFiniteDifferencesOfTheForce) {
+  DihedralBendingParameters p;
+  p.bendingStiffness = 2.3;
+  p.exactHessian = true;
+  double worstFd = 0.0, worstPair = 0.0;
+  for (FoldedCase& c : foldedCases(p)) {
+    SCOPED_TRACE(c.name);
+    const DihedralBending& ff = *c.model.ff;
+    EXPECT_TRUE(ff.stiffnessIsExact());
+    ASSERT_EQ(ff.numDegenerateAt(c.x), 0u);
+    EXPECT_GT(largestFold(ff, c.x), 0.9);  // well away from the rest angles
+    const std::vector<double> dx = test::randomVector(c.x.size(), 1.0, 40);
+    // h = 1e-6 on coordinates and curvatures of order 1: the differences' truncation error is
+    // O(h^2) = 1e-12 and their rounding error O(1e-16 / h) = 1e-10 (measured: below 1e-9), so
+    // 1e-8 relative is a safe bound that a wrong second-order term would still exceed.
+    const test::StiffnessCheck check =
+        test::expectExactStiffness(ff, c.x, dx, c.model.n(), 1e-6, 1e-8);
+    worstFd = std::max({worstFd, check.dForceVsForce, check.matrixVsForce});
+    worstPair = std::max(worstPair, check.dForceVsMatrix);
+    // The exact K is indefinite there (the Gauss-Newton K is not).
+    const std::vector<double> ev =
+        test::symmetricEigenvalues(test::assembledK(ff, c.x, c.model.n()));
+    EXPECT_GT(ev.back(), 1e-8 * std::fabs(ev.front())) << "no positive eigenvalue";
+    // The default K is the Gauss-Newton one: not d(force)/dx at such a configuration.
+    DihedralBendingParameters gn = p;
+    gn.exactHessian = false;
+    DihedralBending approximate(*c.model.topo, gn);
+    EXPECT_FALSE(approximate.stiffnessIsExact());
+    EXPECT_GT(test::matrixVsForceError(approximate, c.x, c.model.n(), 1e-6), 1e-3);
+    EXPECT_GT(test::dForceVsForceError(approximate, c.x, dx, 1e-6), 1e-3);
+  }
+  test::recordError("worst_fd_relative_error", worstFd);
+  test::recordError("worst_dforce_vs_matrix", worstPair);
+}
+
+TEST(DihedralBending, SetExactStiffnessSwitchesTheHessianAndKeepsTheGaussNewtonDamping) {
+  const MeshData mesh = test::bumpyGrid(5, 3);
+  DihedralBendingParameters p;
+  p.rayleighStiffness = 0.3;
+  Model m = makeModel(mesh, p);
+  const std::vector<double> x = test::perturbed(m.rest, 0.4, 3);
+  const std::vector<double> dx = test::randomVector(x.size(), 1.0, 4);
+  const auto matrix = [&](double kf, double bf) {
+    TripletAccumulator acc;
+    m.ff->addKToMatrix(x, acc, kf);
+    m.ff->addBToMatrix(x, acc, bf);
+    return Eigen::MatrixXd(acc.toSparse(static_cast<Index>(m.n())));
+  };
+  const auto dForce = [&](double kf, double bf) {
+    std::vector<double> df(x.size(), 0.0);
+    m.ff->addDForce(x, dx, df, kf, bf);
+    return df;
+  };
+  EXPECT_FALSE(m.ff->stiffnessIsExact());
+  const Eigen::MatrixXd kGN = matrix(1.0, 0.0), bGN = matrix(0.0, 1.0);
+  const std::vector<double> dfGN = dForce(-0.4, 2.0);
+
+  EXPECT_TRUE(m.ff->setExactStiffness(true));
+  EXPECT_TRUE(m.ff->stiffnessIsExact());
+  EXPECT_TRUE(m.ff->parameters().exactHessian);
+  const Eigen::MatrixXd kExact = matrix(1.0, 0.0);
+  EXPECT_GT(test::maxAbsCoeff(kExact - kGN), 1e-3 * test::maxAbsCoeff(kGN));
+  // B is rayleighStiffness times the Gauss-Newton K in both modes, bit for bit.
+  EXPECT_EQ(test::maxAbsCoeff(matrix(0.0, 1.0) - bGN), 0.0);
+  EXPECT_LE(test::maxAbsCoeff(bGN - 0.3 * kGN), 1e-15 * test::maxAbsCoeff(kGN));
+  // Matrix-free products equal the assembled matrices, factors folded in (k = 0 with b != 0,
+  // and kFactor + bFactor rayleighStiffness = 0 with kFactor != 0, included).
+  for (const auto& [kf, bf] :
+       {std::pair{1.0, 0.0}, {0.0, 1.0}, {-0.4, 2.0}, {0.6, -2.0}, {0.0, 0.0}}) {
+    EXPECT_LE(test::relativeError(dForce(kf, bf), test::times(matrix(kf, bf), dx)), 1e-12)
+        << kf << " " << bf;
+  }
+  // Back to the default: bit for bit what it was.
+  EXPECT_TRUE(m.ff->setExactStiffness(false));
+  EXPECT_FALSE(m.ff->stiffnessIsExact());
+  EXPECT_EQ(test::maxAbsCoeff(matrix(1.0, 0.0) - kGN), 0.0);
+  EXPECT_EQ(dForce(-0.4, 2.0), dfGN);
+}
+
+TEST(DihedralBending, ExactHessianOfDegenerateHingesIsZeroAndFinite) {
+  DihedralBendingParameters p;
+  p.exactHessian = true;
+  Model m = makeModel(foldedHinge(0.0), p);
+  for (int which = 0; which < 3; ++which) {
+    std::vector<double> x = m.rest;
+    if (which == 0) x[1] = 0.0;  // A = (0.3, 0, 0)
+    if (which == 1) std::fill(x.begin(), x.end(), 0.25);
+    if (which == 2) x[9] = 0.0;  // D = C
+    EXPECT_EQ(m.ff->numDegenerateAt(x), 1u) << which;
+    const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
+    EXPECT_EQ(test::maxAbsCoeff(k), 0.0);
+    std::vector<double> df(x.size(), 0.0);
+    m.ff->addDForce(x, x, df, 1.0, 0.5);
+    EXPECT_EQ(test::maxAbs(df), 0.0);
+  }
+  // Any scale: the hinge folded by 100 degrees and scaled by 1e-45 or 1e45 has K / scale^2.
+  {
+    const MeshData folded = foldedHinge(-100.0 * kPi / 180.0);
+    std::vector<double> y;
+    for (const Vec3& q : folded.points) y.insert(y.end(), q.begin(), q.end());
+    const Eigen::MatrixXd k1 = test::assembledK(*m.ff, y, m.n());
+    const std::vector<double> dx = test::randomVector(y.size(), 1.0, 6);
+    std::vector<double> df1(y.size(), 0.0);
+    m.ff->addDForce(y, dx, df1, 1.0, 0.0);
+    for (double scale : {1e-45, 1e45}) {
+      std::vector<double> ys = y;
+      for (double& v : ys) v *= scale;
+      const Eigen::MatrixXd ks = test::assembledK(*m.ff, ys, m.n()) * (scale * scale);
+      EXPECT_LE(test::maxAbsCoeff(ks - k1), 1e-12 * test::maxAbsCoeff(k1)) << scale;
+      std::vector<double> df(y.size(), 0.0);
+      m.ff->addDForce(ys, dx, df, scale * scale, 0.0);
+      EXPECT_LE(test::relativeError(df, df1), 1e-12) << scale;
+    }
+  }
+  // Nearly degenerate (a wing 1e-9 off the edge line, folded): large but finite.
+  std::vector<double> x = m.rest;
+  x[1] = 1e-9;
+  x[2] = 1e-9;
+  const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
+  EXPECT_TRUE(k.allFinite());
+  std::vector<double> df(x.size(), 0.0);
+  m.ff->addDForce(x, test::randomVector(x.size(), 1.0, 5), df, 1.0, 0.0);
+  for (double v : df) EXPECT_TRUE(std::isfinite(v));
+}
+
 TEST(DihedralBending, RigidMotionsAndSimilaritiesAreForceFree) {
   for (const auto& [name, mesh] : corpus()) {
     SCOPED_TRACE(name);

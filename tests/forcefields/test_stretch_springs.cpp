@@ -209,6 +209,61 @@ TEST(StretchSprings, StableJacobianIsExactForStretchedSprings) {
   EXPECT_LE(test::matrixVsForceError(*me.ff, x, me.n(), 1e-5), 1e-7);
 }
 
+TEST(StretchSprings, SetExactStiffnessDropsTheClampAndRestoresTheParameter) {
+  // A sheet sheared and stretched along x, compressed along y, plus noise: springs stretched and
+  // compressed alike.
+  const MeshData mesh = test::bumpyGrid(4, 9);
+  StretchParameters p;
+  p.stiffness = 23.0;
+  p.damping = 0.5;
+  Model m = makeModel(mesh, p);  // stableJacobian = true
+  Eigen::Matrix3d a;
+  a << 1.35, 0.3, 0.0, 0.0, 0.7, 0.1, 0.05, 0.0, 1.0;
+  const std::vector<double> x =
+      test::perturbed(test::transformed(m.rest, a, {0.2, -0.1, 0.3}), 0.05, 3);
+  int stretched = 0, compressed = 0;
+  for (const StretchSpring& sp : m.ff->springs()) {
+    const double l = std::hypot(x[3 * sp.b] - x[3 * sp.a], x[3 * sp.b + 1] - x[3 * sp.a + 1],
+                                x[3 * sp.b + 2] - x[3 * sp.a + 2]);
+    (l > sp.restLength ? stretched : compressed) += 1;
+  }
+  EXPECT_GT(stretched, 5);
+  EXPECT_GT(compressed, 5);
+  const std::vector<double> dx = test::randomVector(x.size(), 1.0, 4);
+  const auto dForce = [&] {
+    std::vector<double> df(x.size(), 0.0);
+    m.ff->addDForce(x, dx, df, 1.0, 0.0);
+    return df;
+  };
+  // The default K: clamped, not d(force)/dx. addDForce at x caches its linearisation.
+  EXPECT_FALSE(m.ff->stiffnessIsExact());
+  const std::vector<double> dfStable = dForce();
+  EXPECT_GT(test::dForceVsForceError(*m.ff, x, dx, 1e-6), 1e-3);
+  EXPECT_GT(test::matrixVsForceError(*m.ff, x, m.n(), 1e-6), 1e-3);
+  // Exact: at bitwise the same x, addDForce must not reuse the clamped linearisation.
+  EXPECT_TRUE(m.ff->setExactStiffness(true));
+  EXPECT_TRUE(m.ff->stiffnessIsExact());
+  EXPECT_FALSE(m.ff->parameters().stableJacobian);
+  const std::vector<double> dfExact = dForce();
+  EXPECT_GT(test::relativeError(dfExact, dfStable), 1e-3);
+  const test::StiffnessCheck c = test::expectExactStiffness(*m.ff, x, dx, m.n(), 1e-6, 1e-8);
+  test::recordError("worst_fd_relative_error", std::max(c.dForceVsForce, c.matrixVsForce));
+  test::recordError("worst_dforce_vs_matrix", c.dForceVsMatrix);
+  // Back to the parameter given at construction, and to the clamped K bit for bit.
+  EXPECT_TRUE(m.ff->setExactStiffness(false));
+  EXPECT_FALSE(m.ff->stiffnessIsExact());
+  EXPECT_TRUE(m.ff->parameters().stableJacobian);
+  EXPECT_EQ(dForce(), dfStable);
+  // A field built with stableJacobian = false is exact either way.
+  StretchParameters exact = p;
+  exact.stableJacobian = false;
+  Model me = makeModel(mesh, exact);
+  EXPECT_TRUE(me.ff->stiffnessIsExact());
+  EXPECT_TRUE(me.ff->setExactStiffness(false));
+  EXPECT_TRUE(me.ff->stiffnessIsExact());
+  test::expectExactStiffness(*me.ff, x, dx, me.n(), 1e-6, 1e-8);
+}
+
 TEST(StretchSprings, AssembledMatricesEqualMatrixFreeProducts) {
   for (bool stable : {true, false}) {
     for (const auto& [name, mesh] : test::smallMeshes()) {

@@ -202,6 +202,70 @@ TEST(TriangularFem, StiffnessErrorIsOfTheOrderOfTheStrain) {
   }
 }
 
+TEST(TriangularFem, ExactHessianMatchesFiniteDifferencesOfTheForce) {
+  // Stretched, sheared and compressed sheets (a linear map of the rest shape, moved rigidly, plus
+  // noise), and random large displacements.
+  TriangularFEMParameters p = someParameters();
+  p.exactHessian = true;
+  TriangularFEMParameters corotational = someParameters();
+  Eigen::Matrix3d stretchShear, compress;
+  stretchShear << 1.4, 0.35, 0.0, -0.1, 1.2, 0.2, 0.1, 0.0, 1.0;
+  compress << 0.7, 0.2, 0.0, 0.0, 0.8, 0.0, 0.0, 0.1, 0.9;
+  double worstFd = 0.0, worstPair = 0.0;
+  for (const auto& [name, mesh] : test::smallMeshes()) {
+    Model m = makeModel(mesh, p), mc = makeModel(mesh, corotational);
+    EXPECT_TRUE(m.ff->stiffnessIsExact());
+    EXPECT_FALSE(mc.ff->stiffnessIsExact());
+    std::uint64_t seed = 50;
+    const std::vector<const Eigen::Matrix3d*> maps = {&stretchShear, &compress, nullptr};
+    for (const Eigen::Matrix3d* a : maps) {
+      ++seed;
+      SCOPED_TRACE(name + (a == &stretchShear ? " stretched"
+                           : a == &compress   ? " compressed"
+                                              : " random"));
+      const std::vector<double> x =
+          a ? test::rigidMotion(
+                  test::perturbed(test::transformed(m.rest, *a, {0.0, 0.0, 0.0}), 0.03, seed), seed)
+            : test::perturbed(m.rest, 0.3, seed);
+      const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
+      const test::StiffnessCheck c = test::expectExactStiffness(*m.ff, x, dx, m.n(), 1e-6, 1e-8);
+      worstFd = std::max({worstFd, c.dForceVsForce, c.matrixVsForce});
+      worstPair = std::max(worstPair, c.dForceVsMatrix);
+      // The corotational K (the default) is not d(force)/dx there.
+      EXPECT_GT(test::matrixVsForceError(*mc.ff, x, mc.n(), 1e-6), 1e-3);
+      EXPECT_GT(test::dForceVsForceError(*mc.ff, x, dx, 1e-6), 1e-3);
+    }
+  }
+  test::recordError("worst_fd_relative_error", worstFd);
+  test::recordError("worst_dforce_vs_matrix", worstPair);
+}
+
+TEST(TriangularFem, SetExactStiffnessSwitchesTheStiffness) {
+  Model m = makeModel(test::bumpyGrid(4, 2), someParameters());
+  const std::vector<double> x = test::perturbed(m.rest, 0.3, 5);
+  const std::vector<double> dx = test::randomVector(x.size(), 1.0, 6);
+  const Eigen::MatrixXd k0 = test::assembledK(*m.ff, x, m.n());
+  std::vector<double> df0(x.size(), 0.0);
+  m.ff->addDForce(x, dx, df0, 0.7, 0.0);
+  EXPECT_FALSE(m.ff->stiffnessIsExact());
+  EXPECT_TRUE(m.ff->setExactStiffness(true));
+  EXPECT_TRUE(m.ff->stiffnessIsExact());
+  EXPECT_TRUE(m.ff->parameters().exactHessian);
+  EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-6), 1e-6);
+  // Exact at rest and for rigid motions too, where it equals the corotational K.
+  const std::vector<double> r = test::rigidMotion(m.rest, 7);
+  EXPECT_LE(test::matrixVsForceError(*m.ff, r, m.n(), 1e-6), 1e-6);
+  const Eigen::MatrixXd kr = test::assembledK(*m.ff, r, m.n());
+  EXPECT_TRUE(m.ff->setExactStiffness(false));
+  EXPECT_FALSE(m.ff->stiffnessIsExact());
+  EXPECT_LE(test::maxAbsCoeff(kr - test::assembledK(*m.ff, r, m.n())),
+            1e-10 * test::maxAbsCoeff(kr));
+  EXPECT_EQ(test::maxAbsCoeff(test::assembledK(*m.ff, x, m.n()) - k0), 0.0);
+  std::vector<double> df(x.size(), 0.0);
+  m.ff->addDForce(x, dx, df, 0.7, 0.0);
+  EXPECT_EQ(df, df0);
+}
+
 TEST(TriangularFem, AssembledMatrixEqualsMatrixFreeProduct) {
   for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
@@ -239,10 +303,13 @@ TEST(TriangularFem, StiffnessSymmetricNegativeSemiDefinite) {
 TEST(TriangularFem, CollapsedTrianglesStayFinite) {
   Model m = makeModel(test::grid(4, 3.0), someParameters());
   const std::vector<double> dx = test::randomVector(m.rest.size(), 1.0, 3);
-  // Flattened onto a line (zero area everywhere), then onto one point.
+  // Flattened onto a line (zero area everywhere), then onto one point; both stiffnesses.
   std::vector<double> line = m.rest, point(m.rest.size(), 0.5);
   for (std::size_t i = 0; i < line.size(); i += 3) line[i + 1] = 0.0;
-  for (const std::vector<double>* x : {&line, &point}) {
+  const std::pair<bool, const std::vector<double>*> cases[] = {
+      {false, &line}, {false, &point}, {true, &line}, {true, &point}};
+  for (const auto& [exact, x] : cases) {
+    m.ff->setExactStiffness(exact);
     const std::vector<double> f = test::forceAt(*m.ff, *x);
     std::vector<double> df(x->size(), 0.0);
     m.ff->addDForce(*x, dx, df, 1.0, 0.0);

@@ -1,7 +1,13 @@
 #include "support/force_field_harness.hpp"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "support/field_helpers.hpp"
 
 namespace cutsim::test {
 
@@ -91,6 +97,38 @@ double matrixVsForceError(const forcefields::ForceField& ff, std::span<const dou
     }
   }
   return relative(err, scale);
+}
+
+double dForceVsMatrixError(const forcefields::ForceField& ff, std::span<const double> x,
+                           std::span<const double> dx, std::size_t numPoints) {
+  const Eigen::MatrixXd k = assembledK(ff, x, numPoints);
+  std::vector<double> df(x.size(), 0.0);
+  ff.addDForce(x, dx, df, 1.0, 0.0);
+  return relativeError(df, times(k, std::vector<double>(dx.begin(), dx.end())));
+}
+
+void recordError(const std::string& key, double value) {
+  std::ostringstream os;
+  os << std::scientific << std::setprecision(2) << value;
+  ::testing::Test::RecordProperty(key, os.str());
+}
+
+StiffnessCheck expectExactStiffness(const forcefields::ForceField& ff, std::span<const double> x,
+                                    std::span<const double> dx, std::size_t numPoints, double h,
+                                    double fdTolerance) {
+  StiffnessCheck c;
+  c.dForceVsForce = dForceVsForceError(ff, x, dx, h);
+  c.matrixVsForce = matrixVsForceError(ff, x, numPoints, h);
+  c.dForceVsMatrix = dForceVsMatrixError(ff, x, dx, numPoints);
+  const Eigen::MatrixXd k = assembledK(ff, x, numPoints);
+  const double scale = maxAbsCoeff(k);
+  c.asymmetry = scale > 0.0 ? maxAsymmetry(k) / scale : 0.0;
+  EXPECT_GT(scale, 0.0);
+  EXPECT_LE(c.dForceVsForce, fdTolerance);
+  EXPECT_LE(c.matrixVsForce, fdTolerance);
+  EXPECT_LE(c.dForceVsMatrix, 1e-12);
+  EXPECT_LE(c.asymmetry, 1e-13);
+  return c;
 }
 
 }  // namespace cutsim::test

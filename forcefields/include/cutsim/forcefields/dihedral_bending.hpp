@@ -25,14 +25,25 @@
 //
 // and the force is f_i = -2 c (theta - theta0) g_i, exactly -dE/dx.
 //
-// Stiffness: the exact Hessian 2 c g g^T + 2 c (theta - theta0) d2theta/dx2 is indefinite away
-// from the rest angle. K (addDForce, addKToMatrix) is minus the Gauss-Newton part only:
+// Stiffness. The exact K = dF/dx is minus the Hessian of E:
+//
+//   K_exact = -(2 c g g^T + 2 c (theta - theta0) d2theta/dx2),
+//
+// which is indefinite away from the rest angle. By default (exactHessian = false) K
+// (addDForce, addKToMatrix) is minus the Gauss-Newton part only:
 //
 //   K block (i, j) = -2 c g_i g_j^T     (symmetric, negative semi-definite, rank one per hinge),
 //
 // which is the exact d(force)/dx where theta = theta0 (the dropped term vanishes there) and NOT
-// elsewhere: an implicit step with it is a stable, slightly over-damped Newton-like step.
-// Rayleigh damping: B = rayleighStiffness * K, as for the springs.
+// elsewhere: an implicit step with it is a stable, slightly over-damped Newton-like step, and
+// stiffnessIsExact() is false. With exactHessian = true (or setExactStiffness(true)) K is
+// K_exact, exact to rounding, for Newton's method on the incremental potential (which then needs
+// its own safeguard against the indefinite part: a line search, a projection, ...). The second
+// derivatives are computed by forward-mode automatic differentiation of the closed-form gradient
+// above (one pass per hinge with one direction in addDForce, with twelve in addKToMatrix, whose
+// 12 x 12 hinge blocks are symmetrised), so they are exactly the derivatives of that gradient.
+// Rayleigh damping: B = rayleighStiffness * K_GN, the Gauss-Newton K in both modes (so B stays
+// negative semi-definite); addDForce then gives (kFactor K + bFactor B) dx with each its own K.
 //
 // Degenerate hinges: at set-up, a hinge whose rest edge is <= minDist, or a rest wing height
 // <= minDist or <= 1e-8 l (a sliver: coincident points, zero areas), or with coordinates beyond
@@ -58,9 +69,12 @@ struct DihedralBendingParameters {
   double bendingStiffness = 1.0;   ///< k: finite, >= 0 (the springs' k: k = 3 D)
   double minDist = 1e-6;           ///< degenerate hinge threshold (absolute length): finite, >= 0
   double rayleighStiffness = 0.0;  ///< this component's Rayleigh stiffness factor: finite, >= 0
+  /// K = the exact Hessian's opposite (indefinite) instead of the Gauss-Newton K (negative
+  /// semi-definite): see "Stiffness" at the top of this file. B uses the Gauss-Newton K in both.
+  bool exactHessian = false;
 
   /// Throws cutsim::InvalidInput with where() = the parameter's name for a negative, NaN or
-  /// infinite value.
+  /// infinite value (exactHessian: any value).
   void validate() const;
 };
 
@@ -175,13 +189,20 @@ class DihedralBending
   std::string typeName() const override { return std::string(detail::DihedralHingeTraits::kName); }
   void addForce(std::span<const double> x, std::span<const double> v,
                 std::span<double> f) const override;
-  /// df += (kFactor + bFactor rayleighStiffness) K_GN(x) dx (Gauss-Newton K: see the top).
+  /// df += (kFactor + bFactor rayleighStiffness) K_GN(x) dx (Gauss-Newton K: see the top);
+  /// with exactHessian, df += (kFactor K_exact(x) + bFactor rayleighStiffness K_GN(x)) dx.
   void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
                  double kFactor, double bFactor) const override;
   double potentialEnergy(std::span<const double> x) const override;
-  /// 16 blocks per active hinge (zero blocks for a hinge degenerate at x).
+  /// 16 blocks per active hinge (zero blocks for a hinge degenerate at x): K_GN, or K_exact with
+  /// exactHessian.
   void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
+  /// rayleighStiffness K_GN in both modes.
   void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
+  /// parameters().exactHessian.
+  bool stiffnessIsExact() const override { return params_.exactHessian; }
+  /// Sets parameters().exactHessian = exact; returns true (both are available).
+  bool setExactStiffness(bool exact) override;
   /// One segment per active hinge, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
 

@@ -2,6 +2,12 @@
 // FastTriangularBendingSprings: one linear bending spring per interior edge (Volino and
 // Magnenat-Thalmann 2006, as in SOFA), maintained incrementally from topology events.
 // Specification: bending-springs.md; implementation notes: docs/bending-springs.md.
+//
+// Stiffness: the energy 1/2 lambda |R|^2 is quadratic in x (R = sum_i alpha_i x_i, with weights
+// fixed at set-up), so K block (i, j) = -lambda alpha_i alpha_j I3 (hinge_kernel.hpp) is the exact
+// Jacobian of the force at every x, constant and negative semi-definite: stiffnessIsExact() is
+// true and setExactStiffness(true) has nothing to change. Rayleigh damping:
+// B = rayleighStiffness K.
 #include <array>
 #include <cstdint>
 #include <span>

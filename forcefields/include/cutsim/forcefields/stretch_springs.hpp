@@ -8,10 +8,15 @@
 //   K block (j, j) = (i, i) = -(i, j) = -(j, i) = -ks [ a (I - u u^T) + u u^T ],  a = 1 - L0 / l,
 //   B block (j, j) = (i, i) = -(i, j) = -(j, i) = -kd u u^T.
 //
-// With stableJacobian, a is clamped to >= 0 (compressed springs), which keeps K negative
-// semi-definite for implicit solvers; K is then NOT the exact derivative of the force for
-// compressed springs (it is for stretched ones, and always with stableJacobian = false). K never
-// includes the derivative of the damping force with respect to positions (u depends on x).
+// Whether K is exact: with stableJacobian (the default), a is clamped to >= 0 (compressed
+// springs), which keeps K negative semi-definite for implicit solvers; K is then NOT the exact
+// derivative of the force for compressed springs (it is for stretched ones), and
+// stiffnessIsExact() is false. With stableJacobian = false, K is the exact Jacobian of the
+// elastic force everywhere, and stiffnessIsExact() is true. setExactStiffness(true) sets
+// stableJacobian = false; setExactStiffness(false) restores the value given at construction.
+// K never includes the derivative of the damping force with respect to positions (u depends on
+// x), as in SOFA: with damping > 0 and nonzero relative velocities, "exact" means exact for the
+// elastic force (the damping force is handled by B).
 // A spring whose current length is zero (l^2 below the smallest normal double) has no direction:
 // it contributes no force, no damping and zero matrix blocks (its energy 1/2 ks L0^2 still counts).
 #include <array>
@@ -75,6 +80,11 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
   /// One segment per spring.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+  /// !parameters().stableJacobian (see the top of this file).
+  bool stiffnessIsExact() const override { return !params_.stableJacobian; }
+  /// exact: stableJacobian = false; otherwise the stableJacobian given at construction. Drops
+  /// the linearisation cached by addDForce when that changes K. Returns true.
+  bool setExactStiffness(bool exact) override;
 
   // ---- TopologyObserver: the table follows edge events and point renumbering only ----
   void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
@@ -112,6 +122,7 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
 
   const topology::Topology* topology_;
   StretchParameters params_;
+  bool constructedStableJacobian_;  // params_.stableJacobian as given to the constructor
   // Hot: the springs, streamed by every force pass.
   std::vector<StretchSpring> springs_;
   // springEdge_[s]: the edge of springs_[s].
@@ -122,7 +133,8 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   topology::Subscription subscription_;
   // Linearisation cache of addDForce: per spring, u and a = 1 - L0 / l at the positions linX_,
   // reused while addDForce is called again at bitwise the same x (an implicit step's CG
-  // iterations) and the table has not changed. Not for concurrent calls on one field.
+  // iterations) and neither the table nor stableJacobian has changed (events and
+  // setExactStiffness drop it). Not for concurrent calls on one field.
   struct Linearisation {
     double u[3];
     double a;

@@ -14,15 +14,29 @@
 //
 // The rotation is the polar factor of F (not SOFA's frame aligned with the edge ab): the two agree
 // to first order in the strain, and with the polar factor the force is the exact gradient of the
-// energy. K is the usual corotational approximation: R held constant,
+// energy.
+//
+// Stiffness. By default (exactHessian = false) K is the usual corotational approximation, R held
+// constant,
 //
 //   K block (k, l) = -A h R [ mu (g_k . g_l) I2 + mu g_l g_k^T + lambda g_k g_l^T ] R^T,
 //
 // symmetric and negative semi-definite, exact for rigid motions of the rest shape (eps = 0) and
-// off by O(strain) elsewhere. There is no damping (B = 0). A triangle whose current area is
-// (nearly) zero has no rotation: it contributes no force and zero blocks (its energy still
-// counts). A triangle whose REST area is (nearly) zero has no element at all (a "degenerate"
-// triangle, counted; validate() checks the set against a rebuild).
+// off by O(strain) elsewhere: stiffnessIsExact() is false. With exactHessian = true (or
+// setExactStiffness(true)) K is the exact Jacobian of the force, exact to rounding, in closed
+// form: with dF = sum_l dx_l g_l^T,
+//
+//   d(f_k) = -A h dP g_k,   dP = 2 mu dF + (lambda tr(eps) - 2 mu) dR + lambda tr(dS) R,
+//   S dS + dS S = F^T dF + dF^T F (a 2x2 Sylvester equation, solved in closed form),
+//   dR = (dF - R dS) S^-1,
+//
+// symmetric (minus the Hessian of E_tri) but not negative semi-definite in general (compressed
+// triangles); addKToMatrix symmetrises each 9 x 9 element block (symmetric up to rounding).
+//
+// There is no damping (B = 0). A triangle whose current area is (nearly) zero has no rotation:
+// it contributes no force and zero blocks in both modes (its energy still counts). A triangle whose
+// REST area is (nearly) zero has no element at all (a "degenerate" triangle, counted; validate()
+// checks the set against a rebuild).
 #include <array>
 #include <cstdint>
 #include <span>
@@ -40,9 +54,12 @@ struct TriangularFEMParameters {
   double youngModulus = 1000.0;  ///< E: finite, >= 0
   double poissonRatio = 0.3;     ///< nu: finite, in (-1, 0.5)
   double thickness = 1.0;        ///< h: finite, >= 0
+  /// K = the exact Jacobian of the force (symmetric, indefinite) instead of the corotational K
+  /// with R held constant (negative semi-definite): see "Stiffness" at the top of this file.
+  bool exactHessian = false;
 
   /// Throws cutsim::InvalidInput with where() = the parameter's name for a value out of range,
-  /// NaN or infinite.
+  /// NaN or infinite (exactHessian: any value).
   void validate() const;
 };
 
@@ -78,7 +95,8 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   std::string typeName() const override { return "TriangularFEM"; }
   void addForce(std::span<const double> x, std::span<const double> v,
                 std::span<double> f) const override;
-  /// df += kFactor K dx (bFactor is ignored: no damping).
+  /// df += kFactor K dx (bFactor is ignored: no damping); K is the corotational K, or the exact
+  /// one with exactHessian.
   void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
                  double kFactor, double bFactor) const override;
   double potentialEnergy(std::span<const double> x) const override;
@@ -88,6 +106,10 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
   /// The three edges of every element.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+  /// parameters().exactHessian.
+  bool stiffnessIsExact() const override { return params_.exactHessian; }
+  /// Sets parameters().exactHessian = exact; returns true (both are available).
+  bool setExactStiffness(bool exact) override;
 
   // ---- TopologyObserver: the table follows triangle events and point renumbering only ----
   void onTrianglesDestroyed(const topology::Topology&,
@@ -117,6 +139,7 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   static FemRecord elementFromMesh(const topology::Topology& topology, TriangleId t);
 
  private:
+  void addExactKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const;
   void setTriangle(TriangleId t, const FemRecord& r);
   void clearTriangle(TriangleId t);
   void removeElement(std::uint32_t slot);
