@@ -522,13 +522,15 @@ const bool registered = ForceFieldRegistry::instance().add({
     "nonlinear bending on the dihedral angle (Discrete Shells): sharp folds, curved rest shapes",
     {{"bendingStiffness", "k, >= 0 (default 1): the springs' k, so k = 3 D"},
      {"minDist", "degenerate-hinge threshold, an absolute length >= 0 (default 1e-6)"},
-     {"rayleighStiffness", "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"}},
+     {"rayleighStiffness", "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
+     {"exactHessian", "K is the exact Hessian (indefinite away from the rest angle; what Newton needs) instead of its Gauss-Newton part (default false)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       DihedralBendingParameters p;
       p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
       p.minDist = s.nonNegative("minDist", p.minDist);
       p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
+      p.exactHessian = s.boolean("exactHessian", p.exactHessian);
       s.check([&] { p.validate(); });
       return p;
     },

@@ -589,13 +589,15 @@ const bool registered = ForceFieldRegistry::instance().add({
     "corotational linear membrane, one constant-strain triangle each (SOFA's TriangularFEMForceField)",
     {{"youngModulus", "E, >= 0 (default 1000)"},
      {"poissonRatio", "nu, in (-1, 0.5) (default 0.3)"},
-     {"thickness", "h, >= 0 (default 1)"}},
+     {"thickness", "h, >= 0 (default 1)"},
+     {"exactHessian", "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       TriangularFEMParameters p;
       p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
       p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
       p.thickness = s.nonNegative("thickness", p.thickness);
+      p.exactHessian = s.boolean("exactHessian", p.exactHessian);
       s.check([&] { p.validate(); });
       return p;
     },

@@ -13,20 +13,26 @@ NewtonImplicitEuler::NewtonImplicitEuler(ImplicitSettings settings, NewtonSettin
 
 namespace {
 
-/// Restores the fields' default stiffness when a step ends, however it ends.
+/// Asks the fields for their exact stiffness for one step, and gives each back the stiffness it
+/// had before when the step ends, however it ends.
 struct ExactStiffness {
   ExactStiffness(Model& m, bool on) : model(m), active(on) {
+    for (std::size_t i = 0; i < model.numForceFields(); ++i)
+      before.push_back(model.forceField(i).stiffnessIsExact());
     if (active) model.setExactStiffness(true);
   }
   ~ExactStiffness() {
-    if (active) model.setExactStiffness(false);
+    for (std::size_t i = 0; i < before.size(); ++i) model.forceField(i).setExactStiffness(before[i]);
   }
+  /// The fields' positive semi-definite stiffness for the rest of the step (an iteration whose
+  /// exact system is indefinite).
   void off() {
-    if (active) model.setExactStiffness(false);
+    model.setExactStiffness(false);
     active = false;
   }
   Model& model;
   bool active;
+  std::vector<bool> before;
 };
 
 }  // namespace
@@ -111,12 +117,15 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
     Vec delta = Vec::Zero(N);
     {
       const SystemOperator A = systemOperator(model, span(x), h, c);
+      const std::uint8_t flagsBefore = stats.flags;
       try {
         solve(A, r, delta, stats);
       } catch (const StepFailure&) {
         if (!exact.active) throw;
-        // The exact stiffness is indefinite here: the fields' default one for the rest of the step.
+        // The exact stiffness is indefinite here: the fields' default one for the rest of the step
+        // (an expected turn of the method, not a failed solve: the step is not flagged for it).
         exact.off();
+        stats.flags = flagsBefore;
         delta.setZero();
         const SystemOperator B = systemOperator(model, span(x), h, c);
         solve(B, r, delta, stats);

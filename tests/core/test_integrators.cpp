@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "cutsim/core/integrator.hpp"
 #include "cutsim/core/simulation.hpp"
+#include "cutsim/forcefields/dihedral_bending.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "support/fixtures.hpp"
@@ -293,6 +295,74 @@ TEST(BDF2, RestartsAfterATopologyChangeOrAnEditOfTheState) {
   EXPECT_EQ(bdf->restarts(), 4);
   sim->step(0.02);
   EXPECT_EQ(bdf->restarts(), 4);
+}
+
+}  // namespace
+}  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+/// A 6 x 6 sheet folded by `angle` along x = 0.5 (the right half rotated about that line), at
+/// rest flat: stretch springs and the dihedral bending model, both with exact stiffness on request.
+std::unique_ptr<Simulation> foldedSheet(double angle, std::unique_ptr<Integrator> integrator) {
+  auto sim = std::make_unique<Simulation>(std::make_unique<Topology>(grid(6, 1.0)), 10.0);
+  forcefields::StretchParameters sp;
+  sp.stiffness = 200.0;
+  sp.stableJacobian = true;
+  sim->addForceField(std::make_unique<forcefields::StretchSprings>(sim->topology(), sp));
+  forcefields::DihedralBendingParameters dp;
+  dp.bendingStiffness = 0.5;
+  sim->addForceField(std::make_unique<forcefields::DihedralBending>(sim->topology(), dp));
+  auto x = sim->state().x();
+  for (std::size_t p = 0; p < x.size() / 3; ++p) {
+    const double u = x[3 * p] - 0.5;
+    if (u <= 0) continue;
+    x[3 * p] = 0.5 + u * std::cos(angle);
+    x[3 * p + 2] = u * std::sin(angle);
+  }
+  for (topology::PointId p = 0; p < 36; p += 6) sim->fixed().add(p);
+  sim->setIntegrator(std::move(integrator));
+  return sim;
+}
+
+/// Residuals of Newton's first step on the fold, relative to the first.
+std::vector<double> newtonResiduals(bool exact) {
+  auto integrator = std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{40, 1e-13, exact, true},
+                                                           std::make_unique<CholmodSolver>());
+  auto* newton = integrator.get();
+  auto sim = foldedSheet(1.2, std::move(integrator));
+  sim->step(0.02);
+  std::vector<double> e;
+  for (double r : newton->lastResiduals()) e.push_back(r / newton->lastResiduals().front());
+  return e;
+}
+
+// With the exact Hessians Newton converges quadratically on a strong fold (the error is about
+// squared by each iteration near the solution); with the fields' default, approximate stiffness
+// it converges only linearly and needs more iterations.
+TEST(Newton, ConvergesQuadraticallyWithTheExactStiffnessOnADihedralFold) {
+  const std::vector<double> exact = newtonResiduals(true);
+  const std::vector<double> approximate = newtonResiduals(false);
+  std::ostringstream trace;
+  for (double e : exact) trace << e << ' ';
+  trace << "| ";
+  for (double e : approximate) trace << e << ' ';
+  SCOPED_TRACE(trace.str());
+  ASSERT_GE(exact.size(), 3u);
+  EXPECT_LT(exact.back(), 1e-13);
+  EXPECT_LT(exact.size(), approximate.size());
+  // Quadratic: some iteration takes an error below 1e-2 to below its square times 10.
+  bool quadratic = false;
+  for (std::size_t k = 0; k + 1 < exact.size(); ++k)
+    if (exact[k] < 1e-2 && exact[k + 1] <= 10 * exact[k] * exact[k] && exact[k + 1] > 0) quadratic = true;
+  EXPECT_TRUE(quadratic);
+  // The fields are given back their own stiffness after the step.
+  auto sim = foldedSheet(1.2, std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{},
+                                                                     std::make_unique<CholmodSolver>()));
+  sim->step(0.05);
+  EXPECT_FALSE(sim->forceField(0).stiffnessIsExact());
+  EXPECT_FALSE(sim->forceField(1).stiffnessIsExact());
 }
 
 }  // namespace
