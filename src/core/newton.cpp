@@ -37,176 +37,182 @@ struct ExactStiffness {
 
 }  // namespace
 
-void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) {
-  using Vec = Eigen::VectorXd;
-  const double h = in.dt;
-  const std::size_t n = model.numSlots();
-  const Eigen::Index N = Eigen::Index(3 * n);
-  const std::size_t Ns = std::size_t(N);
-  auto xs = model.state().x();
-  auto vs = model.state().v();
-  const Vec xn = Eigen::Map<const Vec>(xs.data(), N);
-  const Vec vn = Eigen::Map<const Vec>(vs.data(), N);
-  auto m = model.mass().perPoint();
-  const StepConstraints& c = *in.constraints;
-  const double rM = settings_.rayleighMass, rK = settings_.rayleighStiffness;
-  auto span = [&](const Vec& a) { return std::span<const double>(a.data(), Ns); };
-  auto mspan = [&](Vec& a) { return std::span<double>(a.data(), Ns); };
-  auto massDot = [&](const Vec& a, const Vec& b) {
-    double s = 0;
-    for (std::size_t p = 0; p < n; ++p) s += m[p] * a.segment<3>(Eigen::Index(3 * p)).dot(b.segment<3>(Eigen::Index(3 * p)));
-    return s;
-  };
-  auto project = [&](Vec& a) {
-    for (std::size_t p = 0; p < n; ++p)
-      if (c.constrained[p]) a.segment<3>(Eigen::Index(3 * p)).setZero();
-  };
-  const Vec zero = Vec::Zero(N);
+namespace {
 
-  // D v: the damping force, lagged at the step's start (B(x_n) + rK K(x_n)) v.
-  auto damping = [&](const Vec& v) {
-    Vec d = Vec::Zero(N);
-    model.addDForce(xs, span(v), mspan(d), rK, 1.0);
-    return d;
-  };
-  // The incremental potential (see integrator.hpp) and its negative gradient r (the residual).
-  auto potential = [&](const Vec& v, const Vec& x) {
-    const Vec dvn = v - vn;
-    return 0.5 * massDot(dvn, dvn) + 0.5 * h * rM * massDot(v, v) + model.potentialEnergy(span(x)) -
-           0.5 * h * v.dot(damping(v));
-  };
-  auto residual = [&](const Vec& v, const Vec& x) {
-    Vec r = Vec::Zero(N);
-    model.addForce(span(x), span(zero), mspan(r));  // elastic forces and gravity
+using Vec = Eigen::VectorXd;
+
+/// One step's nonlinear problem in the velocities v_n+1 (see integrator.hpp): the incremental
+/// potential Phi, its negative gradient (the residual r, zero on the prescribed points) and the
+/// constraint forces.
+class IncrementalPotential {
+ public:
+  IncrementalPotential(const Model& model, const StepConstraints& c, double h, const ImplicitSettings& s)
+      : model_(model), c_(c), h_(h), rM_(s.rayleighMass), rK_(s.rayleighStiffness),
+        n_(model.numSlots()), N_(Eigen::Index(3 * n_)), m_(model.mass().perPoint()),
+        xn_(Eigen::Map<const Vec>(model.state().x().data(), N_)),
+        vn_(Eigen::Map<const Vec>(model.state().v().data(), N_)), zero_(Vec::Zero(N_)) {}
+
+  /// v_n on the free points, the velocity that reaches the target on the prescribed ones.
+  Vec start() const {
+    Vec v = vn_;
+    for (std::size_t p = 0; p < n_; ++p)
+      if (c_.constrained[p])
+        for (int k = 0; k < 3; ++k) {
+          const Eigen::Index i = Eigen::Index(3 * p + k);
+          v[i] = (c_.target[std::size_t(i)] - xn_[i]) / h_;
+        }
+    return v;
+  }
+  Vec position(const Vec& v) const { return xn_ + h_ * v; }
+  double phi(const Vec& v) const {
+    const Vec dvn = v - vn_;
+    return 0.5 * massDot(dvn, dvn) + 0.5 * h_ * rM_ * massDot(v, v) + model_.potentialEnergy(span(position(v))) -
+           0.5 * h_ * v.dot(damping(v));
+  }
+  /// r = h (F(x) + M g - rM M v + D v) - M (v - v_n); with `all`, on the prescribed points too.
+  Vec residual(const Vec& v, bool all = false) const {
+    Vec r = Vec::Zero(N_);
+    model_.addForce(span(position(v)), span(zero_), std::span<double>(r.data(), r.size()));
     r += damping(v);
-    for (std::size_t p = 0; p < n; ++p)
+    for (std::size_t p = 0; p < n_; ++p)
       for (int k = 0; k < 3; ++k) {
         const Eigen::Index i = Eigen::Index(3 * p + k);
-        r[i] = h * (r[i] - rM * m[p] * v[i]) - m[p] * (v[i] - vn[i]);
+        r[i] = h_ * (r[i] - rM_ * m_[p] * v[i]) - m_[p] * (v[i] - vn_[i]);
+        if (!all && c_.constrained[p]) r[i] = 0.0;
       }
-    project(r);
-    requireFinite(span(r), "force", "");
+    requireFinite(std::span<const double>(r.data(), std::size_t(r.size())), "force", "");
     return r;
-  };
+  }
+  /// Below this the residual is rounding: the step's momentum scale, to 1e-14.
+  double floor() const {
+    const Vec3& g = model_.gravity();
+    const double gNorm = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    double scale = 0;
+    for (std::size_t p = 0; p < n_; ++p) scale += m_[p] * (vn_.segment<3>(Eigen::Index(3 * p)).norm() + h_ * gNorm);
+    return 1e-14 * std::max(scale, 1e-300);
+  }
+  Eigen::Index size() const { return N_; }
 
-  // Start from v_n (prescribed points from their targets): the first iteration is then the
-  // linearised implicit Euler step about x_n + h v_n.
-  Vec v = vn;
-  for (std::size_t p = 0; p < n; ++p)
-    if (c.constrained[p])
-      for (int k = 0; k < 3; ++k) {
-        const Eigen::Index i = Eigen::Index(3 * p + k);
-        v[i] = (c.target[std::size_t(i)] - xn[i]) / h;
-      }
-  Vec x = xn + h * v;
-  Vec r = residual(v, x);
-  const double r0 = r.norm();
+ private:
+  std::span<const double> span(const Vec& a) const { return {a.data(), std::size_t(a.size())}; }
+  double massDot(const Vec& a, const Vec& b) const {
+    double s = 0;
+    for (std::size_t p = 0; p < n_; ++p)
+      s += m_[p] * a.segment<3>(Eigen::Index(3 * p)).dot(b.segment<3>(Eigen::Index(3 * p)));
+    return s;
+  }
+  /// D v: the damping force, lagged at the step's start, (B(x_n) + rK K(x_n)) v.
+  Vec damping(const Vec& v) const {
+    Vec d = Vec::Zero(N_);
+    model_.addDForce(span(xn_), span(v), std::span<double>(d.data(), d.size()), rK_, 1.0);
+    return d;
+  }
+
+  const Model& model_;
+  const StepConstraints& c_;
+  double h_, rM_, rK_;
+  std::size_t n_;
+  Eigen::Index N_;
+  std::span<const double> m_;
+  Vec xn_, vn_, zero_;
+};
+
+/// A Newton iterate: the velocities, the potential there and the residual.
+struct Iterate {
+  Vec v, r;
+  double phi = 0.0;
+};
+
+/// Backtracking (Armijo) along delta from `at`; false if Phi does not decrease (rounding).
+/// Near the solution, where the decrease of Phi falls below its rounding, the full step is taken
+/// when it reduces the residual.
+bool lineSearch(const IncrementalPotential& P, const Iterate& at, const Vec& delta, Iterate& next) {
+  const double slope = -at.r.dot(delta);  // d Phi / d alpha at 0
+  double alpha = 1.0;
+  next.v = at.v + delta;
+  next.phi = P.phi(next.v);
+  const double roundoff = 1e-12 * (std::abs(at.phi) + std::abs(next.phi)) + 1e-300;
+  if (!(next.phi <= at.phi + 1e-4 * slope) && std::abs(next.phi - at.phi) <= roundoff &&
+      std::abs(slope) <= roundoff) {
+    next.r = P.residual(next.v);
+    if (next.r.norm() < at.r.norm()) return true;
+  }
+  for (int halvings = 0; !(next.phi <= at.phi + 1e-4 * alpha * slope); ++halvings) {
+    if (halvings == 30) return false;
+    alpha *= 0.5;
+    next.v = at.v + alpha * delta;
+    next.phi = P.phi(next.v);
+  }
+  next.r = P.residual(next.v);
+  return true;
+}
+
+}  // namespace
+
+void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) {
+  const double h = in.dt;
+  const StepConstraints& c = *in.constraints;
+  const IncrementalPotential P(model, c, h, settings_);
+  // From v_n the first iteration is the linearised implicit Euler step about x_n + h v_n.
+  Iterate it;
+  it.v = P.start();
+  it.r = P.residual(it.v);
+  it.phi = newton_.lineSearch ? P.phi(it.v) : 0.0;
+  const double r0 = it.r.norm(), floor = P.floor();
   residuals_.assign(1, r0);
-  // Below this the residual is rounding: the momentum of the step, to 1e-14.
-  double scale = 0;
-  const Vec3& g = model.gravity();
-  const double gNorm = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-  for (std::size_t p = 0; p < n; ++p) scale += m[p] * (vn.segment<3>(Eigen::Index(3 * p)).norm() + h * gNorm);
-  const double floor = 1e-14 * std::max(scale, 1e-300);
   ExactStiffness exact(model, newton_.exactStiffness);
   bool converged = r0 <= floor;
-  double phi = newton_.lineSearch ? potential(v, x) : 0.0;
-  int it = 0;
-  while (!converged && it < newton_.maxIterations) {
-    ++it;
-    Vec delta = Vec::Zero(N);
-    {
-      const SystemOperator A = systemOperator(model, span(x), h, c);
-      const std::uint8_t flagsBefore = stats.flags;
-      try {
-        solve(A, r, delta, stats);
-      } catch (const StepFailure&) {
-        if (!exact.active) throw;
-        // The exact stiffness is indefinite here: the fields' default one for the rest of the step
-        // (an expected turn of the method, not a failed solve: the step is not flagged for it).
-        exact.off();
-        stats.flags = flagsBefore;
-        delta.setZero();
-        const SystemOperator B = systemOperator(model, span(x), h, c);
-        solve(B, r, delta, stats);
-      }
+  int k = 0;
+  while (!converged && k < newton_.maxIterations) {
+    ++k;
+    Vec delta = Vec::Zero(P.size());
+    const Vec x = P.position(it.v);
+    const std::uint8_t flagsBefore = stats.flags;
+    try {
+      solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
+    } catch (const StepFailure&) {
+      if (!exact.active) throw;
+      // The exact stiffness is indefinite here: the fields' default one for the rest of the step
+      // (an expected turn of the method, not a failed solve: the step is not flagged for it).
+      exact.off();
+      stats.flags = flagsBefore;
+      delta.setZero();
+      solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
     }
-    requireFinite(span(delta), "velocity change", std::string(name()));
-    double alpha = 1.0;
+    requireFinite({delta.data(), std::size_t(delta.size())}, "velocity change", std::string(name()));
+    Iterate next;
     if (newton_.lineSearch) {
-      const double slope = -r.dot(delta);  // d Phi / d alpha at 0
-      if (!(slope < 0) && exact.active) {
+      if (!(it.r.dot(delta) > 0) && exact.active) {
         // Not a descent direction (an indefinite exact stiffness): solve with the default one.
         exact.off();
-        --it;
+        --k;
         continue;
       }
-      Vec vTry = v + delta, xTry = xn + h * vTry;
-      double phiTry = potential(vTry, xTry);
-      // Near the solution the decrease of Phi falls below its rounding: there the full step is
-      // taken when it reduces the residual.
-      const double roundoff = 1e-12 * (std::abs(phi) + std::abs(phiTry)) + 1e-300;
-      if (!(phiTry <= phi + 1e-4 * slope) && std::abs(phiTry - phi) <= roundoff &&
-          std::abs(slope) <= roundoff) {
-        const Vec rTry = residual(vTry, xTry);
-        if (rTry.norm() < r.norm()) {
-          v = std::move(vTry);
-          x = std::move(xTry);
-          phi = phiTry;
-          r = rTry;
-          const double rn = r.norm();
-          residuals_.push_back(rn);
-          converged = rn <= newton_.tolerance * r0 || rn <= floor;
-          continue;
-        }
-      }
-      int halvings = 0;
-      while (!(phiTry <= phi + 1e-4 * alpha * slope) && halvings < 30) {
-        alpha *= 0.5;
-        ++halvings;
-        vTry = v + alpha * delta;
-        xTry = xn + h * vTry;
-        phiTry = potential(vTry, xTry);
-      }
-      if (halvings == 30) {  // no decrease along delta: rounding level, stop here
-        residuals_.push_back(r.norm());
+      if (!lineSearch(P, it, delta, next)) {  // no decrease along delta: rounding level
+        residuals_.push_back(it.r.norm());
         break;
       }
-      v = std::move(vTry);
-      x = std::move(xTry);
-      phi = phiTry;
     } else {
-      v += delta;
-      x = xn + h * v;
+      next.v = it.v + delta;
+      next.r = P.residual(next.v);
     }
-    r = residual(v, x);
-    const double rn = r.norm();
-    residuals_.push_back(rn);
-    converged = rn <= newton_.tolerance * r0 || rn <= floor;
+    it = std::move(next);
+    residuals_.push_back(it.r.norm());
+    converged = residuals_.back() <= newton_.tolerance * r0 || residuals_.back() <= floor;
   }
-  stats.newtonIterations = it;
-  stats.newtonResidual = r0 > 0 ? r.norm() / r0 : 0.0;
+  stats.newtonIterations = k;
+  stats.newtonResidual = r0 > 0 ? it.r.norm() / r0 : 0.0;
   if (!converged) {
     stats.flags |= StepStats::NewtonNotConverged;
     if (settings_.onSolveFailure == SolveFailurePolicy::Fail)
       throw StepFailure{"Newton's method missed its tolerance: relative residual " +
-                        std::to_string(stats.newtonResidual) + " after " + std::to_string(it) +
+                        std::to_string(stats.newtonResidual) + " after " + std::to_string(k) +
                         " iterations (the scene's onSolveFailure is \"fail\")"};
   }
-  out.v = std::move(v);
-  out.x = std::move(x);
-  if (model.numGrasps() > 0) {
-    // The residual without the constraints' rows removed is what holds the prescribed points.
-    Vec f = Vec::Zero(N);
-    model.addForce(span(out.x), span(zero), mspan(f));
-    f += damping(out.v);
-    out.reaction.resize(N);
-    for (std::size_t p = 0; p < n; ++p)
-      for (int k = 0; k < 3; ++k) {
-        const Eigen::Index i = Eigen::Index(3 * p + k);
-        out.reaction[i] = m[p] * (out.v[i] - vn[i]) / h - (f[i] - rM * m[p] * out.v[i]);
-      }
-  }
+  out.x = P.position(it.v);
+  // What holds the prescribed points: the residual of their own rows, per time.
+  if (model.numGrasps() > 0) out.reaction = -P.residual(it.v, true) / h;
+  out.v = std::move(it.v);
 }
 
 }  // namespace cutsim::core

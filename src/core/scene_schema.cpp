@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -266,91 +267,104 @@ double actionTime(const Reader& r, const json& j, const std::string& ptr, double
   return t;
 }
 
+void parseCutAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a) {
+  const bool progressive = a.kind == SceneAction::Kind::ProgressiveCut;
+  r.checkKeys(j, ptr,
+              progressive ? std::initializer_list<std::string_view>{"action", "from", "to", "polyline",
+                                                                    "snapTolerance"}
+                          : std::initializer_list<std::string_view>{"action", "at", "polyline",
+                                                                    "snapTolerance"});
+  a.polyline = r.points(r.require(j, ptr, "polyline"), ptr + "/polyline", 2);
+  if (const json* v = r.find(j, "snapTolerance")) {
+    a.snapTolerance = r.nonNegative(*v, ptr + "/snapTolerance");
+    if (!(a.snapTolerance < 0.5)) r.fail(ptr + "/snapTolerance", "must be < 0.5");
+  }
+}
+
+void parseRemoveAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a) {
+  r.checkKeys(j, ptr, {"action", "at", "sphere", "box"});
+  const json* sphere = r.find(j, "sphere");
+  const json* box = r.find(j, "box");
+  if ((sphere != nullptr) == (box != nullptr)) r.fail(ptr, "give exactly one of \"sphere\" or \"box\"");
+  if (sphere) {
+    const std::string sp = ptr + "/sphere";
+    r.expectObject(*sphere, sp);
+    r.checkKeys(*sphere, sp, {"center", "radius"});
+    a.region.kind = Region::Kind::Sphere;
+    a.region.center = r.vec3(r.require(*sphere, sp, "center"), sp + "/center");
+    a.region.radius = r.positive(r.require(*sphere, sp, "radius"), sp + "/radius");
+  } else {
+    a.region.kind = Region::Kind::Box;
+    std::tie(a.region.boxMin, a.region.boxMax) = r.box(*box, ptr + "/box");
+  }
+}
+
+void parseTearingAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a) {
+  r.checkKeys(j, ptr, {"action", "at", "threshold", "maxPerStep"});
+  a.threshold = r.positive(r.require(j, ptr, "threshold"), ptr + "/threshold");
+  if (const json* v = r.find(j, "maxPerStep")) a.maxPerStep = int(r.integer(*v, ptr + "/maxPerStep", 1, 1000000));
+}
+
+DisplacementPath parsePath(const Reader& r, const json& path, const std::string& pp) {
+  DisplacementPath out;
+  r.expectArray(path, pp);
+  if (path.empty()) r.fail(pp, "expected at least one key [t, dx, dy, dz]");
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const std::string kp = pp + "/" + Reader::idx(i);
+    const json& key = path[i];
+    if (!key.is_array() || key.size() != 4) r.fail(kp, "expected [t, dx, dy, dz]");
+    const double t = r.number(key[0], kp + "/0");
+    if (t < 0) r.fail(kp + "/0", "path times are relative to the grasp's start: must be >= 0");
+    if (!out.times.empty() && !(t > out.times.back())) r.fail(kp + "/0", "path times must increase strictly");
+    out.times.push_back(t);
+    out.displacements.push_back(
+        {r.number(key[1], kp + "/1"), r.number(key[2], kp + "/2"), r.number(key[3], kp + "/3")});
+  }
+  return out;
+}
+
+void parseGraspAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a,
+                      std::size_t numMeshPoints) {
+  r.checkKeys(j, ptr, {"action", "at", "name", "points", "box", "near", "path"});
+  a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
+  if (a.name.empty()) r.fail(ptr + "/name", "must not be empty");
+  a.selection = parseSelection(r, j, ptr, numMeshPoints);
+  a.path = parsePath(r, r.require(j, ptr, "path"), ptr + "/path");
+}
+
 SceneAction parseAction(const Reader& r, const json& j, const std::string& ptr, double duration,
                         std::size_t numMeshPoints) {
   r.expectObject(j, ptr);
   SceneAction a;
   a.location = r.location(ptr);
   const std::string kind = r.string(r.require(j, ptr, "action"), ptr + "/action");
-  const bool progressive = kind == "cut" && (r.find(j, "from") || r.find(j, "to"));
-  if (progressive) {
+  static const std::map<std::string, SceneAction::Kind> kinds{
+      {"cut", SceneAction::Kind::Cut},         {"remove", SceneAction::Kind::Remove},
+      {"tearing", SceneAction::Kind::Tearing}, {"grasp", SceneAction::Kind::Grasp},
+      {"release", SceneAction::Kind::Release}};
+  const auto it = kinds.find(kind);
+  if (it == kinds.end())
+    r.fail(ptr + "/action", "unknown action \"" + kind + "\" (cut, remove, tearing, grasp, release)");
+  a.kind = it->second;
+  if (kind == "cut" && (r.find(j, "from") || r.find(j, "to"))) {
     a.kind = SceneAction::Kind::ProgressiveCut;
     if (r.find(j, "at")) r.fail(ptr + "/at", "a cut has either \"at\" or \"from\" and \"to\"");
     a.from = actionTime(r, r.require(j, ptr, "from"), ptr + "/from", duration);
     a.to = actionTime(r, r.require(j, ptr, "to"), ptr + "/to", duration);
     if (!(a.to > a.from)) r.fail(ptr + "/to", "must be after \"from\"");
-  } else if (kind == "cut" || kind == "remove" || kind == "tearing" || kind == "grasp" ||
-             kind == "release") {
+  } else {
     a.at = actionTime(r, r.require(j, ptr, "at"), ptr + "/at", duration);
   }
-  if (kind == "cut") {
-    if (!progressive) a.kind = SceneAction::Kind::Cut;
-    r.checkKeys(j, ptr,
-                progressive ? std::initializer_list<std::string_view>{"action", "from", "to",
-                                                                      "polyline", "snapTolerance"}
-                            : std::initializer_list<std::string_view>{"action", "at", "polyline",
-                                                                      "snapTolerance"});
-    a.polyline = r.points(r.require(j, ptr, "polyline"), ptr + "/polyline", 2);
-    if (const json* v = r.find(j, "snapTolerance")) {
-      a.snapTolerance = r.nonNegative(*v, ptr + "/snapTolerance");
-      if (!(a.snapTolerance < 0.5)) r.fail(ptr + "/snapTolerance", "must be < 0.5");
-    }
-  } else if (kind == "remove") {
-    a.kind = SceneAction::Kind::Remove;
-    r.checkKeys(j, ptr, {"action", "at", "sphere", "box"});
-    const json* sphere = r.find(j, "sphere");
-    const json* box = r.find(j, "box");
-    if ((sphere != nullptr) == (box != nullptr)) {
-      r.fail(ptr, "give exactly one of \"sphere\" or \"box\"");
-    }
-    if (sphere) {
-      const std::string sp = ptr + "/sphere";
-      r.expectObject(*sphere, sp);
-      r.checkKeys(*sphere, sp, {"center", "radius"});
-      a.region.kind = Region::Kind::Sphere;
-      a.region.center = r.vec3(r.require(*sphere, sp, "center"), sp + "/center");
-      a.region.radius = r.positive(r.require(*sphere, sp, "radius"), sp + "/radius");
-    } else {
-      a.region.kind = Region::Kind::Box;
-      std::tie(a.region.boxMin, a.region.boxMax) = r.box(*box, ptr + "/box");
-    }
-  } else if (kind == "tearing") {
-    a.kind = SceneAction::Kind::Tearing;
-    r.checkKeys(j, ptr, {"action", "at", "threshold", "maxPerStep"});
-    a.threshold = r.positive(r.require(j, ptr, "threshold"), ptr + "/threshold");
-    if (const json* v = r.find(j, "maxPerStep")) {
-      a.maxPerStep = int(r.integer(*v, ptr + "/maxPerStep", 1, 1000000));
-    }
-  } else if (kind == "grasp") {
-    a.kind = SceneAction::Kind::Grasp;
-    r.checkKeys(j, ptr, {"action", "at", "name", "points", "box", "near", "path"});
-    a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
-    if (a.name.empty()) r.fail(ptr + "/name", "must not be empty");
-    a.selection = parseSelection(r, j, ptr, numMeshPoints);
-    const std::string pp = ptr + "/path";
-    const json& path = r.require(j, ptr, "path");
-    r.expectArray(path, pp);
-    if (path.empty()) r.fail(pp, "expected at least one key [t, dx, dy, dz]");
-    for (std::size_t i = 0; i < path.size(); ++i) {
-      const std::string kp = pp + "/" + Reader::idx(i);
-      const json& key = path[i];
-      if (!key.is_array() || key.size() != 4) r.fail(kp, "expected [t, dx, dy, dz]");
-      const double t = r.number(key[0], kp + "/0");
-      if (t < 0) r.fail(kp + "/0", "path times are relative to the grasp's start: must be >= 0");
-      if (!a.path.times.empty() && !(t > a.path.times.back())) {
-        r.fail(kp + "/0", "path times must increase strictly");
-      }
-      a.path.times.push_back(t);
-      a.path.displacements.push_back(
-          {r.number(key[1], kp + "/1"), r.number(key[2], kp + "/2"), r.number(key[3], kp + "/3")});
-    }
-  } else if (kind == "release") {
-    a.kind = SceneAction::Kind::Release;
-    r.checkKeys(j, ptr, {"action", "at", "name"});
-    a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
-  } else {
-    r.fail(ptr + "/action",
-           "unknown action \"" + kind + "\" (cut, remove, tearing, grasp, release)");
+  switch (a.kind) {
+    case SceneAction::Kind::Cut:
+    case SceneAction::Kind::ProgressiveCut: parseCutAction(r, j, ptr, a); break;
+    case SceneAction::Kind::Remove: parseRemoveAction(r, j, ptr, a); break;
+    case SceneAction::Kind::Tearing: parseTearingAction(r, j, ptr, a); break;
+    case SceneAction::Kind::Grasp: parseGraspAction(r, j, ptr, a, numMeshPoints); break;
+    case SceneAction::Kind::Release:
+      r.checkKeys(j, ptr, {"action", "at", "name"});
+      a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
+      break;
   }
   return a;
 }
@@ -469,29 +483,11 @@ std::vector<std::string> Scene::graspNames() const {
   return names;
 }
 
-Scene parseScene(std::string_view text, const std::string& sourceName,
-                 const std::filesystem::path& baseDir) {
-  const JsonDocument doc = parseJsonWithLines(text, sourceName);
-  const Reader r(sourceName, doc.lines);
-  const json& root = doc.root;
-  r.expectObject(root, "");
-  r.checkKeys(root, "",
-              {"name", "description", "mesh", "mass", "gravity", "forceFields", "constraints",
-               "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline"});
+namespace detail {
+namespace {
 
-  Scene s;
-  s.file = sourceName;
-  s.name = std::filesystem::path(sourceName).stem().string();
-  if (const json* v = r.find(root, "name")) {
-    s.name = r.string(*v, "/name");
-    if (s.name.empty() || s.name.find_first_of("/\\") != std::string::npos || s.name == "." ||
-        s.name == "..") {
-      r.fail("/name", "must be a plain file name (no slash)");
-    }
-  }
-  if (const json* v = r.find(root, "description")) s.description = r.string(*v, "/description");
-
-  // mesh
+/// "mesh": a file name, {"file"} or {"grid"}. Returns the pointer that names the mesh.
+std::string parseMesh(const Reader& r, const json& root, const std::filesystem::path& baseDir, Scene& s) {
   const json& mesh = r.require(root, "", "mesh");
   std::string meshPtr = "/mesh";
   const json* meshFile = nullptr;
@@ -501,9 +497,7 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
     r.checkKeys(mesh, meshPtr, {"file", "grid"});
     const json* file = r.find(mesh, "file");
     const json* grid = r.find(mesh, "grid");
-    if ((file != nullptr) == (grid != nullptr)) {
-      r.fail(meshPtr, "give exactly one of \"file\" or \"grid\"");
-    }
+    if ((file != nullptr) == (grid != nullptr)) r.fail(meshPtr, "give exactly one of \"file\" or \"grid\"");
     if (file) {
       meshFile = file;
       meshPtr += "/file";
@@ -513,43 +507,92 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
       s.grid = g;
     }
   } else {
-    r.fail(meshPtr, "expected a file name or an object {\"file\"} or {\"grid\"}, got " +
-                        Reader::typeName(mesh));
+    r.fail(meshPtr, "expected a file name or an object {\"file\"} or {\"grid\"}, got " + Reader::typeName(mesh));
   }
   if (meshFile) {
     const std::string name = r.string(*meshFile, meshPtr);
     const std::filesystem::path p = baseDir / name;
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(p, ec)) {
+    if (!std::filesystem::is_regular_file(p, ec))
       r.fail(meshPtr, "mesh file \"" + name + "\" not found (looked for " + p.string() + ")");
-    }
     s.meshFile = p;
   }
+  return meshPtr;
+}
 
-  // mass
-  {
-    const std::string ptr = "/mass";
-    const json& m = r.require(root, "", "mass");
-    r.expectObject(m, ptr);
-    r.checkKeys(m, ptr, {"density", "total"});
-    const json* d = r.find(m, "density");
-    const json* t = r.find(m, "total");
-    if ((d != nullptr) == (t != nullptr))
-      r.fail(ptr, "give exactly one of \"density\" or \"total\"");
-    if (d) {
-      s.density = r.positive(*d, ptr + "/density");
-    } else {
-      s.massByTotal = true;
-      s.totalMass = r.positive(*t, ptr + "/total");
+/// "mass": {"density"} or {"total"}.
+void parseMass(const Reader& r, const json& root, Scene& s) {
+  const std::string ptr = "/mass";
+  const json& m = r.require(root, "", "mass");
+  r.expectObject(m, ptr);
+  r.checkKeys(m, ptr, {"density", "total"});
+  const json* d = r.find(m, "density");
+  const json* t = r.find(m, "total");
+  if ((d != nullptr) == (t != nullptr)) r.fail(ptr, "give exactly one of \"density\" or \"total\"");
+  if (d) {
+    s.density = r.positive(*d, ptr + "/density");
+  } else {
+    s.massByTotal = true;
+    s.totalMass = r.positive(*t, ptr + "/total");
+  }
+}
+
+/// "name" and "description".
+void parseHeader(const Reader& r, const json& root, const std::string& sourceName, Scene& s) {
+  s.file = sourceName;
+  s.name = std::filesystem::path(sourceName).stem().string();
+  if (const json* v = r.find(root, "name")) {
+    s.name = r.string(*v, "/name");
+    if (s.name.empty() || s.name.find_first_of("/\\") != std::string::npos || s.name == "." || s.name == "..")
+      r.fail("/name", "must be a plain file name (no slash)");
+  }
+  if (const json* v = r.find(root, "description")) s.description = r.string(*v, "/description");
+}
+
+/// "constraints" and "timeline" (sorted by start time), which need the mesh's point count.
+void parseConstraintsAndTimeline(const Reader& r, const json& root, std::size_t numPoints, Scene& s) {
+  if (const json* v = r.find(root, "constraints")) {
+    r.expectArray(*v, "/constraints");
+    for (std::size_t i = 0; i < v->size(); ++i) {
+      const std::string ptr = "/constraints/" + Reader::idx(i);
+      const json& c = (*v)[i];
+      r.expectObject(c, ptr);
+      const std::string type = r.string(r.require(c, ptr, "type"), ptr + "/type");
+      if (type != "fixed") r.fail(ptr + "/type", "unknown constraint type \"" + type + "\" (fixed)");
+      r.checkKeys(c, ptr, {"type", "points", "box", "near"});
+      s.fixed.push_back({parseSelection(r, c, ptr, numPoints), r.location(ptr)});
     }
   }
-  if (const json* v = r.find(root, "gravity")) s.gravity = r.vec3(*v, "/gravity");
+  if (const json* v = r.find(root, "timeline")) {
+    r.expectArray(*v, "/timeline");
+    for (std::size_t i = 0; i < v->size(); ++i)
+      s.timeline.push_back(parseAction(r, (*v)[i], "/timeline/" + Reader::idx(i), s.duration, numPoints));
+    std::stable_sort(s.timeline.begin(), s.timeline.end(),
+                     [](const SceneAction& a, const SceneAction& b) { return a.startTime() < b.startTime(); });
+  }
+}
 
+}  // namespace
+}  // namespace detail
+
+Scene parseScene(std::string_view text, const std::string& sourceName,
+                 const std::filesystem::path& baseDir) {
+  const JsonDocument doc = parseJsonWithLines(text, sourceName);
+  const Reader r(sourceName, doc.lines);
+  const json& root = doc.root;
+  r.expectObject(root, "");
+  r.checkKeys(root, "",
+              {"name", "description", "mesh", "mass", "gravity", "forceFields", "constraints",
+               "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline"});
+  Scene s;
+  parseHeader(r, root, sourceName, s);
+  const std::string meshPtr = parseMesh(r, root, baseDir, s);
+  parseMass(r, root, s);
+  if (const json* v = r.find(root, "gravity")) s.gravity = r.vec3(*v, "/gravity");
   if (const json* v = r.find(root, "forceFields")) {
     r.expectArray(*v, "/forceFields");
-    for (std::size_t i = 0; i < v->size(); ++i) {
+    for (std::size_t i = 0; i < v->size(); ++i)
       s.forceFields.push_back(parseForceField(r, (*v)[i], "/forceFields/" + Reader::idx(i)));
-    }
   }
   parseStepping(r, root, s);
   s.timeStep = r.positive(r.require(root, "", "timeStep"), "/timeStep");
@@ -561,30 +604,7 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   const topology::MeshData meshData = s.mesh();
   if (meshData.triangles.empty()) r.fail(meshPtr, "the mesh has no triangle");
   topology::checkManifold(meshData);
-
-  if (const json* v = r.find(root, "constraints")) {
-    r.expectArray(*v, "/constraints");
-    for (std::size_t i = 0; i < v->size(); ++i) {
-      const std::string ptr = "/constraints/" + Reader::idx(i);
-      const json& c = (*v)[i];
-      r.expectObject(c, ptr);
-      const std::string type = r.string(r.require(c, ptr, "type"), ptr + "/type");
-      if (type != "fixed")
-        r.fail(ptr + "/type", "unknown constraint type \"" + type + "\" (fixed)");
-      r.checkKeys(c, ptr, {"type", "points", "box", "near"});
-      s.fixed.push_back({parseSelection(r, c, ptr, meshData.points.size()), r.location(ptr)});
-    }
-  }
-  if (const json* v = r.find(root, "timeline")) {
-    r.expectArray(*v, "/timeline");
-    for (std::size_t i = 0; i < v->size(); ++i) {
-      s.timeline.push_back(parseAction(r, (*v)[i], "/timeline/" + Reader::idx(i), s.duration,
-                                       meshData.points.size()));
-    }
-    std::stable_sort(
-        s.timeline.begin(), s.timeline.end(),
-        [](const SceneAction& a, const SceneAction& b) { return a.startTime() < b.startTime(); });
-  }
+  parseConstraintsAndTimeline(r, root, meshData.points.size(), s);
   dryRun(r, s, meshData);
   return s;
 }

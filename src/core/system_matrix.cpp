@@ -75,6 +75,45 @@ struct Filler : forcefields::MatrixAccumulator {
   }
 };
 
+/// The new index of each point in a fill-reducing order of the point graph given by its pairs
+/// (a < b packed as a << 32 | b): METIS nested dissection or AMD minimum degree.
+std::vector<std::int32_t> fillReducingOrder(const std::vector<std::uint64_t>& pairs, std::size_t numSlots,
+                                            SystemMatrix::Ordering ordering) {
+  const auto n = std::int32_t(numSlots);
+  std::vector<std::int32_t> newIndex(numSlots);
+  for (std::int32_t p = 0; p < n; ++p) newIndex[std::size_t(p)] = p;
+  if (pairs.empty()) return newIndex;
+  std::vector<idx_t> xadj(numSlots + 1, 0), adjncy(2 * pairs.size());
+  for (std::uint64_t pr : pairs) {
+    ++xadj[(pr >> 32) + 1];
+    ++xadj[(pr & 0xFFFFFFFFu) + 1];
+  }
+  for (std::size_t p = 0; p < numSlots; ++p) xadj[p + 1] += xadj[p];
+  std::vector<idx_t> fillPos(xadj.begin(), xadj.end() - 1);
+  for (std::uint64_t pr : pairs) {
+    const auto a = idx_t(pr >> 32), b = idx_t(pr & 0xFFFFFFFFu);
+    adjncy[std::size_t(fillPos[std::size_t(a)]++)] = b;
+    adjncy[std::size_t(fillPos[std::size_t(b)]++)] = a;
+  }
+  std::vector<idx_t> perm(numSlots), iperm(numSlots);
+  if (ordering == SystemMatrix::Ordering::NestedDissection) {
+    idx_t nv = n;
+    idx_t options[METIS_NOPTIONS];
+    METIS_SetDefaultOptions(options);
+    options[METIS_OPTION_NUMBERING] = 0;
+    const int rc = METIS_NodeND(&nv, xadj.data(), adjncy.data(), nullptr, options, perm.data(), iperm.data());
+    if (rc != METIS_OK) throw std::runtime_error("METIS_NodeND failed (code " + std::to_string(rc) + ")");
+  } else {
+    static_assert(sizeof(idx_t) == sizeof(int), "amd_order takes int indices");
+    double info[AMD_INFO];
+    const int rc = amd_order(n, xadj.data(), adjncy.data(), perm.data(), nullptr, info);
+    if (rc < AMD_OK) throw std::runtime_error("amd_order failed (code " + std::to_string(rc) + ")");
+    for (std::int32_t k = 0; k < n; ++k) iperm[std::size_t(perm[std::size_t(k)])] = k;
+  }
+  for (std::size_t p = 0; p < numSlots; ++p) newIndex[p] = std::int32_t(iperm[p]);
+  return newIndex;
+}
+
 }  // namespace
 
 void SystemMatrix::build(const Fields& fields, std::span<const double> x, std::size_t numSlots,
@@ -92,39 +131,7 @@ void SystemMatrix::build(const Fields& fields, std::span<const double> x, std::s
   for (std::uint64_t pr : pc.pairs)
     if ((pr >> 32) >= numSlots) throw std::logic_error("a force field couples a point beyond the state");
 
-  // Fill-reducing order of the point graph.
-  newIndex_.resize(numSlots);
-  for (std::int32_t p = 0; p < n; ++p) newIndex_[std::size_t(p)] = p;
-  if (!pc.pairs.empty()) {
-    std::vector<idx_t> xadj(numSlots + 1, 0), adjncy(2 * pc.pairs.size());
-    for (std::uint64_t pr : pc.pairs) {
-      ++xadj[(pr >> 32) + 1];
-      ++xadj[(pr & 0xFFFFFFFFu) + 1];
-    }
-    for (std::size_t p = 0; p < numSlots; ++p) xadj[p + 1] += xadj[p];
-    std::vector<idx_t> fillPos(xadj.begin(), xadj.end() - 1);
-    for (std::uint64_t pr : pc.pairs) {
-      const auto a = idx_t(pr >> 32), b = idx_t(pr & 0xFFFFFFFFu);
-      adjncy[std::size_t(fillPos[std::size_t(a)]++)] = b;
-      adjncy[std::size_t(fillPos[std::size_t(b)]++)] = a;
-    }
-    std::vector<idx_t> perm(numSlots), iperm(numSlots);
-    if (ordering == Ordering::NestedDissection) {
-      idx_t nv = n;
-      idx_t options[METIS_NOPTIONS];
-      METIS_SetDefaultOptions(options);
-      options[METIS_OPTION_NUMBERING] = 0;
-      const int rc = METIS_NodeND(&nv, xadj.data(), adjncy.data(), nullptr, options, perm.data(), iperm.data());
-      if (rc != METIS_OK) throw std::runtime_error("METIS_NodeND failed (code " + std::to_string(rc) + ")");
-    } else {
-      static_assert(sizeof(idx_t) == sizeof(int), "amd_order takes int indices");
-      double info[AMD_INFO];
-      const int rc = amd_order(n, xadj.data(), adjncy.data(), perm.data(), nullptr, info);
-      if (rc < AMD_OK) throw std::runtime_error("amd_order failed (code " + std::to_string(rc) + ")");
-      for (std::int32_t k = 0; k < n; ++k) iperm[std::size_t(perm[std::size_t(k)])] = k;
-    }
-    for (std::size_t p = 0; p < numSlots; ++p) newIndex_[p] = std::int32_t(iperm[p]);
-  }
+  newIndex_ = fillReducingOrder(pc.pairs, numSlots, ordering);
   ordering_ = ordering;
 
   // Block rows of each block column (new numbering), the diagonal first.
