@@ -76,6 +76,22 @@ void SystemOperator::project(Vec& a) const {
     if (constrained_[p]) a.segment<3>(Eigen::Index(3 * p)).setZero();
 }
 
+Vec SystemOperator::freeRhs(const Vec& b, const Vec& dv) const {
+  Vec rhs = b;
+  bool prescribed = false;
+  for (std::size_t p = 0; p < constrained_.size() && !prescribed; ++p)
+    if (constrained_[p]) prescribed = dv.segment<3>(Eigen::Index(3 * p)).squaredNorm() > 0;
+  if (prescribed) {
+    Vec only = Vec::Zero(size()), Ap;
+    for (std::size_t p = 0; p < constrained_.size(); ++p)
+      if (constrained_[p]) only.segment<3>(Eigen::Index(3 * p)) = dv.segment<3>(Eigen::Index(3 * p));
+    apply(only, Ap);
+    rhs -= Ap;
+  }
+  project(rhs);
+  return rhs;
+}
+
 void CGSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("iterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
@@ -89,9 +105,7 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
   const std::size_t n = A.numSlots();
   if (b.size() != N || dv.size() != N)
     throw InvalidInput("linear system", "the right-hand side and the unknowns must have 3 entries per point slot");
-  Vec bFree = b;
-  A.project(bFree);
-  const double bNorm = bFree.norm();
+  const double bNorm = A.freeRhs(b, dv).norm();
   if (settings_.warmStart && warm_.size() == N)
     for (std::size_t p = 0; p < n; ++p)
       if (!A.isConstrained(p)) dv.segment<3>(Eigen::Index(3 * p)) = warm_.segment<3>(Eigen::Index(3 * p));

@@ -97,9 +97,7 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
     ++S.analyses;
   }
   S.cholmod.factorize(M);
-  Vec bFree = b;
-  A.project(bFree);
-  const double bNorm = bFree.norm();
+  const double bNorm = A.freeRhs(b, dv).norm();
   if (S.cholmod.info() != Eigen::Success) {
     report.indefinite = true;
     report.converged = false;

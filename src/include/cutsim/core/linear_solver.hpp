@@ -10,7 +10,8 @@
 // three unknowns are prescribed: dv there is given and never changed, its rows are dropped and its
 // columns move to the right-hand side. SystemOperator describes A without assembling it; a
 // LinearSolver solves with it, matrix-free (ConjugateGradient) or assembled (CholmodSolver).
-// Residuals are relative to the norm of b over the free degrees of freedom.
+// Residuals are relative to the norm of the free unknowns' right-hand side, b - A dv_prescribed
+// over the free degrees of freedom (SystemOperator::freeRhs).
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -42,6 +43,10 @@ class SystemOperator {
   Eigen::VectorXd diagonal() const;
   /// Zeroes the entries of the constrained points.
   void project(Eigen::VectorXd& a) const;
+  /// The right-hand side of the free unknowns once the prescribed ones (dv's entries on the
+  /// constrained points) are moved over: b - A dv_prescribed on the free points, zero elsewhere.
+  /// Residuals are relative to its norm (a grasp that drives a resting sheet has b = 0 there).
+  Eigen::VectorXd freeRhs(const Eigen::VectorXd& b, const Eigen::VectorXd& dv) const;
   bool isConstrained(std::size_t point) const { return constrained_[point] != 0; }
 
   std::span<forcefields::ForceField* const> fields() const { return fields_; }
@@ -63,7 +68,7 @@ class SystemOperator {
 /// What one solve did.
 struct SolveReport {
   int iterations = 0;         ///< CG iterations; 1 for a direct solve
-  double residual = 0.0;      ///< |b - A dv| / |b| over the free degrees of freedom (0 if b = 0)
+  double residual = 0.0;      ///< |b - A dv| / |freeRhs| over the free degrees of freedom (0 if that is 0)
   bool converged = true;      ///< the residual met the solver's tolerance
   bool indefinite = false;    ///< CG met p^T A p <= 0, or the factorisation found A not positive definite
   bool analysed = false;      ///< a direct solver redid its symbolic analysis
