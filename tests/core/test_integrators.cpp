@@ -321,7 +321,7 @@ std::unique_ptr<Simulation> foldedSheet(double angle, std::unique_ptr<Integrator
     x[3 * p] = 0.5 + u * std::cos(angle);
     x[3 * p + 2] = u * std::sin(angle);
   }
-  for (topology::PointId p = 0; p < 36; p += 6) sim->fixed().add(p);
+  for (topology::Index p = 0; p < 36; p += 6) sim->fixed().add(p);
   sim->setIntegrator(std::move(integrator));
   return sim;
 }

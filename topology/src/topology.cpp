@@ -174,8 +174,8 @@ std::array<TriangleId, 2> Topology::edgeTriangles(EdgeId e) const {
   const Mesh& m = impl_->mesh;
   HI h = m.halfedge(EI(e));
   FI a = m.face(h), b = m.face(m.opposite(h));
-  return {a.is_valid() ? TriangleId(a.idx()) : kInvalidIndex,
-          b.is_valid() ? TriangleId(b.idx()) : kInvalidIndex};
+  return {a.is_valid() ? TriangleId(a.idx()) : TriangleId(kInvalidIndex),
+          b.is_valid() ? TriangleId(b.idx()) : TriangleId(kInvalidIndex)};
 }
 
 PointId Topology::oppositeVertex(TriangleId t, EdgeId e) const {
@@ -203,7 +203,7 @@ HI Topology::Impl::findHalfedge(VI a, VI b) const {
 EdgeId Topology::findEdge(PointId a, PointId b) const {
   if (!impl_->vertexAlive(VI(a)) || !impl_->vertexAlive(VI(b)) || a == b) return kInvalidIndex;
   HI h = impl_->findHalfedge(VI(a), VI(b));
-  return h.is_valid() ? EdgeId(impl_->mesh.edge(h).idx()) : kInvalidIndex;
+  return h.is_valid() ? EdgeId(impl_->mesh.edge(h).idx()) : EdgeId(kInvalidIndex);
 }
 
 bool Topology::isBoundaryEdge(EdgeId e) const {
