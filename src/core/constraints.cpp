@@ -6,34 +6,33 @@
 
 namespace cutsim::core {
 
-PointSet::PointSet(topology::Topology& topology, std::string name) : name_(std::move(name)) {
-  flags_.assign(topology.pointCapacity(), 0);
-  data_.assign(topology.pointCapacity(), Vec3{0, 0, 0});
+PointSet::PointSet(topology::Topology& topology, std::string name)
+    : name_(std::move(name)), flags_(topology, "PointSet '" + name_ + "' flags", 0),
+      data_(topology, "PointSet '" + name_ + "' data", Vec3{0, 0, 0}) {
   subscription_ = topology.subscribe(*this);
 }
 
 void PointSet::add(PointId p, const Vec3& data) {
-  if (p >= flags_.size()) throw TopologyError(name_ + ": point " + std::to_string(p) + " does not exist");
+  if (p >= flags_.numSlots()) throw TopologyError(name_ + ": point " + std::to_string(p) + " does not exist");
   if (!flags_[p]) ++count_;
   flags_[p] = 1;
   data_[p] = data;
 }
 
 void PointSet::clear() {
-  std::fill(flags_.begin(), flags_.end(), 0);
+  flags_.reset();
   count_ = 0;
 }
 
 std::vector<PointId> PointSet::points() const {
   std::vector<PointId> out;
-  for (std::size_t p = 0; p < flags_.size(); ++p)
-    if (flags_[p]) out.push_back(PointId(p));
+  const auto f = flags_.values();
+  for (std::size_t p = 0; p < f.size(); ++p)
+    if (f[p]) out.push_back(PointId(p));
   return out;
 }
 
-void PointSet::onPointsCreated(const topology::Topology& t, const topology::PointsCreated& e) {
-  flags_.resize(t.pointCapacity(), 0);
-  data_.resize(t.pointCapacity(), Vec3{0, 0, 0});
+void PointSet::onPointsCreated(const topology::Topology&, const topology::PointsCreated& e) {
   for (std::size_t i = 0; i < e.points.size(); ++i) {
     // A copy of a member (one ancestor, weight 1) is a member, with the member's data.
     if (e.offsets[i + 1] - e.offsets[i] != 1) continue;
@@ -47,30 +46,17 @@ void PointSet::onPointsCreated(const topology::Topology& t, const topology::Poin
 }
 
 void PointSet::onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed& e) {
+  // The SlotData clear the flags at the transaction's end; the count follows now.
   for (auto p : e.points)
-    if (p < flags_.size() && flags_[p]) {
-      flags_[p] = 0;
-      --count_;
-    }
-}
-
-void PointSet::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
-  std::vector<char> f(r.newSize, 0);
-  std::vector<Vec3> d(r.newSize, Vec3{0, 0, 0});
-  for (std::size_t o = 0; o < r.oldToNew.size() && o < flags_.size(); ++o)
-    if (r.oldToNew[o] != topology::kInvalidIndex) {
-      f[r.oldToNew[o]] = flags_[o];
-      d[r.oldToNew[o]] = data_[o];
-    }
-  flags_.swap(f);
-  data_.swap(d);
+    if (contains(p)) --count_;
 }
 
 void PointSet::validate(const topology::Topology& t, std::vector<std::string>& problems) const {
-  if (flags_.size() != t.pointCapacity()) problems.push_back("size differs from the point capacity");
+  if (flags_.numSlots() != t.pointCapacity()) problems.push_back("size differs from the point capacity");
   std::size_t n = 0;
-  for (std::size_t p = 0; p < flags_.size(); ++p) {
-    if (!flags_[p]) continue;
+  const auto f = flags_.values();
+  for (std::size_t p = 0; p < f.size(); ++p) {
+    if (!f[p]) continue;
     ++n;
     if (!t.isPointAlive(PointId(p))) problems.push_back("holds dead point " + std::to_string(p));
   }

@@ -28,12 +28,9 @@ double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass
   return totalMass / area;
 }
 
-LumpedMass::LumpedMass(topology::Topology& t, double density) : density_(density) {
+LumpedMass::LumpedMass(topology::Topology& t, double density)
+    : density_(density), mass_(t, "mass per point"), triangleArea_(t, "mass: triangle rest areas") {
   forcefields::requireFinitePositive("mass.density", density);
-  mass_.reserve(std::size_t(t.pointCapacity()) * 5 / 4 + 16);
-  triangleArea_.reserve(std::size_t(t.triangleCapacity()) * 5 / 4 + 16);
-  mass_.assign(t.pointCapacity(), 0.0);
-  triangleArea_.assign(t.triangleCapacity(), 0.0);
   for (auto f : t.triangles()) {
     double a = triangleArea(t, f);
     triangleArea_[f] = a;
@@ -42,22 +39,23 @@ LumpedMass::LumpedMass(topology::Topology& t, double density) : density_(density
   subscription_ = t.subscribe(*this);
 }
 
-double LumpedMass::total() const { return std::accumulate(mass_.begin(), mass_.end(), 0.0); }
+double LumpedMass::total() const {
+  auto m = mass_.values();
+  return std::accumulate(m.begin(), m.end(), 0.0);
+}
 double LumpedMass::restArea() const {
-  return std::accumulate(triangleArea_.begin(), triangleArea_.end(), 0.0);
+  auto a = triangleArea_.values();
+  return std::accumulate(a.begin(), a.end(), 0.0);
 }
 
 void LumpedMass::onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed& e) {
   for (std::size_t i = 0; i < e.triangles.size(); ++i) {
-    double a = triangleArea_[e.triangles[i]];
-    triangleArea_[e.triangles[i]] = 0.0;
+    const double a = triangleArea_[e.triangles[i]];  // reset by the SlotData at the transaction's end
     for (auto p : e.vertices[i]) mass_[p] = std::max(0.0, mass_[p] - density_ * a / 3.0);
   }
 }
 
 void LumpedMass::onTrianglesCreated(const topology::Topology& t, const topology::TrianglesCreated& e) {
-  if (triangleArea_.size() < t.triangleCapacity()) triangleArea_.resize(t.triangleCapacity(), 0.0);
-  if (mass_.size() < t.pointCapacity()) mass_.resize(t.pointCapacity(), 0.0);
   for (std::size_t i = 0; i < e.triangles.size(); ++i) {
     double a = triangleArea(t, e.triangles[i]);
     triangleArea_[e.triangles[i]] = a;
@@ -65,33 +63,11 @@ void LumpedMass::onTrianglesCreated(const topology::Topology& t, const topology:
   }
 }
 
-void LumpedMass::onPointsCreated(const topology::Topology& t, const topology::PointsCreated&) {
-  if (mass_.size() < t.pointCapacity()) mass_.resize(t.pointCapacity(), 0.0);
-}
-
-void LumpedMass::onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed& e) {
-  for (auto p : e.points) mass_[p] = 0.0;
-}
-
-void LumpedMass::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
-  std::vector<double> m(r.newSize, 0.0);
-  for (std::size_t o = 0; o < r.oldToNew.size() && o < mass_.size(); ++o)
-    if (r.oldToNew[o] != topology::kInvalidIndex) m[r.oldToNew[o]] = mass_[o];
-  mass_.swap(m);
-}
-
-void LumpedMass::onTrianglesRenumbered(const topology::Topology&, const topology::Renumbering& r) {
-  std::vector<double> a(r.newSize, 0.0);
-  for (std::size_t o = 0; o < r.oldToNew.size() && o < triangleArea_.size(); ++o)
-    if (r.oldToNew[o] != topology::kInvalidIndex) a[r.oldToNew[o]] = triangleArea_[o];
-  triangleArea_.swap(a);
-}
-
 void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>& problems) const {
   std::vector<double> expected(t.pointCapacity(), 0.0);
   for (auto f : t.triangles())
     for (auto p : t.triangleVertices(f)) expected[p] += density_ * triangleArea(t, f) / 3.0;
-  if (mass_.size() != expected.size()) {
+  if (mass_.numSlots() != expected.size()) {
     problems.push_back("mass table size differs from the point capacity");
     return;
   }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
 
 namespace cutsim::core {
@@ -21,7 +22,7 @@ class PointSet : public topology::TopologyObserver {
   PointSet(topology::Topology& topology, std::string name);
   void add(PointId p, const Vec3& data = {0, 0, 0});
   void clear();
-  bool contains(PointId p) const { return p < flags_.size() && flags_[p]; }
+  bool contains(PointId p) const { return p < flags_.numSlots() && flags_[p]; }
   const Vec3& data(PointId p) const { return data_[p]; }
   void setData(PointId p, const Vec3& d) { data_[p] = d; }
   std::vector<PointId> points() const;  ///< ascending
@@ -30,16 +31,15 @@ class PointSet : public topology::TopologyObserver {
 
   void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
   void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed&) override;
-  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
   std::string observerName() const override { return "PointSet '" + name_ + "'"; }
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
 
  private:
   std::string name_;
-  std::vector<char> flags_;
-  std::vector<Vec3> data_;
+  topology::SlotData<PointId, char> flags_;
+  topology::SlotData<PointId, Vec3> data_;
   std::size_t count_ = 0;
-  topology::Subscription subscription_;
+  topology::Subscription subscription_;  // after the SlotData: notified after them
 };
 
 /// A piecewise-linear displacement path: (time, displacement) keys, constant after the last key
