@@ -20,6 +20,10 @@ void registerEvalCommand(CLI::App& app);
 /// (src/cli/cmd_run.cpp).
 void registerRunCommand(CLI::App& app);
 
+/// `cutsim components [KIND]`: the registered force fields, integrators and linear solvers with
+/// their keys (src/cli/cmd_components.cpp).
+void registerComponentsCommand(CLI::App& app);
+
 // Further commands are declared here.
 
 }  // namespace cutsim::cli

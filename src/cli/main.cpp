@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   cutsim::cli::registerInfoCommand(app);
   cutsim::cli::registerEvalCommand(app);
   cutsim::cli::registerRunCommand(app);
+  cutsim::cli::registerComponentsCommand(app);
 
   try {
     app.parse(argc, argv);  // runs the chosen subcommand's callback

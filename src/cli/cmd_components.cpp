@@ -1,0 +1,45 @@
+// `cutsim components [KIND]`: what a scene can name, read from the registries: every force field,
+// integrator and linear solver with its one-line summary and its keys.
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#include "cutsim/core/registries.hpp"
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::cli {
+namespace {
+
+template <class Registry>
+void list(const char* title, const char* sceneKey, const Registry& registry) {
+  std::cout << title << " (scene key \"" << sceneKey << "\")\n";
+  for (const auto& [name, entry] : registry.entries()) {
+    std::cout << "  " << name << ": " << entry.summary << "\n";
+    for (const std::string& u : entry.uses) std::cout << "      uses a " << u << "\n";
+    for (const KeyInfo& k : entry.keys) std::cout << "      " << k.name << ": " << k.what << "\n";
+  }
+}
+
+}  // namespace
+
+void registerComponentsCommand(CLI::App& app) {
+  auto kind = std::make_shared<std::string>();
+  CLI::App* cmd = app.add_subcommand(
+      "components", "List what a scene can name: force fields, integrators, linear solvers, with their keys");
+  cmd->add_option("kind", *kind, "forcefields, integrators or linearsolvers (default: all)");
+  cmd->callback([kind] {
+    const bool all = kind->empty();
+    if (!all && *kind != "forcefields" && *kind != "integrators" && *kind != "linearsolvers")
+      throw InvalidInput("components", "unknown kind \"" + *kind + "\" (forcefields, integrators, linearsolvers)");
+    if (all || *kind == "forcefields")
+      list("force fields", "forceFields", forcefields::ForceFieldRegistry::instance());
+    if (all || *kind == "integrators") list("integrators", "integrator", core::IntegratorRegistry::instance());
+    if (all || *kind == "linearsolvers")
+      list("linear solvers", "linearSolver", core::LinearSolverRegistry::instance());
+    std::cout.flush();
+    if (!std::cout) throw Error("cannot write to standard output");
+  });
+}
+
+}  // namespace cutsim::cli
