@@ -38,4 +38,19 @@ void ParameterSource::require(std::string_view key) const {
   if (!has(key)) fail("", "missing key \"" + std::string(key) + "\"");
 }
 
+std::string_view ParameterSource::oneOf(std::initializer_list<std::string_view> keys) const {
+  std::string_view found;
+  int count = 0;
+  std::string list;
+  for (std::string_view k : keys) {
+    list += (list.empty() ? "\"" : (k == *(keys.end() - 1) ? "\" or \"" : "\", \"")) + std::string(k);
+    if (has(k)) {
+      found = k;
+      ++count;
+    }
+  }
+  if (count != 1) fail("", "give exactly one of " + list + "\"");
+  return found;
+}
+
 }  // namespace cutsim

@@ -1,11 +1,12 @@
 // `cutsim components [KIND]`: what a scene can name, read from the registries: every force field,
-// integrator and linear solver with its one-line summary and its keys.
+// integrator, linear solver, constraint and timeline action with its one-line summary and keys.
 #include <iostream>
 #include <memory>
 #include <string>
 
 #include "commands.hpp"
 #include "cutsim/core/registries.hpp"
+#include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/errors.hpp"
 
 namespace cutsim::cli {
@@ -26,17 +27,22 @@ void list(const char* title, const char* sceneKey, const Registry& registry) {
 void registerComponentsCommand(CLI::App& app) {
   auto kind = std::make_shared<std::string>();
   CLI::App* cmd = app.add_subcommand(
-      "components", "List what a scene can name: force fields, integrators, linear solvers, with their keys");
-  cmd->add_option("kind", *kind, "forcefields, integrators or linearsolvers (default: all)");
+      "components", "List what a scene can name (force fields, integrators, linear solvers, constraints, actions) with their keys");
+  cmd->add_option("kind", *kind,
+                  "forcefields, integrators, linearsolvers, constraints or actions (default: all)");
   cmd->callback([kind] {
     const bool all = kind->empty();
-    if (!all && *kind != "forcefields" && *kind != "integrators" && *kind != "linearsolvers")
-      throw InvalidInput("components", "unknown kind \"" + *kind + "\" (forcefields, integrators, linearsolvers)");
+    if (!all && *kind != "forcefields" && *kind != "integrators" && *kind != "linearsolvers" &&
+        *kind != "constraints" && *kind != "actions")
+      throw InvalidInput("components", "unknown kind \"" + *kind +
+                                           "\" (forcefields, integrators, linearsolvers, constraints, actions)");
     if (all || *kind == "forcefields")
       list("force fields", "forceFields", forcefields::ForceFieldRegistry::instance());
     if (all || *kind == "integrators") list("integrators", "integrator", core::IntegratorRegistry::instance());
     if (all || *kind == "linearsolvers")
       list("linear solvers", "linearSolver", core::LinearSolverRegistry::instance());
+    if (all || *kind == "constraints") list("constraints", "constraints", core::ConstraintRegistry::instance());
+    if (all || *kind == "actions") list("timeline actions", "timeline", core::ActionRegistry::instance());
     std::cout.flush();
     if (!std::cout) throw Error("cannot write to standard output");
   });

@@ -8,6 +8,7 @@
 #include <charconv>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -206,11 +207,50 @@ class JsonParameterSource : public ParameterSource {
   bool boolean(std::string_view key) const override { return r_.boolean(at(key), path(key)); }
   std::string string(std::string_view key) const override { return r_.string(at(key), path(key)); }
   [[noreturn]] void fail(std::string_view key, const std::string& message) const override {
-    r_.fail(key.empty() || !has(key) ? ptr_ : path(key), message);
+    if (key.empty()) r_.fail(ptr_, message);
+    if (key.find('/') != std::string_view::npos) r_.fail(ptr_ + "/" + std::string(key), message);
+    r_.fail(has(key) ? path(key) : ptr_, message);
   }
+  std::vector<long> integers(std::string_view key, long min, long max) const override {
+    const json& a = at(key);
+    r_.expectArray(a, path(key));
+    std::vector<long> out;
+    for (std::size_t i = 0; i < a.size(); ++i) out.push_back(r_.integer(a[i], path(key) + "/" + Reader::idx(i), min, max));
+    return out;
+  }
+  std::vector<std::vector<double>> rows(std::string_view key, std::size_t width,
+                                        std::size_t minCount) const override {
+    const json& a = at(key);
+    r_.expectArray(a, path(key));
+    if (a.size() < minCount)
+      r_.fail(path(key), "expected at least " + std::to_string(minCount) + " entries, got " + std::to_string(a.size()));
+    std::vector<std::vector<double>> out;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const std::string rp = path(key) + "/" + Reader::idx(i);
+      if (!a[i].is_array() || a[i].size() != width)
+        r_.fail(rp, "expected an array of " + std::to_string(width) + " numbers");
+      std::vector<double> row;
+      for (std::size_t k = 0; k < width; ++k) row.push_back(r_.number(a[i][k], rp + "/" + Reader::idx(k)));
+      out.push_back(std::move(row));
+    }
+    return out;
+  }
+  std::unique_ptr<ParameterSource> object(std::string_view key,
+                                          std::initializer_list<std::string_view> keys) const override {
+    const json& o = at(key);
+    r_.expectObject(o, path(key));
+    r_.checkKeys(o, path(key), keys);
+    return std::make_unique<JsonParameterSource>(r_, o, path(key));
+  }
+  Vec3 vec3(std::string_view key) const override { return r_.vec3(at(key), path(key)); }
+  std::vector<Vec3> points(std::string_view key, std::size_t minCount) const override {
+    return r_.points(at(key), path(key), minCount);
+  }
+  std::pair<Vec3, Vec3> box(std::string_view key) const override { return r_.box(at(key), path(key)); }
   using ParameterSource::boolean;
   using ParameterSource::integer;
   using ParameterSource::number;
+  const std::string& pointer() const { return ptr_; }
 
  private:
   const json& at(std::string_view key) const { return r_.require(j_, ptr_, std::string(key)); }
@@ -220,22 +260,23 @@ class JsonParameterSource : public ParameterSource {
   std::string ptr_;
 };
 
-/// Checks the keys of a component's object against its registry entry: "type", the entry's
-/// keys and `extraKeys`; an unknown key names the expected ones and, if another component of the
+/// Checks the keys of a component's object against its registry entry: its type key ("type", or
+/// "action" for timeline actions), the entry's keys and `extraKeys`; an unknown key names the expected ones and, if another component of the
 /// registry has it, that component.
 template <class Registry>
 void checkComponentKeys(const Reader& r, const json& obj, const std::string& ptr,
                         const Registry& registry, const typename Registry::Entry& entry,
                         std::initializer_list<std::string_view> extraKeys,
-                        std::vector<std::string> (*elsewhere)(const std::string&) = nullptr) {
+                        std::vector<std::string> (*elsewhere)(const std::string&) = nullptr,
+                        std::string_view typeKey = "type") {
   for (auto it = obj.begin(); it != obj.end(); ++it) {
     const std::string& key = it.key();
-    if (key == "type") continue;
+    if (key == typeKey) continue;
     if (std::find(extraKeys.begin(), extraKeys.end(), key) != extraKeys.end()) continue;
     bool known = false;
     for (const KeyInfo& k : entry.keys) known = known || k.name == key;
     if (known) continue;
-    std::string list = "type";
+    std::string list(typeKey);
     for (std::string_view k : extraKeys) list += ", " + std::string(k);
     for (const KeyInfo& k : entry.keys) list += ", " + k.name;
     std::string owners;

@@ -10,6 +10,7 @@
 
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
+#include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
 #include "scene_internal.hpp"
 #include "scene_json.hpp"
@@ -59,44 +60,6 @@ void parseGrid(const Reader& r, const json& j, const std::string& ptr, GridSpec&
     }
   }
   if (const json* o = r.find(j, "origin")) g.origin = r.vec3(*o, ptr + "/origin");
-}
-
-PointSelection parseSelection(const Reader& r, const json& j, const std::string& ptr,
-                              std::size_t numMeshPoints) {
-  PointSelection s;
-  const json* pts = r.find(j, "points");
-  const json* box = r.find(j, "box");
-  const json* near = r.find(j, "near");
-  const int given = (pts != nullptr) + (box != nullptr) + (near != nullptr);
-  if (given != 1) r.fail(ptr, "give exactly one of \"points\", \"box\" or \"near\"");
-  if (pts) {
-    s.kind = PointSelection::Kind::Points;
-    r.expectArray(*pts, ptr + "/points");
-    if (pts->empty()) r.fail(ptr + "/points", "lists no point");
-    for (std::size_t i = 0; i < pts->size(); ++i) {
-      s.points.push_back(PointId(
-          r.integer((*pts)[i], ptr + "/points/" + Reader::idx(i), 0, long(numMeshPoints) - 1)));
-    }
-  } else if (box) {
-    s.kind = PointSelection::Kind::Box;
-    std::tie(s.boxMin, s.boxMax) = r.box(*box, ptr + "/box");
-  } else {
-    s.kind = PointSelection::Kind::Near;
-    s.near = r.points(*near, ptr + "/near", 1);
-  }
-  return s;
-}
-
-std::string selectionPointer(const PointSelection& s, const std::string& ptr) {
-  switch (s.kind) {
-    case PointSelection::Kind::Points:
-      return ptr + "/points";
-    case PointSelection::Kind::Box:
-      return ptr + "/box";
-    case PointSelection::Kind::Near:
-      return ptr + "/near";
-  }
-  return ptr;
 }
 
 ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string& ptr) {
@@ -267,106 +230,51 @@ double actionTime(const Reader& r, const json& j, const std::string& ptr, double
   return t;
 }
 
-void parseCutAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a) {
-  const bool progressive = a.kind == SceneAction::Kind::ProgressiveCut;
-  r.checkKeys(j, ptr,
-              progressive ? std::initializer_list<std::string_view>{"action", "from", "to", "polyline",
-                                                                    "snapTolerance"}
-                          : std::initializer_list<std::string_view>{"action", "at", "polyline",
-                                                                    "snapTolerance"});
-  a.polyline = r.points(r.require(j, ptr, "polyline"), ptr + "/polyline", 2);
-  if (const json* v = r.find(j, "snapTolerance")) {
-    a.snapTolerance = r.nonNegative(*v, ptr + "/snapTolerance");
-    if (!(a.snapTolerance < 0.5)) r.fail(ptr + "/snapTolerance", "must be < 0.5");
-  }
-}
-
-void parseRemoveAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a) {
-  r.checkKeys(j, ptr, {"action", "at", "sphere", "box"});
-  const json* sphere = r.find(j, "sphere");
-  const json* box = r.find(j, "box");
-  if ((sphere != nullptr) == (box != nullptr)) r.fail(ptr, "give exactly one of \"sphere\" or \"box\"");
-  if (sphere) {
-    const std::string sp = ptr + "/sphere";
-    r.expectObject(*sphere, sp);
-    r.checkKeys(*sphere, sp, {"center", "radius"});
-    a.region.kind = Region::Kind::Sphere;
-    a.region.center = r.vec3(r.require(*sphere, sp, "center"), sp + "/center");
-    a.region.radius = r.positive(r.require(*sphere, sp, "radius"), sp + "/radius");
+/// "at", or "from" and "to" for an action whose entry has "from".
+ActionTiming parseTiming(const Reader& r, const json& j, const std::string& ptr, double duration,
+                         const ActionRegistry::Entry& entry) {
+  ActionTiming timing;
+  bool hasInterval = false;
+  for (const KeyInfo& k : entry.keys) hasInterval = hasInterval || k.name == "from";
+  if (hasInterval && (r.find(j, "from") || r.find(j, "to"))) {
+    if (r.find(j, "at")) r.fail(ptr + "/at", "a " + entry.name + " has either \"at\" or \"from\" and \"to\"");
+    timing.interval = true;
+    timing.from = actionTime(r, r.require(j, ptr, "from"), ptr + "/from", duration);
+    timing.to = actionTime(r, r.require(j, ptr, "to"), ptr + "/to", duration);
+    if (!(timing.to > timing.from)) r.fail(ptr + "/to", "must be after \"from\"");
   } else {
-    a.region.kind = Region::Kind::Box;
-    std::tie(a.region.boxMin, a.region.boxMax) = r.box(*box, ptr + "/box");
+    timing.at = actionTime(r, r.require(j, ptr, "at"), ptr + "/at", duration);
   }
+  return timing;
 }
 
-void parseTearingAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a) {
-  r.checkKeys(j, ptr, {"action", "at", "threshold", "maxPerStep"});
-  a.threshold = r.positive(r.require(j, ptr, "threshold"), ptr + "/threshold");
-  if (const json* v = r.find(j, "maxPerStep")) a.maxPerStep = int(r.integer(*v, ptr + "/maxPerStep", 1, 1000000));
-}
-
-DisplacementPath parsePath(const Reader& r, const json& path, const std::string& pp) {
-  DisplacementPath out;
-  r.expectArray(path, pp);
-  if (path.empty()) r.fail(pp, "expected at least one key [t, dx, dy, dz]");
-  for (std::size_t i = 0; i < path.size(); ++i) {
-    const std::string kp = pp + "/" + Reader::idx(i);
-    const json& key = path[i];
-    if (!key.is_array() || key.size() != 4) r.fail(kp, "expected [t, dx, dy, dz]");
-    const double t = r.number(key[0], kp + "/0");
-    if (t < 0) r.fail(kp + "/0", "path times are relative to the grasp's start: must be >= 0");
-    if (!out.times.empty() && !(t > out.times.back())) r.fail(kp + "/0", "path times must increase strictly");
-    out.times.push_back(t);
-    out.displacements.push_back(
-        {r.number(key[1], kp + "/1"), r.number(key[2], kp + "/2"), r.number(key[3], kp + "/3")});
-  }
-  return out;
-}
-
-void parseGraspAction(const Reader& r, const json& j, const std::string& ptr, SceneAction& a,
-                      std::size_t numMeshPoints) {
-  r.checkKeys(j, ptr, {"action", "at", "name", "points", "box", "near", "path"});
-  a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
-  if (a.name.empty()) r.fail(ptr + "/name", "must not be empty");
-  a.selection = parseSelection(r, j, ptr, numMeshPoints);
-  a.path = parsePath(r, r.require(j, ptr, "path"), ptr + "/path");
-}
-
-SceneAction parseAction(const Reader& r, const json& j, const std::string& ptr, double duration,
-                        std::size_t numMeshPoints) {
+ActionSpec parseAction(const Reader& r, const json& j, const std::string& ptr, double duration) {
   r.expectObject(j, ptr);
-  SceneAction a;
+  ActionSpec a;
   a.location = r.location(ptr);
-  const std::string kind = r.string(r.require(j, ptr, "action"), ptr + "/action");
-  static const std::map<std::string, SceneAction::Kind> kinds{
-      {"cut", SceneAction::Kind::Cut},         {"remove", SceneAction::Kind::Remove},
-      {"tearing", SceneAction::Kind::Tearing}, {"grasp", SceneAction::Kind::Grasp},
-      {"release", SceneAction::Kind::Release}};
-  const auto it = kinds.find(kind);
-  if (it == kinds.end())
-    r.fail(ptr + "/action", "unknown action \"" + kind + "\" (cut, remove, tearing, grasp, release)");
-  a.kind = it->second;
-  if (kind == "cut" && (r.find(j, "from") || r.find(j, "to"))) {
-    a.kind = SceneAction::Kind::ProgressiveCut;
-    if (r.find(j, "at")) r.fail(ptr + "/at", "a cut has either \"at\" or \"from\" and \"to\"");
-    a.from = actionTime(r, r.require(j, ptr, "from"), ptr + "/from", duration);
-    a.to = actionTime(r, r.require(j, ptr, "to"), ptr + "/to", duration);
-    if (!(a.to > a.from)) r.fail(ptr + "/to", "must be after \"from\"");
-  } else {
-    a.at = actionTime(r, r.require(j, ptr, "at"), ptr + "/at", duration);
-  }
-  switch (a.kind) {
-    case SceneAction::Kind::Cut:
-    case SceneAction::Kind::ProgressiveCut: parseCutAction(r, j, ptr, a); break;
-    case SceneAction::Kind::Remove: parseRemoveAction(r, j, ptr, a); break;
-    case SceneAction::Kind::Tearing: parseTearingAction(r, j, ptr, a); break;
-    case SceneAction::Kind::Grasp: parseGraspAction(r, j, ptr, a, numMeshPoints); break;
-    case SceneAction::Kind::Release:
-      r.checkKeys(j, ptr, {"action", "at", "name"});
-      a.name = r.string(r.require(j, ptr, "name"), ptr + "/name");
-      break;
-  }
+  a.type = r.string(r.require(j, ptr, "action"), ptr + "/action");
+  const auto& registry = ActionRegistry::instance();
+  const auto* entry = registry.find(a.type);
+  if (!entry)
+    r.fail(ptr + "/action", "unknown action \"" + a.type + "\" (" + registeredNames(registry) + ")");
+  a.timing = parseTiming(r, j, ptr, duration, *entry);
+  checkComponentKeys(r, j, ptr, registry, *entry, {}, nullptr, "action");
+  a.parameters = entry->read(JsonParameterSource(r, j, ptr));
   return a;
+}
+
+ConstraintSpec parseConstraint(const Reader& r, const json& j, const std::string& ptr) {
+  r.expectObject(j, ptr);
+  ConstraintSpec c;
+  c.location = r.location(ptr);
+  c.type = r.string(r.require(j, ptr, "type"), ptr + "/type");
+  const auto& registry = ConstraintRegistry::instance();
+  const auto* entry = registry.find(c.type);
+  if (!entry)
+    r.fail(ptr + "/type", "unknown constraint type \"" + c.type + "\" (" + registeredNames(registry) + ")");
+  checkComponentKeys(r, j, ptr, registry, *entry, {});
+  c.parameters = entry->read(JsonParameterSource(r, j, ptr));
+  return c;
 }
 
 /// Checks what can only be checked against the mesh: cut polylines on the rest surface, regions
@@ -402,53 +310,6 @@ topology::MeshData makeGrid(const GridSpec& g) {
   return m;
 }
 
-std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) const {
-  std::vector<PointId> out;
-  switch (kind) {
-    case Kind::Points:
-      for (PointId p : points) {
-        if (p < topo.pointCapacity() && topo.isPointAlive(p)) out.push_back(p);
-      }
-      break;
-    case Kind::Box:
-      for (PointId p : topo.points()) {
-        const Vec3 x = topo.restPosition(p);
-        bool inside = true;
-        for (int k = 0; k < 3; ++k) inside = inside && x[k] >= boxMin[k] && x[k] <= boxMax[k];
-        if (inside) out.push_back(p);
-      }
-      break;
-    case Kind::Near: {
-      const std::vector<PointId> live = topo.points();
-      if (live.empty()) break;
-      for (const Vec3& q : near) {
-        PointId best = live.front();
-        double bestD = dist2(topo.restPosition(best), q);
-        for (PointId p : live) {
-          const double d = dist2(topo.restPosition(p), q);
-          if (d < bestD) {
-            bestD = d;
-            best = p;
-          }
-        }
-        out.push_back(best);
-      }
-      break;
-    }
-  }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
-}
-
-bool Region::contains(const Vec3& p) const {
-  if (kind == Kind::Sphere) return dist2(p, center) <= radius * radius;
-  for (int k = 0; k < 3; ++k) {
-    if (p[k] < boxMin[k] || p[k] > boxMax[k]) return false;
-  }
-  return true;
-}
-
 long Scene::numSteps() const {
   const double n = duration / timeStep;
   const double r = std::round(n);
@@ -474,13 +335,17 @@ std::vector<std::string> Scene::forceFieldLabels() const {
 
 std::vector<std::string> Scene::graspNames() const {
   std::vector<std::string> names;
-  for (const SceneAction& a : timeline) {
-    if (a.kind == SceneAction::Kind::Grasp &&
-        std::find(names.begin(), names.end(), a.name) == names.end()) {
-      names.push_back(a.name);
-    }
+  for (const ActionSpec& a : timeline) {
+    const std::string name = a.build()->graspName();
+    if (!name.empty() && std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
   }
   return names;
+}
+
+std::unique_ptr<TimelineAction> ActionSpec::build() const {
+  const auto* entry = ActionRegistry::instance().find(type);
+  if (!entry) throw InvalidInput(location.pointer, "unknown action \"" + type + "\"");
+  return entry->build(parameters, timing);
 }
 
 namespace detail {
@@ -549,26 +414,19 @@ void parseHeader(const Reader& r, const json& root, const std::string& sourceNam
   if (const json* v = r.find(root, "description")) s.description = r.string(*v, "/description");
 }
 
-/// "constraints" and "timeline" (sorted by start time), which need the mesh's point count.
-void parseConstraintsAndTimeline(const Reader& r, const json& root, std::size_t numPoints, Scene& s) {
+/// "constraints" and "timeline" (sorted by start time).
+void parseConstraintsAndTimeline(const Reader& r, const json& root, Scene& s) {
   if (const json* v = r.find(root, "constraints")) {
     r.expectArray(*v, "/constraints");
-    for (std::size_t i = 0; i < v->size(); ++i) {
-      const std::string ptr = "/constraints/" + Reader::idx(i);
-      const json& c = (*v)[i];
-      r.expectObject(c, ptr);
-      const std::string type = r.string(r.require(c, ptr, "type"), ptr + "/type");
-      if (type != "fixed") r.fail(ptr + "/type", "unknown constraint type \"" + type + "\" (fixed)");
-      r.checkKeys(c, ptr, {"type", "points", "box", "near"});
-      s.fixed.push_back({parseSelection(r, c, ptr, numPoints), r.location(ptr)});
-    }
+    for (std::size_t i = 0; i < v->size(); ++i)
+      s.constraints.push_back(parseConstraint(r, (*v)[i], "/constraints/" + Reader::idx(i)));
   }
   if (const json* v = r.find(root, "timeline")) {
     r.expectArray(*v, "/timeline");
     for (std::size_t i = 0; i < v->size(); ++i)
-      s.timeline.push_back(parseAction(r, (*v)[i], "/timeline/" + Reader::idx(i), s.duration, numPoints));
+      s.timeline.push_back(parseAction(r, (*v)[i], "/timeline/" + Reader::idx(i), s.duration));
     std::stable_sort(s.timeline.begin(), s.timeline.end(),
-                     [](const SceneAction& a, const SceneAction& b) { return a.startTime() < b.startTime(); });
+                     [](const ActionSpec& a, const ActionSpec& b) { return a.startTime() < b.startTime(); });
   }
 }
 
@@ -604,7 +462,7 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   const topology::MeshData meshData = s.mesh();
   if (meshData.triangles.empty()) r.fail(meshPtr, "the mesh has no triangle");
   topology::checkManifold(meshData);
-  parseConstraintsAndTimeline(r, root, meshData.points.size(), s);
+  parseConstraintsAndTimeline(r, root, s);
   dryRun(r, s, meshData);
   return s;
 }

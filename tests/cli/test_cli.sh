@@ -138,13 +138,14 @@ expect_code 0 "info --help" && { grep -q -- "--json" "$tmp/out" || fail "info --
 run components
 if expect_code 0 "components"; then
   for word in FastTriangularBendingSprings DihedralBending StretchSprings TriangularFEM \
-              explicit-euler implicit-euler bdf2 newton cg cholmod youngModulus onSolveFailure; do
+              explicit-euler implicit-euler bdf2 newton cg cholmod youngModulus onSolveFailure \
+              fixed tearing snapTolerance; do
     checks=$((checks + 1))
     grep -q -- "$word" "$tmp/out" || fail "components does not list $word"
   done
 fi
 run components magnets
-expect_code 2 "components magnets" && { grep -q "forcefields, integrators, linearsolvers" "$tmp/err" || fail "components magnets: $(cat "$tmp/err")"; }
+expect_code 2 "components magnets" && { grep -q "forcefields, integrators, linearsolvers, constraints, actions" "$tmp/err" || fail "components magnets: $(cat "$tmp/err")"; }
 
 # ---- --version ----
 run --version

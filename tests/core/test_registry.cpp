@@ -13,6 +13,7 @@ namespace cutsim::test {
 namespace {
 
 using ::testing::HasSubstr;
+using test::scene;
 
 /// What a force field needs besides its type (its required keys).
 std::string requiredKeys(const std::string& type) {
@@ -52,6 +53,29 @@ TEST(Registry, HasEveryForceFieldIntegratorAndLinearSolverOfTheProject) {
   EXPECT_EQ(core::IntegratorRegistry::instance().names(),
             (std::vector<std::string>{"bdf2", "explicit-euler", "implicit-euler", "newton"}));
   EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod"}));
+  EXPECT_EQ(core::ActionRegistry::instance().names(),
+            (std::vector<std::string>{"cut", "grasp", "release", "remove", "tearing"}));
+  EXPECT_EQ(core::ConstraintRegistry::instance().names(), (std::vector<std::string>{"fixed"}));
+}
+
+TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
+  const std::string ok = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+  auto timeline = [&](const std::string& action) {
+    return sceneWith(ok, "\"timeline\": [" + action + "]");
+  };
+  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"explode\"}")),
+              HasSubstr("/timeline/0/action: unknown action \"explode\" (cut, grasp, release, remove, tearing)"));
+  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
+              HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing; expected one of: action, at, "
+                        "threshold, maxPerStep"));
+  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
+              HasSubstr("(it belongs to cut)"));
+  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"remove\", \"sphere\": {\"center\": [0, 0, 0], "
+                                  "\"radius\": 1, \"colour\": 2}}")),
+              HasSubstr("/timeline/0/sphere/colour: unknown key \"colour\""));
+  EXPECT_THAT(parseError(scene("\"constraints\": [{\"type\": \"fixed\", \"box\": [[0, 0, 0], [1, 1, 1]], "
+                               "\"points\": [1]}]")),
+              HasSubstr("/constraints/0: give exactly one of \"points\", \"box\" or \"near\""));
 }
 
 TEST(Registry, EveryForceFieldParsesBuildsAndSteps) {
@@ -95,7 +119,9 @@ TEST(Registry, EveryIntegratorWithEveryLinearSolverSteps) {
       EXPECT_EQ(s.integrator.type, name);
       core::SceneRunner runner(s);
       EXPECT_EQ(runner.simulation().integrator().name(), name);
-      if (usesSolver) EXPECT_EQ(runner.simulation().integrator().linearSolver()->name(), solver);
+      if (usesSolver) {
+        EXPECT_EQ(runner.simulation().integrator().linearSolver()->name(), solver);
+      }
       runsAndFalls(sceneWith(fields, stepping));
     }
   }

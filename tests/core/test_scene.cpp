@@ -45,7 +45,7 @@ TEST(Scene, LoadsTheSmallScene) {
             forcefields::AreaWeights::Signed);
   EXPECT_EQ(s.forceFieldLabels(),
             (std::vector<std::string>{"StretchSprings", "FastTriangularBendingSprings"}));
-  EXPECT_EQ(s.fixed.size(), 2u);
+  EXPECT_EQ(s.constraints.size(), 2u);
   // The "solver" shorthand implicit-cg: implicit Euler with CG.
   EXPECT_EQ(s.integrator.type, "implicit-euler");
   ASSERT_TRUE(s.linearSolver.has_value());
@@ -56,15 +56,17 @@ TEST(Scene, LoadsTheSmallScene) {
   EXPECT_TRUE(s.output.obj);
   ASSERT_EQ(s.timeline.size(), 7u);
   // Sorted by start time, file order at ties (the remove and the progressive cut both at 0.1).
-  EXPECT_EQ(s.timeline[0].kind, SceneAction::Kind::Cut);
-  EXPECT_EQ(s.timeline[1].kind, SceneAction::Kind::ProgressiveCut);
+  EXPECT_EQ(s.timeline[0].type, "cut");
+  EXPECT_FALSE(s.timeline[0].timing.interval);
+  EXPECT_EQ(s.timeline[1].type, "cut");
+  EXPECT_TRUE(s.timeline[1].timing.interval);  // a progressive cut
   EXPECT_EQ(s.timeline[1].location.pointer, "/timeline/1");
   EXPECT_EQ(s.timeline[1].location.line, 17u);
-  EXPECT_EQ(s.timeline[2].kind, SceneAction::Kind::Remove);
-  EXPECT_EQ(s.timeline[3].kind, SceneAction::Kind::Grasp);
-  EXPECT_EQ(s.timeline[3].path.times.size(), 2u);
-  EXPECT_EQ(s.timeline.back().kind, SceneAction::Kind::Remove);
-  EXPECT_DOUBLE_EQ(s.timeline.back().at, 0.3);  // at the duration: allowed
+  EXPECT_EQ(s.timeline[2].type, "remove");
+  EXPECT_EQ(s.timeline[3].type, "grasp");
+  EXPECT_EQ(std::any_cast<const core::GraspParameters&>(s.timeline[3].parameters).path.times.size(), 2u);
+  EXPECT_EQ(s.timeline.back().type, "remove");
+  EXPECT_DOUBLE_EQ(s.timeline.back().timing.at, 0.3);  // at the duration: allowed
   EXPECT_EQ(s.graspNames(), std::vector<std::string>{"pin"});
 }
 

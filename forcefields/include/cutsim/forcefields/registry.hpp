@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/types.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -41,7 +42,27 @@ class ParameterSource {
   virtual long integer(std::string_view key, long min, long max) const = 0;
   virtual bool boolean(std::string_view key) const = 0;
   virtual std::string string(std::string_view key) const = 0;
+  /// Fails at `key`; a key path "polyline/2" names an element inside a key's value, "" the
+  /// component itself.
   [[noreturn]] virtual void fail(std::string_view key, const std::string& message) const = 0;
+
+  // ---- structured values (timeline actions, constraints) ----
+  /// An array of integers, each in [min, max].
+  virtual std::vector<long> integers(std::string_view key, long min, long max) const = 0;
+  /// An array of at least minCount arrays of `width` numbers each ([x, y, z] points: width 3).
+  virtual std::vector<std::vector<double>> rows(std::string_view key, std::size_t width,
+                                                std::size_t minCount) const = 0;
+  /// A nested object, read as a source of its own (its keys are checked against `keys`).
+  virtual std::unique_ptr<ParameterSource> object(std::string_view key,
+                                                  std::initializer_list<std::string_view> keys) const = 0;
+  /// [x, y, z].
+  virtual topology::Vec3 vec3(std::string_view key) const = 0;
+  /// At least minCount [x, y, z] points.
+  virtual std::vector<topology::Vec3> points(std::string_view key, std::size_t minCount) const = 0;
+  /// [[xmin, ymin, zmin], [xmax, ymax, zmax]], min <= max.
+  virtual std::pair<topology::Vec3, topology::Vec3> box(std::string_view key) const = 0;
+  /// Exactly one of `keys` is present: which (fails naming them otherwise).
+  std::string_view oneOf(std::initializer_list<std::string_view> keys) const;
 
   // ---- conveniences: the value if present, else the fallback ----
   double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }

@@ -19,6 +19,7 @@
 
 #include "cutsim/core/constraints.hpp"
 #include "cutsim/core/simulation.hpp"
+#include "cutsim/core/timeline.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
@@ -46,18 +47,6 @@ struct GridSpec {
 };
 topology::MeshData makeGrid(const GridSpec& grid);
 
-/// A choice of points in rest coordinates: listed ids, a box (inclusive), or for each given
-/// position the nearest live point (ties: lowest id).
-struct PointSelection {
-  enum class Kind { Points, Box, Near };
-  Kind kind = Kind::Points;
-  std::vector<PointId> points;
-  Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
-  std::vector<Vec3> near;
-  /// The selected live points, ascending, without repeats.
-  std::vector<PointId> resolve(const topology::Topology& topology) const;
-};
-
 /// A force field of the scene: its registered type and the parameters its entry read.
 struct ForceFieldSpec {
   std::string type;   ///< a name of forcefields::ForceFieldRegistry
@@ -73,35 +62,22 @@ struct ComponentSpec {
   SceneLocation location;
 };
 
-struct FixedSpec {
-  PointSelection selection;
+/// A constraint of the scene: its registered type and the parameters its entry read.
+struct ConstraintSpec {
+  std::string type;
+  std::any parameters;
   SceneLocation location;
 };
 
-struct Region {
-  enum class Kind { Sphere, Box };
-  Kind kind = Kind::Sphere;
-  Vec3 center{0, 0, 0};
-  double radius = 0.0;
-  Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
-  bool contains(const Vec3& p) const;
-};
-
-struct SceneAction {
-  enum class Kind { Cut, ProgressiveCut, Remove, Tearing, Grasp, Release };
-  Kind kind = Kind::Cut;
-  double at = 0.0;              ///< start time (Cut, Remove, Tearing, Grasp, Release)
-  double from = 0.0, to = 0.0;  ///< ProgressiveCut
-  std::vector<Vec3> polyline;   ///< Cut, ProgressiveCut (rest coordinates)
-  double snapTolerance = 0.1;
-  Region region;             ///< Remove
-  double threshold = 0.0;    ///< Tearing: Green strain normal to an edge above which it tears
-  int maxPerStep = 4;        ///< Tearing: edges torn per step at most
-  std::string name;          ///< Grasp, Release
-  PointSelection selection;  ///< Grasp
-  DisplacementPath path;     ///< Grasp (times relative to its start)
+/// An action of the timeline: its registered type, its parameters and its timing.
+struct ActionSpec {
+  std::string type;
+  std::any parameters;
+  ActionTiming timing;
   SceneLocation location;
-  double startTime() const { return kind == Kind::ProgressiveCut ? from : at; }
+  double startTime() const { return timing.start(); }
+  /// A fresh instance of the action (ActionRegistry).
+  std::unique_ptr<TimelineAction> build() const;
 };
 
 struct OutputSettings {
@@ -122,12 +98,12 @@ struct Scene {
   double density = 0.0, totalMass = 0.0;
   Vec3 gravity{0, 0, 0};
   std::vector<ForceFieldSpec> forceFields;
-  std::vector<FixedSpec> fixed;
+  std::vector<ConstraintSpec> constraints;
   ComponentSpec integrator;                  ///< by default implicit-euler
   std::optional<ComponentSpec> linearSolver;  ///< for integrators that use one (default cg)
   double timeStep = 0.0, duration = 0.0;
   OutputSettings output;
-  std::vector<SceneAction> timeline;  ///< sorted by start time (stable: file order at ties)
+  std::vector<ActionSpec> timeline;  ///< sorted by start time (stable: file order at ties)
 
   /// Number of steps: duration / timeStep rounded up (within 1e-9 of a whole number: rounded).
   long numSteps() const;
@@ -167,8 +143,8 @@ class SceneRunner {
 
   /// Runs the actions due at time 0. Called once, before the first advance().
   void start();
-  /// One step: the simulation step, then the progressive cuts' pieces up to the new time, the
-  /// tearing check if enabled, then the actions due at the new time.
+  /// One step: the simulation step, then the actions that go on (progressive cuts, tearing) in
+  /// timeline order, then the actions due at the new time.
   StepStats advance();
   const StepStats& lastStats() const { return lastStats_; }
 
@@ -181,24 +157,23 @@ class SceneRunner {
   long cutsDone() const { return cutsDone_; }
 
  private:
-  struct Progressive;
+  class Context;
+  struct Running {
+    const ActionSpec* spec;
+    std::unique_ptr<TimelineAction> action;
+  };
   void runDueActions(double t);
-  void runAction(const SceneAction& a);
-  void advanceProgressive(double t);
-  topology::IncisionResult cut(std::span<const Vec3> polyline, double snap,
-                               const SceneLocation& where);
 
   Scene scene_;
   std::unique_ptr<Simulation> sim_;
+  std::unique_ptr<Context> context_;
   long numSteps_ = 0;
   long step_ = 0;
   std::size_t nextAction_ = 0;
   bool started_ = false;
   StepStats lastStats_;
-  std::vector<Progressive> progressive_;
-  double tearThreshold_ = 0.0;
-  int tearMaxPerStep_ = 0;
-  bool tearing_ = false;
+  std::vector<Running> running_;  // started actions, in timeline order
+  double meanEdge_ = 0.0;
   long tornEdges_ = 0, cutsDone_ = 0;
 };
 

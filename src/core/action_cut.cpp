@@ -1,0 +1,175 @@
+// The "cut" action: a cut along a polyline at a time, or a progressive cut over an interval (a
+// scalpel moving at constant speed along the polyline: after each step the piece covered since the
+// last one is cut, starting where the previous piece's cut really ended).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "cutsim/core/timeline.hpp"
+#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/topology/errors.hpp"
+#include "cutsim/topology/geometry.hpp"
+
+namespace cutsim::core {
+namespace {
+
+using forcefields::describeNumber;
+using topology::geometry::closestOnTriangle;
+using topology::geometry::dist2;
+
+std::string vecText(const Vec3& p) {
+  return "(" + describeNumber(p[0]) + ", " + describeNumber(p[1]) + ", " + describeNumber(p[2]) + ")";
+}
+
+/// Distance from p to the mesh and the longest edge of the nearest triangle.
+std::pair<double, double> distanceToSurface(const topology::MeshData& mesh, const Vec3& p) {
+  double best = std::numeric_limits<double>::infinity(), edge = 0;
+  for (const auto& t : mesh.triangles) {
+    const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]];
+    const double d = dist2(p, closestOnTriangle(p, a, b, c));
+    if (d < best) {
+      best = d;
+      edge = topology::geometry::longestEdge(a, b, c);
+    }
+  }
+  return {std::sqrt(best), edge};
+}
+
+class CutAction final : public TimelineAction {
+ public:
+  CutAction(CutParameters p, const ActionTiming& timing) : p_(std::move(p)), timing_(timing) {
+    arc_.push_back(0.0);
+    for (std::size_t i = 1; i < p_.polyline.size(); ++i)
+      arc_.push_back(arc_.back() + std::sqrt(dist2(p_.polyline[i - 1], p_.polyline[i])));
+  }
+
+  void dryRun(DryRunContext& c) const override {
+    for (std::size_t i = 0; i < p_.polyline.size(); ++i) {
+      const auto [d, edge] = distanceToSurface(c.restMesh(), p_.polyline[i]);
+      if (d > 0.25 * edge)
+        c.fail("polyline/" + std::to_string(i), "the cut misses the surface: point " + vecText(p_.polyline[i]) +
+                                                    " is " + describeNumber(d) + " away from the rest surface");
+    }
+    try {
+      topology::CutOptions options;
+      options.snapTolerance = p_.snapTolerance;
+      c.topology().cutPolyline(p_.polyline, options);
+    } catch (const TopologyError& e) {
+      c.fail("polyline", std::string("the cut cannot be made on the rest surface: ") + e.what());
+    }
+  }
+
+  void start(ActionContext& c) override {
+    if (!timing_.interval) {
+      cut(c, p_.polyline);
+      return;
+    }
+    minPiece_ = 0.5 * c.meanRestEdge();
+    started_ = true;
+    afterStep(c);
+  }
+
+  void afterStep(ActionContext& c) override {
+    if (!started_ || finished_) return;
+    const double total = arc_.back(), t = c.time();
+    double s = total * std::clamp((t - timing_.from) / (timing_.to - timing_.from), 0.0, 1.0);
+    if (t >= timing_.to - 1e-9 * c.timeStep()) s = total;
+    // Never leave a remainder shorter than the smallest piece; never cut a piece shorter than it
+    // (except a whole polyline that is shorter).
+    if (s < total && total - s < minPiece_) s = total;
+    if (s < total && s - done_ < minPiece_) return;
+    if (!(s > done_)) return;
+    std::vector<Vec3> piece = pieceOf(done_, s);
+    if (tip_) piece.front() = *tip_;
+    topology::IncisionResult result;
+    if (s < total) {
+      // A piece that the topology refuses without changing anything (for example one that ends
+      // exactly on an edge in a way its walk does not handle) is tried again, longer, at the next
+      // step; only the last piece must succeed where the scalpel is.
+      topology::Topology& topo = c.simulation().topology();
+      const topology::Index points = topo.pointCapacity(), triangles = topo.triangleCapacity();
+      try {
+        topology::CutOptions options;
+        options.snapTolerance = p_.snapTolerance;
+        result = topo.cutPolyline(piece, options);
+        c.countCut();
+      } catch (const TopologyError& e) {
+        if (topo.pointCapacity() == points && topo.triangleCapacity() == triangles) return;
+        c.fail(std::string("the cut failed: ") + e.what());
+      }
+    } else {
+      result = cut(c, piece);
+    }
+    if (!result.path.empty()) tip_ = c.simulation().topology().restPosition(result.path.back());
+    done_ = s;
+    if (s >= total) finished_ = true;
+  }
+
+ private:
+  topology::IncisionResult cut(ActionContext& c, std::span<const Vec3> polyline) {
+    topology::CutOptions options;
+    options.snapTolerance = p_.snapTolerance;
+    try {
+      topology::IncisionResult result = c.simulation().topology().cutPolyline(polyline, options);
+      c.countCut();
+      return result;
+    } catch (const TopologyError& e) {
+      c.fail(std::string("the cut failed: ") + e.what());
+    }
+    return {};  // not reached: fail() throws
+  }
+  Vec3 pointAt(double s) const {
+    const auto& p = p_.polyline;
+    std::size_t i = 1;
+    while (i + 1 < arc_.size() && arc_[i] < s) ++i;
+    const double len = arc_[i] - arc_[i - 1];
+    const double t = len > 0 ? std::clamp((s - arc_[i - 1]) / len, 0.0, 1.0) : 1.0;
+    return {p[i - 1][0] + t * (p[i][0] - p[i - 1][0]), p[i - 1][1] + t * (p[i][1] - p[i - 1][1]),
+            p[i - 1][2] + t * (p[i][2] - p[i - 1][2])};
+  }
+  /// The polyline between arc lengths s0 < s1.
+  std::vector<Vec3> pieceOf(double s0, double s1) const {
+    std::vector<Vec3> out{pointAt(s0)};
+    for (std::size_t i = 1; i + 1 < arc_.size(); ++i)
+      if (arc_[i] > s0 && arc_[i] < s1) out.push_back(p_.polyline[i]);
+    out.push_back(s1 >= arc_.back() ? p_.polyline.back() : pointAt(s1));
+    return out;
+  }
+
+  CutParameters p_;
+  ActionTiming timing_;
+  std::vector<double> arc_;  // cumulative length at each polyline vertex
+  double done_ = 0.0;        // arc length cut so far
+  bool started_ = false, finished_ = false;
+  double minPiece_ = 0.0;
+  // Where the previous piece really ended (its last path vertex, which snapping may have put a
+  // little off the polyline): the next piece starts there, so that it continues from the cut's tip.
+  std::optional<Vec3> tip_;
+};
+
+const bool registered = ActionRegistry::instance().add({
+    "cut",
+    "a cut along a polyline in rest coordinates, at a time (\"at\") or progressively over an interval "
+    "(\"from\", \"to\": a scalpel at constant speed)",
+    {{"at", "time of the cut"},
+     {"from", "start of a progressive cut"},
+     {"to", "end of a progressive cut"},
+     {"polyline", "[[x, y, z], ...] in rest coordinates, at least 2 points"},
+     {"snapTolerance", "relative to the local edge length, in [0, 0.5) (default 0.1)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      CutParameters p;
+      p.polyline = s.points("polyline", 2);
+      if (s.has("snapTolerance")) {
+        p.snapTolerance = s.nonNegative("snapTolerance", p.snapTolerance);
+        if (!(p.snapTolerance < 0.5)) s.fail("snapTolerance", "must be < 0.5");
+      }
+      return p;
+    },
+    [](const std::any& p, const ActionTiming& timing) -> std::unique_ptr<TimelineAction> {
+      return std::make_unique<CutAction>(std::any_cast<const CutParameters&>(p), timing);
+    }});
+
+}  // namespace
+}  // namespace cutsim::core

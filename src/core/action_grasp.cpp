@@ -1,0 +1,110 @@
+// The "grasp" and "release" actions: points that follow a displacement path from where they are
+// when grasped, and the end of that.
+#include "cutsim/core/timeline.hpp"
+#include "cutsim/forcefields/parameters.hpp"
+
+namespace cutsim::core {
+namespace {
+
+/// Fails at the first selected id beyond the mesh (ids are checked against the mesh in the dry run).
+void checkIds(DryRunContext& c, const PointSelection& sel) {
+  if (sel.kind != PointSelection::Kind::Points) return;
+  const std::size_t n = c.restMesh().points.size();
+  for (std::size_t i = 0; i < sel.points.size(); ++i)
+    if (sel.points[i] >= n)
+      c.fail("points/" + std::to_string(i), "must be between 0 and " + std::to_string(long(n) - 1) + " (got " +
+                                                std::to_string(sel.points[i]) + ")");
+}
+
+class GraspAction final : public TimelineAction {
+ public:
+  explicit GraspAction(GraspParameters p) : p_(std::move(p)) {}
+  void dryRun(DryRunContext& c) const override {
+    if (c.activeGrasps().count(p_.name)) c.fail("name", "a grasp named \"" + p_.name + "\" is already active");
+    checkIds(c, p_.selection);
+    if (p_.selection.resolve(c.topology()).empty())
+      c.fail(std::string(p_.selection.key()), "selects no live point at that time");
+    c.activeGrasps().insert(p_.name);
+  }
+  void start(ActionContext& c) override {
+    const std::vector<PointId> points = p_.selection.resolve(c.simulation().topology());
+    if (points.empty()) c.fail("the grasp selects no live point");
+    c.simulation().addGrasp(p_.name, points, p_.path);
+  }
+  std::string graspName() const override { return p_.name; }
+
+ private:
+  GraspParameters p_;
+};
+
+class ReleaseAction final : public TimelineAction {
+ public:
+  explicit ReleaseAction(ReleaseParameters p) : p_(std::move(p)) {}
+  void dryRun(DryRunContext& c) const override {
+    if (!c.activeGrasps().erase(p_.name))
+      c.fail("name", "no grasp named \"" + p_.name + "\" is active at that time");
+  }
+  void start(ActionContext& c) override { c.simulation().releaseGrasp(p_.name); }
+
+ private:
+  ReleaseParameters p_;
+};
+
+DisplacementPath readPath(const ParameterSource& s) {
+  DisplacementPath out;
+  s.require("path");
+  const auto rows = s.rows("path", 4, 1);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const double t = rows[i][0];
+    const std::string key = "path/" + std::to_string(i) + "/0";
+    if (t < 0) s.fail(key, "path times are relative to the grasp's start: must be >= 0");
+    if (!out.times.empty() && !(t > out.times.back())) s.fail(key, "path times must increase strictly");
+    out.times.push_back(t);
+    out.displacements.push_back({rows[i][1], rows[i][2], rows[i][3]});
+  }
+  return out;
+}
+
+std::string readName(const ParameterSource& s) {
+  s.require("name");
+  std::string name = s.string("name");
+  if (name.empty()) s.fail("name", "must not be empty");
+  return name;
+}
+
+const bool graspRegistered = ActionRegistry::instance().add({
+    "grasp",
+    "points (resolved when it starts) that follow their position then plus a displacement path",
+    {{"at", "time the grasp starts"},
+     {"name", "unique among the active grasps; names the CSV's reaction-force columns"},
+     {"points", "[ids] of the mesh as loaded"},
+     {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
+     {"near", "[[x, y, z], ...]: the nearest live point to each position, in rest coordinates"},
+     {"path", "[[t, dx, dy, dz], ...]: times from the grasp's start, strictly increasing"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      GraspParameters p;
+      p.name = readName(s);
+      p.selection = PointSelection::read(s);
+      p.path = readPath(s);
+      return p;
+    },
+    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+      return std::make_unique<GraspAction>(std::any_cast<const GraspParameters&>(p));
+    }});
+
+const bool releaseRegistered = ActionRegistry::instance().add({
+    "release",
+    "ends an active grasp",
+    {{"at", "time of the release"}, {"name", "the grasp to release"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      s.require("name");
+      return ReleaseParameters{s.string("name")};
+    },
+    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+      return std::make_unique<ReleaseAction>(std::any_cast<const ReleaseParameters&>(p));
+    }});
+
+}  // namespace
+}  // namespace cutsim::core

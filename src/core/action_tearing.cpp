@@ -1,0 +1,44 @@
+// The "tearing" action: from its time on, after each step, tears the interior edges whose two
+// triangles are both strained across the edge above a threshold, the most strained first.
+#include "cutsim/core/timeline.hpp"
+#include "tearing.hpp"
+
+namespace cutsim::core {
+namespace {
+
+class TearingAction final : public TimelineAction {
+ public:
+  explicit TearingAction(TearingParameters p) : p_(p) {}
+  void dryRun(DryRunContext&) const override {}
+  void start(ActionContext&) override { on_ = true; }
+  void afterStep(ActionContext& c) override {
+    if (!on_) return;
+    Simulation& sim = c.simulation();
+    c.countTorn(tearOverstrained(sim.topology(), sim.state().x(), p_.threshold, p_.maxPerStep));
+  }
+
+ private:
+  TearingParameters p_;
+  bool on_ = false;
+};
+
+const bool registered = ActionRegistry::instance().add({
+    "tearing",
+    "from its time on, tears the edges strained across above a threshold after each step",
+    {{"at", "time tearing starts"},
+     {"threshold", "Green strain normal to an edge above which it tears, > 0 (required)"},
+     {"maxPerStep", "edges torn per step at most, >= 1 (default 4)"}},
+    {},
+    [](const ParameterSource& s) -> std::any {
+      TearingParameters p;
+      s.require("threshold");
+      p.threshold = s.positive("threshold", 0.0);
+      p.maxPerStep = int(s.integer("maxPerStep", 1, 1000000, p.maxPerStep));
+      return p;
+    },
+    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+      return std::make_unique<TearingAction>(std::any_cast<const TearingParameters&>(p));
+    }});
+
+}  // namespace
+}  // namespace cutsim::core

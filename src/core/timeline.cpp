@@ -1,0 +1,107 @@
+// What the timeline's actions and the scene's constraints share: point selections, regions, the
+// contexts' and interfaces' destructors (timeline.hpp).
+#include "cutsim/core/timeline.hpp"
+
+#include <algorithm>
+#include <limits>
+
+#include "cutsim/topology/geometry.hpp"
+
+namespace cutsim::core {
+
+using topology::geometry::dist2;
+
+ActionContext::~ActionContext() = default;
+DryRunContext::~DryRunContext() = default;
+TimelineAction::~TimelineAction() = default;
+SceneConstraint::~SceneConstraint() = default;
+
+PointSelection PointSelection::read(const ParameterSource& s) {
+  PointSelection sel;
+  const std::string_view key = s.oneOf({"points", "box", "near"});
+  if (key == "points") {
+    sel.kind = Kind::Points;
+    const std::vector<long> ids = s.integers("points", 0, long(std::numeric_limits<topology::Index>::max()) - 1);
+    if (ids.empty()) s.fail("points", "lists no point");
+    for (long id : ids) sel.points.push_back(PointId(id));
+  } else if (key == "box") {
+    sel.kind = Kind::Box;
+    std::tie(sel.boxMin, sel.boxMax) = s.box("box");
+  } else {
+    sel.kind = Kind::Near;
+    sel.near = s.points("near", 1);
+  }
+  return sel;
+}
+
+std::string_view PointSelection::key() const {
+  switch (kind) {
+    case Kind::Points: return "points";
+    case Kind::Box: return "box";
+    case Kind::Near: return "near";
+  }
+  return "";
+}
+
+std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) const {
+  std::vector<PointId> out;
+  switch (kind) {
+    case Kind::Points:
+      for (PointId p : points) {
+        if (p < topo.pointCapacity() && topo.isPointAlive(p)) out.push_back(p);
+      }
+      break;
+    case Kind::Box:
+      for (PointId p : topo.points()) {
+        const Vec3 x = topo.restPosition(p);
+        bool inside = true;
+        for (int k = 0; k < 3; ++k) inside = inside && x[k] >= boxMin[k] && x[k] <= boxMax[k];
+        if (inside) out.push_back(p);
+      }
+      break;
+    case Kind::Near: {
+      const std::vector<PointId> live = topo.points();
+      if (live.empty()) break;
+      for (const Vec3& q : near) {
+        PointId best = live.front();
+        double bestD = dist2(topo.restPosition(best), q);
+        for (PointId p : live) {
+          const double d = dist2(topo.restPosition(p), q);
+          if (d < bestD) {
+            bestD = d;
+            best = p;
+          }
+        }
+        out.push_back(best);
+      }
+      break;
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+bool Region::contains(const Vec3& p) const {
+  if (kind == Kind::Sphere) return dist2(p, center) <= radius * radius;
+  for (int k = 0; k < 3; ++k) {
+    if (p[k] < boxMin[k] || p[k] > boxMax[k]) return false;
+  }
+  return true;
+}
+
+std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region) {
+  std::vector<topology::TriangleId> out;
+  for (topology::TriangleId t : topo.triangles()) {
+    const auto v = topo.triangleVertices(t);
+    Vec3 c{0, 0, 0};
+    for (int i = 0; i < 3; ++i) {
+      const Vec3 p = topo.restPosition(v[i]);
+      for (int k = 0; k < 3; ++k) c[k] += p[k] / 3.0;
+    }
+    if (region.contains(c)) out.push_back(t);
+  }
+  return out;
+}
+
+}  // namespace cutsim::core

@@ -1,0 +1,130 @@
+#pragma once
+// Timeline actions and scene constraints as registered components. Each kind (cut, remove,
+// tearing, grasp, release; the fixed constraint) registers in its own source file its name, its
+// keys, how to read its parameters from a ParameterSource and how to build itself; the scene reads
+// them through ActionRegistry and ConstraintRegistry, as it reads force fields and integrators.
+//
+// An action is built afresh for each run (it may keep state: a progressive cut's progress). Before
+// anything runs, dryRun() checks it on a copy of the rest mesh that the timeline's earlier actions
+// have already changed; during the run, start() runs it when it is due and afterStep() after each
+// later step (the actions that go on: a progressive cut, tearing), in timeline order.
+#include <memory>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cutsim/core/constraints.hpp"
+#include "cutsim/core/simulation.hpp"
+#include "cutsim/forcefields/registry.hpp"
+#include "cutsim/topology/mesh_io.hpp"
+
+namespace cutsim::core {
+
+/// A choice of points in rest coordinates: listed ids, a box (inclusive), or for each given
+/// position the nearest live point (ties: lowest id).
+struct PointSelection {
+  enum class Kind { Points, Box, Near };
+  Kind kind = Kind::Points;
+  std::vector<PointId> points;
+  Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
+  std::vector<Vec3> near;
+  /// The selected live points, ascending, without repeats.
+  std::vector<PointId> resolve(const topology::Topology& topology) const;
+  /// Reads "points", "box" or "near" (exactly one) from s.
+  static PointSelection read(const ParameterSource& s);
+  /// The selection's key ("points", "box", "near").
+  std::string_view key() const;
+};
+
+/// A region of rest space: a sphere or a box.
+struct Region {
+  enum class Kind { Sphere, Box };
+  Kind kind = Kind::Sphere;
+  Vec3 center{0, 0, 0};
+  double radius = 0.0;
+  Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
+  bool contains(const Vec3& p) const;
+};
+/// The live triangles whose rest centroid lies in the region.
+std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region);
+
+/// When an action runs: at a time, or over an interval (entries whose keys include "from").
+struct ActionTiming {
+  double at = 0.0;
+  double from = 0.0, to = 0.0;
+  bool interval = false;
+  double start() const { return interval ? from : at; }
+};
+
+/// What a running action may use.
+class ActionContext {
+ public:
+  virtual ~ActionContext();
+  virtual Simulation& simulation() = 0;
+  virtual double time() const = 0;      ///< the current time
+  virtual double timeStep() const = 0;  ///< the scene's
+  virtual double meanRestEdge() const = 0;  ///< of the mesh the scene starts from
+  /// Ends the run with "FILE:LINE: /timeline/i: at t = T " + message.
+  [[noreturn]] virtual void fail(const std::string& message) const = 0;
+  virtual void countCut() = 0;
+  virtual void countTorn(long edges) = 0;
+};
+
+/// What an action's check before the run may use.
+class DryRunContext {
+ public:
+  virtual ~DryRunContext();
+  /// The copy of the rest mesh, as the timeline's earlier actions leave it.
+  virtual topology::Topology& topology() = 0;
+  /// The mesh the scene starts from.
+  virtual const topology::MeshData& restMesh() const = 0;
+  /// Names of the grasps active at the action's time.
+  virtual std::set<std::string>& activeGrasps() = 0;
+  /// Fails the scene at a key path of the action ("polyline/2"; "" for the action itself).
+  [[noreturn]] virtual void fail(std::string_view key, const std::string& message) const = 0;
+};
+
+class TimelineAction {
+ public:
+  virtual ~TimelineAction();
+  virtual void dryRun(DryRunContext& c) const = 0;
+  virtual void start(ActionContext& c) = 0;
+  virtual void afterStep(ActionContext& /*c*/) {}
+  /// The grasp it starts, for the CSV's columns ("" for other actions).
+  virtual std::string graspName() const { return ""; }
+};
+using ActionRegistry = Registry<TimelineAction, const ActionTiming&>;
+
+/// A constraint of the scene's "constraints" list.
+class SceneConstraint {
+ public:
+  virtual ~SceneConstraint();
+  virtual void dryRun(DryRunContext& c) const = 0;
+  virtual void apply(Simulation& sim) const = 0;
+};
+using ConstraintRegistry = Registry<SceneConstraint>;
+
+// ---- the parameters of the project's actions (what their entries read) ----
+
+struct CutParameters {
+  std::vector<Vec3> polyline;  ///< rest coordinates
+  double snapTolerance = 0.1;
+};
+struct RemoveParameters {
+  Region region;
+};
+struct TearingParameters {
+  double threshold = 0.0;  ///< Green strain normal to an edge above which it tears
+  int maxPerStep = 4;      ///< edges torn per step at most
+};
+struct GraspParameters {
+  std::string name;
+  PointSelection selection;
+  DisplacementPath path;  ///< times relative to the grasp's start
+};
+struct ReleaseParameters {
+  std::string name;
+};
+
+}  // namespace cutsim::core
