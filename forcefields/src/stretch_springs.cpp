@@ -15,8 +15,6 @@ namespace {
 using topology::kInvalidIndex;
 using topology::Topology;
 
-constexpr std::uint32_t kNoSpring = 0xFFFFFFFFu;
-
 /// Below this squared length a spring has no direction (u undefined): it is skipped. The smallest
 /// normal double keeps l^2 exact enough for u = d / l to be a unit vector.
 constexpr double kMinLength2 = std::numeric_limits<double>::min();
@@ -82,14 +80,9 @@ StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
       constructedStableJacobian_(parameters.stableJacobian) {
   params_.validate();
   const std::vector<StretchRecord> records = buildFromScratch(topology);
-  edgeSlot_.reserve(std::size_t(topology.edgeCapacity()) * 5 / 4);
-  edgeSlot_.assign(topology.edgeCapacity(), kNoSpring);
-  // A quarter more than the mesh has, as the topology reserves: the first cuts add springs
-  // without copying the table (later growth is geometric, by push_back).
-  springs_.reserve(records.size() + records.size() / 4);
-  springEdge_.reserve(records.size() + records.size() / 4);
+  table_.reset(topology.edgeCapacity(), records.size());
   for (const StretchRecord& r : records) {
-    addSpring(r.edge, r.vertices[0], r.vertices[1], r.restLength);
+    table_.set(r.edge, {r.vertices[0], r.vertices[1], r.restLength});
   }
   subscription_ = topology.subscribe(*this);
 }
@@ -107,39 +100,11 @@ std::vector<StretchRecord> StretchSprings::buildFromScratch(const Topology& topo
   return records;
 }
 
-void StretchSprings::ensureEdgeSlots(std::size_t n) {
-  if (edgeSlot_.size() < n) edgeSlot_.resize(n, kNoSpring);
-}
-
-void StretchSprings::addSpring(EdgeId e, PointId a, PointId b, double restLength) {
-  ensureEdgeSlots(static_cast<std::size_t>(e) + 1);
-  const StretchSpring s{a, b, restLength};
-  if (edgeSlot_[e] != kNoSpring) {
-    springs_[edgeSlot_[e]] = s;
-    return;
-  }
-  if (springs_.size() >= kNoSpring) throw std::length_error("StretchSprings: too many springs");
-  edgeSlot_[e] = static_cast<std::uint32_t>(springs_.size());
-  springs_.push_back(s);
-  springEdge_.push_back(e);
-}
-
-void StretchSprings::removeSpring(std::uint32_t slot) {
-  const std::uint32_t last = static_cast<std::uint32_t>(springs_.size() - 1);
-  edgeSlot_[springEdge_[slot]] = kNoSpring;
-  if (slot != last) {
-    springs_[slot] = springs_[last];
-    springEdge_[slot] = springEdge_[last];
-    edgeSlot_[springEdge_[slot]] = slot;
-  }
-  springs_.pop_back();
-  springEdge_.pop_back();
-}
-
 StretchRecord StretchSprings::spring(EdgeId e) const {
   StretchRecord r;
-  if (e >= edgeSlot_.size() || edgeSlot_[e] == kNoSpring) return r;
-  const StretchSpring& s = springs_[edgeSlot_[e]];
+  const Index i = table_.find(e);
+  if (i == table_.kNoEntry) return r;
+  const StretchSpring& s = table_.entry(i);
   r.edge = e;
   r.vertices = {s.a, s.b};
   r.restLength = s.restLength;
@@ -148,19 +113,11 @@ StretchRecord StretchSprings::spring(EdgeId e) const {
 
 std::vector<StretchRecord> StretchSprings::records() const {
   std::vector<StretchRecord> out;
-  out.reserve(springs_.size());
-  for (EdgeId e = 0; e < edgeSlot_.size(); ++e) {
-    if (edgeSlot_[e] != kNoSpring) out.push_back(spring(e));
+  out.reserve(table_.size());
+  for (EdgeId e = 0; e < table_.numSlots(); ++e) {
+    if (table_.hasEntry(e)) out.push_back(spring(e));
   }
   return out;
-}
-
-double StretchSprings::bytesPerEdgeSlot() const {
-  if (edgeSlot_.empty()) return 0.0;
-  const double bytes = static_cast<double>(springs_.size() * sizeof(StretchSpring) +
-                                           springEdge_.size() * sizeof(std::uint32_t) +
-                                           edgeSlot_.size() * sizeof(std::uint32_t));
-  return bytes / static_cast<double>(edgeSlot_.size());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -188,7 +145,7 @@ void StretchSprings::addForce(std::span<const double> x, std::span<const double>
   double* __restrict fp = f.data();
   // Springs are taken by value in the force passes: a store into f could otherwise alias the
   // table, and the compiler would reload the spring after every store.
-  for (const StretchSpring s : springs_) {
+  for (const StretchSpring s : table_.entries()) {
     double u[3], l;
     if (!direction(xp, s.a, s.b, u, l)) continue;
     double intensity = -ks * (l - s.restLength);
@@ -217,9 +174,10 @@ void StretchSprings::addDForce(std::span<const double> x, std::span<const double
   const Linearisation* __restrict lin = linearisation(x).data();
   const double* __restrict dxp = dx.data();
   double* __restrict dfp = df.data();
-  const std::size_t count = springs_.size();
+  const StretchSpring* __restrict springs = table_.entries().data();
+  const std::size_t count = table_.size();
   for (std::size_t i = 0; i < count; ++i) {
-    const StretchSpring s = springs_[i];
+    const StretchSpring s = springs[i];
     const Linearisation& L = lin[i];
     const double* da = dxp + 3 * static_cast<std::size_t>(s.a);
     const double* db = dxp + 3 * static_cast<std::size_t>(s.b);
@@ -241,14 +199,15 @@ void StretchSprings::addDForce(std::span<const double> x, std::span<const double
 
 const std::vector<StretchSprings::Linearisation>& StretchSprings::linearisation(
     std::span<const double> x) const {
-  if (linValid_ && linX_.size() == x.size() && lin_.size() == springs_.size() &&
+  const std::span<const StretchSpring> springs = table_.entries();
+  if (linValid_ && linX_.size() == x.size() && lin_.size() == springs.size() &&
       std::memcmp(linX_.data(), x.data(), x.size() * sizeof(double)) == 0)
     return lin_;
   const bool stable = params_.stableJacobian;
   const double* __restrict xp = x.data();
-  lin_.resize(springs_.size());
-  for (std::size_t i = 0; i < springs_.size(); ++i) {
-    const StretchSpring s = springs_[i];
+  lin_.resize(springs.size());
+  for (std::size_t i = 0; i < springs.size(); ++i) {
+    const StretchSpring s = springs[i];
     Linearisation& L = lin_[i];
     double l;
     if (direction(xp, s.a, s.b, L.u, l)) {
@@ -267,7 +226,7 @@ double StretchSprings::potentialEnergy(std::span<const double> x) const {
   checkSize(x, "x", "potentialEnergy");
   const double* __restrict xp = x.data();
   double e = 0.0;
-  for (const StretchSpring s : springs_) {
+  for (const StretchSpring s : table_.entries()) {
     const double* xa = xp + 3 * static_cast<std::size_t>(s.a);
     const double* xb = xp + 3 * static_cast<std::size_t>(s.b);
     const double d0 = xb[0] - xa[0], d1 = xb[1] - xa[1], d2 = xb[2] - xa[2];
@@ -282,7 +241,7 @@ void StretchSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& 
   checkSize(x, "x", "addKToMatrix");
   const double k = kFactor * params_.stiffness;
   const bool stable = params_.stableJacobian;
-  for (const StretchSpring s : springs_) {
+  for (const StretchSpring s : table_.entries()) {
     double u[3], l;
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
     if (direction(x.data(), s.a, s.b, u, l)) {
@@ -300,7 +259,7 @@ void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& 
   const double b = bFactor * params_.damping;
   if (b == 0.0) return;
   checkSize(x, "x", "addBToMatrix");
-  for (const StretchSpring s : springs_) {
+  for (const StretchSpring s : table_.entries()) {
     double u[3], l;
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
     if (direction(x.data(), s.a, s.b, u, l)) {
@@ -324,8 +283,8 @@ bool StretchSprings::setExactStiffness(bool exact) {
 }
 
 void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
-  segments.reserve(segments.size() + springs_.size());
-  for (const StretchSpring& s : springs_) segments.push_back({s.a, s.b});
+  segments.reserve(segments.size() + table_.size());
+  for (const StretchSpring& s : table_.entries()) segments.push_back({s.a, s.b});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -337,77 +296,36 @@ void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
 void StretchSprings::onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& ev) {
   linValid_ = false;
   for (EdgeId e : ev.edges) {
-    if (e >= edgeSlot_.size() || edgeSlot_[e] == kNoSpring) {
+    if (!table_.hasEntry(e)) {
       eventProblems_.push_back("edges destroyed: " + edgeName(e) + " had no spring");
       continue;
     }
-    removeSpring(edgeSlot_[e]);
+    table_.setStatus(e, detail::StretchTableTraits::Status::NoSpring);
   }
 }
 
 void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCreated& ev) {
   linValid_ = false;
-  ensureEdgeSlots(t.edgeCapacity());
+  table_.grow(t);
   for (std::size_t i = 0; i < ev.edges.size(); ++i) {
     const EdgeId e = ev.edges[i];
     const topology::EdgeVertices& v = ev.vertices[i];
-    if (e < edgeSlot_.size() && edgeSlot_[e] != kNoSpring) {
+    if (table_.hasEntry(e)) {
       eventProblems_.push_back("edges created: " + edgeName(e) + " already had a spring");
     }
-    addSpring(e, v[0], v[1], restLengthOf(t, v[0], v[1]));
+    table_.set(e, {v[0], v[1], restLengthOf(t, v[0], v[1])});
   }
 }
 
 void StretchSprings::onPointsRenumbered(const Topology&, const topology::Renumbering& ev) {
   linValid_ = false;
-  const std::span<const topology::Index> map = ev.oldToNew;
-  auto remap = [&](std::uint32_t& p) {
-    const topology::Index n = p < map.size() ? map[p] : kInvalidIndex;
-    if (n == kInvalidIndex) {
-      eventProblems_.push_back("points renumbered: a spring references dead point " +
-                               std::to_string(p));
-    } else {
-      p = n;
-    }
-  };
-  for (StretchSpring& s : springs_) {
-    remap(s.a);
-    remap(s.b);
-  }
+  table_.remapPoints(ev, eventProblems_);
 }
 
 void StretchSprings::onEdgesRenumbered(const Topology&, const topology::Renumbering& ev) {
   linValid_ = false;
-  // Entries move old -> new with their edges; the springs are re-laid out in the new edge order,
-  // which restores the streaming locality of a fresh mesh.
-  std::vector<std::uint32_t> slots(ev.newSize, kNoSpring);
-  for (std::size_t old = 0; old < edgeSlot_.size(); ++old) {
-    const topology::Index n = old < ev.oldToNew.size() ? ev.oldToNew[old] : kInvalidIndex;
-    if (n == kInvalidIndex || n >= ev.newSize) {
-      if (edgeSlot_[old] != kNoSpring) {
-        eventProblems_.push_back("edges renumbered: " + edgeName(static_cast<EdgeId>(old)) +
-                                 " has a spring but no new index");
-      }
-      continue;
-    }
-    slots[n] = edgeSlot_[old];
-  }
-  std::vector<StretchSpring> springs;
-  std::vector<std::uint32_t> springEdge;
-  springs.reserve(springs_.size());
-  springEdge.reserve(springs_.size());
-  for (EdgeId e = 0; e < slots.size(); ++e) {
-    if (slots[e] == kNoSpring) continue;
-    springs.push_back(springs_[slots[e]]);
-    springEdge.push_back(e);
-    slots[e] = static_cast<std::uint32_t>(springs.size() - 1);
-  }
-  if (springs.size() != springs_.size()) {
-    eventProblems_.push_back("edges renumbered: springs lost with their edges");
-  }
-  springs_ = std::move(springs);
-  springEdge_ = std::move(springEdge);
-  edgeSlot_ = std::move(slots);
+  // The springs move with their edges and are re-laid out in the new edge order.
+  table_.renumber(ev, eventProblems_);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -436,41 +354,8 @@ bool sameSpring(const StretchRecord& a, const StretchRecord& b) {
 void StretchSprings::validate(const Topology& topology, std::vector<std::string>& problems) const {
   for (const std::string& p : eventProblems_) problems.push_back(p);
 
-  // Internal consistency of the compact array and the edge map.
-  if (springs_.size() != springEdge_.size()) {
-    problems.push_back("springs and their edge back-references differ in size");
-    return;
-  }
-  for (std::size_t s = 0; s < springs_.size(); ++s) {
-    const std::uint32_t e = springEdge_[s];
-    if (e >= edgeSlot_.size() || edgeSlot_[e] != s) {
-      problems.push_back("spring " + std::to_string(s) + " of " + edgeName(e) +
-                         " is not what the edge map points to");
-    }
-  }
-  if (edgeSlot_.size() < topology.edgeCapacity()) {
-    problems.push_back("the table has " + std::to_string(edgeSlot_.size()) +
-                       " edge slots, the topology " + std::to_string(topology.edgeCapacity()));
-  }
-  for (EdgeId e = 0; e < edgeSlot_.size(); ++e) {
-    const bool alive = e < topology.edgeCapacity() && topology.isEdgeAlive(e);
-    const bool inTable = edgeSlot_[e] != kNoSpring;
-    if (alive != inTable) {
-      problems.push_back(edgeName(e) +
-                         (alive ? " is alive but has no spring" : " is dead but has a spring"));
-    }
-  }
-
-  // Springs on live points only.
-  const Index cap = topology.pointCapacity();
-  for (std::size_t s = 0; s < springs_.size(); ++s) {
-    for (std::uint32_t v : {springs_[s].a, springs_[s].b}) {
-      if (v >= cap || !topology.isPointAlive(v)) {
-        problems.push_back("spring of " + edgeName(springEdge_[s]) + " references dead point " +
-                           std::to_string(v));
-      }
-    }
-  }
+  // The table's own consistency, live edges against its slots, springs on live points only.
+  table_.validate(topology, problems, "");
 
   // Against the rebuild.
   const std::vector<StretchRecord> ref = buildFromScratch(topology);
@@ -484,8 +369,8 @@ void StretchSprings::validate(const Topology& topology, std::vector<std::string>
                          describeRecord(r));
     }
   }
-  if (springs_.size() != ref.size()) {
-    problems.push_back(std::to_string(springs_.size()) + " springs, a rebuild has " +
+  if (table_.size() != ref.size()) {
+    problems.push_back(std::to_string(table_.size()) + " springs, a rebuild has " +
                        std::to_string(ref.size()));
   }
 }

@@ -16,8 +16,7 @@ namespace {
 using topology::kInvalidIndex;
 using topology::Topology;
 
-constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;          // dead triangle (or beyond the table)
-constexpr std::uint32_t kDegenerateSlot = 0xFFFFFFFEu;  // live triangle without an element
+using TableStatus = detail::FemTableTraits::Status;
 
 /// A triangle whose rest area is below this fraction of its longest edge squared has no element.
 constexpr double kMinRestShape = 1e-12;
@@ -144,12 +143,7 @@ TriangularFEM::TriangularFEM(Topology& topology, TriangularFEMParameters paramet
   mu_ = params_.thickness * params_.youngModulus / (2.0 * (1.0 + nu));
   lambda_ = params_.thickness * params_.youngModulus * nu / (1.0 - nu * nu);
   const std::vector<FemRecord> records = buildFromScratch(topology);
-  triSlot_.reserve(std::size_t(topology.triangleCapacity()) * 5 / 4);
-  triSlot_.assign(topology.triangleCapacity(), kNoSlot);
-  // A quarter more than the mesh has, as the topology reserves: the first cuts add elements
-  // without copying the table (later growth is geometric, by push_back).
-  elements_.reserve(records.size() + records.size() / 4);
-  elementTriangle_.reserve(records.size() + records.size() / 4);
+  table_.reset(topology.triangleCapacity(), records.size());
   for (const FemRecord& r : records) setTriangle(r.triangle, r);
   subscription_ = topology.subscribe(*this);
 }
@@ -189,57 +183,31 @@ std::vector<FemRecord> TriangularFEM::buildFromScratch(const Topology& topology)
   return records;
 }
 
-void TriangularFEM::ensureSlots(std::size_t n) {
-  if (triSlot_.size() < n) triSlot_.resize(n, kNoSlot);
-}
-
-void TriangularFEM::removeElement(std::uint32_t slot) {
-  const std::uint32_t last = static_cast<std::uint32_t>(elements_.size() - 1);
-  triSlot_[elementTriangle_[slot]] = kNoSlot;
-  if (slot != last) {
-    elements_[slot] = elements_[last];
-    elementTriangle_[slot] = elementTriangle_[last];
-    triSlot_[elementTriangle_[slot]] = slot;
-  }
-  elements_.pop_back();
-  elementTriangle_.pop_back();
-}
-
 void TriangularFEM::clearTriangle(TriangleId t) {
-  const std::uint32_t code = triSlot_[t];
-  if (code == kDegenerateSlot) {
-    --numDegenerate_;
-  } else if (code != kNoSlot) {
-    removeElement(code);
-  }
-  triSlot_[t] = kNoSlot;
+  if (!table_.hasEntry(t) && table_.status(t) == TableStatus::Degenerate) --numDegenerate_;
+  table_.setStatus(t, TableStatus::DeadTriangle);
 }
 
 void TriangularFEM::setTriangle(TriangleId t, const FemRecord& r) {
-  ensureSlots(static_cast<std::size_t>(t) + 1);
   clearTriangle(t);
   if (r.degenerate) {
-    triSlot_[t] = kDegenerateSlot;
+    table_.setStatus(t, TableStatus::Degenerate);
     ++numDegenerate_;
     return;
   }
-  if (elements_.size() >= kDegenerateSlot) {
-    throw std::length_error("TriangularFEM: too many elements");
-  }
-  triSlot_[t] = static_cast<std::uint32_t>(elements_.size());
-  elements_.push_back({{r.vertices[0], r.vertices[1], r.vertices[2]}, 0, r.g, r.area});
-  elementTriangle_.push_back(t);
+  table_.set(t, {{r.vertices[0], r.vertices[1], r.vertices[2]}, 0, r.g, r.area});
 }
 
 FemRecord TriangularFEM::element(TriangleId t) const {
   FemRecord r;
-  if (t >= triSlot_.size() || triSlot_[t] == kNoSlot) return r;
+  if (table_.isEmpty(t)) return r;
   r.triangle = t;
-  if (triSlot_[t] == kDegenerateSlot) {
+  const Index i = table_.find(t);
+  if (i == table_.kNoEntry) {
     r.degenerate = true;
     return r;
   }
-  const FemTriangle& e = elements_[triSlot_[t]];
+  const FemTriangle& e = table_.entry(i);
   r.vertices = {e.v[0], e.v[1], e.v[2]};
   r.g = e.g;
   r.area = e.area;
@@ -262,7 +230,7 @@ void TriangularFEM::addForce(std::span<const double> x, std::span<const double> 
                              std::span<double> f) const {
   checkSize(x, "x", "addForce");
   checkSize(f, "f", "addForce");
-  for (const FemTriangle& e : elements_) {
+  for (const FemTriangle& e : table_.entries()) {
     const ElementState st = evaluate(e, x.data());
     if (!st.hasRotation) continue;
     const Eigen::Matrix2d sigma = stress(st.s - Eigen::Matrix2d::Identity(), mu_, lambda_);
@@ -281,7 +249,7 @@ void TriangularFEM::addDForce(std::span<const double> x, std::span<const double>
   checkSize(dx, "dx", "addDForce");
   checkSize(df, "df", "addDForce");
   if (kFactor == 0.0) return;
-  for (const FemTriangle& e : elements_) {
+  for (const FemTriangle& e : table_.entries()) {
     const ElementState st = evaluate(e, x.data());
     if (!st.hasRotation) continue;
     const Eigen::Vector3d da = point(dx.data(), e.v[0]);
@@ -309,7 +277,7 @@ void TriangularFEM::addDForce(std::span<const double> x, std::span<const double>
 double TriangularFEM::potentialEnergy(std::span<const double> x) const {
   checkSize(x, "x", "potentialEnergy");
   double energy = 0.0;
-  for (const FemTriangle& e : elements_) {
+  for (const FemTriangle& e : table_.entries()) {
     const ElementState st = evaluate(e, x.data());
     const Eigen::Matrix2d eps = st.s - Eigen::Matrix2d::Identity();
     const double tr = eps(0, 0) + eps(1, 1);
@@ -327,7 +295,7 @@ void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m
     addExactKToMatrix(x, m, kFactor);
     return;
   }
-  for (const FemTriangle& e : elements_) {
+  for (const FemTriangle& e : table_.entries()) {
     const ElementState st = evaluate(e, x.data());
     const std::array<Eigen::Vector2d, 3> g = gradients(e);
     for (int k = 0; k < 3; ++k) {
@@ -347,7 +315,7 @@ void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m
 void TriangularFEM::addExactKToMatrix(std::span<const double> x, MatrixAccumulator& m,
                                       double kFactor) const {
   using Mat9 = Eigen::Matrix<double, 9, 9>;
-  for (const FemTriangle& e : elements_) {
+  for (const FemTriangle& e : table_.entries()) {
     const ElementState st = evaluate(e, x.data());
     const std::array<Eigen::Vector2d, 3> g = gradients(e);
     Mat9 ke = Mat9::Zero();
@@ -380,8 +348,8 @@ void TriangularFEM::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulato
                                  double /*bFactor*/) const {}
 
 void TriangularFEM::draw(std::vector<std::array<PointId, 2>>& segments) const {
-  segments.reserve(segments.size() + 3 * elements_.size());
-  for (const FemTriangle& e : elements_) {
+  segments.reserve(segments.size() + 3 * table_.size());
+  for (const FemTriangle& e : table_.entries()) {
     segments.push_back({e.v[0], e.v[1]});
     segments.push_back({e.v[1], e.v[2]});
     segments.push_back({e.v[2], e.v[0]});
@@ -394,7 +362,7 @@ void TriangularFEM::draw(std::vector<std::array<PointId, 2>>& segments) const {
 
 void TriangularFEM::onTrianglesDestroyed(const Topology&, const topology::TrianglesDestroyed& ev) {
   for (TriangleId t : ev.triangles) {
-    if (t >= triSlot_.size() || triSlot_[t] == kNoSlot) {
+    if (table_.isEmpty(t)) {
       eventProblems_.push_back("triangles destroyed: " + triangleName(t) + " was not in the table");
       continue;
     }
@@ -403,9 +371,9 @@ void TriangularFEM::onTrianglesDestroyed(const Topology&, const topology::Triang
 }
 
 void TriangularFEM::onTrianglesCreated(const Topology& t, const topology::TrianglesCreated& ev) {
-  ensureSlots(t.triangleCapacity());
+  table_.grow(t);
   for (TriangleId tri : ev.triangles) {
-    if (triSlot_[tri] != kNoSlot) {
+    if (!table_.isEmpty(tri)) {
       eventProblems_.push_back("triangles created: " + triangleName(tri) +
                                " was already in the table");
     }
@@ -414,49 +382,12 @@ void TriangularFEM::onTrianglesCreated(const Topology& t, const topology::Triang
 }
 
 void TriangularFEM::onPointsRenumbered(const Topology&, const topology::Renumbering& ev) {
-  const std::span<const topology::Index> map = ev.oldToNew;
-  for (FemTriangle& e : elements_) {
-    for (std::uint32_t& p : e.v) {
-      const topology::Index n = p < map.size() ? map[p] : kInvalidIndex;
-      if (n == kInvalidIndex) {
-        eventProblems_.push_back("points renumbered: an element references dead point " +
-                                 std::to_string(p));
-      } else {
-        p = n;
-      }
-    }
-  }
+  table_.remapPoints(ev, eventProblems_);
 }
 
 void TriangularFEM::onTrianglesRenumbered(const Topology&, const topology::Renumbering& ev) {
-  std::vector<std::uint32_t> slots(ev.newSize, kNoSlot);
-  for (std::size_t old = 0; old < triSlot_.size(); ++old) {
-    const topology::Index n = old < ev.oldToNew.size() ? ev.oldToNew[old] : kInvalidIndex;
-    if (n == kInvalidIndex || n >= ev.newSize) {
-      if (triSlot_[old] != kNoSlot) {
-        eventProblems_.push_back("triangles renumbered: live " +
-                                 triangleName(static_cast<TriangleId>(old)) + " has no new index");
-      }
-      continue;
-    }
-    slots[n] = triSlot_[old];
-  }
-  std::vector<FemTriangle> elements;
-  std::vector<std::uint32_t> elementTriangle;
-  elements.reserve(elements_.size());
-  elementTriangle.reserve(elements_.size());
-  for (TriangleId t = 0; t < slots.size(); ++t) {
-    if (slots[t] == kNoSlot || slots[t] == kDegenerateSlot) continue;
-    elements.push_back(elements_[slots[t]]);
-    elementTriangle.push_back(t);
-    slots[t] = static_cast<std::uint32_t>(elements.size() - 1);
-  }
-  if (elements.size() != elements_.size()) {
-    eventProblems_.push_back("triangles renumbered: elements lost with their triangles");
-  }
-  elements_ = std::move(elements);
-  elementTriangle_ = std::move(elementTriangle);
-  triSlot_ = std::move(slots);
+  // The elements move with their triangles and are re-laid out in the new triangle order.
+  table_.renumber(ev, eventProblems_);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -522,37 +453,11 @@ std::string describeRecord(const FemRecord& r) {
 
 void TriangularFEM::validate(const Topology& topology, std::vector<std::string>& problems) const {
   for (const std::string& p : eventProblems_) problems.push_back(p);
-  if (elements_.size() != elementTriangle_.size()) {
-    problems.push_back("elements and their triangle back-references differ in size");
-    return;
-  }
-  for (std::size_t s = 0; s < elements_.size(); ++s) {
-    const std::uint32_t t = elementTriangle_[s];
-    if (t >= triSlot_.size() || triSlot_[t] != s) {
-      problems.push_back("element " + std::to_string(s) + " of " + triangleName(t) +
-                         " is not what the triangle map points to");
-    }
-    for (std::uint32_t p : elements_[s].v) {
-      if (p >= topology.pointCapacity() || !topology.isPointAlive(p)) {
-        problems.push_back("element of " + triangleName(t) + " references dead point " +
-                           std::to_string(p));
-      }
-    }
-  }
-  if (triSlot_.size() < topology.triangleCapacity()) {
-    problems.push_back("the table has " + std::to_string(triSlot_.size()) +
-                       " triangle slots, the topology " +
-                       std::to_string(topology.triangleCapacity()));
-  }
+  // The table's own consistency, live triangles against its slots, elements on live points.
+  table_.validate(topology, problems, "");
   std::size_t degenerate = 0;
-  for (TriangleId t = 0; t < triSlot_.size(); ++t) {
-    const bool alive = t < topology.triangleCapacity() && topology.isTriangleAlive(t);
-    const bool inTable = triSlot_[t] != kNoSlot;
-    degenerate += triSlot_[t] == kDegenerateSlot ? 1 : 0;
-    if (alive != inTable) {
-      problems.push_back(triangleName(t) +
-                         (alive ? " is alive but not in the table" : " is dead but in the table"));
-    }
+  for (TriangleId t = 0; t < table_.numSlots(); ++t) {
+    degenerate += !table_.hasEntry(t) && table_.status(t) == TableStatus::Degenerate ? 1 : 0;
   }
   if (degenerate != numDegenerate_) {
     problems.push_back("degenerate count " + std::to_string(numDegenerate_) + ", the table holds " +
@@ -571,8 +476,8 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
                          describeRecord(r));
     }
   }
-  if (refElements != elements_.size()) {
-    problems.push_back(std::to_string(elements_.size()) + " elements, a rebuild has " +
+  if (refElements != table_.size()) {
+    problems.push_back(std::to_string(table_.size()) + " elements, a rebuild has " +
                        std::to_string(refElements));
   }
 }

@@ -161,7 +161,6 @@ struct DihedralHingeTraits {
   static constexpr std::string_view kName = "DihedralBending";
   static constexpr std::string_view kNoun = "hinge";
   static constexpr std::string_view kNouns = "hinges";
-  static constexpr std::string_view kDeadButInTable = " is dead but in the table";
   static constexpr bool kChecksEntryCount = false;
   /// No per-hinge flag.
   static constexpr bool DihedralRecord::*kFlag = nullptr;

@@ -115,7 +115,6 @@ struct BendingSpringTraits {
   static constexpr std::string_view kName = "FastTriangularBendingSprings";
   static constexpr std::string_view kNoun = "spring";
   static constexpr std::string_view kNouns = "springs";
-  static constexpr std::string_view kDeadButInTable = " is dead but alive in the table";
   static constexpr bool kChecksEntryCount = true;
   /// The flag in the top bit of a spring's edge id: it fell back to the unsigned weights.
   static constexpr bool HingeRecord::*kFlag = &HingeRecord::signedFallback;

@@ -23,9 +23,11 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/dense_slot_table.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -49,6 +51,22 @@ struct StretchSpring {
   double restLength;
 };
 static_assert(sizeof(StretchSpring) == 16);
+
+namespace detail {
+/// What the springs' table stores per edge (topology/dense_slot_table.hpp): a spring, or nothing.
+struct StretchTableTraits {
+  enum class Status : std::uint8_t { NoSpring };
+  static constexpr Status kEmpty = Status::NoSpring;
+  static constexpr bool kHasFlag = false;
+  static constexpr std::string_view kNoun = "spring";
+  static constexpr std::string_view kNouns = "springs";
+  template <class F>
+  static void forEachPoint(StretchSpring& s, F&& f) {
+    f(s.a);
+    f(s.b);
+  }
+};
+}  // namespace detail
 
 /// One spring as a record: what the table holds for an edge, or what a rebuild computes.
 struct StretchRecord {
@@ -101,34 +119,27 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   // ---- the table ----
   const StretchParameters& parameters() const { return params_; }
   /// The springs, compact (their order changes with removals and compaction).
-  std::span<const StretchSpring> springs() const { return springs_; }
-  std::size_t numSprings() const { return springs_.size(); }
+  std::span<const StretchSpring> springs() const { return table_.entries(); }
+  std::size_t numSprings() const { return table_.size(); }
   /// The record of edge e (edge = kInvalidIndex if e has no spring: dead or beyond the table).
   StretchRecord spring(EdgeId e) const;
   /// Records of every spring, ascending edge id.
   std::vector<StretchRecord> records() const;
-  std::size_t numEdgeSlots() const { return edgeSlot_.size(); }
+  std::size_t numEdgeSlots() const { return table_.numSlots(); }
   /// Bytes held by the table per edge slot (sizes, not capacities).
-  double bytesPerEdgeSlot() const;
+  double bytesPerEdgeSlot() const { return table_.bytesPerSlot(); }
 
   /// The table built from scratch on the current mesh: one record per live edge, ascending id.
   static std::vector<StretchRecord> buildFromScratch(const topology::Topology& topology);
 
  private:
-  void addSpring(EdgeId e, PointId a, PointId b, double restLength);
-  void removeSpring(std::uint32_t slot);
-  void ensureEdgeSlots(std::size_t n);
   void checkSize(std::span<const double> a, const char* name, const char* what) const;
 
   const topology::Topology* topology_;
   StretchParameters params_;
   bool constructedStableJacobian_;  // params_.stableJacobian as given to the constructor
-  // Hot: the springs, streamed by every force pass.
-  std::vector<StretchSpring> springs_;
-  // springEdge_[s]: the edge of springs_[s].
-  std::vector<std::uint32_t> springEdge_;
-  // edgeSlot_[e]: index in springs_, or kNoSpring.
-  std::vector<std::uint32_t> edgeSlot_;
+  // The springs, compact (hot: streamed by every force pass), their edges and the edge index.
+  topology::DenseSlotTable<EdgeId, StretchSpring, detail::StretchTableTraits> table_;
   std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
   topology::Subscription subscription_;
   // Linearisation cache of addDForce: per spring, u and a = 1 - L0 / l at the positions linX_,

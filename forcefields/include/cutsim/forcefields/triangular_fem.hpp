@@ -41,9 +41,11 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/dense_slot_table.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -71,6 +73,25 @@ struct FemTriangle {
   double area;              ///< rest area
 };
 static_assert(sizeof(FemTriangle) == 56);
+
+namespace detail {
+/// What the elements' table stores per triangle (topology/dense_slot_table.hpp): an element, or
+/// the status of a triangle without one.
+struct FemTableTraits {
+  enum class Status : std::uint8_t {
+    DeadTriangle,  ///< a dead slot (or beyond the table)
+    Degenerate,    ///< a live triangle without an element (rest area too small)
+  };
+  static constexpr Status kEmpty = Status::DeadTriangle;
+  static constexpr bool kHasFlag = false;
+  static constexpr std::string_view kNoun = "element";
+  static constexpr std::string_view kNouns = "elements";
+  template <class F>
+  static void forEachPoint(FemTriangle& e, F&& f) {
+    for (std::uint32_t& p : e.v) f(p);
+  }
+};
+}  // namespace detail
 
 /// One triangle as a record: what the table holds, or what a rebuild computes.
 struct FemRecord {
@@ -126,12 +147,12 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
 
   // ---- the table ----
   const TriangularFEMParameters& parameters() const { return params_; }
-  std::span<const FemTriangle> elements() const { return elements_; }
-  std::size_t numElements() const { return elements_.size(); }
+  std::span<const FemTriangle> elements() const { return table_.entries(); }
+  std::size_t numElements() const { return table_.size(); }
   std::size_t numDegenerate() const { return numDegenerate_; }
   /// The record of triangle t (triangle = kInvalidIndex for a dead slot or beyond the table).
   FemRecord element(TriangleId t) const;
-  std::size_t numTriangleSlots() const { return triSlot_.size(); }
+  std::size_t numTriangleSlots() const { return table_.numSlots(); }
 
   /// The table built from scratch: one record per live triangle, ascending id.
   static std::vector<FemRecord> buildFromScratch(const topology::Topology& topology);
@@ -142,16 +163,14 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   void addExactKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const;
   void setTriangle(TriangleId t, const FemRecord& r);
   void clearTriangle(TriangleId t);
-  void removeElement(std::uint32_t slot);
-  void ensureSlots(std::size_t n);
   void checkSize(std::span<const double> a, const char* name, const char* what) const;
 
   const topology::Topology* topology_;
   TriangularFEMParameters params_;
   double mu_ = 0.0, lambda_ = 0.0;  // plane-stress Lame coefficients times the thickness
-  std::vector<FemTriangle> elements_;
-  std::vector<std::uint32_t> elementTriangle_;  // elementTriangle_[s]: the triangle of element s
-  std::vector<std::uint32_t> triSlot_;  // index in elements_, kDegenerateSlot, or kNoSlot (dead)
+  // The elements, compact (hot: streamed by every force pass), their triangles and the triangle
+  // index (an element, Degenerate, or DeadTriangle).
+  topology::DenseSlotTable<TriangleId, FemTriangle, detail::FemTableTraits> table_;
   std::size_t numDegenerate_ = 0;
   std::vector<std::string> eventProblems_;
   topology::Subscription subscription_;

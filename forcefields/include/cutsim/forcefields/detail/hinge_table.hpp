@@ -4,12 +4,13 @@
 // from it (CRTP) and keeps only what is its own: what an entry stores, how a hinge is computed
 // from the mesh, and the force, energy and derivative kernels over entries().
 //
-// The table (docs/bending-springs.md, "The table"):
-//   entries_[s]    the ACTIVE hinges, compact (no holes, no status test): what the passes stream;
-//   entryEdge_[s]  the edge of entries_[s]; the top bit can carry a per-entry flag (see kFlag);
-//   edgeSlot_[e]   index into entries_, or kStatusBase + status for an edge without an entry.
+// The table (docs/bending-springs.md, "The table") is a topology::DenseSlotTable over edges:
+//   entries        the ACTIVE hinges, compact (no holes, no status test): what the passes stream;
+//   entry -> edge  with the per-entry flag in its top bit (see kFlag);
+//   edge -> entry  an entry index, or the status of an edge without an entry (DeadEdge: empty).
 // Deactivation swaps the last entry into the hole (O(1)); edges renumbered re-lay the entries out
-// in the new edge order. The counters (per status, plus the flag) follow every change.
+// in the new edge order (both the container's). The counters (per status, plus the flag) are
+// this class's and follow every change.
 //
 // Events (docs/bending-springs.md, "Events"): triangles destroyed or created -> the hinges of
 // their live edges recomputed from the mesh; edges destroyed -> DeadEdge; edges created ->
@@ -24,8 +25,7 @@
 //   Counters  has degenerate() and operator==
 //   static constexpr Counter counter(Status)  the counter of a status (nullptr: none)
 //   kName, kNoun, kNouns                       the field's name, "spring", "springs" (messages)
-//   kDeadButInTable                            the message for a dead edge still in the table
-//   kChecksEntryCount                          validate() also compares entries_.size()
+//   kChecksEntryCount                          validate() also compares the number of entries
 //   kFlag, kFlagCounter, kFlagName             the per-entry flag of Record, its counter, its
 //                                              name in messages (nullptr: no flag)
 // Field provides (members, private with `friend` for the table):
@@ -47,12 +47,29 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "cutsim/topology/dense_slot_table.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
 
 namespace cutsim::forcefields::detail {
+
+/// The DenseSlotTable traits of a hinge table: an entry per active hinge, the other statuses in
+/// the edge index (DeadEdge for an empty slot), the flag of Traits in the entry's back reference.
+template <class Traits>
+struct HingeSlotTraits {
+  using Status = typename Traits::Status;
+  static constexpr Status kEmpty = Status::DeadEdge;
+  static constexpr bool kHasFlag = Traits::kFlag != nullptr;
+  static constexpr std::string_view kNoun = Traits::kNoun;
+  static constexpr std::string_view kNouns = Traits::kNouns;
+  template <class F>
+  static void forEachPoint(typename Traits::Entry& e, F&& f) {
+    for (std::uint32_t& v : e.v) f(v);
+  }
+};
 
 template <class Field, class Traits>
 class HingeTable : public topology::TopologyObserver {
@@ -84,7 +101,7 @@ class HingeTable : public topology::TopologyObserver {
   Record hinge(topology::EdgeId e) const;
   /// The counters of the table (the current state, not a history).
   const Counters& counters() const { return counters_; }
-  std::size_t numEdgeSlots() const { return edgeSlot_.size(); }
+  std::size_t numEdgeSlots() const { return table_.numSlots(); }
 
  protected:
   HingeTable() = default;
@@ -93,29 +110,18 @@ class HingeTable : public topology::TopologyObserver {
   /// Builds the table once from the current mesh and subscribes to `topology`.
   void attach(topology::Topology& topology);
   /// The active entries, compact (their order changes with removals and compaction).
-  std::span<const Entry> entries() const { return entries_; }
+  std::span<const Entry> entries() const { return table_.entries(); }
   /// The record of entry i (0 <= i < entries().size()).
   Record entryRecord(std::size_t i) const;
   /// Records of every live edge of the table, ascending edge id.
   std::vector<Record> liveRecords() const;
   /// Bytes held by the table per edge slot (sizes, not capacities).
-  double bytesPerEdgeSlot() const;
+  double bytesPerEdgeSlot() const { return table_.bytesPerSlot(); }
 
  private:
-  static constexpr std::uint32_t kStatusBase = 0xFFFFFFF0u;
+  using Table = topology::DenseSlotTable<topology::EdgeId, Entry, HingeSlotTraits<Traits>>;
   static constexpr bool kHasFlag = Traits::kFlag != nullptr;
-  static constexpr std::uint32_t kFlagBit = kHasFlag ? 0x80000000u : 0u;
-  static constexpr std::uint32_t kEdgeMask = ~kFlagBit;
-  /// Edge ids from here on do not fit the table (the flag bit, or the status codes).
-  static constexpr std::uint32_t kEdgeLimit = kHasFlag ? kFlagBit : kStatusBase;
 
-  static constexpr std::uint32_t encode(Status s) {
-    return kStatusBase + static_cast<std::uint32_t>(s);
-  }
-  static constexpr bool isEntrySlot(std::uint32_t code) { return code < kStatusBase; }
-  static constexpr Status decode(std::uint32_t code) {
-    return static_cast<Status>(code - kStatusBase);
-  }
   static bool flagOf(const Record& r);
   static void countStatus(Counters& c, Status s, int delta);
   static void countFlag(Counters& c, int delta);
@@ -125,15 +131,12 @@ class HingeTable : public topology::TopologyObserver {
   /// setEdge with a record of status s (NoHinge, DeadEdge): no entry.
   void setEdgeWithoutHinge(topology::EdgeId e, Status s);
   void recomputeEdge(const topology::Topology& t, topology::EdgeId e);
-  void ensureEdgeSlots(std::size_t n);
-  void removeEntry(std::uint32_t slot);
+  /// The counters recomputed from the table.
+  Counters recount() const;
 
-  // Hot: the active entries, streamed by every pass of the field.
-  std::vector<Entry> entries_;
-  // entryEdge_[s]: the edge of entries_[s], with kFlagBit set if its flag is.
-  std::vector<std::uint32_t> entryEdge_;
-  // edgeSlot_[e]: index in entries_, or kStatusBase + status for an edge without an entry.
-  std::vector<std::uint32_t> edgeSlot_;
+  // The active entries (hot: streamed by every pass of the field), their edges (and flags), and
+  // per edge slot an entry or a status.
+  Table table_;
   Counters counters_;
   std::vector<std::string> eventProblems_;  // inconsistencies seen while handling events
   topology::Subscription subscription_;
