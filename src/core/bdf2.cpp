@@ -29,20 +29,13 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
   Eigen::Map<const Eigen::VectorXd> x(xs.data(), N), v(vs.data(), N);
   auto m = model.mass().perPoint();
   const StepConstraints& c = *in.constraints;
-  const double rM = settings_.rayleighMass, rK = settings_.rayleighStiffness;
 
   // Without a valid history this step is implicit Euler: beta = h and no history terms.
   const bool second = historyValid(model, in);
   if (!second) ++restarts_;
   const double beta = second ? 2.0 * h / 3.0 : h;
 
-  Eigen::VectorXd f = Eigen::VectorXd::Zero(N);
-  std::span<double> fs(f.data(), std::size_t(N));
-  model.addForce(xs, vs, fs);
-  for (std::size_t p = 0; p < n; ++p)
-    for (int k = 0; k < 3; ++k) f[Eigen::Index(3 * p + k)] -= rM * m[p] * v[Eigen::Index(3 * p + k)];
-  if (rK > 0) model.addDForce(xs, vs, fs, rK, 0.0);
-  requireFinite(fs, "force", "");
+  const Eigen::VectorXd f = dampedForce(model);
 
   // w = (x_n - x_n-1) / 3 + beta v_n: the position change the right-hand side linearises about.
   Eigen::VectorXd w = beta * v;

@@ -10,18 +10,9 @@ void ImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, Ste
   auto xs = model.state().x();
   auto vs = model.state().v();
   Eigen::Map<const Eigen::VectorXd> x(xs.data(), N), v(vs.data(), N);
-  auto m = model.mass().perPoint();
   const StepConstraints& c = *in.constraints;
-  const double rM = settings_.rayleighMass, rK = settings_.rayleighStiffness;
 
-  // f0 = F(x, v) + M g - rM M v + rK K v
-  Eigen::VectorXd f = Eigen::VectorXd::Zero(N);
-  std::span<double> fs(f.data(), std::size_t(N));
-  model.addForce(xs, vs, fs);
-  for (std::size_t p = 0; p < n; ++p)
-    for (int k = 0; k < 3; ++k) f[Eigen::Index(3 * p + k)] -= rM * m[p] * v[Eigen::Index(3 * p + k)];
-  if (rK > 0) model.addDForce(xs, vs, fs, rK, 0.0);
-  requireFinite(fs, "force", "");
+  const Eigen::VectorXd f = dampedForce(model);
 
   // b = h (f0 + h K v)
   Eigen::VectorXd Kv = Eigen::VectorXd::Zero(N);

@@ -77,6 +77,20 @@ SystemOperator ImplicitIntegrator::systemOperator(const Model& model, std::span<
                         model.topology().revision());
 }
 
+Eigen::VectorXd ImplicitIntegrator::dampedForce(const Model& model) const {
+  auto xs = model.state().x();
+  auto vs = model.state().v();
+  auto m = model.mass().perPoint();
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(Eigen::Index(xs.size()));
+  std::span<double> fs(f.data(), xs.size());
+  model.addForce(xs, vs, fs);
+  for (std::size_t p = 0; p < m.size(); ++p)
+    for (std::size_t k = 0; k < 3; ++k) fs[3 * p + k] -= settings_.rayleighMass * m[p] * vs[3 * p + k];
+  if (settings_.rayleighStiffness > 0) model.addDForce(xs, vs, fs, settings_.rayleighStiffness, 0.0);
+  requireFinite(fs, "force", "");
+  return f;
+}
+
 namespace {
 std::string describe(const LinearSolver& s, const SolveReport& r) {
   std::ostringstream o;

@@ -141,6 +141,8 @@ class ImplicitIntegrator : public Integrator {
   /// stats. Throws StepFailure under "fail", or when no solver can solve the system.
   void solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv,
              StepStats& stats);
+  /// f0 = F(x, v) + M g - rM M v + rK K v at the model's state (checked finite).
+  Eigen::VectorXd dampedForce(const Model& model) const;
   /// The linear Rayleigh-damped implicit step shared by implicit Euler and BDF2:
   /// solves (M (1 + c rM) - c B - (c^2 + c rK) K) dv = b for dv, with the prescribed dv given.
   SystemOperator systemOperator(const Model& model, std::span<const double> x, double c,
