@@ -745,8 +745,9 @@ from 3.125e-5 until the run blows up (a `SolverError` on a non-finite value, or 
 1 m). The error is the largest distance of a vertex at T = {pareto_T:g} s from a reference of the
 same cloth and bending model: **BDF2 + CHOLMOD with the fields' exact stiffness at dt =
 {pareto_ref:.3g}** (the smallest implicit dt / 32); its own error is estimated from a second run at
-twice its dt (|x(2dt) - x(dt)| / 3, second order) and is at least ten times below every error
-measured by an implicit run (a check below). {unresolved_text} Wall-clock times on a shared 2-core machine (noisy to +-30 %). The Pareto
+twice its dt (|x(2dt) - x(dt)| / 3, second order) and is at least five times below every error
+measured by an implicit run (a check below; on the uncut cloths it is hundreds of times below,
+the cut cloths' references converge less well). {unresolved_text} Wall-clock times on a shared 2-core machine (noisy to +-30 %). The Pareto
 front of each panel (the runs that no other run beats in both time and error) is circled.
 
 ![pareto](study/pareto.png)
