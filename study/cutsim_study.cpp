@@ -1,10 +1,12 @@
 // cutsim_study: the accuracy study of the bending models and the solvers (docs/study.md).
 //
-//   cutsim_study [--smoke | --quick | --full] [--out DIR]
+//   cutsim_study [--smoke | --quick | --full] [--out DIR] [--only SECTIONS]
 //
 // Writes CSV files into DIR (default: .): cylinder.csv (a), fold.csv and fold_grid.csv (b),
-// rest_forces.csv (c), cantilever.csv (d), solver_trade.csv, explicit_limit.csv and solver_cost.csv
-// (e), and summary.csv (the headline numbers). --smoke runs tiny meshes and checks convergence
+// rest_forces.csv (c), cantilever.csv (d), pareto.csv and reference.csv (e: error against wall
+// time), order.csv and order_fit.csv (f: order of accuracy), newton.csv and newton_pd.csv (g:
+// Newton's convergence), solver_cost.csv (h), and summary.csv (the headline numbers). --only
+// runs the sections named (e.g. --only fg). --smoke runs tiny meshes and checks convergence
 // assertions (exit status 1 when one fails); it is the CTest test study.quick_smoke.
 // GCC 12 reports false -Wmaybe-uninitialized warnings inside Eigen's AVX-512 kernels (the sparse
 // LDL^T of the cantilever) under -march=native; they are not about this file's code.
@@ -14,11 +16,13 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <list>
 #include <memory>
 #include <numbers>
 #include <random>
@@ -526,73 +530,141 @@ void cantilever(std::ofstream& summary) {
   }
 }
 
-// ---- e. solvers --------------------------------------------------------------------------------
+// ---- e-g. dynamics: integrators, linear solvers and time steps --------------------------------
 
-struct Cloth {
-  std::unique_ptr<cutsim::core::Simulation> sim;
+using cutsim::core::BDF2;
+using cutsim::core::CGSettings;
+using cutsim::core::CholmodSolver;
+using cutsim::core::ConjugateGradient;
+using cutsim::core::ExplicitEuler;
+using cutsim::core::ImplicitEuler;
+using cutsim::core::ImplicitSettings;
+using cutsim::core::Integrator;
+using cutsim::core::LinearSolver;
+using cutsim::core::NewtonImplicitEuler;
+using cutsim::core::NewtonSettings;
+using cutsim::core::Simulation;
+using cutsim::core::SolveFailurePolicy;
+
+enum class Bending { Springs, Dihedral };
+const char* bendingName(Bending b) { return b == Bending::Springs ? "springs" : "dihedral"; }
+
+/// The test cloth: a 1 x 1 m `alternating` grid of n x n vertices (density 0.2 kg/m^2),
+/// StretchSprings (stiffness 1000, the default stable Jacobian) and a bending model of k = 1e-3
+/// (the springs with signed area weights), the two corners of the edge y = 1 fixed, gravity
+/// 9.81 m/s^2 along -z, starting flat and at rest: it falls and swings about its fixed edge.
+/// The cut cloth is the same sheet cut before it starts (clothCuts()).
+struct ClothSpec {
+  int n = 21;
+  bool cut = false;
+  Bending bending = Bending::Springs;
+  std::string scenario() const { return cut ? "cut" : "hanging"; }
 };
 
-Cloth hangingCloth(int n) {
+/// The cuts of the cut cloth, in the rest plane: a kinked slit across the middle (its lower part
+/// then hangs by the two bridges beside it) and a notch from the free edge y = 0.
+const std::vector<std::vector<Vec3>>& clothCuts() {
+  static const std::vector<std::vector<Vec3>> cuts = {
+      {{0.17, 0.53, 0.0}, {0.48, 0.44, 0.0}, {0.83, 0.58, 0.0}},
+      {{0.61, 0.0, 0.0}, {0.57, 0.27, 0.0}}};
+  return cuts;
+}
+
+std::unique_ptr<Simulation> hangingCloth(const ClothSpec& s) {
+  const int n = s.n;
   const MeshData mesh = grid(n, n, 1.0, 1.0, "alternating");
   auto topo = std::make_unique<Topology>(mesh.points, mesh.triangles);
-  Cloth c;
-  c.sim = std::make_unique<cutsim::core::Simulation>(std::move(topo), 0.2);
-  auto& sim = *c.sim;
+  if (s.cut) {
+    for (const auto& c : clothCuts()) topo->cutPolyline(c);
+  }
+  auto sim = std::make_unique<Simulation>(std::move(topo), 0.2);
   StretchParameters sp;
   sp.stiffness = 1000.0;
-  sim.addForceField(std::make_unique<StretchSprings>(sim.topology(), sp), "stretch");
-  BendingParameters bp;
-  bp.bendingStiffness = 1e-3;
-  sim.addForceField(std::make_unique<FastTriangularBendingSprings>(sim.topology(), bp), "bending");
-  sim.fixed().add(static_cast<PointId>(n * (n - 1)));
-  sim.fixed().add(static_cast<PointId>(n * n - 1));
-  sim.setGravity({0.0, 0.0, -9.81});
-  return c;
+  sim->addForceField(std::make_unique<StretchSprings>(sim->topology(), sp), "stretch");
+  if (s.bending == Bending::Springs) {
+    BendingParameters bp;
+    bp.bendingStiffness = 1e-3;
+    bp.areaWeights = AreaWeights::Signed;
+    sim->addForceField(std::make_unique<FastTriangularBendingSprings>(sim->topology(), bp),
+                       "bending");
+  } else {
+    DihedralBendingParameters dp;
+    dp.bendingStiffness = 1e-3;
+    sim->addForceField(std::make_unique<DihedralBending>(sim->topology(), dp), "bending");
+  }
+  sim->fixed().add(static_cast<PointId>(n * (n - 1)));
+  sim->fixed().add(static_cast<PointId>(n * n - 1));
+  sim->setGravity({0.0, 0.0, -9.81});
+  return sim;
 }
 
-struct SolverCase {
-  std::string name;
-  cutsim::core::SolverSettings settings;
+/// An integrator and its linear solver: cg20 and cg100 are Jacobi-preconditioned CG to 1e-8
+/// capped at 20 and 100 iterations (warm-started), cholmod the direct solve. Every implicit
+/// method warns (flags the step) on a missed tolerance and never falls back: a capped CG stays
+/// what it is.
+struct Method {
+  std::string integrator;  // explicit-euler, implicit-euler, bdf2, newton
+  std::string solver;      // "" (explicit), cg20, cg100, cholmod
+  NewtonSettings newton{8, 1e-6, true, true};
+  std::string label() const { return solver.empty() ? integrator : integrator + "/" + solver; }
 };
 
-std::vector<SolverCase> solverCases() {
-  using Kind = cutsim::core::SolverSettings::Kind;
-  std::vector<SolverCase> cases;
-  for (int cap : {5, 20, 100}) {
-    for (double tol : {1e-4, 1e-8}) {
-      cutsim::core::SolverSettings s;
-      s.kind = Kind::ImplicitCG;
-      s.cgMaxIterations = cap;
-      s.cgTolerance = tol;
-      std::ostringstream name;
-      name << "cg" << cap << "_tol" << (tol == 1e-4 ? "1e-4" : "1e-8");
-      cases.push_back({name.str(), s});
-    }
-  }
-  cutsim::core::SolverSettings s;
-  s.kind = Kind::ImplicitCholmod;
-  cases.push_back({"cholmod", s});
-  return cases;
+std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& s) {
+  if (s == "cholmod") return std::make_unique<CholmodSolver>();
+  const int cap = s == "cg20" ? 20 : s == "cg100" ? 100 : 1000;
+  return std::make_unique<ConjugateGradient>(CGSettings{cap, 1e-8, true});
 }
 
-/// Runs to time T with step dt; returns the positions (empty if the run blew up) and the wall
-/// time per step.
-std::vector<double> run(int n, const cutsim::core::SolverSettings& s, double dt, double T,
-                        double& secondsPerStep) {
-  Cloth c = hangingCloth(n);
-  c.sim->setSolver(s);
-  const long steps = std::lround(T / dt);
+std::unique_ptr<Integrator> makeMethod(const Method& m) {
+  if (m.integrator == "explicit-euler") return std::make_unique<ExplicitEuler>();
+  ImplicitSettings is;
+  is.onSolveFailure = SolveFailurePolicy::Warn;
+  if (m.integrator == "implicit-euler")
+    return std::make_unique<ImplicitEuler>(is, makeLinearSolver(m.solver));
+  if (m.integrator == "bdf2") return std::make_unique<BDF2>(is, makeLinearSolver(m.solver));
+  return std::make_unique<NewtonImplicitEuler>(is, m.newton, makeLinearSolver(m.solver));
+}
+
+struct RunResult {
+  std::vector<double> x;  // empty if the run blew up
+  double seconds = 0.0;
+  long steps = 0, flaggedSteps = 0, newtonIterations = 0, linearIterations = 0;
+  std::string failure;  // the SolverError's message, or "diverged"
+};
+
+std::string firstLine(const std::string& s) {
+  std::string l = s.substr(0, s.find('\n'));
+  std::replace(l.begin(), l.end(), ',', ';');
+  std::replace(l.begin(), l.end(), '"', '\'');
+  return l;
+}
+
+/// Runs the cloth to time T with step dt. exactFields: the fields' exact stiffness (StretchSprings
+/// without the stable Jacobian; the springs' K is exact anyway; DihedralBending's exact Hessian).
+RunResult simulate(const ClothSpec& spec, const Method& m, double dt, double T,
+                   bool exactFields = false) {
+  auto sim = hangingCloth(spec);
+  if (exactFields) sim->model().setExactStiffness(true);
+  sim->setIntegrator(makeMethod(m));
+  RunResult r;
+  r.steps = std::lround(T / dt);
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    for (long i = 0; i < steps; ++i) c.sim->step(dt);
-  } catch (const cutsim::SolverError&) {
-    secondsPerStep = 0;
-    return {};
+    for (long i = 0; i < r.steps; ++i) {
+      const cutsim::core::StepStats st = sim->step(dt);
+      if (st.flagged()) ++r.flaggedSteps;
+      r.newtonIterations += st.newtonIterations;
+      r.linearIterations += st.iterations;
+    }
+  } catch (const cutsim::SolverError& e) {
+    r.failure = firstLine(e.what());
   }
-  secondsPerStep =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / steps;
-  const auto x = c.sim->state().x();
-  return {x.begin(), x.end()};
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (r.failure.empty()) {
+    const auto x = sim->state().x();
+    r.x.assign(x.begin(), x.end());
+  }
+  return r;
 }
 
 double maxDistance(const std::vector<double>& a, const std::vector<double>& b) {
@@ -604,59 +676,359 @@ double maxDistance(const std::vector<double>& a, const std::vector<double>& b) {
   return m;
 }
 
-void solvers(std::ofstream& summary) {
-  std::cout << "e. solvers on a hanging cloth\n";
-  using Kind = cutsim::core::SolverSettings::Kind;
-  const int n = gMode == Mode::Full ? 21 : 11;
-  const double T = gMode == Mode::Full ? 0.5 : (gMode == Mode::Smoke ? 0.1 : 0.3);
-  const double refDt = gMode == Mode::Full ? 5e-5 : 1e-4;
-  cutsim::core::SolverSettings ref;
-  ref.kind = Kind::ImplicitCholmod;
-  double spsRef;
-  const std::vector<double> xRef = run(n, ref, refDt, T, spsRef);
-  auto out =
-      csv("solver_trade.csv", "solver,dt,steps,seconds_per_step,total_seconds,max_error,stable");
-  std::printf("  reference: CHOLMOD dt=%g over %g s (%d x %d vertices)\n", refDt, T, n, n);
-  summary << "trade_vertices," << n * n << "\ntrade_T," << T << "\ntrade_ref_dt," << refDt << "\n";
-  // Explicit: double dt until it blows up.
-  cutsim::core::SolverSettings ex;
-  ex.kind = Kind::Explicit;
-  auto lim = csv("explicit_limit.csv", "dt,stable,max_error");
-  double lastStable = 0;
-  for (double dt = 1.25e-4; dt <= 0.02; dt *= 2) {
-    double sps;
-    const std::vector<double> x = run(n, ex, dt, T, sps);
-    const bool stable = !x.empty() && maxDistance(x, xRef) < 1.0;
-    const double err = x.empty() ? std::nan("") : maxDistance(x, xRef);
-    lim << dt << "," << stable << "," << err << "\n";
-    out << "explicit," << dt << "," << std::lround(T / dt) << "," << sps << ","
-        << sps * std::lround(T / dt) << "," << err << "," << stable << "\n";
-    std::printf("  explicit dt=%-9g %s error %.3g\n", dt, stable ? "stable  " : "UNSTABLE", err);
-    if (!stable) break;
-    lastStable = dt;
-  }
-  const std::vector<double> dts = gMode == Mode::Smoke
-                                      ? std::vector<double>{0.01, 0.0025}
-                                      : std::vector<double>{0.02, 0.01, 0.005, 0.0025, 0.00125};
-  check(lastStable > 0.0 && lastStable < 0.02, "the explicit stability limit is bracketed");
-  summary << "explicit_limit_dt," << lastStable << "\n";
-  for (const SolverCase& sc : solverCases()) {
-    std::vector<double> errs;
-    for (double dt : dts) {
-      double sps;
-      const std::vector<double> x = run(n, sc.settings, dt, T, sps);
-      const double err = x.empty() ? std::nan("") : maxDistance(x, xRef);
-      errs.push_back(err);
-      out << sc.name << "," << dt << "," << std::lround(T / dt) << "," << sps << ","
-          << sps * std::lround(T / dt) << "," << err << "," << !x.empty() << "\n";
-      std::printf("  %-13s dt=%-8g %.3g ms/step error %.3g\n", sc.name.c_str(), dt, 1e3 * sps, err);
-    }
-    if (sc.name == "cholmod") {
-      check(errs.back() < 0.5 * errs.front(), "implicit Euler (CHOLMOD) error falls with dt");
-    }
-  }
+/// The reference of a cloth: BDF2 with the exact stiffness, solved by CHOLMOD, at dt; its own
+/// error is estimated from a second run at 2 dt (second order: |x(2dt) - x(dt)| / 3). The runs
+/// are kept: the order study's reference at dt/2 has the sweep's reference as its check.
+struct Reference {
+  std::vector<double> x;
+  double dt = 0.0, seconds = 0.0, selfError = 0.0;
+};
 
-  std::cout << "   cost of one step against mesh size\n";
+const RunResult& referenceRun(const ClothSpec& spec, double dt, double T) {
+  static std::list<std::pair<std::string, RunResult>> cache;  // stable references
+  std::ostringstream key;
+  key.precision(12);
+  key << spec.scenario() << "/" << bendingName(spec.bending) << "/" << spec.n << "/" << dt << "/"
+      << T;
+  for (const auto& [k, r] : cache) {
+    if (k == key.str()) return r;
+  }
+  RunResult r = simulate(spec, Method{"bdf2", "cholmod"}, dt, T, true);
+  if (r.x.empty()) throw std::runtime_error("reference run failed: " + r.failure);
+  std::printf("  reference run %s/%s: BDF2 + CHOLMOD, exact K, dt=%.4g (%ld steps, %.1f s)\n",
+              spec.scenario().c_str(), bendingName(spec.bending), dt, r.steps, r.seconds);
+  cache.emplace_back(key.str(), std::move(r));
+  return cache.back().second;
+}
+
+Reference reference(const ClothSpec& spec, double dt, double T) {
+  const RunResult& a = referenceRun(spec, dt, T);
+  const RunResult& b = referenceRun(spec, 2 * dt, T);
+  Reference ref{a.x, dt, a.seconds, maxDistance(a.x, b.x) / 3.0};
+  std::printf("  reference %s/%s at dt=%.4g: estimated error %.2e m\n", spec.scenario().c_str(),
+              bendingName(spec.bending), dt, ref.selfError);
+  return ref;
+}
+
+int clothSide() { return gMode == Mode::Full ? 21 : gMode == Mode::Quick ? 11 : 7; }
+double clothT() { return gMode == Mode::Smoke ? 0.2 : 0.5; }
+
+/// The implicit time steps of the sweep, largest first; the reference runs at the last / 32.
+std::vector<double> implicitSteps() {
+  switch (gMode) {
+    case Mode::Smoke:
+      return {0.02, 0.01};
+    case Mode::Quick:
+    case Mode::Full:
+      return {0.02, 0.01, 0.005, 0.0025};
+  }
+  return {};
+}
+
+void pareto(std::ofstream& summary) {
+  std::cout << "e. error against wall time: bending x integrator x linear solver x dt\n";
+  auto out = csv("pareto.csv",
+                 "scenario,bending,integrator,solver,method,dt,steps,seconds,ms_per_step,error,"
+                 "stable,failure,flagged_steps,newton_iterations,linear_iterations");
+  auto refs = csv("reference.csv", "scenario,bending,vertices,dt,seconds,estimated_error,T");
+  const int n = clothSide();
+  const std::vector<double> dts = implicitSteps();
+  const double refDt = dts.back() / 32.0;
+  summary << "pareto_n," << n << "\npareto_T," << clothT() << "\npareto_ref_dt," << refDt << "\n";
+  const auto record = [&](const ClothSpec& spec, const Method& m, double dt, const RunResult& r,
+                          const Reference& ref, bool stable, double err) {
+    out << spec.scenario() << "," << bendingName(spec.bending) << "," << m.integrator << ","
+        << (m.solver.empty() ? "-" : m.solver) << "," << m.label() << "," << dt << "," << r.steps
+        << "," << r.seconds << "," << 1e3 * r.seconds / r.steps << "," << err << "," << stable
+        << "," << r.failure << "," << r.flaggedSteps << "," << r.newtonIterations << ","
+        << r.linearIterations << "\n";
+    std::printf("  %-8s %-9s %-22s dt=%-9.4g %8.3f s  error %.3e%s%s\n", spec.scenario().c_str(),
+                bendingName(spec.bending), m.label().c_str(), dt, r.seconds, err,
+                stable ? "" : "  BLEW UP: ", r.failure.substr(0, 90).c_str());
+    (void)ref;
+  };
+  for (const bool cut : {false, true}) {
+    for (const Bending bending : {Bending::Springs, Bending::Dihedral}) {
+      // The smoke test: the hanging cloth with the springs and the cut one with the dihedral model.
+      if (gMode == Mode::Smoke && (bending == Bending::Dihedral) != cut) continue;
+      const ClothSpec spec{n, cut, bending};
+      const Reference ref = reference(spec, refDt, clothT());
+      refs << spec.scenario() << "," << bendingName(bending) << "," << n * n << "," << ref.dt
+           << "," << ref.seconds << "," << ref.selfError << "," << clothT() << "\n";
+      const std::string tag = spec.scenario() + "_" + bendingName(bending);
+      // Explicit: dt doubled from below the limit until the run blows up.
+      double lastStable = 0.0, firstUnstable = 0.0;
+      for (double dt = gMode == Mode::Smoke ? 1.25e-4 : 3.125e-5; dt <= 0.02; dt *= 2) {
+        const Method ex{"explicit-euler", ""};
+        RunResult r = simulate(spec, ex, dt, clothT());
+        const double err = r.x.empty() ? std::nan("") : maxDistance(r.x, ref.x);
+        if (r.failure.empty() && !(err < 1.0)) r.failure = "diverged (error above 1 m)";
+        const bool stable = r.failure.empty();
+        record(spec, ex, dt, r, ref, stable, err);
+        if (!stable) {
+          firstUnstable = dt;
+          break;
+        }
+        lastStable = dt;
+      }
+      check(lastStable > 0.0 && firstUnstable > 0.0,
+            tag + ": the explicit stability limit is bracketed (stable at " +
+                std::to_string(lastStable) + ", blows up at " + std::to_string(firstUnstable) + ")");
+      summary << "explicit_limit_" << tag << "," << lastStable << "\n";
+      double smallest = 1e300;
+      for (const std::string integrator : {"implicit-euler", "bdf2", "newton"}) {
+        for (const std::string solver : {"cg20", "cg100", "cholmod"}) {
+          const Method m{integrator, solver};
+          std::vector<double> errs;
+          for (double dt : dts) {
+            const RunResult r = simulate(spec, m, dt, clothT());
+            const double err = r.x.empty() ? std::nan("") : maxDistance(r.x, ref.x);
+            record(spec, m, dt, r, ref, r.failure.empty(), err);
+            errs.push_back(err);
+            if (err > 0) smallest = std::min(smallest, err);
+          }
+          if (solver == "cholmod" && integrator != "newton") {
+            check(errs.back() < (gMode == Mode::Smoke ? 0.8 : 0.5) * errs.front(),
+                  tag + ": " + m.label() + " error falls with dt (" + std::to_string(errs.front()) +
+                      " -> " + std::to_string(errs.back()) + " m)");
+          }
+        }
+      }
+      // The cut cloths' references converge less well (a few mm at the quick study's 11 x 11
+      // vertices): a fifth keeps every implicit error within about 20 % of its value.
+      check(ref.selfError < 0.2 * smallest,
+            tag + ": the reference's estimated error (" + std::to_string(ref.selfError) +
+                " m) is below a fifth of the smallest implicit run's error (" +
+                std::to_string(smallest) + " m)");
+    }
+  }
+}
+
+// ---- f. order of accuracy ----------------------------------------------------------------------
+
+/// The order study: the hanging cloth of 11 x 11 vertices (7 x 7 for the smoke test, over 0.2 s
+/// with time steps four times smaller)
+/// and time steps down to where its error is in its asymptotic range.
+int orderSide() { return gMode == Mode::Smoke ? 7 : 11; }
+double orderT() { return gMode == Mode::Smoke ? 0.2 : 0.5; }
+std::vector<double> orderSteps() {
+  if (gMode == Mode::Smoke) return {0.002, 0.001, 0.0005};
+  return {0.005, 0.0025, 0.00125, 0.000625};
+}
+
+void orderOfAccuracy(std::ofstream& summary) {
+  std::cout << "f. order of accuracy on the hanging cloth (springs)\n";
+  const ClothSpec spec{orderSide(), false, Bending::Springs};
+  const std::vector<double> dts = orderSteps();
+  // The reference at dt / 32 (dt / 16 in the smoke test, to keep it fast).
+  const double refDt = dts.back() / (gMode == Mode::Smoke ? 16.0 : 32.0), T = orderT();
+  const Reference ref = reference(spec, refDt, T);
+  auto out = csv("order.csv", "method,stiffness,dt,error,seconds,failure");
+  auto fits = csv("order_fit.csv", "method,stiffness,slope,dt_min,dt_max,points");
+  summary << "order_n," << spec.n << "\norder_T," << T << "\norder_ref_dt," << refDt << "\norder_ref_error,"
+          << ref.selfError << "\n";
+  // Fitted where the error is well above the reference's own error (and rounding).
+  const double floorErr = std::max(10.0 * ref.selfError, 1e-10);
+  for (const std::string integrator : {"bdf2", "implicit-euler"}) {
+    for (const bool exact : {true, false}) {
+      const Method m{integrator, "cholmod"};
+      std::vector<double> hs, es;
+      for (double dt : dts) {
+        const RunResult r = simulate(spec, m, dt, T, exact);
+        const double err = r.x.empty() ? std::nan("") : maxDistance(r.x, ref.x);
+        out << integrator << "," << (exact ? "exact" : "default") << "," << dt << "," << err << ","
+            << r.seconds << "," << r.failure << "\n";
+        std::printf("  %-15s K %-7s dt=%-8.4g error %.3e%s\n", integrator.c_str(),
+                    exact ? "exact" : "default", dt, err, r.failure.empty() ? "" : "  FAILED");
+        // The fit: the three smallest time steps (the larger ones of the full study do not
+        // resolve the cloth's motion yet), where the error is above the reference's.
+        if (err > floorErr && dt <= dts[dts.size() - 3] * (1 + 1e-9)) {
+          hs.push_back(dt);
+          es.push_back(err);
+        }
+      }
+      const double s = slope(hs, es);
+      fits << integrator << "," << (exact ? "exact" : "default") << "," << s << ","
+           << (hs.empty() ? 0 : hs.back()) << "," << (hs.empty() ? 0 : hs.front()) << ","
+           << hs.size() << "\n";
+      summary << "order_slope_" << integrator << "_" << (exact ? "exact" : "default") << "," << s
+              << "\n";
+      std::printf("  %s (K %s): fitted slope %.3f over %zu time steps\n", integrator.c_str(),
+                  exact ? "exact" : "default", s, hs.size());
+      if (exact && integrator == "bdf2") {
+        check(hs.size() >= 3 && s >= 1.6 && s <= 2.4,
+              "BDF2 (exact K) is second order: slope " + std::to_string(s) + " in [1.6, 2.4]");
+      }
+      if (exact && integrator == "implicit-euler") {
+        check(hs.size() >= 3 && s >= 0.7 && s <= 1.3,
+              "implicit Euler is first order: slope " + std::to_string(s) + " in [0.7, 1.3]");
+      }
+    }
+  }
+}
+
+// ---- g. Newton's convergence on a dihedral fold ------------------------------------------------
+
+/// A sheet 1 x 0.5 m (an `alternating` grid of nx x (nx + 1) / 2 vertices), its half x > 0.5
+/// folded by `angle` about the grid line x = 0.5 (every hinge on that line folded by it, the rest
+/// flat), released at rest (no gravity, nothing fixed): StretchSprings (1000) and DihedralBending.
+struct FoldSetup {
+  int nx = 21;
+  double angle = kPi / 2, density = 0.2, k = 1e-2, dt = 0.01;
+};
+
+std::unique_ptr<Simulation> foldedSheet(const FoldSetup& f) {
+  const int ny = (f.nx - 1) / 2 + 1;
+  const MeshData mesh = grid(f.nx, ny, 1.0, 0.5, "alternating");
+  auto sim = std::make_unique<Simulation>(
+      std::make_unique<Topology>(mesh.points, mesh.triangles), f.density);
+  StretchParameters sp;
+  sp.stiffness = 1000.0;
+  sim->addForceField(std::make_unique<StretchSprings>(sim->topology(), sp), "stretch");
+  DihedralBendingParameters dp;
+  dp.bendingStiffness = f.k;
+  sim->addForceField(std::make_unique<DihedralBending>(sim->topology(), dp), "bending");
+  sim->setGravity({0.0, 0.0, 0.0});
+  auto x = sim->state().x();
+  for (std::size_t p = 0; p < mesh.points.size(); ++p) {
+    const double u = mesh.points[p][0] - 0.5;
+    if (u > 0) {
+      x[3 * p] = 0.5 + u * std::cos(f.angle);
+      x[3 * p + 2] = u * std::sin(f.angle);
+    }
+  }
+  return sim;
+}
+
+/// Whether M - dt^2 K_exact (Newton's system with the exact stiffness) is positive definite at x.
+bool exactSystemPositiveDefinite(Simulation& sim, std::span<const double> x, double dt) {
+  const std::size_t n = sim.model().numSlots();
+  sim.model().setExactStiffness(true);
+  TripletAccumulator acc;
+  for (std::size_t i = 0; i < sim.numForceFields(); ++i)
+    sim.forceField(i).addKToMatrix(x, acc, -dt * dt);
+  sim.model().setExactStiffness(false);
+  const auto m = sim.mass().perPoint();
+  for (std::size_t p = 0; p < n; ++p) acc.addScaledIdentity(PointId(p), PointId(p), m[p]);
+  const Eigen::SparseMatrix<double> a = acc.toSparse(static_cast<cutsim::topology::Index>(n));
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(a);
+  return llt.info() == Eigen::Success;
+}
+
+/// The order of convergence at the end of a residual sequence e_k (relative residuals):
+/// log(e_k+1 / e_k) / log(e_k / e_k-1), the larger of its two last values (the last residual may
+/// sit at rounding: its triple then says little). About 1 for a linear sequence, 2 for a quadratic
+/// one.
+double terminalOrder(const std::vector<double>& res) {
+  const std::size_t k = res.size();
+  if (k < 4) return std::nan("");
+  const auto order = [&](std::size_t i) {
+    return std::log(res[i] / res[i - 1]) / std::log(res[i - 1] / res[i - 2]);
+  };
+  return std::max(order(k - 1), order(k - 2));
+}
+
+struct NewtonRun {
+  std::vector<std::vector<double>> residuals;  // per step
+  bool positiveDefinite = true;                // at the start and end of every step
+};
+
+NewtonRun foldRun(const FoldSetup& f, bool exact, int steps) {
+  auto sim = foldedSheet(f);
+  const Method m{"newton", "cholmod", NewtonSettings{60, 1e-10, exact, true}};
+  auto integ = makeMethod(m);
+  const auto* newton = static_cast<const NewtonImplicitEuler*>(integ.get());
+  sim->setIntegrator(std::move(integ));
+  NewtonRun run;
+  for (int s = 1; s <= steps; ++s) {
+    const std::vector<double> x0(sim->state().x().begin(), sim->state().x().end());
+    run.positiveDefinite = run.positiveDefinite && exactSystemPositiveDefinite(*sim, x0, f.dt);
+    sim->step(f.dt);
+    run.residuals.push_back(newton->lastResiduals());
+    const std::vector<double> x1(sim->state().x().begin(), sim->state().x().end());
+    run.positiveDefinite = run.positiveDefinite && exactSystemPositiveDefinite(*sim, x1, f.dt);
+  }
+  return run;
+}
+
+/// Whether two residual sequences are the same to 1e-6 (Newton with the exact stiffness fell back
+/// to the default one at its first iteration).
+bool sameSequence(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::fabs(a[i] - b[i]) > 1e-6 * std::fabs(b[i])) return false;
+  }
+  return true;
+}
+
+void newtonConvergence(std::ofstream& summary) {
+  std::cout << "g. Newton's convergence on a dihedral fold\n";
+  FoldSetup f;
+  if (gMode == Mode::Smoke) f.nx = 11;
+  // The study's setting (the exact system stays positive definite), and the same sheet at a five
+  // times larger step, where it does not along the iterations of some steps.
+  FoldSetup large = f;
+  large.dt = 5 * f.dt;
+  const int steps = 3;
+  auto out = csv("newton.csv", "setting,dt,stiffness,step,iteration,residual,relative,"
+                               "terminal_order,positive_definite,same_as_gauss_newton");
+  summary << "newton_nx," << f.nx << "\nnewton_ny," << (f.nx - 1) / 2 + 1 << "\nnewton_angle_deg,"
+          << f.angle * 180 / kPi << "\nnewton_density," << f.density << "\nnewton_k," << f.k
+          << "\nnewton_dt," << f.dt << "\nnewton_large_dt," << large.dt << "\n";
+  for (const FoldSetup* setup : {&f, &large}) {
+    const std::string setting = setup == &f ? "study" : "large-dt";
+    const NewtonRun ex = foldRun(*setup, true, steps), gn = foldRun(*setup, false, steps);
+    double worstExact = 1e300, bestGn = 0;
+    int fellBack = 0;
+    for (int s = 0; s < steps; ++s) {
+      const bool same = sameSequence(ex.residuals[s], gn.residuals[s]);
+      fellBack += same;
+      for (const bool exact : {true, false}) {
+        const auto& res = (exact ? ex : gn).residuals[s];
+        const double order = terminalOrder(res);
+        if (exact) worstExact = std::min(worstExact, order);
+        if (!exact) bestGn = std::max(bestGn, order);
+        std::printf("  %-8s dt=%-5g %-12s step %d (%2zu it, order %4.2f):", setting.c_str(),
+                    setup->dt, exact ? "exact K" : "Gauss-Newton", s + 1, res.size() - 1, order);
+        for (std::size_t i = 0; i < res.size(); ++i) {
+          out << setting << "," << setup->dt << "," << (exact ? "exact" : "gauss-newton") << ","
+              << s + 1 << "," << i << "," << res[i] << "," << res[i] / res[0] << "," << order
+              << "," << (exact ? ex.positiveDefinite : true) << "," << same << "\n";
+          if (i < 12) std::printf(" %.1e", res[i] / res[0]);
+        }
+        std::printf("%s\n", res.size() > 12 ? " ..." : "");
+        summary << "newton_" << setting << "_" << (exact ? "exact" : "gn") << "_iterations_step"
+                << s + 1 << "," << res.size() - 1 << "\n";
+      }
+    }
+    summary << "newton_" << setting << "_fell_back_steps," << fellBack << "\nnewton_" << setting
+            << "_pd," << ex.positiveDefinite << "\n";
+    if (setup == &f) {
+      summary << "newton_exact_worst_order," << worstExact << "\nnewton_gn_best_order," << bestGn
+              << "\n";
+      check(ex.positiveDefinite, "fold: Newton's exact system M - dt^2 K is positive definite at "
+                                 "the start and end of every step");
+      check(fellBack == 0 && worstExact > 1.5,
+            "fold: Newton with the exact Hessian ends quadratically in every step (smallest "
+            "terminal order " + std::to_string(worstExact) + " > 1.5)");
+      check(bestGn < 1.3, "fold: Newton with the Gauss-Newton stiffness ends linearly (largest "
+                          "terminal order " + std::to_string(bestGn) + " < 1.3)");
+      int itEx = 0, itGn = 0;
+      for (int s = 0; s < steps; ++s) {
+        itEx += int(ex.residuals[s].size()) - 1;
+        itGn += int(gn.residuals[s].size()) - 1;
+      }
+      check(itEx < itGn, "fold: the exact Hessian needs fewer Newton iterations than the "
+                         "Gauss-Newton stiffness (" + std::to_string(itEx) + " vs " +
+                         std::to_string(itGn) + " over " + std::to_string(steps) + " steps)");
+    }
+  }
+}
+
+// ---- h. cost of one step against the mesh size --------------------------------------------------
+
+void stepCost(std::ofstream&) {
+  std::cout << "h. cost of one step against mesh size\n";
   auto cost = csv("solver_cost.csv", "solver,n,vertices,seconds_per_step,dt");
   // Full: up to a million vertices for the explicit and CG steps, a quarter million for CHOLMOD
   // (whose factor grows faster than linearly).
@@ -664,27 +1036,24 @@ void solvers(std::ofstream& summary) {
                                  : gMode == Mode::Quick ? std::vector<int>{32, 64, 90, 128, 181}
                                                         : std::vector<int>{32, 64, 128, 256, 362, 512, 724, 1000};
   const int cholmodMaxSide = 512;
-  std::vector<SolverCase> costCases;
-  costCases.push_back({"explicit", ex});
-  for (const SolverCase& sc : solverCases()) {
-    if (sc.name == "cg20_tol1e-8" || sc.name == "cg100_tol1e-8" || sc.name == "cholmod") {
-      costCases.push_back(sc);
-    }
-  }
-  for (const SolverCase& sc : costCases) {
-    for (int m : sizes) {
-      if (sc.settings.kind == Kind::ImplicitCholmod && m > cholmodMaxSide) continue;
-      const double dt = sc.settings.kind == Kind::Explicit ? 1e-4 : 0.005;
-      Cloth c = hangingCloth(m);
-      c.sim->setSolver(sc.settings);
-      c.sim->step(dt);  // warm-up (CHOLMOD's symbolic analysis)
-      const int reps = m > 300 ? 1 : 3;
+  const std::vector<Method> methods = {{"explicit-euler", ""},
+                                       {"implicit-euler", "cg20"},
+                                       {"implicit-euler", "cg100"},
+                                       {"implicit-euler", "cholmod"}};
+  for (const Method& m : methods) {
+    for (int side : sizes) {
+      if (m.solver == "cholmod" && side > cholmodMaxSide) continue;
+      const double dt = m.integrator == "explicit-euler" ? 1e-4 : 0.005;
+      auto sim = hangingCloth({side, false, Bending::Springs});
+      sim->setIntegrator(makeMethod(m));
+      sim->step(dt);  // warm-up (CHOLMOD's symbolic analysis)
+      const int reps = side > 300 ? 1 : 3;
       const auto t0 = std::chrono::steady_clock::now();
-      for (int i = 0; i < reps; ++i) c.sim->step(dt);
+      for (int i = 0; i < reps; ++i) sim->step(dt);
       const double sps =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
-      cost << sc.name << "," << m << "," << m * m << "," << sps << "," << dt << "\n";
-      std::printf("  %-13s %6d vertices %.3g ms/step\n", sc.name.c_str(), m * m, 1e3 * sps);
+      cost << m.label() << "," << side << "," << side * side << "," << sps << "," << dt << "\n";
+      std::printf("  %-22s %7d vertices %.3g ms/step\n", m.label().c_str(), side * side, 1e3 * sps);
     }
   }
 }
@@ -692,6 +1061,7 @@ void solvers(std::ofstream& summary) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::string only = "abcdefgh";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--smoke") {
@@ -702,8 +1072,10 @@ int main(int argc, char** argv) {
       gMode = Mode::Full;
     } else if (a == "--out" && i + 1 < argc) {
       gOut = argv[++i];
+    } else if (a == "--only" && i + 1 < argc) {
+      only = argv[++i];
     } else {
-      std::cerr << "usage: cutsim_study [--smoke | --quick | --full] [--out DIR]\n";
+      std::cerr << "usage: cutsim_study [--smoke | --quick | --full] [--out DIR] [--only SECTIONS]\n";
       return 2;
     }
   }
@@ -711,11 +1083,15 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   try {
     auto summary = csv("summary.csv", "key,value");
-    cylinder(summary);
-    fold(summary);
-    restForces(summary);
-    cantilever(summary);
-    solvers(summary);
+    const auto want = [&](char s) { return only.find(s) != std::string::npos; };
+    if (want('a')) cylinder(summary);
+    if (want('b')) fold(summary);
+    if (want('c')) restForces(summary);
+    if (want('d')) cantilever(summary);
+    if (want('e')) pareto(summary);
+    if (want('f')) orderOfAccuracy(summary);
+    if (want('g')) newtonConvergence(summary);
+    if (want('h')) stepCost(summary);
   } catch (const std::exception& e) {
     std::cerr << "cutsim_study: " << e.what() << "\n";
     return 1;

@@ -2,7 +2,7 @@
 # The accuracy study: builds cutsim_study (Release), runs it, plots its CSV files into docs/study/
 # and regenerates docs/study.md.
 #
-#   study/run_study.sh [--quick | --full]     (default --quick: under ~3 minutes on 2 cores)
+#   study/run_study.sh [--quick | --full]     (default --quick: about 2-3 minutes on 2 cores; --full: about 8-9)
 #
 # Needs python3 with matplotlib: installed with apt-get (python3-matplotlib) if missing.
 # Environment: CUTSIM_STUDY_BUILD (build tree, default build/study), JOBS (default 2).
