@@ -115,7 +115,7 @@ void runScene(const RunOptions& options) {
   if (solves.flaggedSteps > 0) {
     std::ostringstream w;
     w << "warning: " << solves.flaggedSteps << " of " << runner.numSteps()
-      << " steps had a solve that missed its tolerance (" << solves.missedTolerance << " missed, "
+      << " steps were flagged by their solves (" << solves.missedTolerance << " missed their tolerance, "
       << solves.indefinite << " indefinite, " << solves.fellBack << " fell back to CHOLMOD, "
       << solves.newtonNotConverged << " Newton unconverged); worst relative residual "
       << solves.worstResidual << " at step " << solves.worstStep

@@ -68,6 +68,11 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
     out.x = (4.0 * x - xPrev_) / 3.0 + beta * out.v;
   else
     out.x = x + h * out.v;
+  // Prescribed points are exactly on their targets (the formula above gets there to rounding):
+  // what the simulation commits is then what the next step's history check expects.
+  for (std::size_t p = 0; p < n; ++p)
+    if (c.constrained[p])
+      for (int k = 0; k < 3; ++k) out.x[Eigen::Index(3 * p + k)] = c.target[3 * p + std::size_t(k)];
   if (model.numGrasps() > 0) {
     Eigen::VectorXd Adv;
     A.apply(dv, Adv);

@@ -120,20 +120,21 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   };
   record(r);
   if (r.converged && !r.indefinite) return;
-  stats.flags |= r.indefinite ? StepStats::Indefinite : StepStats::MissedTolerance;
-  if (!r.converged && !std::isfinite(r.residual)) stats.flags |= StepStats::MissedTolerance;
+  if (r.indefinite) stats.flags |= StepStats::Indefinite;
+  if (!r.converged) stats.flags |= StepStats::MissedTolerance;
   const bool far = !(r.residual <= settings_.fallbackAbove);
   switch (settings_.onSolveFailure) {
     case SolveFailurePolicy::Warn:
-      if (solver_->direct() && r.indefinite) throw StepFailure{describe(*solver_, r)};
+      if (solver_->direct() && r.indefinite) throw StepFailure{describe(*solver_, r), true};
       return;
     case SolveFailurePolicy::Fail:
-      throw StepFailure{describe(*solver_, r) + " (the scene's onSolveFailure is \"fail\")"};
+      throw StepFailure{describe(*solver_, r) + " (the scene's onSolveFailure is \"fail\")", r.indefinite};
     case SolveFailurePolicy::Fallback:
       break;
   }
-  if (!far && !(solver_->direct() && r.indefinite)) return;  // close enough: flagged, kept
-  if (solver_->direct()) throw StepFailure{describe(*solver_, r)};
+  // A capped solve that got close is kept (flagged); non-positive curvature always falls back.
+  if (!far && !r.indefinite) return;
+  if (solver_->direct()) throw StepFailure{describe(*solver_, r), r.indefinite};
   if (!fallback_) fallback_ = std::make_unique<CholmodSolver>();
   dv = guess;
   const SolveReport f = fallback_->solve(A, b, dv);
@@ -143,7 +144,8 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   stats.flags |= StepStats::FellBack;
   record(f);
   if (f.indefinite || !f.converged)
-    throw StepFailure{describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4)};
+    throw StepFailure{describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4),
+                      f.indefinite};
 }
 
 // ---- the shorthand of the first scenes ----
@@ -211,6 +213,9 @@ ImplicitSettings readImplicitSettings(const ParameterSource& s) {
   p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
   p.onSolveFailure = parseSolveFailurePolicy(s.choice("onSolveFailure", "fallback", {"warn", "fail", "fallback"}));
   p.fallbackAbove = s.positive("fallbackAbove", p.fallbackAbove);
+  if (s.has("fallbackAbove") && p.onSolveFailure != SolveFailurePolicy::Fallback)
+    s.fail("fallbackAbove", "is used only with \"onSolveFailure\": \"fallback\" (here \"" +
+                                std::string(toString(p.onSolveFailure)) + "\")");
   s.check([&] { p.validate(); });
   return p;
 }

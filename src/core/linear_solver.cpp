@@ -144,7 +144,9 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
     rNorm = r.norm();
     ++report.iterations;
   }
-  report.residual = bNorm > 0 ? rNorm / bNorm : 0.0;
+  // Relative to the work the solve had; with none (b = 0 on the free points, nothing prescribed)
+  // the absolute residual, which is what any guess left over.
+  report.residual = bNorm > 0 ? rNorm / bNorm : rNorm;
   report.converged = std::isfinite(rNorm) && rNorm <= stop;
   if (bNorm == 0 && rNorm == 0) report.converged = true;
   warm_ = dv;

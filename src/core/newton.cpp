@@ -153,6 +153,8 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
   const double h = in.dt;
   const StepConstraints& c = *in.constraints;
   const IncrementalPotential P(model, c, h, settings_);
+  // The fields' stiffness for the step first: the damping term of Phi and of the residual uses it.
+  ExactStiffness exact(model, newton_.exactStiffness);
   // From v_n the first iteration is the linearised implicit Euler step about x_n + h v_n.
   Iterate it;
   it.v = P.start();
@@ -160,9 +162,14 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
   it.phi = newton_.lineSearch ? P.phi(it.v) : 0.0;
   const double r0 = it.r.norm(), floor = P.floor();
   residuals_.assign(1, r0);
-  ExactStiffness exact(model, newton_.exactStiffness);
   bool converged = r0 <= floor;
   int k = 0;
+  // Drops the exact stiffness for the rest of the step; Phi and r change with it (the damping).
+  auto dropExact = [&] {
+    exact.off();
+    it.r = P.residual(it.v);
+    if (newton_.lineSearch) it.phi = P.phi(it.v);
+  };
   while (!converged && k < newton_.maxIterations) {
     ++k;
     Vec delta = Vec::Zero(P.size());
@@ -170,11 +177,11 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
     const std::uint8_t flagsBefore = stats.flags;
     try {
       solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
-    } catch (const StepFailure&) {
-      if (!exact.active) throw;
+    } catch (const StepFailure& e) {
+      if (!exact.active || !e.indefinite) throw;
       // The exact stiffness is indefinite here: the fields' default one for the rest of the step
       // (an expected turn of the method, not a failed solve: the step is not flagged for it).
-      exact.off();
+      dropExact();
       stats.flags = flagsBefore;
       delta.setZero();
       solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
@@ -183,8 +190,10 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
     Iterate next;
     if (newton_.lineSearch) {
       if (!(it.r.dot(delta) > 0) && exact.active) {
-        // Not a descent direction (an indefinite exact stiffness): solve with the default one.
-        exact.off();
+        // Not a descent direction (an indefinite exact stiffness): solve with the default one
+        // (again an expected turn, not flagged).
+        dropExact();
+        stats.flags = flagsBefore;
         --k;
         continue;
       }

@@ -145,7 +145,9 @@ void parseSolverShorthand(const Reader& r, const json& j, const std::string& ptr
                        std::string_view(key) == "warmStart";
     if (r.find(j, key) && (isExplicit || (cgKey && !cg)))
       r.fail(ptr + "/" + key, "the solver \"" + std::string(toString(legacy.kind)) + "\" does not use \"" +
-                                  key + "\"");
+                                  key + "\" (it is a setting of " +
+                                  (cgKey ? "the linear solver cg" : "the implicit integrators") +
+                                  "; give \"integrator\" and \"linearSolver\" to choose each)");
   }
   CGSettings cgs;
   if (const json* v = r.find(j, "iterations")) cgs.maxIterations = int(r.integer(*v, ptr + "/iterations", 1, 1000000));

@@ -103,6 +103,7 @@ struct StepOutput {
 /// solved at all); the simulation turns it into a SolverError naming the step.
 struct StepFailure {
   std::string message;
+  bool indefinite = false;  ///< the system was not positive definite (Newton then drops the exact K)
 };
 
 class Integrator {
