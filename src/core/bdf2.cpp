@@ -3,11 +3,6 @@
 
 namespace cutsim::core {
 
-void BDF2::reset() {
-  ImplicitIntegrator::reset();
-  have_ = false;
-}
-
 bool BDF2::historyValid(const Model& model, const StepInput& in) const {
   if (!have_ || in.dt != dtLast_ || in.revision != revision_) return false;
   auto xs = model.state().x();
@@ -95,14 +90,7 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
 
 namespace cutsim::core {
 namespace {
-const bool registered = IntegratorRegistry::instance().add({
-    "bdf2",
-    "second-order backward differentiation, linearised once per step (Choi and Ko)",
-    implicitKeys(),
-    {"linearSolver"},
-    [](const ParameterSource& s) -> std::any { return readImplicitSettings(s); },
-    [](const std::any& p, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
-      return std::make_unique<BDF2>(std::any_cast<const ImplicitSettings&>(p), std::move(ls));
-    }});
+const bool registered =
+    registerImplicitIntegrator<BDF2>("bdf2", "second-order backward differentiation, linearised once per step (Choi and Ko)");
 }  // namespace
 }  // namespace cutsim::core

@@ -46,14 +46,7 @@ void ImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, Ste
 
 namespace cutsim::core {
 namespace {
-const bool registered = IntegratorRegistry::instance().add({
-    "implicit-euler",
-    "backward Euler linearised once per step (Baraff and Witkin): first order, very stable",
-    implicitKeys(),
-    {"linearSolver"},
-    [](const ParameterSource& s) -> std::any { return readImplicitSettings(s); },
-    [](const std::any& p, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
-      return std::make_unique<ImplicitEuler>(std::any_cast<const ImplicitSettings&>(p), std::move(ls));
-    }});
+const bool registered =
+    registerImplicitIntegrator<ImplicitEuler>("implicit-euler", "backward Euler linearised once per step (Baraff and Witkin): first order, very stable");
 }  // namespace
 }  // namespace cutsim::core

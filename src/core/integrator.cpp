@@ -62,11 +62,6 @@ ImplicitIntegrator::ImplicitIntegrator(ImplicitSettings settings, std::unique_pt
 }
 ImplicitIntegrator::~ImplicitIntegrator() = default;
 
-void ImplicitIntegrator::reset() {
-  solver_->reset();
-  if (fallback_) fallback_->reset();
-}
-
 SystemOperator ImplicitIntegrator::systemOperator(const Model& model, std::span<const double> x,
                                                   double c, const StepConstraints& constraints) {
   auto m = model.mass().perPoint();

@@ -38,7 +38,7 @@ struct CholmodSolver::Impl {
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
   SystemMatrix system;
   std::uint64_t revision = 0;  // the revision the pattern was built for
-  std::vector<const forcefields::ForceField*> fields;  // the fields it was built for
+  SystemMatrix::Fields fields;  // the fields it was built for
   int solvesOnPattern = 0;
   bool analysed = false;
   long analyses = 0;
@@ -50,18 +50,16 @@ CholmodSolver::CholmodSolver(CholmodSettings settings)
 }
 CholmodSolver::~CholmodSolver() = default;
 
-void CholmodSolver::reset() { impl_ = std::make_unique<Impl>(); }
 long CholmodSolver::analyses() const { return impl_->analyses; }
 
 SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv) {
   pinBlasThreads();
   Impl& S = *impl_;
   const std::size_t n = A.numSlots();
-  SystemMatrix::Fields fl(A.fields().begin(), A.fields().end());
-  const std::vector<const forcefields::ForceField*> fieldList(A.fields().begin(), A.fields().end());
+  const SystemMatrix::Fields fl(A.fields().begin(), A.fields().end());
   // The pattern follows the topology and the list of fields; a field that adds a block outside
   // it (it should not) gets the pattern rediscovered, once.
-  bool rebuild = !S.system.built() || S.revision != A.revision() || S.fields != fieldList ||
+  bool rebuild = !S.system.built() || S.revision != A.revision() || S.fields != fl ||
                  S.system.numSlots() != n;
   // Nested dissection costs more to compute but factorises faster: worth it for a pattern that
   // lasts. A pattern that lasted only a few solves (a progressive cut) is followed by
@@ -78,7 +76,7 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
     if (rebuild) {
       S.system.build(fl, A.x(), n, ordering);
       S.revision = A.revision();
-      S.fields = fieldList;
+      S.fields = fl;
       S.analysed = false;
     }
     if (S.system.fill(fl, A.x(), A.kFactor(), A.bFactor(), A.diagonalMass())) break;

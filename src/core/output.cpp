@@ -129,9 +129,14 @@ void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
 
 void writeNetworkVtp(std::ostream& out, const Simulation& sim,
                      const forcefields::ForceField& field) {
-  const Numbering n = numbering(sim);
   std::vector<std::array<PointId, 2>> segments;
   field.draw(segments);
+  writeNetworkVtp(out, sim, segments);
+}
+
+void writeNetworkVtp(std::ostream& out, const Simulation& sim,
+                     std::span<const std::array<PointId, 2>> segments) {
+  const Numbering n = numbering(sim);
   std::vector<std::array<topology::Index, 2>> lines;
   lines.reserve(segments.size());
   for (const auto& s : segments) {
@@ -280,13 +285,15 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
       const auto* bending = firstBending(sim);
       for (std::size_t i = 0; i < sim.numForceFields(); ++i) {
         const forcefields::ForceField& field = sim.forceField(i);
-        std::vector<std::array<PointId, 2>> probe;
-        field.draw(probe);
-        if (probe.empty() && &field != bending) continue;
+        std::vector<std::array<PointId, 2>> segments;
+        field.draw(segments);
         const std::string series = &field == bending ? "springs" : networkSeriesName(sim.forceFieldLabel(i));
+        // A field that has never drawn anything has no series; one that has keeps a frame for
+        // every frame of the run, empty or not, so that its collection has no gap.
+        if (segments.empty() && &field != bending && !networkFrames_.count(series)) continue;
         auto& frames = networkFrames_[series];
         const std::string name = frameName(series, index, ".vtp");
-        writeFileAtomically(dir_ / name, [&](std::ostream& o) { writeNetworkVtp(o, sim, field); });
+        writeFileAtomically(dir_ / name, [&](std::ostream& o) { writeNetworkVtp(o, sim, segments); });
         frames.emplace_back(r.time, name);
         writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
       }

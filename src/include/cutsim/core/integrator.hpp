@@ -117,8 +117,6 @@ class Integrator {
   virtual void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) = 0;
   /// The linear solver, if the method uses one.
   virtual LinearSolver* linearSolver() const { return nullptr; }
-  /// Forgets what it kept from earlier steps (history, warm starts, factorisations).
-  virtual void reset() {}
 };
 
 class ExplicitEuler final : public Integrator {
@@ -135,7 +133,6 @@ class ImplicitIntegrator : public Integrator {
   ~ImplicitIntegrator() override;
   LinearSolver* linearSolver() const override { return solver_.get(); }
   const ImplicitSettings& settings() const { return settings_; }
-  void reset() override;
 
  protected:
   /// Solves A dv = b with the linear solver and applies the failure policy; records the solve in
@@ -167,7 +164,6 @@ class BDF2 final : public ImplicitIntegrator {
   using ImplicitIntegrator::ImplicitIntegrator;
   std::string_view name() const override { return "bdf2"; }
   void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
-  void reset() override;
   /// Steps taken as implicit Euler (the first, and after each restart).
   long restarts() const { return restarts_; }
 

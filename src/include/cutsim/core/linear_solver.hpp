@@ -87,8 +87,6 @@ class LinearSolver {
   /// report (the integrator's failure policy decides).
   virtual SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b,
                             Eigen::VectorXd& dv) = 0;
-  /// Forgets what it kept from earlier solves (a warm start, a factorisation).
-  virtual void reset() {}
 };
 
 /// Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver, with a
@@ -108,7 +106,6 @@ class ConjugateGradient final : public LinearSolver {
   std::string_view name() const override { return "cg"; }
   bool direct() const override { return false; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
-  void reset() override { warm_.resize(0); }
   const CGSettings& settings() const { return settings_; }
 
  private:
@@ -134,7 +131,6 @@ class CholmodSolver final : public LinearSolver {
   std::string_view name() const override { return "cholmod"; }
   bool direct() const override { return true; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
-  void reset() override;
   /// Symbolic analyses done so far, for tests of the reuse policy.
   long analyses() const;
 

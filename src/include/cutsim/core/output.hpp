@@ -16,6 +16,7 @@
 #include <functional>
 #include <iosfwd>
 #include <map>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -40,6 +41,9 @@ void writeSurfaceVtp(std::ostream& out, const Simulation& sim);
 /// The network of `field.draw()` as lines between the live points (numbered as in the surface).
 void writeNetworkVtp(std::ostream& out, const Simulation& sim,
                      const forcefields::ForceField& field);
+/// The same for segments already drawn.
+void writeNetworkVtp(std::ostream& out, const Simulation& sim,
+                     std::span<const std::array<PointId, 2>> segments);
 /// A ParaView collection: (time, file name relative to the .pvd) per frame.
 void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames);
 /// OBJ of the live surface at current positions, 17 significant digits.

@@ -17,4 +17,16 @@ using IntegratorRegistry = Registry<Integrator, std::unique_ptr<LinearSolver>>;
 std::vector<KeyInfo> implicitKeys();
 ImplicitSettings readImplicitSettings(const ParameterSource& s);
 
+/// Registers an implicit integrator T(ImplicitSettings, linear solver) that reads only the shared
+/// implicit keys (implicit Euler, BDF2).
+template <class T>
+bool registerImplicitIntegrator(std::string name, std::string summary) {
+  return IntegratorRegistry::instance().add(
+      {std::move(name), std::move(summary), implicitKeys(), {"linearSolver"},
+       [](const ParameterSource& s) -> std::any { return readImplicitSettings(s); },
+       [](const std::any& p, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
+         return std::make_unique<T>(std::any_cast<const ImplicitSettings&>(p), std::move(ls));
+       }});
+}
+
 }  // namespace cutsim::core
