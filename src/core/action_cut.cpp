@@ -54,6 +54,7 @@ class CutAction final : public TimelineAction {
     try {
       topology::CutOptions options;
       options.snapTolerance = p_.snapTolerance;
+      options.repair.minAngle = p_.minAngle;
       c.topology().cutPolyline(p_.polyline, options);
     } catch (const TopologyError& e) {
       c.fail("polyline", std::string("the cut cannot be made on the rest surface: ") + e.what());
@@ -90,9 +91,7 @@ class CutAction final : public TimelineAction {
       topology::Topology& topo = c.simulation().topology();
       const topology::Index points = topo.pointCapacity(), triangles = topo.triangleCapacity();
       try {
-        topology::CutOptions options;
-        options.snapTolerance = p_.snapTolerance;
-        result = topo.cutPolyline(piece, options);
+        result = topo.cutPolyline(piece, options(c));
         c.countCut();
       } catch (const TopologyError& e) {
         if (topo.pointCapacity() == points && topo.triangleCapacity() == triangles) return;
@@ -107,11 +106,15 @@ class CutAction final : public TimelineAction {
   }
 
  private:
+  topology::CutOptions options(ActionContext& c) const {
+    topology::CutOptions o;
+    o.snapTolerance = p_.snapTolerance;
+    o.repair = repairOptions(c.simulation(), p_.minAngle);
+    return o;
+  }
   topology::IncisionResult cut(ActionContext& c, std::span<const Vec3> polyline) {
-    topology::CutOptions options;
-    options.snapTolerance = p_.snapTolerance;
     try {
-      topology::IncisionResult result = c.simulation().topology().cutPolyline(polyline, options);
+      topology::IncisionResult result = c.simulation().topology().cutPolyline(polyline, options(c));
       c.countCut();
       return result;
     } catch (const TopologyError& e) {
@@ -156,7 +159,11 @@ const bool registered = ActionRegistry::instance().add({
      {"from", "start of a progressive cut"},
      {"to", "end of a progressive cut"},
      {"polyline", "[[x, y, z], ...] in rest coordinates, at least 2 points"},
-     {"snapTolerance", "relative to the local edge length, in [0, 0.5) (default 0.1)"}},
+     {"snapTolerance", "how far (relative to the local edge length) the cut's ends snap onto a vertex or "
+                       "the border, in [0, 0.5) (default 0.1); without the quality repair, crossings "
+                       "snap too"},
+     {"minAngle", "smallest-angle target (degrees) of the quality repair around the cut, in [0, 60) "
+                  "(default 20; 0 turns the repair off)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       CutParameters p;
@@ -165,6 +172,7 @@ const bool registered = ActionRegistry::instance().add({
         p.snapTolerance = s.nonNegative("snapTolerance", p.snapTolerance);
         if (!(p.snapTolerance < 0.5)) s.fail("snapTolerance", "must be < 0.5");
       }
+      p.minAngle = readMinAngle(s);
       return p;
     },
     [](const std::any& p, const ActionTiming& timing) -> std::unique_ptr<TimelineAction> {

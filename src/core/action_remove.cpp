@@ -13,14 +13,17 @@ class RemoveAction final : public TimelineAction {
     const auto tris = trianglesInRegion(c.topology(), p_.region);
     if (tris.empty()) c.fail(key, "removes no triangle: no rest centroid lies inside");
     try {
-      c.topology().removeTriangles(tris);
+      topology::RepairOptions repair;
+      repair.minAngle = p_.minAngle;
+      c.topology().removeTriangles(tris, repair);
     } catch (const TopologyError& e) {
       c.fail(key, std::string("the removal cannot be made: ") + e.what());
     }
   }
   void start(ActionContext& c) override {
     const auto tris = trianglesInRegion(c.simulation().topology(), p_.region);
-    if (!tris.empty()) c.simulation().topology().removeTriangles(tris);
+    if (!tris.empty())
+      c.simulation().topology().removeTriangles(tris, repairOptions(c.simulation(), p_.minAngle));
   }
 
  private:
@@ -32,7 +35,9 @@ const bool registered = ActionRegistry::instance().add({
     "carves out the triangles whose rest centroid lies in a sphere or a box",
     {{"at", "time of the removal"},
      {"sphere", "{\"center\": [x, y, z], \"radius\": r} in rest coordinates"},
-     {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"}},
+     {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"},
+     {"minAngle", "smallest-angle target (degrees) of the quality repair around the hole, in [0, 60) "
+                  "(default 20; 0 turns the repair off)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       RemoveParameters p;
@@ -47,6 +52,7 @@ const bool registered = ActionRegistry::instance().add({
         p.region.kind = Region::Kind::Box;
         std::tie(p.region.boxMin, p.region.boxMax) = s.box("box");
       }
+      p.minAngle = readMinAngle(s);
       return p;
     },
     [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {

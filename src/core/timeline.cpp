@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/geometry.hpp"
 
 namespace cutsim::core {
@@ -102,6 +103,27 @@ std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& to
     if (region.contains(c)) out.push_back(t);
   }
   return out;
+}
+
+topology::RepairOptions repairOptions(const Simulation& simulation, double minAngle) {
+  topology::RepairOptions o;
+  o.minAngle = minAngle;
+  if (!(minAngle > 0)) return o;
+  o.locked = simulation.fixed().points();
+  for (std::size_t i = 0; i < simulation.numGrasps(); ++i) {
+    auto g = simulation.grasp(i).points().points();
+    o.locked.insert(o.locked.end(), g.begin(), g.end());
+  }
+  return o;
+}
+
+double readMinAngle(const ParameterSource& s) {
+  if (!s.has("minAngle")) return kDefaultMinAngle;
+  const double a = s.number("minAngle");
+  if (!(a >= 0.0 && a < 60.0))
+    s.fail("minAngle", "must be in [0, 60) degrees (0 turns the quality repair off); got " +
+                           forcefields::describeNumber(a));
+  return a;
 }
 
 }  // namespace cutsim::core

@@ -183,7 +183,7 @@ TEST(FuzzReplay, RejectedCutChangesNothing) {
     return l.rfind("cutPolyline snap 0.000000: {0.96875000099999997", 0) == 0;
   });
   ASSERT_NE(target, log.end());
-  EXPECT_NE(target->find("cannot be inserted with snapTolerance"), std::string::npos) << *target;
+  EXPECT_NE(target->find("cannot be inserted"), std::string::npos) << *target;
   EXPECT_NE(target->find("nothing was changed"), std::string::npos) << *target;
 }
 
@@ -215,7 +215,7 @@ TEST(FuzzReplay, RejectedCutAlongTheBorderChangesNothing) {
     return l.rfind("cutPolyline snap 0.010000: {0.39900000000000002", 0) == 0;
   });
   ASSERT_NE(target, log.end());
-  EXPECT_NE(target->find("cannot be inserted with snapTolerance"), std::string::npos) << *target;
+  EXPECT_NE(target->find("cannot be inserted"), std::string::npos) << *target;
   EXPECT_NE(target->find("nothing was changed"), std::string::npos) << *target;
 }
 

@@ -96,9 +96,10 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
         what << "tear skipped (no interior edge)";
         return false;
       }
-      what << "tear(" << e << ")";
+      const topology::RepairOptions repair = maybeRepair();
+      what << "tear(" << e << (repair.minAngle > 0 ? ", repair" : "") << ")";
       announce(what);
-      t_.tear(e);
+      t_.tear(e, repair);
       return true;
     }
     case OpKind::Incise: {
@@ -119,13 +120,14 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
       std::shuffle(tris.begin(), tris.end(), rng_);
       tris.resize(std::min<std::size_t>(tris.size(), static_cast<std::size_t>(pick(1, 3))));
       std::sort(tris.begin(), tris.end());
+      const topology::RepairOptions repair = maybeRepair();
       what << "removeTriangles(";
       for (TriangleId tr : tris) what << tr << " ";
-      what << ")";
+      what << (repair.minAngle > 0 ? "repair" : "") << ")";
       std::vector<topology::TriangleVertices> vertices;
       for (TriangleId tr : tris) vertices.push_back(t_.triangleVertices(tr));
       announce(what);
-      t_.removeTriangles(tris);
+      t_.removeTriangles(tris, repair);
       removed_.insert(removed_.end(), vertices.begin(), vertices.end());
       return true;
     }
@@ -152,11 +154,13 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
         what << "cutPolyline skipped (left the sheet)";
         return false;
       }
+      topology::CutOptions options;
+      options.repair = maybeRepair();
       what << "cutPolyline(";
       for (const Vec3& q : poly) what << "(" << q[0] << "," << q[1] << ") ";
-      what << ")";
+      what << (options.repair.minAngle > 0 ? "repair" : "") << ")";
       announce(what);
-      t_.cutPolyline(poly);
+      t_.cutPolyline(poly, options);
       return true;
     }
     case OpKind::Compact: {
@@ -207,6 +211,12 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
 
 void RandomTopologyOps::announce(const std::ostringstream& what) const {
   if (trace_) std::cerr << "  op: " << what.str() << std::endl;
+}
+
+topology::RepairOptions RandomTopologyOps::maybeRepair() {
+  topology::RepairOptions o;
+  if (pick(0, 1) == 1) o.minAngle = 20.0;  // half of the cuts, tears and removals repair
+  return o;
 }
 
 int RandomTopologyOps::pick(int lo, int hi) {

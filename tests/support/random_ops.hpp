@@ -62,6 +62,8 @@ class RandomTopologyOps {
   bool apply(OpKind kind, std::ostringstream& what);
   void announce(const std::ostringstream& what) const;
   int pick(int lo, int hi);
+  /// The quality repair (target 20 degrees) half of the time, none otherwise.
+  topology::RepairOptions maybeRepair();
   /// A random live edge (interior only if asked), kInvalidIndex if there is none.
   topology::EdgeId randomEdge(bool interior);
   /// A short walk (1 to 4 edges) along interior edges, without repeating a vertex.

@@ -72,7 +72,9 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
           EdgeId e = es[rng() % es.size()];
           what = "tear " + std::to_string(e);
           if (t.isBoundaryEdge(e)) continue;
-          t.tear(e);
+          topology::RepairOptions repair;
+          if (rng() % 2) repair.minAngle = 20.0;
+          t.tear(e, repair);
           break;
         }
         case 2: {  // incise along a random path
@@ -90,7 +92,9 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
           std::sort(rm.begin(), rm.end());
           rm.erase(std::unique(rm.begin(), rm.end()), rm.end());
           what = "removeTriangles";
-          t.removeTriangles(rm);
+          topology::RepairOptions repair;
+          if (rng() % 2) repair.minAngle = 20.0;
+          t.removeTriangles(rm, repair);
           break;
         }
         case 4: {  // split a triangle
@@ -114,7 +118,9 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
             poly.push_back({poly.back()[0] + len * std::cos(a), poly.back()[1] + len * std::sin(a), p[2]});
           }
           what = "cutPolyline";
-          t.cutPolyline(poly);
+          topology::CutOptions options;
+          if (rng() % 2) options.repair.minAngle = 20.0;
+          t.cutPolyline(poly, options);
           break;
         }
         case 6: {

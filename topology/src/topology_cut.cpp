@@ -615,6 +615,7 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   if (!(options.snapTolerance >= 0.0 && options.snapTolerance < 0.5))
     throw TopologyError("cutPolyline: snapTolerance " + std::to_string(options.snapTolerance) +
                         " must be in [0, 0.5)");
+  checkRepairOptions(options.repair, "cutPolyline");
   std::vector<Point3> poly;
   for (std::size_t i = 0; i < polyline.size(); ++i) {
     for (double c : polyline[i])
@@ -641,13 +642,17 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   std::unique_ptr<Patch> patch;
   std::vector<VI> planned;
   std::optional<Walker> planner;
+  // With the quality repair on, crossings are not snapped: the path follows the polyline exactly
+  // (the lips lie on the cut) and the repair removes the slivers (snapping would leave kinks in
+  // the path that no repair may straighten). The ends still snap, so a cut reaches the border.
+  double snap = options.repair.minAngle > 0 ? 0.0 : options.snapTolerance;
   auto plan = [&](const std::vector<Point3>& line, const Walker& walker) {
     std::unordered_set<std::uint32_t> faces;
     for (FI f : walker.corridor) faces.insert(f.idx());
     growByOneRing(I, faces);
     while (true) {
       patch = buildPatch(I, faces);
-      planner.emplace(patch->impl, options.snapTolerance);
+      planner.emplace(patch->impl, snap);
       planner->setFrontier(&patch->frontier);
       try {
         planned = planner->insert(line, inPatch(*patch, I.mesh, walker.start));
@@ -673,10 +678,22 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   if (!done) {
     try {
       plan(poly, checked);
+      done = true;
+    } catch (const TopologyError&) {  // below: without snapping
+    }
+  }
+  // Snapping moves the path, and the walk from a snapped crossing can fail where the polyline as
+  // given passes: then the crossings are taken where they are (no snapping at all); the slivers
+  // this may leave are the quality repair's to fix.
+  if (!done) {
+    const bool retried = snap > 0;
+    snap = 0.0;
+    try {
+      plan(poly, checked);
     } catch (const TopologyError& e) {
-      throw TopologyError("cutPolyline: the cut cannot be inserted with snapTolerance " +
-                          std::to_string(options.snapTolerance) + ": " + e.what() +
-                          "; nothing was changed (another snapTolerance may succeed)");
+      throw TopologyError(std::string("cutPolyline: the cut cannot be inserted") +
+                          (retried ? " (also tried without snapping): " : ": ") + e.what() +
+                          "; nothing was changed");
     }
   }
 
@@ -717,6 +734,7 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     } else {
       for (VI v : path) result.path.push_back(PointId(v.idx()));
     }
+    I.repairIncision(options.repair, result);
   } catch (...) {
     // Not expected (the plan ran the same splits): the mesh is valid, so announce what was
     // done, close the transaction, then report.

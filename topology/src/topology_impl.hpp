@@ -110,11 +110,21 @@ struct Topology::Impl {
   /// summed in that order.
   VI splitFaceNoTxn(FI f, const std::array<VI, 3>& corners, const std::array<double, 3>& weights);
   void inciseNoTxn(std::vector<VI> path, IncisionResult& result);
+  /// Quality repair around `seeds` and the points created so far in this transaction
+  /// (topology_repair.cpp). replacedBy: a point the repair removed -> the point that took its place
+  /// (follow chains).
+  RepairReport repairNoTxn(const std::vector<VI>& seeds, const RepairOptions& options,
+                           std::unordered_map<Index, Index>& replacedBy);
+  /// The repair, then the points of `result` mapped through its replacements.
+  void repairIncision(const RepairOptions& options, IncisionResult& result);
 
   static std::uint64_t faceVertexKey(FI f, VI v) {
     return (std::uint64_t(f.idx()) << 32) | std::uint64_t(v.idx());
   }
 };
+
+/// Throws TopologyError naming `operation` when the options are out of range.
+void checkRepairOptions(const RepairOptions& options, const char* operation);
 
 inline Vec3 toVec(const Point3& p) { return {p.x(), p.y(), p.z()}; }
 inline Point3 toPoint(const Vec3& v) { return Point3(v[0], v[1], v[2]); }

@@ -96,6 +96,12 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
 }
 
 void Topology::removeTriangles(std::span<const TriangleId> triangles) {
+  removeTriangles(triangles, RepairOptions{});
+}
+
+RepairReport Topology::removeTriangles(std::span<const TriangleId> triangles,
+                                       const RepairOptions& repair) {
+  checkRepairOptions(repair, "removeTriangles");
   Impl& I = *impl_;
   std::vector<TriangleId> ts(triangles.begin(), triangles.end());
   std::sort(ts.begin(), ts.end());
@@ -104,13 +110,22 @@ void Topology::removeTriangles(std::span<const TriangleId> triangles) {
                         " is listed twice");
   for (TriangleId t : ts)
     if (!I.faceAlive(FI(t))) throw TopologyError("removeTriangles: triangle " + pt(t) + " does not exist");
-  if (ts.empty()) return;
+  if (ts.empty()) return {};
   I.begin("removeTriangles");
   for (TriangleId t : ts) I.detachFace(FI(t));
   // Removal may leave a vertex with two fans (a bowtie): give each extra fan its own copy.
   std::vector<VI> candidates = I.touched;
   I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
+  RepairReport report;
+  try {
+    std::unordered_map<Index, Index> replaced;
+    report = I.repairNoTxn(candidates, repair, replaced);
+  } catch (...) {
+    I.commit(*this);
+    throw;
+  }
   I.commit(*this);
+  return report;
 }
 
 VI Topology::Impl::splitEdgeNoTxn(EI e, VI from, double t) {
@@ -234,7 +249,10 @@ IncisionResult Topology::incise(std::span<const PointId> path) {
   return result;
 }
 
-IncisionResult Topology::tear(EdgeId e) {
+IncisionResult Topology::tear(EdgeId e) { return tear(e, RepairOptions{}); }
+
+IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
+  checkRepairOptions(repair, "tear");
   Impl& I = *impl_;
   if (!I.edgeAlive(EI(e))) throw TopologyError("tear: edge " + pt(e) + " does not exist");
   if (I.mesh.is_border(EI(e)))
@@ -243,6 +261,12 @@ IncisionResult Topology::tear(EdgeId e) {
   I.begin("tear");
   IncisionResult result;
   I.inciseNoTxn({I.mesh.source(h), I.mesh.target(h)}, result);
+  try {
+    I.repairIncision(repair, result);
+  } catch (...) {
+    I.commit(*this);
+    throw;
+  }
   I.commit(*this);
   return result;
 }

@@ -49,6 +49,14 @@ struct Region {
 /// The live triangles whose rest centroid lies in the region.
 std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region);
 
+/// The default smallest-angle target of the quality repair after cuts and removals (degrees).
+inline constexpr double kDefaultMinAngle = 20.0;
+/// Repair options for an operation of the running simulation: the target, and its fixed and
+/// grasped points locked (they neither move nor disappear).
+topology::RepairOptions repairOptions(const Simulation& simulation, double minAngle);
+/// Reads an action's "minAngle" key (degrees, in [0, 60); 0 turns the repair off).
+double readMinAngle(const ParameterSource& s);
+
 /// When an action runs: at a time, or over an interval (entries whose keys include "from").
 struct ActionTiming {
   double at = 0.0;
@@ -110,9 +118,11 @@ using ConstraintRegistry = Registry<SceneConstraint>;
 struct CutParameters {
   std::vector<Vec3> polyline;  ///< rest coordinates
   double snapTolerance = 0.1;
+  double minAngle = kDefaultMinAngle;  ///< quality repair target, degrees (0: off)
 };
 struct RemoveParameters {
   Region region;
+  double minAngle = kDefaultMinAngle;  ///< quality repair target, degrees (0: off)
 };
 struct TearingParameters {
   double threshold = 0.0;  ///< Green strain normal to an edge above which it tears

@@ -37,12 +37,37 @@ class Subscription {
   TopologyObserver* observer_ = nullptr;
 };
 
+/// Mesh quality repair after an operation (see "Quality repair" in docs/topology-events.md).
+struct RepairOptions {
+  /// Target of the smallest angle of the triangles around the operation, in degrees: in [0, 60);
+  /// 0 turns the repair off. Repairs run until every triangle of the patch reaches it or no edge
+  /// flip, edge collapse, vertex relocation or border split improves the worst one.
+  double minAngle = 0.0;
+  /// Points that must neither move nor disappear (fixed or grasped points).
+  std::vector<PointId> locked;
+  /// Flips and relocations only where the rest surface is flat within this angle (degrees).
+  double flatness = 2.0;
+};
+
+/// What a repair did, and the quality of the patch before and after (in degrees; the patch is
+/// every triangle around the points the operation touched).
+struct RepairReport {
+  std::size_t flips = 0, collapses = 0, relocations = 0, splits = 0;
+  std::size_t triangles = 0;          ///< triangles of the patch after the repair
+  double minAngleBefore = 0.0, minAngleAfter = 0.0;    ///< smallest angle of the patch
+  double meanMinBefore = 0.0, meanMinAfter = 0.0;      ///< mean of the triangles' smallest angles
+  std::size_t belowTargetBefore = 0, belowTargetAfter = 0;  ///< triangles under the target
+};
+
 /// Result of an incision (incise, tear, cutPolyline).
 struct IncisionResult {
   std::vector<PointId> path;            ///< the vertices of the cut path, in order (originals)
   std::vector<PointId> copies;          ///< new points created by opening the cut
   std::vector<PointId> copiedFrom;      ///< copies[i] is a copy of copiedFrom[i]
   std::vector<PointId> insertedPoints;  ///< points inserted on edges/triangles (cutPolyline, tear)
+  /// The repair that followed (all zero without one). A point the repair removed is replaced in
+  /// the lists above by the point that took its place (collapsed into, or relocated to).
+  RepairReport repair;
 };
 
 /// Options of cutPolyline.
@@ -53,6 +78,9 @@ struct CutOptions {
   /// reaches it (so a cut with both ends within the tolerance of the border separates the piece
   /// between them); elsewhere snapping never moves the path onto the border.
   double snapTolerance = 0.1;
+  /// Quality repair of the triangles around the cut, in the same transaction (off by default
+  /// at this level; scenes turn it on).
+  RepairOptions repair;
 };
 
 struct ValidationReport {
@@ -121,6 +149,8 @@ class Topology {
   std::vector<TriangleId> addTriangles(std::span<const TriangleVertices> triangles);
   /// Removes the triangles, then the edges and points they leave unused (carving).
   void removeTriangles(std::span<const TriangleId> triangles);
+  /// As above, then the quality repair of the hole's surroundings, in the same transaction.
+  RepairReport removeTriangles(std::span<const TriangleId> triangles, const RepairOptions& repair);
   /// Inserts a point on e at v0 + t (v1 - v0), t in (0, 1); the one or two triangles split too.
   PointId splitEdge(EdgeId e, double t);
   /// Inserts a point inside t with barycentric weights (sum 1, each > 0); t splits into three.
@@ -133,11 +163,16 @@ class Topology {
   IncisionResult incise(std::span<const PointId> path);
   /// Separates the two triangles across an interior edge, opening the mesh there.
   IncisionResult tear(EdgeId e);
+  IncisionResult tear(EdgeId e, const RepairOptions& repair);  ///< then the quality repair
   /// Cuts along a polyline given in rest coordinates, from a surface point to a surface point:
   /// inserts the path (splitting crossed edges and triangles, snapping), then incises it. The
   /// insertion is planned on a copy of the triangles around the cut first: a request that cannot
   /// be carried out throws TopologyError and changes nothing.
   IncisionResult cutPolyline(std::span<const Vec3> polyline, const CutOptions& options = {});
+  /// Quality repair (edge flips, edge collapses, vertex relocations, border splits) of the
+  /// triangles around the given points, as a transaction of its own ("repair"): see
+  /// docs/topology-events.md. Points may be dead (ignored).
+  RepairReport repair(std::span<const PointId> around, const RepairOptions& options);
   /// Renumbers every element densely and emits renumbering events (old -> new).
   void compact();
 

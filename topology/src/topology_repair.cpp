@@ -1,0 +1,536 @@
+// Quality repair of the triangles around an operation (a cut, a tear, a removal): local edge
+// flips, edge collapses, vertex relocations and border splits, in rest coordinates, until every
+// triangle of the patch reaches the target smallest angle or nothing improves the worst one.
+//
+// Every change is made with the transaction's own primitives (detach and attach triangles, new
+// points with ancestry), so observers follow it through the usual events:
+//   flip        two triangles and their shared edge destroyed; two triangles and the other
+//               diagonal created;
+//   collapse    (a -> b, "half-edge collapse") a's triangles re-attached to b, the two (one on the
+//               border) across a-b destroyed, a destroyed; no new point, b does not move;
+//   relocation  v replaced by a new point v' inside v's star, whose ancestors are the corners of
+//               the star triangle holding it (v among them: an ancestor destroyed in the same
+//               transaction, whose data observers still hold until the transaction ends), so
+//               state interpolated at v' lies on the deformed surface where it was;
+//   split       a border edge split at the foot of a nearly flat triangle's apex (then the apex
+//               collapses onto it): the usual edge split.
+// The border never changes shape: a border point moves or disappears only where the border is
+// straight (its two border edges within 1e-6 rad of a straight angle), along the border; cut lips
+// stay on the cut path, a cut's tip and corners stay where they are. Locked points (fixed or
+// grasped) never move or disappear. Flips and relocations only happen where the rest surface is
+// flat within RepairOptions::flatness, so they do not change the rest shape.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <unordered_set>
+
+#include "topology_impl.hpp"
+
+namespace cutsim::topology {
+
+namespace {
+
+using Vector3 = Kernel::Vector_3;
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kStraight = 1e-6;   // rad: a border point whose border edges are this straight
+constexpr double kImprove = 1e-4;    // rad: a change must raise the local worst angle this much
+
+double angleBetween(const Vector3& u, const Vector3& v) {
+  return std::atan2(std::sqrt(CGAL::cross_product(u, v).squared_length()), u * v);
+}
+
+/// Smallest angle of triangle (a, b, c), radians.
+double minAngle(const Point3& a, const Point3& b, const Point3& c) {
+  return std::min({angleBetween(b - a, c - a), angleBetween(c - b, a - b), angleBetween(a - c, b - c)});
+}
+
+Vector3 normal(const Point3& a, const Point3& b, const Point3& c) {
+  return CGAL::cross_product(b - a, c - a);
+}
+
+/// The two normals agree within `tol` radians (and neither is degenerate).
+bool aligned(const Vector3& n1, const Vector3& n2, double tol) {
+  const double l = std::sqrt(n1.squared_length() * n2.squared_length());
+  if (!(l > 0)) return false;
+  return n1 * n2 >= std::cos(tol) * l;
+}
+
+class Repairer {
+ public:
+  Repairer(Topology::Impl& impl, const RepairOptions& o, std::unordered_map<Index, Index>& replaced)
+      : I_(impl), m_(impl.mesh), target_(o.minAngle * kDeg), flat_(o.flatness * kDeg),
+        replaced_(replaced) {
+    for (PointId p : o.locked) locked_.insert(p.index());
+  }
+
+  RepairReport run(const std::vector<VI>& seeds) {
+    for (VI v : seeds) addWithRing(v);
+    measure(report_.minAngleBefore, report_.meanMinBefore, report_.belowTargetBefore);
+    for (int pass = 0; pass < 12; ++pass) {
+      bool changed = false;
+      for (FI f : worstFirst()) {
+        if (!alive(f) || quality(f) >= target_) continue;
+        changed |= fixTriangle(f);
+      }
+      changed |= flipPass();
+      changed |= smoothPass();
+      if (!changed) break;
+    }
+    report_.triangles = patchFaces().size();
+    measure(report_.minAngleAfter, report_.meanMinAfter, report_.belowTargetAfter);
+    return report_;
+  }
+
+ private:
+  // ---- the patch ----
+  bool live(VI v) const { return I_.vertexAlive(v) && !m_.is_isolated(v); }
+  bool alive(FI f) const { return I_.faceAlive(f); }
+  bool isLocked(VI v) const { return locked_.count(v.idx()) > 0; }
+  bool inPatch(VI v) const { return patch_.count(v.idx()) > 0; }
+  void addWithRing(VI v) {
+    if (!live(v)) return;
+    patch_.insert(v.idx());
+    for (VI w : neighbours(v)) patch_.insert(w.idx());
+  }
+  std::vector<VI> neighbours(VI v) const {
+    std::vector<VI> out;
+    for (HI h : CGAL::halfedges_around_target(m_.halfedge(v), m_)) out.push_back(m_.source(h));
+    return out;
+  }
+  std::vector<FI> facesAround(VI v) const {
+    std::vector<FI> out;
+    for (HI h : CGAL::halfedges_around_target(m_.halfedge(v), m_))
+      if (FI f = m_.face(h); f.is_valid()) out.push_back(f);
+    return out;
+  }
+  std::vector<FI> patchFaces() const {
+    std::unordered_set<std::uint32_t> seen;
+    std::vector<FI> out;
+    for (Index vi : patch_) {
+      VI v(vi);
+      if (!live(v)) continue;
+      for (FI f : facesAround(v))
+        if (seen.insert(f.idx()).second) out.push_back(f);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+  std::vector<FI> worstFirst() const {
+    std::vector<std::pair<double, FI>> q;
+    for (FI f : patchFaces()) q.emplace_back(quality(f), f);
+    std::sort(q.begin(), q.end());
+    std::vector<FI> out;
+    for (auto& [a, f] : q) out.push_back(f);
+    return out;
+  }
+  void measure(double& minDeg, double& meanDeg, std::size_t& below) const {
+    std::vector<FI> fs = patchFaces();
+    double mn = fs.empty() ? 0.0 : 1e300, sum = 0;
+    below = 0;
+    for (FI f : fs) {
+      const double q = quality(f);
+      mn = std::min(mn, q);
+      sum += q;
+      if (q < target_) ++below;
+    }
+    minDeg = mn / kDeg;
+    meanDeg = fs.empty() ? 0.0 : sum / double(fs.size()) / kDeg;
+  }
+
+  // ---- geometry ----
+  std::array<VI, 3> cornersOf(FI f) const {
+    HI h = m_.halfedge(f);
+    return {m_.source(h), m_.target(h), m_.target(m_.next(h))};
+  }
+  const Point3& P(VI v) const { return m_.point(v); }
+  double quality(FI f) const {
+    auto c = cornersOf(f);
+    return minAngle(P(c[0]), P(c[1]), P(c[2]));
+  }
+  Vector3 normalOf(FI f) const {
+    auto c = cornersOf(f);
+    return normal(P(c[0]), P(c[1]), P(c[2]));
+  }
+  /// v's star is flat within the flatness tolerance.
+  bool flatStar(VI v) const {
+    std::vector<FI> fs = facesAround(v);
+    for (std::size_t i = 1; i < fs.size(); ++i)
+      if (!aligned(normalOf(fs[0]), normalOf(fs[i]), flat_)) return false;
+    return !fs.empty();
+  }
+  /// For a border point: its two border neighbours (prev along the border, next), if it has
+  /// exactly one border gap.
+  bool borderNeighbours(VI v, VI& a, VI& b) const {
+    int gaps = 0;
+    for (HI h : CGAL::halfedges_around_target(m_.halfedge(v), m_)) {
+      if (m_.is_border(h)) {  // h: source -> v, border on its side
+        ++gaps;
+        a = m_.source(h);
+        b = m_.target(m_.next(h));
+      }
+    }
+    return gaps == 1;
+  }
+  bool straightBorderPoint(VI v, VI& a, VI& b) const {
+    if (!borderNeighbours(v, a, b) || a == b) return false;
+    return angleBetween(P(a) - P(v), P(b) - P(v)) >= std::numbers::pi - kStraight;
+  }
+  bool isBorder(VI v) const { return m_.is_border(v, true); }
+
+  /// The quality of v's star with v at position p (radians); -1 if a triangle would flip over
+  /// or become degenerate. Faces in `skip` are left out (they disappear).
+  double starQuality(VI v, const Point3& p, const std::vector<FI>& fs,
+                     const std::unordered_set<std::uint32_t>& skip = {}) const {
+    double q = 1e300;
+    for (FI f : fs) {
+      if (skip.count(f.idx())) continue;
+      auto c = cornersOf(f);
+      std::array<Point3, 3> x{P(c[0]), P(c[1]), P(c[2])};
+      for (int k = 0; k < 3; ++k)
+        if (c[std::size_t(k)] == v) x[std::size_t(k)] = p;
+      const Vector3 n = normal(x[0], x[1], x[2]);
+      if (!aligned(n, normalOf(f), 60 * kDeg)) return -1.0;
+      q = std::min(q, minAngle(x[0], x[1], x[2]));
+    }
+    return q;
+  }
+  static double worst(const std::vector<double>& qs) {
+    double q = 1e300;
+    for (double x : qs) q = std::min(q, x);
+    return q;
+  }
+  double worstOf(const std::vector<FI>& fs) const {
+    double q = 1e300;
+    for (FI f : fs) q = std::min(q, quality(f));
+    return q;
+  }
+
+  // ---- the operations ----
+  bool fixTriangle(FI f) {
+    auto c = cornersOf(f);
+    // Edges by length, shortest first.
+    std::array<int, 3> order{0, 1, 2};
+    auto len = [&](int k) {
+      return CGAL::squared_distance(P(c[std::size_t(k)]), P(c[std::size_t((k + 1) % 3)]));
+    };
+    std::sort(order.begin(), order.end(), [&](int i, int j) { return len(i) < len(j); });
+    for (int k : order) {
+      VI a = c[std::size_t(k)], b = c[std::size_t((k + 1) % 3)];
+      if (collapse(a, b) || collapse(b, a)) return true;
+    }
+    for (int k : order) {
+      HI h = I_.findHalfedge(c[std::size_t(k)], c[std::size_t((k + 1) % 3)]);
+      if (h.is_valid() && flip(m_.edge(h))) return true;
+    }
+    if (splitCap(f)) return true;
+    for (VI v : c)
+      if (relocate(v)) return true;
+    return false;
+  }
+
+  bool flipPass() {
+    bool changed = false;
+    std::vector<EI> edges;
+    for (FI f : patchFaces())
+      for (HI h : CGAL::halfedges_around_face(m_.halfedge(f), m_)) edges.push_back(m_.edge(h));
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    for (EI e : edges)
+      if (I_.edgeAlive(e)) changed |= flip(e);
+    return changed;
+  }
+
+  bool smoothPass() {
+    bool changed = false;
+    std::vector<Index> vs(patch_.begin(), patch_.end());
+    std::sort(vs.begin(), vs.end());
+    for (Index vi : vs) {
+      VI v(vi);
+      if (!live(v)) continue;
+      if (worstOf(facesAround(v)) >= target_) continue;
+      changed |= relocate(v);
+    }
+    return changed;
+  }
+
+  /// Flips e when the two triangles across it are flat within the tolerance, form a convex
+  /// quadrilateral and the other diagonal raises their smaller smallest angle.
+  bool flip(EI e) {
+    if (m_.is_border(e)) return false;
+    HI h = m_.halfedge(e);
+    VI a = m_.source(h), b = m_.target(h), c = m_.target(m_.next(h));
+    VI d = m_.target(m_.next(m_.opposite(h)));
+    if (!inPatch(a) && !inPatch(b)) return false;
+    if (c == d || I_.findHalfedge(c, d).is_valid()) return false;
+    FI f1 = m_.face(h), f2 = m_.face(m_.opposite(h));
+    const Vector3 n1 = normalOf(f1), n2 = normalOf(f2);
+    if (!aligned(n1, n2, flat_)) return false;
+    const Vector3 m1 = normal(P(c), P(a), P(d)), m2 = normal(P(d), P(b), P(c));
+    if (!aligned(m1, n1 + n2, 60 * kDeg) || !aligned(m2, n1 + n2, 60 * kDeg)) return false;
+    const double before = std::min(quality(f1), quality(f2));
+    const double after = std::min(minAngle(P(c), P(a), P(d)), minAngle(P(d), P(b), P(c)));
+    if (!(after > before + kImprove)) return false;
+    I_.detachFace(f1);
+    I_.detachFace(f2);
+    I_.attachFaces({{c, a, d}, {d, b, c}});
+    ++report_.flips;
+    return true;
+  }
+
+  /// Half-edge collapse a -> b: a's triangles go to b, a disappears, b does not move.
+  bool collapse(VI a, VI b) {
+    if (!inPatch(a) || isLocked(a) || !live(a) || !live(b)) return false;
+    HI hab = I_.findHalfedge(a, b);
+    if (!hab.is_valid()) return false;
+    const bool edgeOnBorder = m_.is_border(m_.edge(hab));
+    if (isBorder(a)) {
+      VI p, q;
+      if (!edgeOnBorder || !straightBorderPoint(a, p, q)) return false;
+    }
+    if (!flatStar(a)) return false;
+    // Link condition: the common neighbours of a and b are the apexes of the triangles on a-b.
+    std::vector<VI> na = neighbours(a), nb = neighbours(b), common, apex;
+    std::sort(na.begin(), na.end());
+    std::sort(nb.begin(), nb.end());
+    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
+    for (HI h : {hab, m_.opposite(hab)})
+      if (FI f = m_.face(h); f.is_valid()) apex.push_back(m_.target(m_.next(h)));
+    std::sort(apex.begin(), apex.end());
+    if (common != apex) return false;
+    const std::vector<FI> fs = facesAround(a);
+    std::unordered_set<std::uint32_t> gone;
+    for (HI h : {hab, m_.opposite(hab)})
+      if (FI f = m_.face(h); f.is_valid()) gone.insert(f.idx());
+    if (gone.size() == fs.size()) return false;  // a would leave nothing behind
+    const double after = starQuality(a, P(b), fs, gone);
+    if (!(after > worstOf(fs) + kImprove)) return false;
+    // b must keep one fan: a border a on a border b joins b's border neighbours only along a-b.
+    std::unordered_map<std::uint64_t, VI> subst;
+    std::vector<FI> moved;
+    for (FI f : fs)
+      if (!gone.count(f.idx())) {
+        subst[Topology::Impl::faceVertexKey(f, a)] = b;
+        moved.push_back(f);
+      }
+    for (std::uint32_t f : gone) I_.detachFace(FI(f));
+    I_.reattach(moved, subst);
+    replaced_[a.idx()] = b.idx();
+    ++report_.collapses;
+    return true;
+  }
+
+  /// Moves v to a better place inside its star, as a new point: an interior point by a pattern
+  /// search over its tangent plane (from the mean of its neighbours and from where it is) that
+  /// maximises the smallest angle of its star; a straight border point likewise along the border.
+  bool relocate(VI v) {
+    if (!inPatch(v) || isLocked(v) || !live(v) || !flatStar(v)) return false;
+    const std::vector<FI> fs = facesAround(v);
+    const double before = worstOf(fs);
+    const bool border = isBorder(v);
+    VI a, b;
+    if (border && !straightBorderPoint(v, a, b)) return false;
+    // Search directions: along the border, or two orthonormal tangents.
+    Vector3 n(0, 0, 0);
+    for (FI f : fs) n = n + normalOf(f);
+    Vector3 t1, t2;
+    double h = 0;  // the star's mean edge length
+    std::vector<VI> ns = neighbours(v);
+    for (VI w : ns) h += std::sqrt(CGAL::squared_distance(P(v), P(w)));
+    h /= double(ns.size());
+    if (border) {
+      t1 = P(b) - P(a);
+      t1 = t1 / std::sqrt(t1.squared_length());
+    } else {
+      const Vector3 any = std::abs(n.x()) < 0.9 * std::sqrt(n.squared_length()) ? Vector3(1, 0, 0) : Vector3(0, 1, 0);
+      t1 = CGAL::cross_product(n, any);
+      t1 = t1 / std::sqrt(t1.squared_length());
+      t2 = CGAL::cross_product(n, t1);
+      t2 = t2 / std::sqrt(t2.squared_length());
+    }
+    // Candidates must stay on the surface: inside the star (interior) or between a and b.
+    auto valid = [&](const Point3& p) {
+      if (border) {
+        const double s = ((p - P(a)) * (P(b) - P(a))) / (P(b) - P(a)).squared_length();
+        return s > 0.02 && s < 0.98;
+      }
+      std::vector<std::pair<PointId, double>> w;
+      return locateInStar(fs, p, w);
+    };
+    auto score = [&](const Point3& p) { return valid(p) ? starQuality(v, p, fs) : -1.0; };
+    Point3 best = P(v);
+    double bestQ = before;
+    if (!border) {
+      double x = 0, y = 0, z = 0;
+      for (VI w : ns) { x += P(w).x(); y += P(w).y(); z += P(w).z(); }
+      const double k = double(ns.size());
+      const Point3 mean(x / k, y / k, z / k);
+      if (const double q = score(mean); q > bestQ) { best = mean; bestQ = q; }
+    }
+    for (double step = 0.25 * h; step > 1e-3 * h; step *= 0.5) {
+      for (bool moved = true; moved;) {
+        moved = false;
+        const int dirs = border ? 2 : 8;
+        for (int d = 0; d < dirs; ++d) {
+          Vector3 dir = border ? (d == 0 ? t1 : -t1)
+                               : std::cos(d * std::numbers::pi / 4) * t1 + std::sin(d * std::numbers::pi / 4) * t2;
+          const Point3 p = best + step * dir;
+          if (const double q = score(p); q > bestQ + 1e-9) { best = p; bestQ = q; moved = true; }
+        }
+      }
+    }
+    if (!(bestQ > before + kImprove)) return false;
+    std::vector<std::pair<PointId, double>> ancestors;
+    if (border) {
+      // On edge v-a or v-b: weights along it.
+      const bool towardA = (best - P(v)) * (P(a) - P(v)) > 0;
+      VI w = towardA ? a : b;
+      const double t = std::sqrt(CGAL::squared_distance(P(v), best) / CGAL::squared_distance(P(v), P(w)));
+      ancestors = {{PointId(v.idx()), 1.0 - t}, {PointId(w.idx()), t}};
+    } else if (!locateInStar(fs, best, ancestors)) {
+      return false;
+    }
+    double x = 0, y = 0, z = 0;  // where the new point will be (summed as newPoint sums)
+    for (auto& [p, w] : ancestors) {
+      x += w * P(VI(p)).x(); y += w * P(VI(p)).y(); z += w * P(VI(p)).z();
+    }
+    if (!(starQuality(v, Point3(x, y, z), fs) > before + kImprove)) return false;
+    VI nv = I_.newPoint(ancestors);
+    std::unordered_map<std::uint64_t, VI> subst;
+    for (FI f : fs) subst[Topology::Impl::faceVertexKey(f, v)] = nv;
+    I_.reattach(fs, subst);
+    replaced_[v.idx()] = nv.idx();
+    patch_.insert(nv.idx());
+    ++report_.relocations;
+    return true;
+  }
+
+  /// The star triangle holding the projection of p, as barycentric weights on its corners.
+  bool locateInStar(const std::vector<FI>& fs, const Point3& p,
+                    std::vector<std::pair<PointId, double>>& out) const {
+    for (FI f : fs) {
+      auto c = cornersOf(f);
+      const Vector3 e0 = P(c[1]) - P(c[0]), e1 = P(c[2]) - P(c[0]), r = p - P(c[0]);
+      const double d00 = e0 * e0, d01 = e0 * e1, d11 = e1 * e1, d20 = r * e0, d21 = r * e1;
+      const double den = d00 * d11 - d01 * d01;
+      if (!(den > 0)) continue;
+      const double wb = (d11 * d20 - d01 * d21) / den, wc = (d00 * d21 - d01 * d20) / den;
+      const double wa = 1.0 - wb - wc;
+      if (wa < -1e-12 || wb < -1e-12 || wc < -1e-12) continue;
+      std::array<double, 3> w{std::max(wa, 0.0), std::max(wb, 0.0), std::max(wc, 0.0)};
+      const double s = w[0] + w[1] + w[2];
+      out.clear();
+      for (int k = 0; k < 3; ++k)
+        if (w[std::size_t(k)] > 0) out.emplace_back(PointId(c[std::size_t(k)].idx()), w[std::size_t(k)] / s);
+      return true;
+    }
+    return false;
+  }
+
+  /// A nearly flat triangle whose longest edge is on the border (so it cannot be flipped away):
+  /// split that edge at the foot of the apex and collapse the apex onto the new point.
+  bool splitCap(FI f) {
+    auto c = cornersOf(f);
+    for (int k = 0; k < 3; ++k) {
+      VI apex = c[std::size_t(k)], a = c[std::size_t((k + 1) % 3)], b = c[std::size_t((k + 2) % 3)];
+      const double angle = angleBetween(P(a) - P(apex), P(b) - P(apex));
+      if (angle < 120 * kDeg) continue;
+      HI h = I_.findHalfedge(a, b);
+      if (!h.is_valid() || !m_.is_border(m_.edge(h))) continue;
+      if (!inPatch(apex) || isLocked(apex) || isBorder(apex) || !flatStar(apex)) continue;
+      const Vector3 ab = P(b) - P(a);
+      const double t = ((P(apex) - P(a)) * ab) / ab.squared_length();
+      if (!(t > 0.05 && t < 0.95)) continue;
+      // The apex's star with the apex at the foot must be valid and better (the two halves of f
+      // vanish there).
+      const Point3 foot = P(a) + t * ab;
+      std::vector<FI> fs = facesAround(apex);
+      std::unordered_set<std::uint32_t> skip{f.idx()};
+      const double after = starQuality(apex, foot, fs, skip);
+      if (!(after > worstOf(fs) + kImprove)) continue;
+      VI mid = I_.splitEdgeNoTxn(m_.edge(h), a, t);
+      ++report_.splits;
+      patch_.insert(mid.idx());
+      if (!collapse(apex, mid)) return true;  // the split alone changed nothing for the worse
+      return true;
+    }
+    return false;
+  }
+
+  Topology::Impl& I_;
+  Mesh& m_;
+  double target_, flat_;
+  std::unordered_map<Index, Index>& replaced_;
+  std::unordered_set<Index> locked_;
+  std::unordered_set<Index> patch_;
+  RepairReport report_;
+};
+
+Index follow(const std::unordered_map<Index, Index>& replaced, Index p) {
+  for (auto it = replaced.find(p); it != replaced.end(); it = replaced.find(p)) p = it->second;
+  return p;
+}
+
+}  // namespace
+
+void checkRepairOptions(const RepairOptions& o, const char* operation) {
+  if (!(o.minAngle >= 0.0 && o.minAngle < 60.0))
+    throw TopologyError(std::string(operation) + ": the repair's minAngle " + std::to_string(o.minAngle) +
+                        " must be in [0, 60) degrees (0 turns the repair off)");
+  if (!(o.flatness >= 0.0 && o.flatness < 90.0))
+    throw TopologyError(std::string(operation) + ": the repair's flatness " + std::to_string(o.flatness) +
+                        " must be in [0, 90) degrees");
+}
+
+RepairReport Topology::Impl::repairNoTxn(const std::vector<VI>& seeds, const RepairOptions& options,
+                                         std::unordered_map<Index, Index>& replacedBy) {
+  if (!(options.minAngle > 0)) return {};
+  std::vector<VI> all = seeds;
+  for (Index v = vBefore; v < mesh.num_vertices(); ++v) all.push_back(VI(v));
+  for (VI v : touched) all.push_back(v);
+  Repairer r(*this, options, replacedBy);
+  return r.run(all);
+}
+
+void Topology::Impl::repairIncision(const RepairOptions& options, IncisionResult& result) {
+  if (!(options.minAngle > 0)) return;
+  std::vector<VI> seeds;
+  for (PointId p : result.path) seeds.push_back(VI(p));
+  for (PointId p : result.copies) seeds.push_back(VI(p));
+  std::unordered_map<Index, Index> replaced;
+  result.repair = repairNoTxn(seeds, options, replaced);
+  if (replaced.empty()) return;
+  auto remap = [&](std::vector<PointId>& ps, bool dedupe) {
+    for (PointId& p : ps) p = PointId(follow(replaced, p.index()));
+    if (dedupe) ps.erase(std::unique(ps.begin(), ps.end()), ps.end());
+  };
+  remap(result.path, true);
+  remap(result.copies, false);
+  remap(result.copiedFrom, false);
+  remap(result.insertedPoints, false);
+  // A point that disappeared into another may now be listed twice.
+  std::sort(result.insertedPoints.begin(), result.insertedPoints.end());
+  result.insertedPoints.erase(std::unique(result.insertedPoints.begin(), result.insertedPoints.end()),
+                              result.insertedPoints.end());
+}
+
+RepairReport Topology::repair(std::span<const PointId> around, const RepairOptions& options) {
+  checkRepairOptions(options, "repair");
+  Impl& I = *impl_;
+  std::vector<VI> seeds;
+  for (PointId p : around)
+    if (I.vertexAlive(VI(p))) seeds.push_back(VI(p));
+  I.begin("repair");
+  std::unordered_map<Index, Index> replaced;
+  RepairReport report;
+  try {
+    report = I.repairNoTxn(seeds, options, replaced);
+  } catch (...) {
+    I.commit(*this);
+    throw;
+  }
+  I.commit(*this);
+  return report;
+}
+
+}  // namespace cutsim::topology
