@@ -584,16 +584,28 @@ std::optional<std::pair<std::size_t, std::size_t>> selfCrossing(const std::vecto
 
 /// The polyline with its two ends moved onto the nearest vertex within snap (in barycentric
 /// terms, as the walk snaps), else onto the nearest edge within snap, of the triangle each lies in.
-std::vector<Point3> snapEnds(Topology::Impl& I, std::vector<Point3> poly, double snap) {
+std::vector<Point3> snapEnds(Topology::Impl& I, std::vector<Point3> poly, double snap,
+                             bool borderOnly) {
   Walker walker(I, snap);
+  const Mesh& m = I.mesh;
   for (std::size_t end : {std::size_t(0), poly.size() - 1}) {
     Location l = walker.locate(poly[end], end);
     auto c = corners(I.mesh, l.face);
+    // The face's corners and edges (edge j is opposite corner j) on the border.
+    HI fh = m.halfedge(l.face);
+    std::array<VI, 3> cv{m.source(fh), m.target(fh), m.target(m.next(fh))};
+    auto vertexOk = [&](int k) { return !borderOnly || m.is_border(cv[std::size_t(k)], true); };
+    auto edgeOk = [&](int j) {
+      if (!borderOnly) return true;
+      HI h = I.findHalfedge(cv[std::size_t((j + 1) % 3)], cv[std::size_t((j + 2) % 3)]);
+      return h.is_valid() && m.is_border(m.edge(h));
+    };
     int vertex = -1, edge = -1;
     for (int k = 0; k < 3; ++k)
-      if (l.bary[std::size_t(k)] >= 1.0 - snap) vertex = k;
+      if (l.bary[std::size_t(k)] >= 1.0 - snap && vertexOk(k)) vertex = k;
     for (int j = 0; j < 3; ++j)
-      if (l.bary[std::size_t(j)] <= snap && (edge < 0 || l.bary[std::size_t(j)] < l.bary[std::size_t(edge)]))
+      if (l.bary[std::size_t(j)] <= snap && edgeOk(j) &&
+          (edge < 0 || l.bary[std::size_t(j)] < l.bary[std::size_t(edge)]))
         edge = j;
     if (vertex >= 0) {
       poly[end] = c[std::size_t(vertex)];
@@ -664,7 +676,9 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     }
   };
   bool done = false;
-  std::vector<Point3> snapped = snapEnds(I, poly, options.snapTolerance);
+  // With the repair on, an end snaps only onto the border (so that a cut ending just inside it
+  // reaches it): elsewhere it stays on the polyline, where the repair may straighten the lips.
+  std::vector<Point3> snapped = snapEnds(I, poly, options.snapTolerance, options.repair.minAngle > 0);
   // (Snapping may make the ends meet or touch another segment: then only the polyline as given.)
   if (snapped != poly && snapped.front() != snapped.back() && !selfCrossing(snapped)) {
     try {

@@ -436,7 +436,11 @@ class Repairer {
       const double angle = angleBetween(P(a) - P(apex), P(b) - P(apex));
       if (angle < 120 * kDeg) continue;
       HI h = I_.findHalfedge(a, b);
-      if (!h.is_valid() || !m_.is_border(m_.edge(h))) continue;
+      if (!h.is_valid()) continue;
+      if (!m_.is_border(m_.edge(h))) {
+        if (splitInterior(f, h, apex)) return true;
+        continue;
+      }
       if (!inPatch(apex) || isLocked(apex) || isBorder(apex) || !flatStar(apex)) continue;
       const Vector3 ab = P(b) - P(a);
       const double t = ((P(apex) - P(a)) * ab) / ab.squared_length();
@@ -455,6 +459,66 @@ class Repairer {
       return true;
     }
     return false;
+  }
+
+  /// A nearly flat triangle f = (a, b, apex) whose apex cannot move (a corner of a cut, say) and
+  /// whose long edge a-b is interior, with d across it: a new point m inside the quadrilateral
+  /// (a, d, b, apex) replaces a-b by four triangles, placed (pattern search) where their smallest
+  /// angle is largest; done only if that beats the two triangles it replaces.
+  bool splitInterior(FI f, HI h, VI apex) {
+    VI a = m_.source(h), b = m_.target(h);
+    if (m_.face(h) != f) std::swap(a, b);  // f runs a -> b
+    HI hf = I_.findHalfedge(a, b);
+    if (!hf.is_valid() || m_.face(hf) != f) return false;
+    FI g = m_.face(m_.opposite(hf));
+    if (!g.is_valid() || (!inPatch(a) && !inPatch(b))) return false;
+    VI d = m_.target(m_.next(m_.opposite(hf)));
+    const Vector3 n = normalOf(f) + normalOf(g);
+    if (!aligned(normalOf(f), normalOf(g), flat_)) return false;
+    auto quad = [&](const Point3& p) {
+      double q = 1e300;
+      const std::array<std::array<Point3, 3>, 4> tris{{{P(a), p, P(apex)}, {p, P(b), P(apex)},
+                                                      {P(b), p, P(d)}, {p, P(a), P(d)}}};
+      for (const auto& t : tris) {
+        if (!aligned(normal(t[0], t[1], t[2]), n, 60 * kDeg)) return -1.0;
+        q = std::min(q, minAngle(t[0], t[1], t[2]));
+      }
+      return q;
+    };
+    const double before = std::min(quality(f), quality(g));
+    const Vector3 ab = P(b) - P(a);
+    const double tFoot = std::clamp(((P(apex) - P(a)) * ab) / ab.squared_length(), 0.2, 0.8);
+    Point3 best = P(a) + tFoot * ab;
+    double bestQ = quad(best);
+    Vector3 t1 = ab / std::sqrt(ab.squared_length());
+    Vector3 t2 = CGAL::cross_product(n, t1);
+    t2 = t2 / std::sqrt(t2.squared_length());
+    const double h0 = std::sqrt(ab.squared_length());
+    for (double step = 0.25 * h0; step > 1e-3 * h0; step *= 0.5)
+      for (bool moved = true; moved;) {
+        moved = false;
+        for (int k = 0; k < 8; ++k) {
+          const Point3 p = best + step * (std::cos(k * std::numbers::pi / 4) * t1 +
+                                          std::sin(k * std::numbers::pi / 4) * t2);
+          if (const double q = quad(p); q > bestQ + 1e-9) { best = p; bestQ = q; moved = true; }
+        }
+      }
+    if (!(bestQ > before + kImprove)) return false;
+    // The point on a-b, then moved to `best` inside its new star.
+    VI mid = I_.splitEdgeNoTxn(m_.edge(hf), a, tFoot);
+    ++report_.splits;
+    patch_.insert(mid.idx());
+    std::vector<FI> fs = facesAround(mid);
+    std::vector<std::pair<PointId, double>> ancestors;
+    if (!locateInStar(fs, best, ancestors)) return true;
+    VI nv = I_.newPoint(ancestors);
+    std::unordered_map<std::uint64_t, VI> subst;
+    for (FI x : fs) subst[Topology::Impl::faceVertexKey(x, mid)] = nv;
+    I_.reattach(fs, subst);
+    replaced_[mid.idx()] = nv.idx();
+    patch_.insert(nv.idx());
+    ++report_.relocations;
+    return true;
   }
 
   Topology::Impl& I_;
