@@ -23,10 +23,11 @@ std::string edgeName(EdgeId e) {
   return "edge " + std::to_string(e);
 }
 
-/// The rest length of the segment (a, b): the same function for events and rebuilds.
-double restLengthOf(const Topology& t, PointId a, PointId b) {
+/// The rest length of the segment (a, b): restScale times its length in the mesh's rest
+/// positions; the same function for events and rebuilds.
+double restLengthOf(const Topology& t, PointId a, PointId b, double restScale) {
   const topology::Vec3 pa = t.restPosition(a), pb = t.restPosition(b);
-  return std::hypot(pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]);
+  return restScale * std::hypot(pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]);
 }
 
 /// The direction of a spring at x: u = (x_b - x_a) / l and l; false for a zero-length spring.
@@ -69,6 +70,7 @@ Eigen::Matrix3d stiffnessBlock(const double u[3], double a, double factorTimesKs
 void StretchParameters::validate() const {
   requireFiniteNonNegative("stiffness", stiffness);
   requireFiniteNonNegative("damping", damping);
+  requireFinitePositive("restScale", restScale);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -79,7 +81,7 @@ StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
       params_(parameters),
       constructedStableJacobian_(parameters.stableJacobian) {
   params_.validate();
-  const std::vector<StretchRecord> records = buildFromScratch(topology);
+  const std::vector<StretchRecord> records = buildFromScratch(topology, params_);
   table_.reset(topology.edgeCapacity(), records.size());
   for (const StretchRecord& r : records) {
     table_.set(r.edge, {r.vertices[0], r.vertices[1], r.restLength});
@@ -89,13 +91,15 @@ StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
 
 StretchSprings::~StretchSprings() = default;
 
-std::vector<StretchRecord> StretchSprings::buildFromScratch(const Topology& topology) {
+std::vector<StretchRecord> StretchSprings::buildFromScratch(const Topology& topology,
+                                                            const StretchParameters& parameters) {
   std::vector<StretchRecord> records;
   const std::vector<EdgeId> edges = topology.edges();
   records.reserve(edges.size());
   for (EdgeId e : edges) {
     const topology::EdgeVertices ev = topology.edgeVertices(e);
-    records.push_back({e, {ev[0], ev[1]}, restLengthOf(topology, ev[0], ev[1])});
+    records.push_back(
+        {e, {ev[0], ev[1]}, restLengthOf(topology, ev[0], ev[1], parameters.restScale)});
   }
   return records;
 }
@@ -290,8 +294,8 @@ void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
 // ---------------------------------------------------------------------------------------------
 // Topology events. Only edges carry springs: an edge destroyed loses its spring, an edge created
 // (new, or re-created with other endpoints by an incision) gets one with the rest length of its
-// endpoints' rest positions. Triangle events change nothing; a point is destroyed only after the
-// edges around it, whose destruction already removed their springs.
+// endpoints' rest positions, times restScale. Triangle events change nothing; a point is destroyed
+// only after the edges around it, whose destruction already removed their springs.
 
 void StretchSprings::onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& ev) {
   linValid_ = false;
@@ -313,7 +317,7 @@ void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCrea
     if (table_.hasEntry(e)) {
       eventProblems_.push_back("edges created: " + edgeName(e) + " already had a spring");
     }
-    table_.set(e, {v[0], v[1], restLengthOf(t, v[0], v[1])});
+    table_.set(e, {v[0], v[1], restLengthOf(t, v[0], v[1], params_.restScale)});
   }
 }
 
@@ -358,7 +362,7 @@ void StretchSprings::validate(const Topology& topology, std::vector<std::string>
   table_.validate(topology, problems, "");
 
   // Against the rebuild.
-  const std::vector<StretchRecord> ref = buildFromScratch(topology);
+  const std::vector<StretchRecord> ref = buildFromScratch(topology, params_);
   for (const StretchRecord& r : ref) {
     const StretchRecord mine = spring(r.edge);
     if (mine.edge == kInvalidIndex) {
@@ -387,7 +391,9 @@ const bool registered = ForceFieldRegistry::instance().add({
     "one linear spring per edge (SOFA's MeshSpringForceField)",
     {{"stiffness", "ks per spring, >= 0 (required)"},
      {"damping", "kd per spring, >= 0 (default 0)"},
-     {"stableJacobian", "clamp compressed springs' K to keep it semi-definite (default true)"}},
+     {"stableJacobian", "clamp compressed springs' K to keep it semi-definite (default true)"},
+     {"restScale", "> 0, multiplies every rest length (prestrain: < 1 puts a held sheet under "
+                   "tension, strain 1/restScale - 1) (default 1)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       StretchParameters p;
@@ -395,6 +401,7 @@ const bool registered = ForceFieldRegistry::instance().add({
       p.stiffness = s.nonNegative("stiffness", p.stiffness);
       p.damping = s.nonNegative("damping", p.damping);
       p.stableJacobian = s.boolean("stableJacobian", p.stableJacobian);
+      p.restScale = s.positive("restScale", p.restScale);
       s.check([&] { p.validate(); });
       return p;
     },

@@ -131,6 +131,7 @@ void TriangularFEMParameters::validate() const {
                        "must be a finite number in (-1, 0.5), got " + describeNumber(poissonRatio));
   }
   requireFiniteNonNegative("thickness", thickness);
+  requireFinitePositive("restScale", restScale);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -142,7 +143,7 @@ TriangularFEM::TriangularFEM(Topology& topology, TriangularFEMParameters paramet
   const double nu = params_.poissonRatio;
   mu_ = params_.thickness * params_.youngModulus / (2.0 * (1.0 + nu));
   lambda_ = params_.thickness * params_.youngModulus * nu / (1.0 - nu * nu);
-  const std::vector<FemRecord> records = buildFromScratch(topology);
+  const std::vector<FemRecord> records = buildFromScratch(topology, params_);
   table_.reset(topology.triangleCapacity(), records.size());
   for (const FemRecord& r : records) setTriangle(r.triangle, r);
   subscription_ = topology.subscribe(*this);
@@ -150,7 +151,8 @@ TriangularFEM::TriangularFEM(Topology& topology, TriangularFEMParameters paramet
 
 TriangularFEM::~TriangularFEM() = default;
 
-FemRecord TriangularFEM::elementFromMesh(const Topology& t, TriangleId tri) {
+FemRecord TriangularFEM::elementFromMesh(const Topology& t, TriangleId tri,
+                                         const TriangularFEMParameters& parameters) {
   FemRecord r;
   r.triangle = tri;
   const topology::TriangleVertices v = t.triangleVertices(tri);
@@ -165,21 +167,26 @@ FemRecord TriangularFEM::elementFromMesh(const Topology& t, TriangleId tri) {
     r.degenerate = true;
     return r;
   }
-  // Rest frame: x along ab, y in the plane towards c. Pa = (0, 0), Pb = (lb, 0), Pc = (cx, cy).
-  const double cx = e2.dot(e1) / lb;
-  const double cy = twiceArea / lb;
-  // Dm = [[lb, cx], [0, cy]]; Dm^-1 = [[1/lb, -cx/(lb cy)], [0, 1/cy]]; rows are g_b, g_c.
+  // Rest frame: x along ab, y in the plane towards c, the mesh triangle scaled by s = restScale
+  // about a (the prestrain; the test above is scale-free, so s does not change which triangles
+  // are degenerate): Pa = (0, 0), Pb = (bx, 0), Pc = (cx, cy).
+  const double s = parameters.restScale;
+  const double bx = s * lb;
+  const double cx = s * (e2.dot(e1) / lb);
+  const double cy = s * (twiceArea / lb);
+  // Dm = [[bx, cx], [0, cy]]; Dm^-1 = [[1/bx, -cx/(bx cy)], [0, 1/cy]]; rows are g_b, g_c.
   r.vertices = {v[0], v[1], v[2]};
-  r.g = {1.0 / lb, -cx / (lb * cy), 0.0, 1.0 / cy};
-  r.area = 0.5 * twiceArea;
+  r.g = {1.0 / bx, -cx / (bx * cy), 0.0, 1.0 / cy};
+  r.area = 0.5 * twiceArea * (s * s);  // the scaled rest area (bit for bit the mesh's for s = 1)
   return r;
 }
 
-std::vector<FemRecord> TriangularFEM::buildFromScratch(const Topology& topology) {
+std::vector<FemRecord> TriangularFEM::buildFromScratch(const Topology& topology,
+                                                       const TriangularFEMParameters& parameters) {
   std::vector<FemRecord> records;
   const std::vector<TriangleId> tris = topology.triangles();
   records.reserve(tris.size());
-  for (TriangleId t : tris) records.push_back(elementFromMesh(topology, t));
+  for (TriangleId t : tris) records.push_back(elementFromMesh(topology, t, parameters));
   return records;
 }
 
@@ -377,7 +384,7 @@ void TriangularFEM::onTrianglesCreated(const Topology& t, const topology::Triang
       eventProblems_.push_back("triangles created: " + triangleName(tri) +
                                " was already in the table");
     }
-    setTriangle(tri, elementFromMesh(t, tri));
+    setTriangle(tri, elementFromMesh(t, tri, params_));  // scaled by restScale, as at the start
   }
 }
 
@@ -463,7 +470,7 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
     problems.push_back("degenerate count " + std::to_string(numDegenerate_) + ", the table holds " +
                        std::to_string(degenerate));
   }
-  const std::vector<FemRecord> ref = buildFromScratch(topology);
+  const std::vector<FemRecord> ref = buildFromScratch(topology, params_);
   std::size_t refElements = 0;
   for (const FemRecord& r : ref) {
     refElements += r.degenerate ? 0 : 1;
@@ -495,6 +502,8 @@ const bool registered = ForceFieldRegistry::instance().add({
     {{"youngModulus", "E, >= 0 (default 1000)"},
      {"poissonRatio", "nu, in (-1, 0.5) (default 0.3)"},
      {"thickness", "h, >= 0 (default 1)"},
+     {"restScale", "> 0, scales every element's rest shape (prestrain: < 1 puts a held sheet under "
+                   "tension, strain 1/restScale - 1) (default 1)"},
      {"exactHessian", "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
     {},
     [](const ParameterSource& s) -> std::any {
@@ -502,6 +511,7 @@ const bool registered = ForceFieldRegistry::instance().add({
       p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
       p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
       p.thickness = s.nonNegative("thickness", p.thickness);
+      p.restScale = s.positive("restScale", p.restScale);
       p.exactHessian = s.boolean("exactHessian", p.exactHessian);
       s.check([&] { p.validate(); });
       return p;

@@ -12,6 +12,7 @@
 #include "../../src/core/tearing.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
+#include "cutsim/forcefields/triangular_fem.hpp"
 #include "support/scene_text.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/topology.hpp"
@@ -215,6 +216,10 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
        "6: /forceFields/0/stiffness: must be >= 0"},
       {"\"forceFields\": [{\"type\": \"StretchSprings\"}]",
        "6: /forceFields/0: missing key \"stiffness\""},
+      {"\"forceFields\": [{\"type\": \"TriangularFEM\", \"restScale\": 0}]",
+       "6: /forceFields/0/restScale: must be > 0 (got 0)"},
+      {"\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 5, \"restScale\": -0.5}]",
+       "6: /forceFields/0/restScale: must be > 0 (got -0.5)"},
       {"\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", \"areaWeights\": \"x\"}]",
        "6: /forceFields/0/areaWeights: unknown value \"x\""},
       {"\"constraints\": [{\"type\": \"fixed\", \"points\": [3, 99]}]",
@@ -248,6 +253,20 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
     SCOPED_TRACE(c.extra);
     EXPECT_THAT(parseError(scene(c.extra)), StartsWith("inline.json:" + c.expected));
   }
+}
+
+TEST(Scene, StretchFieldsReadTheirRestScale) {
+  const Scene s =
+      parseScene(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 5, "
+                       "\"restScale\": 0.98}, {\"type\": \"TriangularFEM\", "
+                       "\"restScale\": 0.95}, {\"type\": \"TriangularFEM\"}]"),
+                 "inline.json", kScenes);
+  ASSERT_EQ(s.forceFields.size(), 3u);
+  using Springs = forcefields::StretchParameters;
+  using Fem = forcefields::TriangularFEMParameters;
+  EXPECT_EQ(std::any_cast<const Springs&>(s.forceFields[0].parameters).restScale, 0.98);
+  EXPECT_EQ(std::any_cast<const Fem&>(s.forceFields[1].parameters).restScale, 0.95);
+  EXPECT_EQ(std::any_cast<const Fem&>(s.forceFields[2].parameters).restScale, 1.0);  // default
 }
 
 TEST(Scene, MissingTopLevelKeysNameTheRoot) {

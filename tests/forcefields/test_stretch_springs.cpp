@@ -32,6 +32,14 @@ Model makeModel(const MeshData& mesh, const StretchParameters& p = {}) {
   return test::makeFieldModel<StretchSprings>(mesh, p);
 }
 
+/// The rest scales the derivative tests run with: none, and a prestrain (every spring of the
+/// mesh stretched by 1/0.9 - 1 = 11% at rest positions).
+constexpr double kRestScales[] = {1.0, 0.9};
+
+std::string scaleName(double restScale) {
+  return " restScale " + std::to_string(restScale);
+}
+
 Eigen::MatrixXd assembledB(const ForceField& ff, const std::vector<double>& x, std::size_t n) {
   TripletAccumulator acc;
   ff.addBToMatrix(x, acc, 1.0);
@@ -60,6 +68,15 @@ TEST(StretchSprings, BadParametersAreRejectedNamingTheParameter) {
                                               : "-1";
     cases.push_back({s, "stiffness", value});
     cases.push_back({d, "damping", value});
+  }
+  for (double bad : {0.0, -0.5, nan, inf}) {
+    StretchParameters r;
+    r.restScale = bad;
+    cases.push_back({r, "restScale",
+                     std::isnan(bad) ? "nan"
+                     : bad == inf    ? "inf"
+                     : bad == 0.0    ? "0"
+                                     : "-0.5"});
   }
   for (const Case& c : cases) {
     SCOPED_TRACE(c.where + " = " + c.value);
@@ -120,6 +137,37 @@ TEST(StretchSprings, OneSpringPerLiveEdgeWithItsRestLength) {
   EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
 }
 
+TEST(StretchSprings, RestScaleMultipliesEveryRestLength) {
+  // restScale s: rest lengths s L. The mesh scaled by s is force-free; the mesh itself has every
+  // spring stretched (s < 1) or compressed (s > 1) by (1 - s) L.
+  const MeshData mesh = test::bumpyGrid(5, 2);
+  const Model plain = makeModel(mesh);
+  for (double s : {0.8, 1.25}) {
+    SCOPED_TRACE(scaleName(s));
+    StretchParameters p;
+    p.stiffness = 13.0;
+    p.restScale = s;
+    Model m = makeModel(mesh, p);
+    EXPECT_EQ(m.ff->parameters().restScale, s);
+    double expected = 0.0;
+    for (EdgeId e : m.topo->edges()) {
+      const double l = plain.ff->spring(e).restLength;
+      EXPECT_NEAR(m.ff->spring(e).restLength, s * l, 1e-14 * l);
+      expected += 0.5 * p.stiffness * (1.0 - s) * (1.0 - s) * l * l;
+    }
+    std::vector<double> restShape = m.rest;
+    for (double& c : restShape) c *= s;
+    EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, restShape)), 1e-12);
+    EXPECT_LE(m.ff->potentialEnergy(restShape), 1e-24);
+    EXPECT_NEAR(m.ff->potentialEnergy(m.rest), expected, 1e-12 * expected);
+    // Stretched (s < 1) the sheet pulls its border inwards: a negative virial sum x . f.
+    const std::vector<double> f = test::forceAt(*m.ff, m.rest);
+    double virial = 0.0;
+    for (std::size_t i = 0; i < f.size(); ++i) virial += m.rest[i] * f[i];
+    EXPECT_EQ(virial < 0.0, s < 1.0);
+  }
+}
+
 TEST(StretchSprings, VectorsTooShortAreRejected) {
   Model m = makeModel(test::grid(3));
   std::vector<double> x = m.rest, f(x.size(), 0.0), shortV(3, 0.0);
@@ -152,17 +200,20 @@ TEST(StretchSprings, RestConfigurationIsForceFree) {
 }
 
 TEST(StretchSprings, ForceIsMinusEnergyGradient) {
-  for (bool stable : {true, false}) {
-    for (const auto& [name, mesh] : test::smallMeshes()) {
-      SCOPED_TRACE(name + (stable ? " stable" : " exact"));
-      StretchParameters p;
-      p.stiffness = 37.0;
-      p.stableJacobian = stable;
-      Model m = makeModel(mesh, p);
-      for (std::uint64_t seed : {1u, 2u, 3u}) {
-        const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
-        EXPECT_GT(m.ff->potentialEnergy(x), 0.0);
-        EXPECT_LE(test::forceVsEnergyError(*m.ff, x, 1e-5), 1e-7);
+  for (double s : kRestScales) {
+    for (bool stable : {true, false}) {
+      for (const auto& [name, mesh] : test::smallMeshes()) {
+        SCOPED_TRACE(name + (stable ? " stable" : " exact") + scaleName(s));
+        StretchParameters p;
+        p.stiffness = 37.0;
+        p.stableJacobian = stable;
+        p.restScale = s;
+        Model m = makeModel(mesh, p);
+        for (std::uint64_t seed : {1u, 2u, 3u}) {
+          const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
+          EXPECT_GT(m.ff->potentialEnergy(x), 0.0);
+          EXPECT_LE(test::forceVsEnergyError(*m.ff, x, 1e-5), 1e-7);
+        }
       }
     }
   }
@@ -170,18 +221,21 @@ TEST(StretchSprings, ForceIsMinusEnergyGradient) {
 
 TEST(StretchSprings, ExactJacobianMatchesFiniteDifferences) {
   // stableJacobian = false: dForce and the assembled K are d(force)/dx everywhere, stretched and
-  // compressed springs alike.
-  for (const auto& [name, mesh] : test::smallMeshes()) {
-    SCOPED_TRACE(name);
-    StretchParameters p;
-    p.stiffness = 23.0;
-    p.stableJacobian = false;
-    Model m = makeModel(mesh, p);
-    for (std::uint64_t seed : {1u, 2u, 3u}) {
-      const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
-      const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
-      EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
-      EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
+  // compressed springs alike, with and without a prestrain.
+  for (double s : kRestScales) {
+    for (const auto& [name, mesh] : test::smallMeshes()) {
+      SCOPED_TRACE(name + scaleName(s));
+      StretchParameters p;
+      p.stiffness = 23.0;
+      p.stableJacobian = false;
+      p.restScale = s;
+      Model m = makeModel(mesh, p);
+      for (std::uint64_t seed : {1u, 2u, 3u}) {
+        const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
+        const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
+        EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
+        EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
+      }
     }
   }
 }
@@ -207,6 +261,15 @@ TEST(StretchSprings, StableJacobianIsExactForStretchedSprings) {
   for (double& xi : x) xi *= 0.7;
   EXPECT_GT(test::matrixVsForceError(*ms.ff, x, ms.n(), 1e-5), 1e-2);
   EXPECT_LE(test::matrixVsForceError(*me.ff, x, me.n(), 1e-5), 1e-7);
+  // A prestrained sheet (restScale 0.9) held near its mesh positions: every spring is stretched
+  // by about 11%, so the stable K is exact there.
+  StretchParameters prestrained;
+  prestrained.restScale = 0.9;
+  Model mp = makeModel(mesh, prestrained);
+  const std::vector<double> held = test::perturbed(mp.rest, 0.01, 7);
+  const std::vector<double> dx = test::randomVector(held.size(), 1.0, 107);
+  EXPECT_LE(test::dForceVsForceError(*mp.ff, held, dx, 1e-5), 1e-7);
+  EXPECT_LE(test::matrixVsForceError(*mp.ff, held, mp.n(), 1e-5), 1e-7);
 }
 
 TEST(StretchSprings, SetExactStiffnessDropsTheClampAndRestoresTheParameter) {
@@ -490,10 +553,16 @@ TEST_P(StretchIncremental, TableEqualsRebuildAfterEveryOperation) {
   p.stiffness = 7.0;
   p.damping = 0.5;
   StretchSprings ff(topo, p);
+  // A prestrained twin: the springs created by the operations get scaled rest lengths too (its
+  // validate() compares it with a rebuild at the same restScale after every operation).
+  StretchParameters ps = p;
+  ps.restScale = 0.85;
+  StretchSprings prestrained(topo, ps);
   ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
 
   const auto oneSpringPerEdge = [&](const test::RandomOp&) {
     ASSERT_EQ(ff.numSprings(), topo.numEdges());
+    ASSERT_EQ(prestrained.numSprings(), topo.numEdges());
   };
   ASSERT_NO_FATAL_FAILURE(test::runRandomOps(topo, c.seed, c.steps, oneSpringPerEdge));
   // The rest shape of the cut mesh is still force-free, and a field built afresh on the final mesh
@@ -513,6 +582,9 @@ TEST_P(StretchIncremental, TableEqualsRebuildAfterEveryOperation) {
   const Eigen::SparseMatrix<double> m1 = a1.toSparse(topo.pointCapacity());
   const Eigen::SparseMatrix<double> m2 = a2.toSparse(topo.pointCapacity());
   EXPECT_LE((m1 - m2).norm(), 1e-12 * m2.norm());
+  StretchSprings freshPrestrained(topo, ps);
+  test::expectSameAsFresh(prestrained, freshPrestrained, topo, 0.3, c.seed + 9, 1e-12,
+                          ps.restScale);
 }
 
 INSTANTIATE_TEST_SUITE_P(StretchSequences, StretchIncremental,
@@ -537,6 +609,31 @@ TEST(StretchIncrementalOps, SplitEdgeGivesHalvesTheirRestLengths) {
   EXPECT_NEAR(m.ff->spring(h0).restLength, 0.25 * l, 1e-14);
   EXPECT_NEAR(m.ff->spring(h1).restLength, 0.75 * l, 1e-14);
   EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
+}
+
+TEST(StretchIncrementalOps, SpringsCreatedByACutGetScaledRestLengths) {
+  // The rest lengths of the springs an incision creates (its copies' edges, the halves of split
+  // edges) are scaled as those built at the start.
+  StretchParameters p;
+  p.restScale = 0.7;
+  Model m = makeModel(test::grid(7, 6.0), p);
+  const std::vector<Vec3> polyline = {{1.5, 2.5, 0.0}, {4.2, 3.4, 0.0}};
+  const topology::IncisionResult r = m.topo->cutPolyline(polyline);
+  ASSERT_FALSE(r.copies.empty());
+  ASSERT_FALSE(r.insertedPoints.empty());
+  for (PointId q : r.copies) {
+    for (EdgeId e : m.topo->edgesAroundPoint(q)) {
+      const auto ev = m.topo->edgeVertices(e);
+      const Vec3 a = m.topo->restPosition(ev[0]), b = m.topo->restPosition(ev[1]);
+      const double l = std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+      EXPECT_NEAR(m.ff->spring(e).restLength, 0.7 * l, 1e-14 * l);
+    }
+  }
+  EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
+  // The cut mesh scaled by 0.7 is still force-free.
+  std::vector<double> restShape = test::restOf(*m.topo);
+  for (double& c : restShape) c *= 0.7;
+  EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, restShape)), 1e-12);
 }
 
 TEST(StretchIncrementalOps, TearGivesTheCopiesTheirOwnSprings) {

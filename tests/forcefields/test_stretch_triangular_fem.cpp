@@ -33,12 +33,27 @@ Model makeModel(const MeshData& mesh, const TriangularFEMParameters& p = {}) {
   return test::makeFieldModel<TriangularFEM>(mesh, p);
 }
 
-TriangularFEMParameters someParameters() {
+TriangularFEMParameters someParameters(double restScale = 1.0) {
   TriangularFEMParameters p;
   p.youngModulus = 250.0;
   p.poissonRatio = 0.35;
   p.thickness = 0.1;
+  p.restScale = restScale;
   return p;
+}
+
+/// The rest scales the derivative tests run with: none, and a prestrain (the held sheet stretched
+/// by 1/0.9 - 1 = 11%).
+constexpr double kRestScales[] = {1.0, 0.9};
+
+std::string scaleName(double restScale) {
+  return " restScale " + std::to_string(restScale);
+}
+
+/// The rest shape of the elements: x scaled by s (3 doubles per point).
+std::vector<double> scaled(std::vector<double> x, double s) {
+  for (double& c : x) c *= s;
+  return x;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -65,6 +80,10 @@ TEST(TriangularFem, BadParametersAreRejectedNamingTheParameter) {
   cases.push_back({with([&](auto& p) { p.poissonRatio = nan; }), "poissonRatio", "nan"});
   cases.push_back({with([&](auto& p) { p.thickness = -0.1; }), "thickness", "-0.1"});
   cases.push_back({with([&](auto& p) { p.thickness = -inf; }), "thickness", "-inf"});
+  cases.push_back({with([&](auto& p) { p.restScale = 0.0; }), "restScale", "0"});
+  cases.push_back({with([&](auto& p) { p.restScale = -0.5; }), "restScale", "-0.5"});
+  cases.push_back({with([&](auto& p) { p.restScale = nan; }), "restScale", "nan"});
+  cases.push_back({with([&](auto& p) { p.restScale = inf; }), "restScale", "inf"});
   for (const Case& c : cases) {
     SCOPED_TRACE(c.where + " = " + c.value);
     try {
@@ -80,6 +99,7 @@ TEST(TriangularFem, BadParametersAreRejectedNamingTheParameter) {
   }
   EXPECT_NO_THROW(TriangularFEMParameters{}.validate());
   EXPECT_NO_THROW(with([](auto& p) { p.poissonRatio = -0.9; }).validate());
+  EXPECT_NO_THROW(with([](auto& p) { p.restScale = 1e-3; }).validate());
 }
 
 TEST(TriangularFem, OneElementPerTriangle) {
@@ -134,6 +154,38 @@ TEST(TriangularFem, HomogeneousStretchGivesThePlaneStressEnergy) {
   }
 }
 
+TEST(TriangularFem, RestScaleScalesEveryElementsRestShape) {
+  // restScale s: shape gradients g / s, rest areas s^2 A. The mesh scaled by s (and moved
+  // rigidly) is force-free; the mesh itself is under the equibiaxial strain e = 1/s - 1 (tension
+  // for s < 1, compression for s > 1): E = s^2 A h Y e^2 / (1 - nu), no force on interior points.
+  const MeshData mesh = test::grid(5, 4.0, 0.2, 1);
+  const Model plain = makeModel(mesh, someParameters());
+  for (double s : {0.8, 1.25}) {
+    SCOPED_TRACE(scaleName(s));
+    const TriangularFEMParameters p = someParameters(s);
+    Model m = makeModel(mesh, p);
+    EXPECT_EQ(m.ff->parameters().restScale, s);
+    for (TriangleId t : m.topo->triangles()) {
+      const FemRecord r = m.ff->element(t), r1 = plain.ff->element(t);
+      EXPECT_NEAR(r.area, s * s * r1.area, 1e-14 * r1.area);
+      for (int k = 0; k < 4; ++k) EXPECT_NEAR(r.g[k], r1.g[k] / s, 1e-14 * std::fabs(r1.g[k] / s));
+    }
+    const std::vector<double> restShape = scaled(m.rest, s);
+    EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, restShape)), 1e-12);
+    EXPECT_LE(m.ff->potentialEnergy(restShape), 1e-24);
+    EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, test::rigidMotion(restShape, 3))), 1e-11);
+    const double e = 1.0 / s - 1.0;
+    const double expected =
+        s * s * 16.0 * p.thickness * p.youngModulus * e * e / (1.0 - p.poissonRatio);
+    EXPECT_NEAR(m.ff->potentialEnergy(m.rest), expected, 1e-12 * expected);
+    const std::vector<double> f = test::forceAt(*m.ff, m.rest);
+    for (PointId q : m.topo->points()) {
+      if (m.topo->isBoundaryPoint(q)) continue;
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(f[3 * q + k], 0.0, 1e-11 * p.youngModulus);
+    }
+  }
+}
+
 TEST(TriangularFem, RestAndRigidMotionsAreForceFree) {
   for (const auto& [name, mesh] : test::smallMeshes()) {
     SCOPED_TRACE(name);
@@ -161,26 +213,31 @@ TEST(TriangularFem, RestAndRigidMotionsAreForceFree) {
 }
 
 TEST(TriangularFem, ForceIsMinusEnergyGradient) {
-  for (const auto& [name, mesh] : test::smallMeshes()) {
-    SCOPED_TRACE(name);
-    Model m = makeModel(mesh, someParameters());
-    for (std::uint64_t seed : {1u, 2u, 3u}) {
-      const std::vector<double> x = test::perturbed(m.rest, 0.2, seed);
-      EXPECT_GT(m.ff->potentialEnergy(x), 0.0);
-      EXPECT_LE(test::forceVsEnergyError(*m.ff, x, 1e-5), 1e-7);
+  for (double s : kRestScales) {
+    for (const auto& [name, mesh] : test::smallMeshes()) {
+      SCOPED_TRACE(name + scaleName(s));
+      Model m = makeModel(mesh, someParameters(s));
+      for (std::uint64_t seed : {1u, 2u, 3u}) {
+        const std::vector<double> x = test::perturbed(m.rest, 0.2, seed);
+        EXPECT_GT(m.ff->potentialEnergy(x), 0.0);
+        EXPECT_LE(test::forceVsEnergyError(*m.ff, x, 1e-5), 1e-7);
+      }
     }
   }
 }
 
 TEST(TriangularFem, StiffnessIsExactForRigidMotionsOfTheRestShape) {
-  for (const auto& [name, mesh] : test::smallMeshes()) {
-    SCOPED_TRACE(name);
-    Model m = makeModel(mesh, someParameters());
-    for (std::uint64_t seed : {21u, 22u}) {
-      const std::vector<double> x = test::rigidMotion(m.rest, seed);
-      const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
-      EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
-      EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
+  // The elements' rest shape: the mesh scaled by restScale.
+  for (double s : kRestScales) {
+    for (const auto& [name, mesh] : test::smallMeshes()) {
+      SCOPED_TRACE(name + scaleName(s));
+      Model m = makeModel(mesh, someParameters(s));
+      for (std::uint64_t seed : {21u, 22u}) {
+        const std::vector<double> x = test::rigidMotion(scaled(m.rest, s), seed);
+        const std::vector<double> dx = test::randomVector(x.size(), 1.0, seed + 100);
+        EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
+        EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
+      }
     }
   }
 }
@@ -202,12 +259,14 @@ TEST(TriangularFem, StiffnessErrorIsOfTheOrderOfTheStrain) {
   }
 }
 
-TEST(TriangularFem, ExactHessianMatchesFiniteDifferencesOfTheForce) {
-  // Stretched, sheared and compressed sheets (a linear map of the rest shape, moved rigidly, plus
-  // noise), and random large displacements.
-  TriangularFEMParameters p = someParameters();
+/// The exact K against finite differences of the force at stretched, sheared and compressed
+/// sheets (a linear map of the mesh, moved rigidly, plus noise) and random large displacements,
+/// on every small mesh; with a prestrain (restScale < 1) the maps act on a material whose rest
+/// shape is smaller than the mesh. Returns the worst finite-difference and dForce/matrix errors.
+std::pair<double, double> checkExactHessian(double restScale) {
+  TriangularFEMParameters p = someParameters(restScale);
   p.exactHessian = true;
-  TriangularFEMParameters corotational = someParameters();
+  const TriangularFEMParameters corotational = someParameters(restScale);
   Eigen::Matrix3d stretchShear, compress;
   stretchShear << 1.4, 0.35, 0.0, -0.1, 1.2, 0.2, 0.1, 0.0, 1.0;
   compress << 0.7, 0.2, 0.0, 0.0, 0.8, 0.0, 0.0, 0.1, 0.9;
@@ -220,9 +279,10 @@ TEST(TriangularFem, ExactHessianMatchesFiniteDifferencesOfTheForce) {
     const std::vector<const Eigen::Matrix3d*> maps = {&stretchShear, &compress, nullptr};
     for (const Eigen::Matrix3d* a : maps) {
       ++seed;
-      SCOPED_TRACE(name + (a == &stretchShear ? " stretched"
-                           : a == &compress   ? " compressed"
-                                              : " random"));
+      SCOPED_TRACE(name + scaleName(restScale) +
+                   (a == &stretchShear ? " stretched"
+                    : a == &compress   ? " compressed"
+                                       : " random"));
       const std::vector<double> x =
           a ? test::rigidMotion(
                   test::perturbed(test::transformed(m.rest, *a, {0.0, 0.0, 0.0}), 0.03, seed), seed)
@@ -235,6 +295,16 @@ TEST(TriangularFem, ExactHessianMatchesFiniteDifferencesOfTheForce) {
       EXPECT_GT(test::matrixVsForceError(*mc.ff, x, mc.n(), 1e-6), 1e-3);
       EXPECT_GT(test::dForceVsForceError(*mc.ff, x, dx, 1e-6), 1e-3);
     }
+  }
+  return {worstFd, worstPair};
+}
+
+TEST(TriangularFem, ExactHessianMatchesFiniteDifferencesOfTheForce) {
+  double worstFd = 0.0, worstPair = 0.0;
+  for (double s : kRestScales) {
+    const auto [fd, pair] = checkExactHessian(s);
+    worstFd = std::max(worstFd, fd);
+    worstPair = std::max(worstPair, pair);
   }
   test::recordError("worst_fd_relative_error", worstFd);
   test::recordError("worst_dforce_vs_matrix", worstPair);
@@ -267,19 +337,25 @@ TEST(TriangularFem, SetExactStiffnessSwitchesTheStiffness) {
 }
 
 TEST(TriangularFem, AssembledMatrixEqualsMatrixFreeProduct) {
-  for (const auto& [name, mesh] : test::smallMeshes()) {
-    SCOPED_TRACE(name);
-    Model m = makeModel(mesh, someParameters());
-    const std::vector<double> x = test::perturbed(m.rest, 0.2, 7);
-    const std::vector<double> dx = test::randomVector(x.size(), 1.0, 8);
-    for (double kf : {1.0, -0.4}) {
-      TripletAccumulator acc;
-      m.ff->addKToMatrix(x, acc, kf);
-      const Eigen::MatrixXd k(acc.toSparse(static_cast<Index>(m.n())));
-      std::vector<double> df(x.size(), 0.0);
-      m.ff->addDForce(x, dx, df, kf, 3.0);  // bFactor ignored: no damping
-      EXPECT_LE(test::relativeError(df, test::times(k, dx)), 1e-13);
-      EXPECT_EQ(acc.triplets().size(), 81 * m.ff->numElements());
+  for (double s : kRestScales) {
+    for (bool exact : {false, true}) {
+      for (const auto& [name, mesh] : test::smallMeshes()) {
+        SCOPED_TRACE(name + scaleName(s) + (exact ? " exact" : " corotational"));
+        TriangularFEMParameters p = someParameters(s);
+        p.exactHessian = exact;
+        Model m = makeModel(mesh, p);
+        const std::vector<double> x = test::perturbed(m.rest, 0.2, 7);
+        const std::vector<double> dx = test::randomVector(x.size(), 1.0, 8);
+        for (double kf : {1.0, -0.4}) {
+          TripletAccumulator acc;
+          m.ff->addKToMatrix(x, acc, kf);
+          const Eigen::MatrixXd k(acc.toSparse(static_cast<Index>(m.n())));
+          std::vector<double> df(x.size(), 0.0);
+          m.ff->addDForce(x, dx, df, kf, 3.0);  // bFactor ignored: no damping
+          EXPECT_LE(test::relativeError(df, test::times(k, dx)), exact ? 1e-12 : 1e-13);
+          EXPECT_EQ(acc.triplets().size(), 81 * m.ff->numElements());
+        }
+      }
     }
   }
 }
@@ -383,14 +459,24 @@ TEST_P(TriangularFemIncremental, TableEqualsRebuildAfterEveryOperation) {
   p.poissonRatio = 0.25;
   p.thickness = 0.2;
   TriangularFEM ff(topo, p);
-  StretchSprings springs(topo, {});  // both follow the same transactions
+  // A prestrained twin: the elements created by the operations get the scaled rest shape too
+  // (its validate() compares it with a rebuild at the same restScale after every operation).
+  TriangularFEMParameters ps = p;
+  ps.restScale = 0.85;
+  TriangularFEM prestrained(topo, ps);
+  StretchSprings springs(topo, {});  // all follow the same transactions
   ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
   const auto oneElementPerTriangle = [&](const test::RandomOp&) {
     ASSERT_EQ(ff.numElements() + ff.numDegenerate(), topo.numTriangles());
+    ASSERT_EQ(prestrained.numElements(), ff.numElements());
+    ASSERT_EQ(prestrained.numDegenerate(), ff.numDegenerate());
   };
   ASSERT_NO_FATAL_FAILURE(test::runRandomOps(topo, c.seed + 1000, c.steps, oneElementPerTriangle));
   TriangularFEM fresh(topo, p);
   test::expectSameAsFresh(ff, fresh, topo, 0.3, c.seed + 7, 1e-10);
+  TriangularFEM freshPrestrained(topo, ps);
+  test::expectSameAsFresh(prestrained, freshPrestrained, topo, 0.3, c.seed + 8, 1e-10,
+                          ps.restScale);
 }
 
 INSTANTIATE_TEST_SUITE_P(TriangularFemSequences, TriangularFemIncremental,

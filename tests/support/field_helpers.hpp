@@ -79,13 +79,14 @@ std::vector<double> rigidMotion(const std::vector<double>& x, std::uint64_t seed
 /// the largest |f_i| max(1, |x_i|)).
 void expectZeroNetForceAndTorque(const std::vector<double>& x, const std::vector<double>& f);
 
-/// After a random sequence of operations: the rest shape of the cut mesh is force-free for `ff`
-/// (new points interpolate their ancestors' rest positions), and `fresh`, built from scratch on
-/// the final mesh, gives the same force and energy as the incrementally maintained `ff` (within
+/// After a random sequence of operations: the rest shape of the cut mesh, scaled by the fields'
+/// `restScale` (the prestrain of the stretch fields; 1 for none), is force-free for `ff` (new
+/// points interpolate their ancestors' rest positions), and `fresh`, built from scratch on the
+/// final mesh, gives the same force and energy as the incrementally maintained `ff` (within
 /// `tolerance`, relative) at x = rest + uniform noise of `amplitude` (seeded). Returns x.
 std::vector<double> expectSameAsFresh(const forcefields::ForceField& ff,
                                       const forcefields::ForceField& fresh,
                                       const topology::Topology& topo, double amplitude,
-                                      std::uint64_t seed, double tolerance);
+                                      std::uint64_t seed, double tolerance, double restScale = 1.0);
 
 }  // namespace cutsim::test

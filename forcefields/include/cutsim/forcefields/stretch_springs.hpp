@@ -8,6 +8,10 @@
 //   K block (j, j) = (i, i) = -(i, j) = -(j, i) = -ks [ a (I - u u^T) + u u^T ],  a = 1 - L0 / l,
 //   B block (j, j) = (i, i) = -(i, j) = -(j, i) = -kd u u^T.
 //
+// Prestrain: L0 = restScale * |X_j - X_i| (X the rest positions of the mesh), as restScale on
+// SOFA's FEM fields scales the rest positions. With restScale < 1 every spring of a sheet held at
+// its mesh positions is stretched by the strain 1/restScale - 1 (a resting tension).
+//
 // Whether K is exact: with stableJacobian (the default), a is clamped to >= 0 (compressed
 // springs), which keeps K negative semi-definite for implicit solvers; K is then NOT the exact
 // derivative of the force for compressed springs (it is for stretched ones), and
@@ -38,17 +42,20 @@ struct StretchParameters {
   double stiffness = 100.0;    ///< ks, per spring: finite, >= 0
   double damping = 0.0;        ///< kd, per spring: finite, >= 0
   bool stableJacobian = true;  ///< clamp 1 - L0/l to >= 0 in K (see the top of this file)
+  /// s: finite, > 0. Every rest length is s times the mesh's (prestrain: s < 1 stretches a sheet
+  /// held at its mesh positions by 1/s - 1).
+  double restScale = 1.0;
 
-  /// Throws cutsim::InvalidInput with where() = the parameter's name for a negative, NaN or
-  /// infinite value.
+  /// Throws cutsim::InvalidInput with where() = the parameter's name for a value out of range
+  /// (negative; restScale: not > 0), NaN or infinite.
   void validate() const;
 };
 
 /// One spring as stored: its two point ids and its rest length (16 bytes).
 struct StretchSpring {
-  std::uint32_t a;  ///< first endpoint (edgeVertices(e)[0] when the edge was created)
-  std::uint32_t b;  ///< second endpoint
-  double restLength;
+  std::uint32_t a;    ///< first endpoint (edgeVertices(e)[0] when the edge was created)
+  std::uint32_t b;    ///< second endpoint
+  double restLength;  ///< restScale times the mesh's edge length
 };
 static_assert(sizeof(StretchSpring) == 16);
 
@@ -78,7 +85,8 @@ struct StretchRecord {
 class StretchSprings : public ForceField, public topology::TopologyObserver {
  public:
   /// Validates the parameters, builds the table once from the current mesh (rest lengths from
-  /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
+  /// topology.restPosition, times restScale) and subscribes to the topology, which must outlive
+  /// this object's use.
   StretchSprings(topology::Topology& topology, StretchParameters parameters);
   StretchSprings(const StretchSprings&) = delete;
   StretchSprings& operator=(const StretchSprings&) = delete;
@@ -129,8 +137,10 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   /// Bytes held by the table per edge slot (sizes, not capacities).
   double bytesPerEdgeSlot() const { return table_.bytesPerSlot(); }
 
-  /// The table built from scratch on the current mesh: one record per live edge, ascending id.
-  static std::vector<StretchRecord> buildFromScratch(const topology::Topology& topology);
+  /// The table built from scratch on the current mesh: one record per live edge, ascending id,
+  /// rest lengths scaled by parameters.restScale.
+  static std::vector<StretchRecord> buildFromScratch(const topology::Topology& topology,
+                                                     const StretchParameters& parameters);
 
  private:
   void checkSize(std::span<const double> a, const char* name, const char* what) const;

@@ -12,6 +12,14 @@
 //   lambda = E nu / (1 - nu^2)),  E_tri = A h (mu eps:eps + lambda/2 tr(eps)^2),
 //   f_k = -A h R sigma g_k.
 //
+// Prestrain. restScale = s scales every element's rest shape isotropically in its plane, as
+// restScale on SOFA's TriangularFEMForceFieldOptim scales the rest positions: Dm = s Dm_mesh, so
+// the shape gradients are g / s and the rest area, which weighs the energy and the forces, is the
+// SCALED one, A = s^2 A_mesh. With s < 1 the material wants to shrink: a sheet held at its mesh
+// positions (F = I / s) is under equibiaxial tension with strain eps = 1/s - 1, stress
+// sigma = E eps / (1 - nu), and it stores A h sigma eps per element. Shapes similar to the scaled
+// rest shape (s X, moved rigidly) are force-free.
+//
 // The rotation is the polar factor of F (not SOFA's frame aligned with the edge ab): the two agree
 // to first order in the strain, and with the polar factor the force is the exact gradient of the
 // energy.
@@ -56,6 +64,10 @@ struct TriangularFEMParameters {
   double youngModulus = 1000.0;  ///< E: finite, >= 0
   double poissonRatio = 0.3;     ///< nu: finite, in (-1, 0.5)
   double thickness = 1.0;        ///< h: finite, >= 0
+  /// s: finite, > 0. Every element's rest shape scaled by s in its plane (prestrain: s < 1 puts a
+  /// sheet held at its mesh positions under equibiaxial tension, strain 1/s - 1); the rest area
+  /// is the scaled one, s^2 times the mesh's. See "Prestrain" at the top of this file.
+  double restScale = 1.0;
   /// K = the exact Jacobian of the force (symmetric, indefinite) instead of the corotational K
   /// with R held constant (negative semi-definite): see "Stiffness" at the top of this file.
   bool exactHessian = false;
@@ -65,12 +77,13 @@ struct TriangularFEMParameters {
   void validate() const;
 };
 
-/// One element as stored: 3 point ids, the shape gradients g_b, g_c and the rest area (56 bytes).
+/// One element as stored: 3 point ids, the shape gradients g_b, g_c and the rest area (56 bytes),
+/// both of the rest shape scaled by restScale.
 struct FemTriangle {
   std::array<std::uint32_t, 3> v;  ///< a, b, c (counter-clockwise, as the triangle)
   std::uint32_t pad = 0;
   std::array<double, 4> g;  ///< g_b = (g[0], g[1]), g_c = (g[2], g[3])
-  double area;              ///< rest area
+  double area;              ///< rest area (restScale^2 times the mesh triangle's)
 };
 static_assert(sizeof(FemTriangle) == 56);
 
@@ -99,14 +112,15 @@ struct FemRecord {
   bool degenerate = false;  ///< no element (rest area too small)
   std::array<PointId, 3> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
                                   topology::kInvalidIndex};
-  std::array<double, 4> g{};  ///< zeros when degenerate
-  double area = 0.0;          ///< zero when degenerate
+  std::array<double, 4> g{};  ///< zeros when degenerate (of the scaled rest shape)
+  double area = 0.0;          ///< zero when degenerate (scaled rest area)
 };
 
 class TriangularFEM : public ForceField, public topology::TopologyObserver {
  public:
   /// Validates the parameters, builds the table once from the current mesh (rest frames from
-  /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.
+  /// topology.restPosition, scaled by restScale) and subscribes to the topology, which must outlive
+  /// this object's use.
   TriangularFEM(topology::Topology& topology, TriangularFEMParameters parameters);
   TriangularFEM(const TriangularFEM&) = delete;
   TriangularFEM& operator=(const TriangularFEM&) = delete;
@@ -155,9 +169,12 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   std::size_t numTriangleSlots() const { return table_.numSlots(); }
 
   /// The table built from scratch: one record per live triangle, ascending id.
-  static std::vector<FemRecord> buildFromScratch(const topology::Topology& topology);
-  /// The element of one triangle from its rest positions.
-  static FemRecord elementFromMesh(const topology::Topology& topology, TriangleId t);
+  static std::vector<FemRecord> buildFromScratch(const topology::Topology& topology,
+                                                 const TriangularFEMParameters& parameters);
+  /// The element of one triangle from its rest positions, its rest shape scaled by
+  /// parameters.restScale (whether it is degenerate does not depend on the scale).
+  static FemRecord elementFromMesh(const topology::Topology& topology, TriangleId t,
+                                   const TriangularFEMParameters& parameters);
 
  private:
   void addExactKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const;
