@@ -27,7 +27,9 @@ struct PointsCreated {
   std::span<const PointId> points;
   /// Interpolation of each new point: points[i] = sum_k weights[k] * ancestors[k] for k in
   /// [offsets[i], offsets[i+1]). Ancestors are always points that existed BEFORE the transaction
-  /// (chains within a transaction are composed), so state vectors can be filled in any order.
+  /// (chains within a transaction are composed), so state vectors can be filled in any order. An
+  /// ancestor may have been destroyed by the same transaction (a point relocated by the quality
+  /// repair): its data must stay readable until the transaction ends (SlotData keeps it).
   /// A free point (addPoints) has no ancestors; its rest position is the topology's.
   std::span<const std::uint32_t> offsets;  ///< size points.size() + 1
   std::span<const PointId> ancestors;
