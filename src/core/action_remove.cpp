@@ -10,32 +10,46 @@ class RemoveAction final : public TimelineAction {
   explicit RemoveAction(RemoveParameters p) : p_(p) {}
   void dryRun(DryRunContext& c) const override {
     const std::string key = p_.region.kind == Region::Kind::Sphere ? "sphere" : "box";
-    const auto tris = trianglesInRegion(c.topology(), p_.region);
-    if (tris.empty()) c.fail(key, "removes no triangle: no rest centroid lies inside");
+    topology::RepairOptions repair;
+    repair.minAngle = p_.minAngle;
     try {
-      topology::RepairOptions repair;
-      repair.minAngle = p_.minAngle;
-      c.topology().removeTriangles(tris, repair);
+      if (removeIn(c.topology(), repair) == 0)
+        c.fail(key, p_.cutBoundary ? "removes no triangle: no point of the rest mesh lies inside the region"
+                                   : "removes no triangle: no rest centroid lies inside");
     } catch (const TopologyError& e) {
       c.fail(key, std::string("the removal cannot be made: ") + e.what());
     }
   }
   void start(ActionContext& c) override {
-    const auto tris = trianglesInRegion(c.simulation().topology(), p_.region);
-    if (!tris.empty())
-      c.simulation().topology().removeTriangles(tris, repairOptions(c.simulation(), p_.minAngle));
+    removeIn(c.simulation().topology(), repairOptions(c.simulation(), p_.minAngle));
   }
 
  private:
+  /// The removal; returns the number of triangles removed.
+  std::size_t removeIn(topology::Topology& topo, const topology::RepairOptions& repair) const {
+    if (p_.cutBoundary) {
+      std::size_t removed = 0;
+      const Region region = p_.region;
+      topo.carve([region](const Vec3& x) { return region.levelSet(x); }, repair, &removed);
+      return removed;
+    }
+    const auto tris = trianglesInRegion(topo, p_.region);
+    if (!tris.empty()) topo.removeTriangles(tris, repair);
+    return tris.size();
+  }
+
   RemoveParameters p_;
 };
 
 const bool registered = ActionRegistry::instance().add({
     "remove",
-    "carves out the triangles whose rest centroid lies in a sphere or a box",
+    "carves out the part of the surface inside a sphere or a box (cutting the triangles its boundary "
+    "crosses), or the triangles whose rest centroid lies inside",
     {{"at", "time of the removal"},
      {"sphere", "{\"center\": [x, y, z], \"radius\": r} in rest coordinates"},
      {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"},
+     {"boundary", "\"cut\" (default): cut the triangles the region's boundary crosses, a clean hole; "
+                  "\"centroid\": remove whole triangles whose rest centroid is inside"},
      {"minAngle", "smallest-angle target (degrees) of the quality repair around the hole, in [0, 60) "
                   "(default 20; 0 turns the repair off)"}},
     {},
@@ -51,6 +65,12 @@ const bool registered = ActionRegistry::instance().add({
       } else {
         p.region.kind = Region::Kind::Box;
         std::tie(p.region.boxMin, p.region.boxMax) = s.box("box");
+      }
+      if (s.has("boundary")) {
+        const std::string b = s.string("boundary");
+        if (b != "cut" && b != "centroid")
+          s.fail("boundary", "must be \"cut\" or \"centroid\" (got \"" + b + "\")");
+        p.cutBoundary = b == "cut";
       }
       p.minAngle = readMinAngle(s);
       return p;

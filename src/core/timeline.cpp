@@ -3,6 +3,7 @@
 #include "cutsim/core/timeline.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "cutsim/forcefields/parameters.hpp"
@@ -89,6 +90,16 @@ bool Region::contains(const Vec3& p) const {
     if (p[k] < boxMin[k] || p[k] > boxMax[k]) return false;
   }
   return true;
+}
+
+double Region::levelSet(const Vec3& p) const {
+  if (kind == Kind::Sphere) return std::sqrt(dist2(p, center)) - radius;
+  double d = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const double mid = 0.5 * (boxMin[k] + boxMax[k]), half = 0.5 * (boxMax[k] - boxMin[k]);
+    d = std::max(d, std::abs(p[k] - mid) - half);
+  }
+  return d;
 }
 
 std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region) {

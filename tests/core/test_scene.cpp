@@ -235,6 +235,15 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
       {"\"timeline\": [{\"at\": 0.05, \"action\": \"remove\", \"sphere\": {\"center\": [9, 9, "
        "9], \"radius\": 0.1}}]",
        "6: /timeline/0/sphere: removes no triangle"},
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"remove\", \"sphere\": {\"center\": [0.5, 0.5, "
+       "0], \"radius\": 0.2}, \"boundary\": \"jagged\"}]",
+       "6: /timeline/0/boundary: must be \"cut\" or \"centroid\""},
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"remove\", \"sphere\": {\"center\": [0.5, 0.5, "
+       "0], \"radius\": 0.2}, \"minAngle\": 60}]",
+       "6: /timeline/0/minAngle: must be in [0, 60) degrees"},
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.5, 0.5, "
+       "0]], \"minAngle\": -1}]",
+       "6: /timeline/0/minAngle: must be in [0, 60) degrees"},
       {"\"timeline\": [{\"from\": 0.05, \"to\": 0.01, \"action\": \"cut\", \"polyline\": [[0, "
        "0.5, 0], [0.5, 0.5, 0]]}]",
        "6: /timeline/0/to: must be after \"from\""},
@@ -327,7 +336,7 @@ TEST(SceneRunner, PlaysTheSmallScene) {
       cx += sim.topology().restPosition(v[i])[0] / 3;
       cy += sim.topology().restPosition(v[i])[1] / 3;
     }
-    EXPECT_FALSE(cx >= 0.8 && cy >= 0.8) << "triangle " << t;
+    EXPECT_FALSE(cx >= 0.8 && cy >= 0.8) << "triangle " << t << " centroid " << cx << ", " << cy;
   }
   ASSERT_NE(runner.bendingField(), nullptr);
 }

@@ -288,3 +288,73 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
 
 }  // namespace
 }  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+/// Carving a disc out of sheets (regular and jittered) cuts along the circle: the hole's border
+/// points all lie on the circle, nothing inside is left, the area removed is the inscribed
+/// polygon's, and the repair leaves the triangles around the hole above the target except where
+/// the circle's own crossings fix a sharper angle (reported).
+TEST(TopologyRepair, CarvingCutsAlongTheRegionBoundary) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::size_t made = 0, short_ = 0;
+  double worst = 180, worstCentroidDeviation = 0;
+  for (int trial = 0; trial < 30; ++trial) {
+    const int n = 21;
+    const double cell = 10.0 / (n - 1), jitter = trial % 2 ? 0.2 : 0.0;
+    Topology t(grid(n, 10.0, jitter, 200 + std::uint64_t(trial)));
+    MirrorObserver mirror(t);
+    auto sub = t.subscribe(mirror);
+    const double r = cell * (1.0 + 4.0 * u(rng));
+    const Vec3 c{r + 0.5 + (10 - 2 * r - 1) * u(rng), r + 0.5 + (10 - 2 * r - 1) * u(rng), 0};
+    auto phi = [&](const Vec3& x) { return std::hypot(x[0] - c[0], x[1] - c[1]) - r; };
+    const double area = totalArea(t);
+    const topology::Index before = t.triangleCapacity(), pointsBefore = t.pointCapacity();
+    topology::RepairOptions repair;
+    repair.minAngle = kDefaultTarget;
+    std::size_t removed = 0;
+    ASSERT_NO_THROW(t.carve(phi, repair, &removed)) << "trial " << trial;
+    ASSERT_GT(removed, 0u);
+    ASSERT_TRUE(t.validate().ok()) << "trial " << trial << ": " << t.validate().summary();
+    // Nothing inside is left; the border points the carving made lie on the circle.
+    for (PointId p : t.points()) {
+      const double d = phi(t.restPosition(p));
+      EXPECT_GT(d, -1e-9 * r) << "trial " << trial << ": point " << p.index() << " inside";
+      if (p.index() >= pointsBefore && t.isBoundaryPoint(p) && std::abs(d) < 0.5 * cell)
+        EXPECT_LT(std::abs(d), 1e-9 * r) << "trial " << trial << ": border point " << p.index() << " off the circle";
+    }
+    // The area removed is that of a polygon inscribed in the circle: at most pi r^2, short of it
+    // by at most the segments between the polygon and the circle (sides up to ~1.5 cells).
+    const double gone = area - totalArea(t), disc = std::numbers::pi * r * r;
+    EXPECT_LE(gone, disc * (1 + 1e-9)) << "trial " << trial;
+    EXPECT_GE(gone, disc - 2 * std::numbers::pi * r * (1.5 * cell) * (1.5 * cell) / (8 * r)) << "trial " << trial;
+    Quality q = quality(t, createdSince(t, before), kDefaultTarget);
+    made += q.triangles;
+    short_ += q.shortfalls.size();
+    worst = std::min(worst, q.minAngle);
+    // The jagged alternative: whole triangles by centroid leave border points up to a cell off.
+    Topology jag(grid(n, 10.0, jitter, 200 + std::uint64_t(trial)));
+    std::vector<TriangleId> inside;
+    for (TriangleId f : jag.triangles()) {
+      Vec3 m{0, 0, 0};
+      for (PointId p : jag.triangleVertices(f))
+        for (int k = 0; k < 3; ++k) m[std::size_t(k)] += jag.restPosition(p)[std::size_t(k)] / 3;
+      if (phi(m) <= 0) inside.push_back(f);
+    }
+    jag.removeTriangles(inside);
+    for (PointId p : jag.points())
+      if (jag.isBoundaryPoint(p) && std::abs(phi(jag.restPosition(p))) < 2 * cell)
+        worstCentroidDeviation = std::max(worstCentroidDeviation, std::abs(phi(jag.restPosition(p))) / cell);
+  }
+  std::cout << "30 carved discs: " << made << " triangles made, smallest angle " << worst
+            << " deg, corners under " << kDefaultTarget << " deg: " << short_
+            << "; removal by centroid leaves hole border points up to " << worstCentroidDeviation
+            << " cells off the circle (carving: 0)\n";
+  EXPECT_LT(double(short_), 0.02 * double(made));
+  EXPECT_GT(worst, 0.5 * kDefaultTarget);
+}
+
+}  // namespace
+}  // namespace cutsim::test

@@ -272,3 +272,135 @@ IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
 }
 
 }  // namespace cutsim::topology
+
+namespace cutsim::topology {
+
+RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
+                             std::size_t* removed) {
+  checkRepairOptions(repair, "carve");
+  Impl& I = *impl_;
+  Mesh& m = I.mesh;
+  if (removed) *removed = 0;
+  // phi at every live point (a removal looks at the whole surface, as selecting by centroid does).
+  std::unordered_map<Index, double> value;
+  for (VI v : m.vertices()) {
+    const double x = phi(toVec(m.point(v)));
+    if (!std::isfinite(x))
+      throw TopologyError("carve: the region's function is not finite at point " + pt(v.idx()));
+    value[v.idx()] = x;
+  }
+  // The crossed edges (one end inside, phi <= 0, the other outside), and where phi first rises
+  // above zero along each (bisection on the function itself: exact where the boundary is flat).
+  // Points in `skip` (moved onto the boundary) cross nothing.
+  struct Crossing { VI a, b; double t; };
+  std::unordered_set<Index> onBoundary;
+  auto findCrossings = [&](bool& anyInside) {
+    std::vector<Crossing> out;
+    anyInside = false;
+    for (EI e : m.edges()) {
+      HI h = m.halfedge(e);
+      VI a = m.source(h), b = m.target(h);
+      if (onBoundary.count(a.idx()) || onBoundary.count(b.idx())) continue;
+      double fa = value[a.idx()], fb = value[b.idx()];
+      anyInside |= fa <= 0 || fb <= 0;
+      if ((fa <= 0) == (fb <= 0)) continue;
+      if (fa > 0) { std::swap(a, b); std::swap(fa, fb); }  // a inside
+      const Vec3 pa = toVec(m.point(a)), pb = toVec(m.point(b));
+      double lo = 0, hi = 1;
+      for (int it = 0; it < 40; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        const Vec3 q{pa[0] + mid * (pb[0] - pa[0]), pa[1] + mid * (pb[1] - pa[1]), pa[2] + mid * (pb[2] - pa[2])};
+        (phi(q) <= 0 ? lo : hi) = mid;
+      }
+      // Never exactly on an end (the split needs 0 < t < 1); slivers are the repair's to fix.
+      out.push_back({a, b, std::clamp(0.5 * (lo + hi), 1e-6, 1.0 - 1e-6)});
+    }
+    return out;
+  };
+  bool anyInside = false;
+  std::vector<Crossing> crossings = findCrossings(anyInside);
+  if (!anyInside) return {};
+  I.begin("carve");
+  RepairReport report;
+  try {
+    std::unordered_map<Index, char> inside;  // points that existed: phi <= 0
+    for (auto& [v, x] : value) inside[v] = x <= 0 ? 1 : 0;
+    // A point next to a crossing (within a quarter of the edge) moves onto it, so that the
+    // boundary passes through it instead of leaving a sliver: a new point on that edge (its
+    // ancestors the edge's ends), the old one destroyed; not the border, not locked points, and
+    // only where its triangles stay the right way up.
+    std::unordered_set<Index> locked;
+    for (PointId p : repair.locked) locked.insert(p.index());
+    struct Snap { double dist; VI v, w; double s; };
+    std::vector<Snap> snaps;
+    for (const Crossing& c : crossings) {
+      const double len = std::sqrt(CGAL::squared_distance(m.point(c.a), m.point(c.b)));
+      if (c.t < 0.25) snaps.push_back({c.t * len, c.a, c.b, c.t});
+      if (c.t > 0.75) snaps.push_back({(1 - c.t) * len, c.b, c.a, 1 - c.t});
+    }
+    std::sort(snaps.begin(), snaps.end(), [](const Snap& x, const Snap& y) { return x.dist < y.dist; });
+    std::unordered_set<Index> moved;
+    for (const Snap& sn : snaps) {
+      if (moved.count(sn.v.idx()) || moved.count(sn.w.idx()) || onBoundary.count(sn.w.idx())) continue;
+      if (locked.count(sn.v.idx()) || m.is_border(sn.v, true) || !I.findHalfedge(sn.v, sn.w).is_valid()) continue;
+      const Point3 target = m.point(sn.v) + sn.s * (m.point(sn.w) - m.point(sn.v));
+      std::vector<FI> star;
+      bool ok = true;
+      for (HI h : CGAL::halfedges_around_target(m.halfedge(sn.v), m)) {
+        FI f = m.face(h);
+        if (!f.is_valid()) continue;
+        star.push_back(f);
+        HI fh = m.halfedge(f);
+        std::array<Point3, 3> x{m.point(m.source(fh)), m.point(m.target(fh)), m.point(m.target(m.next(fh)))};
+        const auto n0 = CGAL::cross_product(x[1] - x[0], x[2] - x[0]);
+        for (auto& q : x)
+          if (q == m.point(sn.v)) q = target;
+        const auto n1 = CGAL::cross_product(x[1] - x[0], x[2] - x[0]);
+        if (!(n0 * n1 > 0.1 * std::sqrt(n0.squared_length() * n1.squared_length()))) ok = false;
+      }
+      if (!ok || star.empty()) continue;
+      VI nv = I.newPoint({{PointId(sn.v.idx()), 1.0 - sn.s}, {PointId(sn.w.idx()), sn.s}});
+      std::unordered_map<std::uint64_t, VI> subst;
+      for (FI f : star) subst[Impl::faceVertexKey(f, sn.v)] = nv;
+      I.reattach(star, subst);
+      moved.insert(sn.v.idx());
+      onBoundary.insert(nv.idx());
+      value[nv.idx()] = 0.0;
+    }
+    if (!moved.empty()) crossings = findCrossings(anyInside);
+    for (const Crossing& c : crossings) {
+      HI h = I.findHalfedge(c.a, c.b);
+      if (!h.is_valid()) throw TopologyError("internal error: carve lost a crossed edge");
+      I.splitEdgeNoTxn(m.edge(h), c.a, c.t);
+    }
+    // Every triangle now lies on one side: inside when its earlier points are (the new points are
+    // on the boundary); a triangle of new points only, by its centroid.
+    std::vector<FI> gone;
+    for (FI f : m.faces()) {
+      auto tv = I.verticesOf(f);
+      int in = -1;
+      for (PointId p : tv)
+        if (auto it = inside.find(p.index()); it != inside.end()) in = std::max(in, int(it->second));
+      if (in < 0) {
+        Vec3 c{0, 0, 0};
+        for (PointId p : tv)
+          for (int k = 0; k < 3; ++k) c[std::size_t(k)] += toVec(m.point(VI(p)))[std::size_t(k)] / 3;
+        in = phi(c) <= 0 ? 1 : 0;
+      }
+      if (in == 1) gone.push_back(f);
+    }
+    for (FI f : gone) I.detachFace(f);
+    if (removed) *removed = gone.size();
+    std::vector<VI> candidates = I.touched;
+    I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
+    std::unordered_map<Index, Index> replaced;
+    report = I.repairNoTxn(candidates, repair, replaced);
+  } catch (...) {
+    I.commit(*this);
+    throw;
+  }
+  I.commit(*this);
+  return report;
+}
+
+}  // namespace cutsim::topology

@@ -45,6 +45,9 @@ struct Region {
   double radius = 0.0;
   Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
   bool contains(const Vec3& p) const;
+  /// Negative inside, positive outside, zero on the boundary (a sphere's signed distance; for a
+  /// box, the largest of the signed distances to its slabs).
+  double levelSet(const Vec3& p) const;
 };
 /// The live triangles whose rest centroid lies in the region.
 std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region);
@@ -122,6 +125,9 @@ struct CutParameters {
 };
 struct RemoveParameters {
   Region region;
+  /// Cut the triangles the region's boundary crosses (a clean hole), or remove whole triangles
+  /// whose rest centroid is inside (the jagged, cheaper removal).
+  bool cutBoundary = true;
   double minAngle = kDefaultMinAngle;  ///< quality repair target, degrees (0: off)
 };
 struct TearingParameters {

@@ -2,6 +2,7 @@
 // The triangle topology: a manifold triangle mesh on CGAL::Surface_mesh (kept out of this header),
 // the only writer of connectivity, which announces every change to its observers as events.
 // See docs/topology-events.md for the event contract and the index policy.
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -151,6 +152,14 @@ class Topology {
   void removeTriangles(std::span<const TriangleId> triangles);
   /// As above, then the quality repair of the hole's surroundings, in the same transaction.
   RepairReport removeTriangles(std::span<const TriangleId> triangles, const RepairOptions& repair);
+  /// Carving along a boundary: removes the part of the surface where phi (a function of the rest
+  /// position, <= 0 inside, > 0 outside) is inside, cutting the triangles its boundary crosses:
+  /// every edge with one end inside and one outside is split where phi, followed along the edge,
+  /// becomes positive (bisection), which leaves the boundary as a chain of edges; the triangles
+  /// inside go, then the quality repair runs around the hole. One transaction. Returns the
+  /// repair's report and the number of triangles removed (0: no point is inside; nothing changes).
+  RepairReport carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
+                     std::size_t* removed = nullptr);
   /// Inserts a point on e at v0 + t (v1 - v0), t in (0, 1); the one or two triangles split too.
   PointId splitEdge(EdgeId e, double t);
   /// Inserts a point inside t with barycentric weights (sum 1, each > 0); t splits into three.
