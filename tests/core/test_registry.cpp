@@ -54,7 +54,7 @@ TEST(Registry, HasEveryForceFieldIntegratorAndLinearSolverOfTheProject) {
             (std::vector<std::string>{"bdf2", "explicit-euler", "implicit-euler", "newton"}));
   EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod"}));
   EXPECT_EQ(core::ActionRegistry::instance().names(),
-            (std::vector<std::string>{"cut", "grasp", "release", "remove", "tearing"}));
+            (std::vector<std::string>{"cut", "fracture", "grasp", "release", "remove", "tearing"}));
   EXPECT_EQ(core::ConstraintRegistry::instance().names(), (std::vector<std::string>{"fixed"}));
 }
 
@@ -64,7 +64,7 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
     return sceneWith(ok, "\"timeline\": [" + action + "]");
   };
   EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"explode\"}")),
-              HasSubstr("/timeline/0/action: unknown action \"explode\" (cut, grasp, release, remove, tearing)"));
+              HasSubstr("/timeline/0/action: unknown action \"explode\" (cut, fracture, grasp, release, remove, tearing)"));
   EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
               HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing; expected one of: action, at, "
                         "threshold, maxPerStep"));

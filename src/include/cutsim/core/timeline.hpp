@@ -8,6 +8,7 @@
 // anything runs, dryRun() checks it on a copy of the rest mesh that the timeline's earlier actions
 // have already changed; during the run, start() runs it when it is due and afterStep() after each
 // later step (the actions that go on: a progressive cut, tearing), in timeline order.
+#include <limits>
 #include <memory>
 #include <set>
 #include <string>
@@ -133,6 +134,12 @@ struct RemoveParameters {
 struct TearingParameters {
   double threshold = 0.0;  ///< Green strain normal to an edge above which it tears
   int maxPerStep = 4;      ///< edges torn per step at most
+};
+struct FractureParameters {
+  double criticalStrain = 0.0;  ///< averaged Green strain above which a crack advances
+  double length = 0.0;          ///< radius of the averaging disc around a tip (m)
+  double speed = std::numeric_limits<double>::infinity();  ///< largest crack speed (m/s)
+  double minAngle = kDefaultMinAngle;  ///< quality repair target along the crack (degrees)
 };
 struct GraspParameters {
   std::string name;
