@@ -358,3 +358,28 @@ TEST(TopologyRepair, CarvingCutsAlongTheRegionBoundary) {
 
 }  // namespace
 }  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+/// Cuts that end exactly on the border (a crack reaching it): never refused.
+TEST(TopologyRepair, CutsEndingExactlyOnTheBorderAreMade) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    Topology t(grid(26, 1.0, trial % 2 ? 0.2 : 0.0, 300 + std::uint64_t(trial)));
+    const double x = 0.1 + 0.8 * u(rng);
+    const std::vector<Vec3> poly{{x + 0.1 * (u(rng) - 0.5), 0.1 + 0.3 * u(rng), 0}, {x, 0.0, 0}};
+    topology::CutOptions options;
+    options.repair.minAngle = kDefaultTarget;
+    topology::IncisionResult r;
+    ASSERT_NO_THROW(r = t.cutPolyline(poly, options)) << "trial " << trial << ": to (" << x << ", 0)";
+    ASSERT_TRUE(t.validate().ok());
+    ASSERT_FALSE(r.path.empty());
+    EXPECT_TRUE(t.isBoundaryPoint(r.path.back()));
+    EXPECT_NEAR(t.restPosition(r.path.back())[1], 0.0, 1e-12) << "trial " << trial;
+  }
+}
+
+}  // namespace
+}  // namespace cutsim::test

@@ -105,7 +105,9 @@ Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, con
     if (lp[j] <= eps) margin = std::min(margin, d[j] / norm);
   s.margin = margin == 1e300 ? 1.0 : margin;
   s.enters = s.margin >= -1e-9;
-  double sExit = 1.0;
+  // A target on an edge of f (within rounding: a polyline ending exactly on the border) is
+  // reached, not left through that edge.
+  double sExit = 1.0 - 1e-9;
   int exitJ = -1;
   for (int j = 0; j < 3; ++j)
     if (d[j] < 0 && lp[j] > eps) {
@@ -705,9 +707,32 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     try {
       plan(poly, checked);
     } catch (const TopologyError& e) {
-      throw TopologyError(std::string("cutPolyline: the cut cannot be inserted") +
-                          (retried ? " (also tried without snapping): " : ": ") + e.what() +
-                          "; nothing was changed");
+      // An end exactly on the border (within rounding) can defeat the walk where the same end a
+      // little inside, snapped onto the border edge, does not: pull the ends 1% of their segment
+      // inwards, snap them onto the border, and try once more.
+      std::vector<Point3> nudged = poly;
+      const std::size_t n = nudged.size();
+      nudged[0] = nudged[0] + 0.01 * (poly[1] - poly[0]);
+      nudged[n - 1] = nudged[n - 1] + 0.01 * (poly[n - 2] - poly[n - 1]);
+      const std::vector<Point3> inside = nudged;
+      nudged = snapEnds(I, nudged, std::max(options.snapTolerance, 0.02), true);
+      // An end that did not snap onto the border was not on it: it stays where it was given.
+      if (nudged[0] == inside[0]) nudged[0] = poly[0];
+      if (nudged[n - 1] == inside[n - 1]) nudged[n - 1] = poly[n - 1];
+      bool ok = false;
+      if (nudged.front() != nudged.back() && !selfCrossing(nudged)) {
+        try {
+          Walker walker(I, snap);
+          walker.check(nudged);
+          plan(nudged, walker);
+          ok = true;
+        } catch (const TopologyError&) {
+        }
+      }
+      if (!ok)
+        throw TopologyError(std::string("cutPolyline: the cut cannot be inserted") +
+                            (retried ? " (also tried without snapping): " : ": ") + e.what() +
+                            "; nothing was changed");
     }
   }
 
