@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Triangle quality of OBJ meshes (a run's final_rest.obj, say): smallest angle, mean of the
 triangles' smallest angles, largest angle, how many triangles have a smallest angle under 10 and
-20 degrees. Usage: scripts/mesh_quality.py MESH.obj [MESH.obj ...]"""
+20 degrees, the shortest edge and the smallest altitude (which bounds a stable explicit time step)
+relative to the median edge. Usage: scripts/mesh_quality.py MESH.obj [MESH.obj ...]"""
 import sys
 
 import numpy as np
@@ -47,9 +48,15 @@ def main():
             return 2
         a = angles(points, tris)
         mn = a.min(axis=1)
+        p = points[tris]
+        lengths = np.stack([np.linalg.norm(p[:, (k + 1) % 3] - p[:, k], axis=1) for k in range(3)], axis=1)
+        area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+        height = 2 * area / lengths.max(axis=1)  # smallest altitude: what limits an explicit step
+        median = np.median(lengths)
         print(f"{path}: {len(tris)} triangles, smallest angle {mn.min():.2f} deg, mean smallest "
               f"{mn.mean():.2f} deg, largest {a.max():.1f} deg, under 10 deg: {(mn < 10).sum()}, "
-              f"under 20 deg: {(mn < 20).sum()}")
+              f"under 20 deg: {(mn < 20).sum()}, shortest edge {100 * lengths.min() / median:.1f}% and "
+              f"smallest altitude {100 * height.min() / median:.1f}% of the median edge")
     return 0
 
 

@@ -13,15 +13,17 @@
 // When the criterion holds, the crack advances from the tip, perpendicular to the principal
 // direction, in pieces cut by Topology::cutPolyline (through triangles, not along edges, with the
 // quality repair), at most `speed` x dt of length per step (the budget carries over), so the
-// torn length per unit time does not depend on the time step; with no speed given, one piece per
-// step. A piece is half a mean rest edge long (at least), so the path is resolved per cell. A
+// torn length per unit time does not depend on the time step. A piece is half a mean rest edge long (at least), so the path is resolved per cell. A
 // piece that would leave the surface (the crack reaches the border, a hole or another cut) is cut
-// to where its line meets the border: the crack ends there.
+// to where its line meets the border, when that is within the piece: the crack ends there. Tips
+// are looked for again whenever the mesh changed other than by this action (a later notch, a
+// removal that took a tip away). `length` must be at least 1.5 mean rest edges.
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <unordered_set>
 
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/forcefields/parameters.hpp"
@@ -32,6 +34,7 @@
 namespace cutsim::core {
 namespace {
 
+using topology::Index;
 using topology::PointId;
 using topology::TriangleId;
 
@@ -82,7 +85,21 @@ class FractureAction final : public TimelineAction {
   void dryRun(DryRunContext&) const override {}
 
   void start(ActionContext& c) override {
-    const topology::Topology& t = c.simulation().topology();
+    const double edge = c.meanRestEdge();
+    if (p_.length < 1.5 * edge)
+      c.fail("fracture: length " + forcefields::describeNumber(p_.length) +
+             " is shorter than 1.5 mean rest edges (" + forcefields::describeNumber(1.5 * edge) +
+             "): the mesh cannot resolve the disc the strain is averaged over");
+    piece_ = std::max(0.5 * edge, 1e-12);
+    on_ = true;
+    detectTips(c.simulation().topology());
+  }
+
+  /// Every slit tip of the mesh (a border point whose triangles span a full turn), keeping the
+  /// budget of tips already known. Run when the topology changed other than by this action (a
+  /// later notch, a removal that took a tip away).
+  void detectTips(const topology::Topology& t) {
+    std::vector<Tip> found;
     for (PointId p : t.points()) {
       if (!t.isBoundaryPoint(p) || fanAngle(t, p) < 1.9 * std::numbers::pi) continue;
       // The slit behind the tip: the crack continues away from the tip's border neighbours.
@@ -95,14 +112,19 @@ class FractureAction final : public TimelineAction {
           ++n;
         }
       if (n == 0) continue;
-      tips_.push_back({p, unit(sub(t.restPosition(p), scale(behind, 1.0 / n)))});
+      Tip tip{p, unit(sub(t.restPosition(p), scale(behind, 1.0 / n)))};
+      for (const Tip& old : tips_)
+        if (old.point == p) tip = old;
+      found.push_back(tip);
     }
-    piece_ = std::max(0.5 * c.meanRestEdge(), 1e-12);
-    on_ = true;
+    tips_ = std::move(found);
+    revision_ = t.revision();
   }
 
   void afterStep(ActionContext& c) override {
-    if (!on_ || tips_.empty()) return;
+    if (!on_) return;
+    const topology::Topology& topo = c.simulation().topology();
+    if (topo.revision() != revision_) detectTips(topo);
     std::vector<Tip> next;
     for (Tip tip : tips_) {
       // The crack speed bounds the length torn per unit time: the budget grows by speed x dt
@@ -123,6 +145,7 @@ class FractureAction final : public TimelineAction {
       if (alive) next.push_back(tip);
     }
     tips_ = std::move(next);
+    revision_ = topo.revision();
   }
 
  private:
@@ -134,8 +157,8 @@ class FractureAction final : public TimelineAction {
     // Triangles within `length` of the tip: a walk outwards from the tip's triangles (the cost
     // is that of the disc, not of the mesh).
     std::vector<TriangleId> todo = t.trianglesAroundPoint(tip.point), disc;
-    std::vector<char> seen(t.triangleCapacity(), 0);
-    for (TriangleId f : todo) seen[f.index()] = 1;
+    std::unordered_set<Index> seen;
+    for (TriangleId f : todo) seen.insert(f.index());
     double m[3][3] = {}, area = 0;
     Vec3 normal{0, 0, 0};
     while (!todo.empty()) {
@@ -144,7 +167,8 @@ class FractureAction final : public TimelineAction {
       auto v = t.triangleVertices(f);
       const Vec3 a = t.restPosition(v[0]), b = t.restPosition(v[1]), d = t.restPosition(v[2]);
       const Vec3 centroid = scale(add(add(a, b), d), 1.0 / 3);
-      if (dot(sub(centroid, X), sub(centroid, X)) > p_.length * p_.length && !disc.empty()) continue;
+      const bool aroundTip = v[0] == tip.point || v[1] == tip.point || v[2] == tip.point;
+      if (dot(sub(centroid, X), sub(centroid, X)) > p_.length * p_.length && !aroundTip) continue;
       disc.push_back(f);
       const Vec3 n = cross(sub(b, a), sub(d, a));
       const double A = 0.5 * std::sqrt(dot(n, n));
@@ -161,10 +185,7 @@ class FractureAction final : public TimelineAction {
       area += A;
       for (PointId p : v)
         for (TriangleId g : t.trianglesAroundPoint(p))
-          if (!seen[g.index()]) {
-            seen[g.index()] = 1;
-            todo.push_back(g);
-          }
+          if (seen.insert(g.index()).second) todo.push_back(g);
     }
     TipLoad load;
     if (!(area > 0)) return load;
@@ -210,9 +231,10 @@ class FractureAction final : public TimelineAction {
       return true;
     } catch (const TopologyError&) {  // it leaves the surface: below
     }
-    // The piece leaves the surface: cut to where its line first meets the border.
+    // The piece leaves the surface: cut to where its line first meets the border, if that is
+    // within the piece (else the tip waits: the next step's strain decides again).
     const std::optional<Vec3> hit = borderHit(t, tip.point, from, load.crackDirection);
-    if (!hit) return false;
+    if (!hit || std::sqrt(dot(sub(*hit, from), sub(*hit, from))) > 1.5 * piece_) return true;
     // Exactly on the border, else a little short of it (the end then snaps onto the border).
     for (double back : {0.0, 0.02, 0.05}) {
       const Vec3 end = sub(*hit, scale(load.crackDirection, back * piece_));
@@ -258,19 +280,22 @@ class FractureAction final : public TimelineAction {
   bool on_ = false;
   std::vector<Tip> tips_;
   double piece_ = 0, tornLength_ = 0;
+  std::uint64_t revision_ = 0;  // the topology's revision when the tips were last known
 };
 
 const bool registered = ActionRegistry::instance().add({
     "fracture",
     "from its time on, cracks run from the tips of slits (notches, cuts) through the triangles, "
     "perpendicular to the largest principal strain averaged over a disc of radius \"length\" around "
-    "each tip, while that strain exceeds \"criticalStrain\", at most \"speed\" m/s",
+    "each tip, while that strain exceeds \"criticalStrain\", at most \"speed\" m/s (slit tips are "
+    "looked for again whenever the mesh changes)",
     {{"at", "time fracture starts"},
      {"criticalStrain", "Green strain, averaged over the disc, above which a crack advances, > 0 "
                         "(required)"},
      {"length", "radius of the disc around a tip the strain is averaged over (m), > 0 (required): "
                 "a material length, which the mesh must resolve"},
-     {"speed", "largest crack speed (m/s), > 0 (default: one piece of half a mean edge per step)"},
+     {"speed", "largest crack speed (m/s), > 0 (required): the torn length per unit time, whatever "
+               "the time step"},
      {"minAngle", "smallest-angle target (degrees) of the quality repair along the crack, in "
                   "[0, 60) (default 20)"}},
     {},
@@ -278,9 +303,10 @@ const bool registered = ActionRegistry::instance().add({
       FractureParameters p;
       s.require("criticalStrain");
       s.require("length");
+      s.require("speed");
       p.criticalStrain = s.positive("criticalStrain", 0.0);
       p.length = s.positive("length", 0.0);
-      if (s.has("speed")) p.speed = s.positive("speed", 0.0);
+      p.speed = s.positive("speed", 0.0);
       p.minAngle = readMinAngle(s);
       return p;
     },

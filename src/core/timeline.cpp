@@ -119,7 +119,7 @@ std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& to
 topology::RepairOptions repairOptions(const Simulation& simulation, double minAngle) {
   topology::RepairOptions o;
   o.minAngle = minAngle;
-  if (!(minAngle > 0)) return o;
+  // Locked even without the repair: carving moves points onto the region's boundary.
   o.locked = simulation.fixed().points();
   for (std::size_t i = 0; i < simulation.numGrasps(); ++i) {
     auto g = simulation.grasp(i).points().points();

@@ -13,6 +13,7 @@
 
 #include "cutsim/core/scene.hpp"
 #include "support/scene_text.hpp"
+#include "cutsim/topology/topology.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -102,6 +103,43 @@ TEST(Fracture, NotchedSheetTearsFromTheTipIndependentlyOfMeshAndTimeStep) {
     EXPECT_NEAR(fineDt.tornAt.at(key), base.tornAt.at(key), base.cell) << "t = " << key / 100.0;
     EXPECT_NEAR(oneway.tornAt.at(key), base.tornAt.at(key), base.cell) << "t = " << key / 100.0;
   }
+}
+
+TEST(Fracture, ParametersAreCheckedAndTipsAreFoundWhenTheyAppear) {
+  // Required keys and the material length against the mesh.
+  EXPECT_NE(test::parseError(test::scene("\"timeline\": [{\"at\": 0, \"action\": \"fracture\", "
+                                         "\"criticalStrain\": 0.1, \"length\": 0.5}]"))
+                .find("/timeline/0: missing key \"speed\""),
+            std::string::npos);
+  EXPECT_NE(test::parseError(test::scene("\"timeline\": [{\"at\": 0, \"action\": \"fracture\", "
+                                         "\"criticalStrain\": -1, \"length\": 0.5, \"speed\": 1}]"))
+                .find("/timeline/0/criticalStrain"),
+            std::string::npos);
+  // A notch cut after fracture started still cracks; a removal that takes the tip away does not
+  // break the run (tips are looked for again when the mesh changes).
+  const std::string text = R"({"mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+  "mass": {"total": 0.2}, "gravity": [0, 0, 0],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 1000, "damping": 0.2}],
+  "integrator": {"type": "implicit-euler", "rayleighMass": 1.0}, "linearSolver": {"type": "cholmod"},
+  "timeStep": 0.01, "duration": 1.2, "output": {"every": 1000000},
+  "timeline": [
+    {"at": 0, "action": "fracture", "criticalStrain": 0.05, "length": 0.2, "speed": 1.0},
+    {"at": 0.05, "action": "cut", "polyline": [[0.45, 1, 0], [0.45, 0.75, 0]]},
+    {"at": 0.9, "action": "remove", "sphere": {"center": [0.45, 0.3, 0], "radius": 0.3}},
+    {"at": 0, "action": "grasp", "name": "left", "box": [[0, 0, -1], [0, 1, 1]],
+     "path": [[0, 0, 0, 0], [2, -0.5, 0, 0]]},
+    {"at": 0, "action": "grasp", "name": "right", "box": [[1, 0, -1], [1, 1, 1]],
+     "path": [[0, 0, 0, 0], [2, 0.5, 0, 0]]}]})";
+  const Scene scene = parseScene(text, "late.json", test::kSceneDir);
+  SceneRunner runner(scene);
+  runner.start();
+  long cutsAtRemoval = -1;
+  while (!runner.finished()) {
+    ASSERT_NO_THROW(runner.advance());
+    if (cutsAtRemoval < 0 && runner.time() >= 0.9 - 1e-9) cutsAtRemoval = runner.cutsDone();
+    ASSERT_TRUE(runner.simulation().topology().validate().ok());
+  }
+  EXPECT_GT(cutsAtRemoval, 2);  // the notch, then crack pieces from its tip
 }
 
 }  // namespace

@@ -278,6 +278,7 @@ namespace cutsim::topology {
 RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
                              std::size_t* removed) {
   checkRepairOptions(repair, "carve");
+  if (!phi) throw TopologyError("carve: no region function given");
   Impl& I = *impl_;
   Mesh& m = I.mesh;
   if (removed) *removed = 0;
@@ -327,22 +328,35 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
     for (auto& [v, x] : value) inside[v] = x <= 0 ? 1 : 0;
     // A point next to a crossing (within a quarter of the edge) moves onto it, so that the
     // boundary passes through it instead of leaving a sliver: a new point on that edge (its
-    // ancestors the edge's ends), the old one destroyed; not the border, not locked points, and
-    // only where its triangles stay the right way up.
+    // ancestors the edge's ends), the old one destroyed; not the border, not locked points, only
+    // where its star is flat (2 degrees) and its triangles stay the right way up; an inside point
+    // only while a neighbour stays inside (so the region keeps a point inside it).
     std::unordered_set<Index> locked;
     for (PointId p : repair.locked) locked.insert(p.index());
     struct Snap { double dist; VI v, w; double s; };
     std::vector<Snap> snaps;
     for (const Crossing& c : crossings) {
       const double len = std::sqrt(CGAL::squared_distance(m.point(c.a), m.point(c.b)));
-      if (c.t < 0.25) snaps.push_back({c.t * len, c.a, c.b, c.t});
-      if (c.t > 0.75) snaps.push_back({(1 - c.t) * len, c.b, c.a, 1 - c.t});
+      if (c.t < 0.25) snaps.push_back({c.t * len, c.a, c.b, c.t});            // a is inside
+      if (c.t > 0.75) snaps.push_back({(1 - c.t) * len, c.b, c.a, 1 - c.t});  // b is outside
     }
     std::sort(snaps.begin(), snaps.end(), [](const Snap& x, const Snap& y) { return x.dist < y.dist; });
     std::unordered_set<Index> moved;
     for (const Snap& sn : snaps) {
       if (moved.count(sn.v.idx()) || moved.count(sn.w.idx()) || onBoundary.count(sn.w.idx())) continue;
       if (locked.count(sn.v.idx()) || m.is_border(sn.v, true) || !I.findHalfedge(sn.v, sn.w).is_valid()) continue;
+      if (value[sn.v.idx()] <= 0) {
+        // An inside point moves only if another inside point next to it stays inside: the
+        // region keeps a point inside it, so its triangles are still recognised as inside.
+        bool keeps = false;
+        for (HI h : CGAL::halfedges_around_target(m.halfedge(sn.v), m)) {
+          const VI w = m.source(h);
+          if (w != sn.w && !onBoundary.count(w.idx()) && !moved.count(w.idx()) && value.count(w.idx()) &&
+              value[w.idx()] <= 0)
+            keeps = true;
+        }
+        if (!keeps) continue;
+      }
       const Point3 target = m.point(sn.v) + sn.s * (m.point(sn.w) - m.point(sn.v));
       std::vector<FI> star;
       bool ok = true;
@@ -357,6 +371,14 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
           if (q == m.point(sn.v)) q = target;
         const auto n1 = CGAL::cross_product(x[1] - x[0], x[2] - x[0]);
         if (!(n0 * n1 > 0.1 * std::sqrt(n0.squared_length() * n1.squared_length()))) ok = false;
+        if (!star.empty()) {  // flat star: the move stays on the rest surface
+          HI gh = m.halfedge(star.front());
+          const auto g0 = CGAL::cross_product(m.point(m.target(gh)) - m.point(m.source(gh)),
+                                              m.point(m.target(m.next(gh))) - m.point(m.source(gh)));
+          if (!(g0 * n0 >= std::cos(2.0 * 3.141592653589793 / 180) *
+                               std::sqrt(g0.squared_length() * n0.squared_length())))
+            ok = false;
+        }
       }
       if (!ok || star.empty()) continue;
       VI nv = I.newPoint({{PointId(sn.v.idx()), 1.0 - sn.s}, {PointId(sn.w.idx()), sn.s}});

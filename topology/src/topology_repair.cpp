@@ -67,11 +67,16 @@ class Repairer {
   RepairReport run(const std::vector<VI>& seeds) {
     for (VI v : seeds) addWithRing(v);
     measure(report_.minAngleBefore, report_.meanMinBefore, report_.belowTargetBefore);
+    shortEdge_ = 0.2 * medianEdge();
     for (int pass = 0; pass < 12; ++pass) {
       bool changed = false;
       for (FI f : worstFirst()) {
-        if (!alive(f) || quality(f) >= target_) continue;
-        changed |= fixTriangle(f);
+        if (!alive(f)) continue;
+        if (quality(f) < target_) {
+          changed |= fixTriangle(f);
+        } else if (shortestEdge(f) < shortEdge_) {
+          changed |= collapseShortEdge(f);
+        }
       }
       changed |= flipPass();
       changed |= smoothPass();
@@ -206,6 +211,41 @@ class Repairer {
     return q;
   }
 
+  /// The median edge length of the patch (before the repair): the local mesh size.
+  double medianEdge() const {
+    std::vector<double> ls;
+    for (FI f : patchFaces()) {
+      auto c = cornersOf(f);
+      for (int k = 0; k < 3; ++k)
+        ls.push_back(std::sqrt(CGAL::squared_distance(P(c[std::size_t(k)]), P(c[std::size_t((k + 1) % 3)]))));
+    }
+    if (ls.empty()) return 0.0;
+    std::nth_element(ls.begin(), ls.begin() + std::ptrdiff_t(ls.size() / 2), ls.end());
+    return ls[ls.size() / 2];
+  }
+  double shortestEdge(FI f) const {
+    auto c = cornersOf(f);
+    double l = 1e300;
+    for (int k = 0; k < 3; ++k)
+      l = std::min(l, CGAL::squared_distance(P(c[std::size_t(k)]), P(c[std::size_t((k + 1) % 3)])));
+    return std::sqrt(l);
+  }
+  /// A well-shaped but tiny triangle (an edge under a fifth of the local mesh size, which sets
+  /// the stable explicit time step): collapse its short edge, if that leaves every triangle
+  /// around at least at the target (or as good as before).
+  bool collapseShortEdge(FI f) {
+    auto c = cornersOf(f);
+    for (int k = 0; k < 3; ++k) {
+      VI a = c[std::size_t(k)], b = c[std::size_t((k + 1) % 3)];
+      if (std::sqrt(CGAL::squared_distance(P(a), P(b))) >= shortEdge_) continue;
+      sizeMode_ = true;
+      const bool done = collapse(a, b) || collapse(b, a);
+      sizeMode_ = false;
+      if (done) return true;
+    }
+    return false;
+  }
+
   // ---- the operations ----
   bool fixTriangle(FI f) {
     auto c = cornersOf(f);
@@ -304,7 +344,8 @@ class Repairer {
       if (FI f = m_.face(h); f.is_valid()) gone.insert(f.idx());
     if (gone.size() == fs.size()) return false;  // a would leave nothing behind
     const double after = starQuality(a, P(b), fs, gone);
-    if (!(after > worstOf(fs) + kImprove)) return false;
+    const double before = worstOf(fs);
+    if (sizeMode_ ? !(after >= std::min(target_, before)) : !(after > before + kImprove)) return false;
     // b must keep one fan: a border a on a border b joins b's border neighbours only along a-b.
     std::unordered_map<std::uint64_t, VI> subst;
     std::vector<FI> moved;
@@ -442,6 +483,7 @@ class Repairer {
         continue;
       }
       if (!inPatch(apex) || isLocked(apex) || isBorder(apex) || !flatStar(apex)) continue;
+      if (isLocked(a) && isLocked(b)) continue;  // a point between two held ones would be free
       const Vector3 ab = P(b) - P(a);
       const double t = ((P(apex) - P(a)) * ab) / ab.squared_length();
       if (!(t > 0.05 && t < 0.95)) continue;
@@ -471,7 +513,7 @@ class Repairer {
     HI hf = I_.findHalfedge(a, b);
     if (!hf.is_valid() || m_.face(hf) != f) return false;
     FI g = m_.face(m_.opposite(hf));
-    if (!g.is_valid() || (!inPatch(a) && !inPatch(b))) return false;
+    if (!g.is_valid() || (!inPatch(a) && !inPatch(b)) || (isLocked(a) && isLocked(b))) return false;
     VI d = m_.target(m_.next(m_.opposite(hf)));
     const Vector3 n = normalOf(f) + normalOf(g);
     if (!aligned(normalOf(f), normalOf(g), flat_)) return false;
@@ -528,6 +570,8 @@ class Repairer {
   std::unordered_set<Index> locked_;
   std::unordered_set<Index> patch_;
   RepairReport report_;
+  double shortEdge_ = 0;   // edges shorter than this are collapsed even in good triangles
+  bool sizeMode_ = false;  // collapse(): accept what keeps the target (not only improvements)
 };
 
 Index follow(const std::unordered_map<Index, Index>& replaced, Index p) {
@@ -580,6 +624,7 @@ void Topology::Impl::repairIncision(const RepairOptions& options, IncisionResult
 
 RepairReport Topology::repair(std::span<const PointId> around, const RepairOptions& options) {
   checkRepairOptions(options, "repair");
+  if (!(options.minAngle > 0)) return {};  // off: no transaction at all
   Impl& I = *impl_;
   std::vector<VI> seeds;
   for (PointId p : around)

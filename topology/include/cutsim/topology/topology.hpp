@@ -155,7 +155,9 @@ class Topology {
   /// Carving along a boundary: removes the part of the surface where phi (a function of the rest
   /// position, <= 0 inside, > 0 outside) is inside, cutting the triangles its boundary crosses:
   /// every edge with one end inside and one outside is split where phi, followed along the edge,
-  /// becomes positive (bisection), which leaves the boundary as a chain of edges; the triangles
+  /// becomes positive (bisection), which leaves the boundary as a chain of edges (a point within
+  /// a quarter of an edge of a crossing first moves onto it, unless it is on the border, locked
+  /// by `repair.locked`, its star is not flat, or it is the last inside point around); the triangles
   /// inside go, then the quality repair runs around the hole. One transaction. Returns the
   /// repair's report and the number of triangles removed (0: no point is inside; nothing changes).
   RepairReport carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
