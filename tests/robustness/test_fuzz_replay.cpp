@@ -211,12 +211,18 @@ TEST(FuzzReplay, RejectedCutAlongTheBorderChangesNothing) {
   // back, so the snapped variant touches itself and only the polyline as given is tried, whose
   // insertion cannot be planned: rejected before anything changes (the fuzz body checks that
   // nothing changed and that the message is not an internal error).
+  // Since cuts also try the polyline unsnapped and with its ends pulled onto the border, the
+  // cut may now be made (floating-point contraction decides between the builds); either way the
+  // fuzz body has checked the mesh after it, and a rejection must have changed nothing.
   const auto target = std::find_if(log.begin(), log.end(), [](const std::string& l) {
     return l.rfind("cutPolyline snap 0.010000: {0.39900000000000002", 0) == 0;
   });
   ASSERT_NE(target, log.end());
-  EXPECT_NE(target->find("cannot be inserted"), std::string::npos) << *target;
-  EXPECT_NE(target->find("nothing was changed"), std::string::npos) << *target;
+  if (target->find("rejected") != std::string::npos) {
+    EXPECT_NE(target->find("cannot be inserted"), std::string::npos) << *target;
+    EXPECT_NE(target->find("nothing was changed"), std::string::npos) << *target;
+  }
+  EXPECT_EQ(target->find("internal error"), std::string::npos) << *target;
 }
 
 }  // namespace
