@@ -128,9 +128,9 @@ class FractureAction final : public TimelineAction {
     std::vector<Tip> next;
     for (Tip tip : tips_) {
       // The crack speed bounds the length torn per unit time: the budget grows by speed x dt
-      // (one piece per step without a speed) and is spent in pieces while the tip is loaded; an
+      // and is spent in pieces while the tip is loaded; an
       // unloaded tip keeps at most one piece of it (no run ahead after a long wait).
-      tip.budget += std::isfinite(p_.speed) ? p_.speed * c.timeStep() : piece_;
+      tip.budget += p_.speed * c.timeStep();
       bool alive = true, loaded = true;
       while (alive && tip.budget >= piece_) {
         const TipLoad load = loadAt(c, tip);
@@ -141,7 +141,7 @@ class FractureAction final : public TimelineAction {
         alive = advance(c, tip, load);
         tip.budget -= piece_;
       }
-      if (!loaded || !std::isfinite(p_.speed)) tip.budget = std::min(tip.budget, std::isfinite(p_.speed) ? piece_ : 0.0);
+      if (!loaded) tip.budget = std::min(tip.budget, piece_);
       if (alive) next.push_back(tip);
     }
     tips_ = std::move(next);
@@ -221,7 +221,6 @@ class FractureAction final : public TimelineAction {
     try {
       topology::IncisionResult r = t.cutPolyline(std::vector<Vec3>{from, to}, options);
       c.countCut();
-      tornLength_ += piece_;
       if (r.path.empty() || t.isPointAlive(r.path.back()) == false) return false;
       const PointId end = r.path.back();
       // An end on the border (snapped there) parted the material: the crack is done.
@@ -279,7 +278,7 @@ class FractureAction final : public TimelineAction {
   FractureParameters p_;
   bool on_ = false;
   std::vector<Tip> tips_;
-  double piece_ = 0, tornLength_ = 0;
+  double piece_ = 0;
   std::uint64_t revision_ = 0;  // the topology's revision when the tips were last known
 };
 

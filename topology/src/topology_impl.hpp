@@ -101,6 +101,20 @@ struct Topology::Impl {
                  const std::unordered_map<std::uint32_t, FI>& keepFace,
                  std::vector<PointId>* copies, std::vector<PointId>* copiedFrom);
   void commit(Topology& self);
+  /// Runs `body` in the open transaction, then commits, also when body throws: the mesh is valid
+  /// after every primitive, so what was done is announced before the error propagates.
+  template <class F>
+  auto committed(Topology& self, F&& body) {
+    decltype(body()) result{};
+    try {
+      result = body();
+    } catch (...) {
+      commit(self);
+      throw;
+    }
+    commit(self);
+    return result;
+  }
   void abortIfOpen();
 
   // operations used by several public ones

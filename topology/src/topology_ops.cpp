@@ -116,16 +116,10 @@ RepairReport Topology::removeTriangles(std::span<const TriangleId> triangles,
   // Removal may leave a vertex with two fans (a bowtie): give each extra fan its own copy.
   std::vector<VI> candidates = I.touched;
   I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
-  RepairReport report;
-  try {
+  return I.committed(*this, [&] {
     std::unordered_map<Index, Index> replaced;
-    report = I.repairNoTxn(candidates, repair, replaced);
-  } catch (...) {
-    I.commit(*this);
-    throw;
-  }
-  I.commit(*this);
-  return report;
+    return I.repairNoTxn(candidates, repair, replaced);
+  });
 }
 
 VI Topology::Impl::splitEdgeNoTxn(EI e, VI from, double t) {
@@ -261,14 +255,10 @@ IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
   I.begin("tear");
   IncisionResult result;
   I.inciseNoTxn({I.mesh.source(h), I.mesh.target(h)}, result);
-  try {
+  return I.committed(*this, [&] {
     I.repairIncision(repair, result);
-  } catch (...) {
-    I.commit(*this);
-    throw;
-  }
-  I.commit(*this);
-  return result;
+    return result;
+  });
 }
 
 }  // namespace cutsim::topology
@@ -322,8 +312,7 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
   std::vector<Crossing> crossings = findCrossings(anyInside);
   if (!anyInside) return {};
   I.begin("carve");
-  RepairReport report;
-  try {
+  return I.committed(*this, [&] {
     std::unordered_map<Index, char> inside;  // points that existed: phi <= 0
     for (auto& [v, x] : value) inside[v] = x <= 0 ? 1 : 0;
     // A point next to a crossing (within a quarter of the edge) moves onto it, so that the
@@ -416,13 +405,8 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
     std::vector<VI> candidates = I.touched;
     I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
     std::unordered_map<Index, Index> replaced;
-    report = I.repairNoTxn(candidates, repair, replaced);
-  } catch (...) {
-    I.commit(*this);
-    throw;
-  }
-  I.commit(*this);
-  return report;
+    return I.repairNoTxn(candidates, repair, replaced);
+  });
 }
 
 }  // namespace cutsim::topology

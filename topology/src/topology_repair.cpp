@@ -200,11 +200,6 @@ class Repairer {
     }
     return q;
   }
-  static double worst(const std::vector<double>& qs) {
-    double q = 1e300;
-    for (double x : qs) q = std::min(q, x);
-    return q;
-  }
   double worstOf(const std::vector<FI>& fs) const {
     double q = 1e300;
     for (FI f : fs) q = std::min(q, quality(f));
@@ -630,16 +625,10 @@ RepairReport Topology::repair(std::span<const PointId> around, const RepairOptio
   for (PointId p : around)
     if (I.vertexAlive(VI(p))) seeds.push_back(VI(p));
   I.begin("repair");
-  std::unordered_map<Index, Index> replaced;
-  RepairReport report;
-  try {
-    report = I.repairNoTxn(seeds, options, replaced);
-  } catch (...) {
-    I.commit(*this);
-    throw;
-  }
-  I.commit(*this);
-  return report;
+  return I.committed(*this, [&] {
+    std::unordered_map<Index, Index> replaced;
+    return I.repairNoTxn(seeds, options, replaced);
+  });
 }
 
 }  // namespace cutsim::topology

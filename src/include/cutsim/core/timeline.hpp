@@ -138,7 +138,7 @@ struct TearingParameters {
 struct FractureParameters {
   double criticalStrain = 0.0;  ///< averaged Green strain above which a crack advances
   double length = 0.0;          ///< radius of the averaging disc around a tip (m)
-  double speed = std::numeric_limits<double>::infinity();  ///< largest crack speed (m/s)
+  double speed = 0.0;           ///< largest crack speed (m/s), required
   double minAngle = kDefaultMinAngle;  ///< quality repair target along the crack (degrees)
 };
 struct GraspParameters {
