@@ -69,15 +69,46 @@ def min_angle_deg(points, tris):
     return worst
 
 
-def draw_frame(ax, points, tris, strain, vmax, title, view):
+def obstacle_polys(obstacles, lo, hi):
+    """The obstacles' triangles; planes (an obstacle of two triangles) cut down to the surface's extent."""
+    if obstacles is None:
+        return np.zeros((0, 3, 3))
+    pts, tris, arrays = obstacles
+    owner = arrays["obstacle"].astype(int)
+    polys = []
+    for k in np.unique(owner):
+        t = tris[owner == k]
+        p = pts[t]
+        if len(t) == 2:  # a plane: shrink its square around the surface's centre
+            c = p.reshape(-1, 3).mean(axis=0)
+            half = 0.75 * max(hi - lo)
+            d = p - c
+            scale = half / max(np.abs(d).max(), 1e-12)
+            mid = (lo + hi) / 2
+            n = np.cross(p[0][1] - p[0][0], p[0][2] - p[0][0])
+            n /= np.linalg.norm(n) or 1.0
+            shift = (mid - c) - n * np.dot(mid - c, n)
+            p = c + shift + d * scale
+        polys.extend(p)
+    return np.array(polys)
+
+
+def draw_frame(ax, points, tris, strain, vmax, title, view, obstacles=None):
     polys = points[tris]
     cmap = plt.get_cmap("viridis")
     colors = cmap(np.clip(strain / vmax if vmax > 0 else strain * 0, 0, 1))
-    coll = Poly3DCollection(polys, facecolors=colors, edgecolors=(0, 0, 0, 0.15), linewidths=0.2)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    obs = obstacle_polys(obstacles, lo, hi)
+    if len(obs):
+        # One collection, so that the surface and the obstacles are depth-sorted together.
+        polys = np.concatenate([polys, obs])
+        colors = np.concatenate([colors, np.tile([0.72, 0.72, 0.76, 0.55], (len(obs), 1))])
+        lo, hi = np.minimum(lo, obs.reshape(-1, 3).min(axis=0)), np.maximum(hi, obs.reshape(-1, 3).max(axis=0))
+    edgecolors = [(0, 0, 0, 0.15)] * len(tris) + [(0.3, 0.3, 0.3, 0.08)] * len(obs)
+    coll = Poly3DCollection(polys, facecolors=colors, edgecolors=edgecolors, linewidths=0.2)
     ax.add_collection3d(coll)
     edges = boundary_edges(tris)
     ax.add_collection3d(Line3DCollection([points[list(e)] for e in edges], colors="crimson", linewidths=0.8))
-    lo, hi = points.min(axis=0), points.max(axis=0)
     centre, half = (lo + hi) / 2, max(hi - lo) / 2 or 1.0
     for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
         setter(c - half, c + half)
@@ -88,15 +119,25 @@ def draw_frame(ax, points, tris, strain, vmax, title, view):
     ax.set_zlabel("z")
 
 
+def obstacle_frames(run):
+    for name in ("obstacles.pvd", "obstacles.partial.pvd"):
+        pvd = os.path.join(run, name)
+        if os.path.exists(pvd):
+            return {float(d.get("timestep")): os.path.join(run, d.get("file")) for d in ET.parse(pvd).getroot().iter("DataSet")}
+    return {}
+
+
 def render_frames(run, fractions, out, view):
     frames = frames_of(run)
+    obstacles = obstacle_frames(run)
     chosen = sorted({min(len(frames) - 1, int(round(f * (len(frames) - 1)))) for f in fractions})
     data = [(frames[i][0],) + read_vtp(frames[i][1]) for i in chosen]
     vmax = max(float(np.percentile(a["strain"], 99)) for _, _, _, a in data if len(a["strain"])) or 1e-6
     fig = plt.figure(figsize=(4.2 * len(data), 4.6))
     for k, (t, pts, tris, arrays) in enumerate(data):
         ax = fig.add_subplot(1, len(data), k + 1, projection="3d")
-        draw_frame(ax, pts, tris, arrays["strain"], vmax, f"t = {t:g} s, {len(tris)} triangles", view)
+        obs = read_vtp(obstacles[t]) if t in obstacles else None
+        draw_frame(ax, pts, tris, arrays["strain"], vmax, f"t = {t:g} s, {len(tris)} triangles", view, obs)
     sm = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(0, vmax))
     fig.colorbar(sm, ax=fig.axes, shrink=0.6, label="strain (largest principal Green strain)")
     fig.suptitle(os.path.basename(os.path.normpath(run)) + ": surface coloured by strain, borders and cut lips in red")
@@ -112,7 +153,8 @@ def render_series(run, out):
         return []
     col = lambda k: np.array([float(r[k]) for r in rows])  # noqa: E731
     t = col("time")
-    fig, axes = plt.subplots(2, 2, figsize=(12, 7.5))
+    contact = "contact_active" in rows[0]
+    fig, axes = plt.subplots(3 if contact else 2, 2, figsize=(12, 11 if contact else 7.5))
     ax = axes[0][0]
     for k in rows[0]:
         if k == "kinetic_energy" or k.startswith("potential_"):
@@ -144,6 +186,19 @@ def render_series(run, out):
         ax.plot(t, col(k), label=k)
     ax.set_title("grasp reaction forces (N)" if grasp else "no grasp")
     if grasp:
+        ax.legend(fontsize=7)
+    if contact:
+        ax = axes[2][0]
+        for k in rows[0]:
+            if k.endswith("_normal_force") or k.endswith("_friction_force"):
+                ax.plot(t, col(k), label=k, ls="-" if k.endswith("_normal_force") else "--")
+        ax.set_title("contact forces (sums of magnitudes, N)")
+        ax.legend(fontsize=7)
+        ax = axes[2][1]
+        for k in ("contact_active", "contact_excluded", "contact_clamped", "contact_splits"):
+            ax.plot(t, col(k), label=k)
+        ax.set_yscale("symlog", linthresh=1)
+        ax.set_title("contact pairs, clamped points, split steps")
         ax.legend(fontsize=7)
     for a in axes.flat:
         a.set_xlabel("t (s)")

@@ -73,7 +73,10 @@ void runScene(const RunOptions& options) {
 
   const auto start = std::chrono::steady_clock::now();
   core::SceneRunner runner(scene);
-  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames());
+  std::vector<std::string> obstacleNames;
+  for (const auto& o : scene.obstacles) obstacleNames.push_back(o.name);
+  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
+                            scene.contact.has_value(), obstacleNames);
   Progress progress(runner.numSteps(), !options.quiet);
 
   runner.start();

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cutsim/forcefields/contact.hpp"
 #include "cutsim/topology/errors.hpp"
 
 namespace cutsim::core {
@@ -39,6 +40,14 @@ forcefields::ForceField& Model::addForceField(std::unique_ptr<forcefields::Force
   fieldPointers_.push_back(fields_.back().get());
   labels_.push_back(std::move(label));
   return *fields_.back();
+}
+
+forcefields::Contact& Model::setContact(std::unique_ptr<forcefields::Contact> contact, std::string label) {
+  if (!contact) throw InvalidInput("contact", "no contact");
+  if (contact_) throw InvalidInput("contact", "the model has contact already");
+  contact_ = contact.get();
+  addForceField(std::move(contact), std::move(label));
+  return *contact_;
 }
 
 Grasp& Model::addGrasp(const std::string& name, std::span<const PointId> points,

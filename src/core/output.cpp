@@ -9,6 +9,7 @@
 #include <ostream>
 #include <sstream>
 
+#include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "tearing.hpp"
@@ -172,6 +173,46 @@ void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string
          "</VTKFile>\n";
 }
 
+void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles, double t,
+                       double planeSize) {
+  std::vector<Vec3> points;
+  std::vector<std::array<int, 3>> tris;
+  std::vector<std::size_t> owner;
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
+    std::vector<Vec3> p;
+    std::vector<std::array<int, 3>> tr;
+    obstacles[k].surface(obstacles[k].offsetAt(t), planeSize, p, tr);
+    const int base = int(points.size());
+    points.insert(points.end(), p.begin(), p.end());
+    for (auto x : tr) {
+      tris.push_back({x[0] + base, x[1] + base, x[2] + base});
+      owner.push_back(k);
+    }
+  }
+  vtpHeader(out);
+  out << "    <Piece NumberOfPoints=\"" << points.size()
+      << "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"" << tris.size() << "\">\n";
+  out << "      <CellData Scalars=\"obstacle\">\n"
+         "        <DataArray type=\"Int32\" Name=\"obstacle\" format=\"ascii\">\n";
+  for (std::size_t o : owner) out << o << '\n';
+  out << "        </DataArray>\n"
+         "      </CellData>\n"
+         "      <Points>\n"
+         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+  for (const Vec3& p : points) out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
+  out << "        </DataArray>\n"
+         "      </Points>\n"
+         "      <Polys>\n"
+         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (const auto& tr : tris) out << tr[0] << ' ' << tr[1] << ' ' << tr[2] << '\n';
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (std::size_t i = 0; i < tris.size(); ++i) out << 3 * (i + 1) << '\n';
+  out << "        </DataArray>\n"
+         "      </Polys>\n";
+  vtpFooter(out);
+}
+
 void writeSurfaceObj(std::ostream& out, const Simulation& sim) {
   const Numbering n = numbering(sim);
   std::vector<Vec3> points;
@@ -213,11 +254,14 @@ std::string frameName(const std::string& prefix, std::size_t index, const std::s
 
 OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
                            std::vector<std::string> fieldLabels,
-                           std::vector<std::string> graspNames)
+                           std::vector<std::string> graspNames, bool contact,
+                           std::vector<std::string> obstacleNames)
     : dir_(std::move(dir)),
       settings_(settings),
       labels_(std::move(fieldLabels)),
-      grasps_(std::move(graspNames)) {
+      grasps_(std::move(graspNames)),
+      contact_(contact),
+      obstacles_(std::move(obstacleNames)) {
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
   if (ec || !std::filesystem::is_directory(dir_)) {
@@ -241,6 +285,11 @@ std::string OutputWriter::csvHeader() const {
   h += ",gravity_energy,solver_iterations,solver_residual,solver_flags,newton_iterations,active_springs,"
        "points,edges,triangles";
   for (const std::string& g : grasps_) h += "," + g + "_fx," + g + "_fy," + g + "_fz";
+  if (contact_) {
+    h += ",contact_candidates,contact_active,contact_excluded,contact_clamped,contact_splits,"
+         "self_normal_force,self_friction_force";
+    for (const std::string& o : obstacles_) h += "," + o + "_normal_force," + o + "_friction_force";
+  }
   return h;
 }
 
@@ -261,6 +310,16 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
       const Grasp* grasp = sim.findGrasp(g);
       const Vec3 f = grasp ? grasp->reaction() : Vec3{0, 0, 0};
       row << ',' << formatNumber(f[0]) << ',' << formatNumber(f[1]) << ',' << formatNumber(f[2]);
+    }
+    if (contact_) {
+      const forcefields::Contact* c = sim.model().contact();
+      forcefields::ContactMeasure m;
+      if (c) m = c->measure(sim.state().x(), sim.state().v());
+      row << ',' << m.candidates << ',' << m.active << ',' << m.excluded << ',' << r.stats.clamped << ','
+          << r.stats.splits << ',' << formatNumber(m.selfNormal) << ',' << formatNumber(m.selfFriction);
+      for (std::size_t k = 0; k < obstacles_.size(); ++k)
+        row << ',' << formatNumber(k < m.obstacleNormal.size() ? m.obstacleNormal[k] : 0.0) << ','
+            << formatNumber(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0);
     }
     csv_ << row.str() << '\n';
   }
@@ -298,6 +357,26 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
         writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
       }
     }
+    const forcefields::Contact* c = sim.model().contact();
+    if (c && !c->obstacles().empty()) {
+      // Planes are drawn as squares three times the size of the surface's rest extent.
+      double extent = 0.0;
+      topology::Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+      for (PointId p : sim.topology().points()) {
+        const topology::Vec3 q = sim.topology().restPosition(p);
+        for (int k = 0; k < 3; ++k) {
+          lo[std::size_t(k)] = std::min(lo[std::size_t(k)], q[std::size_t(k)]);
+          hi[std::size_t(k)] = std::max(hi[std::size_t(k)], q[std::size_t(k)]);
+        }
+      }
+      for (int k = 0; k < 3; ++k) extent = std::max(extent, hi[std::size_t(k)] - lo[std::size_t(k)]);
+      const std::string name = frameName("obstacles", index, ".vtp");
+      writeFileAtomically(dir_ / name, [&](std::ostream& o) {
+        writeObstaclesVtp(o, c->obstacles(), r.time, 3 * std::max(extent, 1e-3));
+      });
+      obstacleFrames_.emplace_back(r.time, name);
+      writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+    }
   } else {
     surfaceFrames_.emplace_back(r.time, "");
   }
@@ -312,6 +391,10 @@ void OutputWriter::finish() {
   if (settings_.vtk && !surfaceFrames_.empty()) {
     writeFileAtomically(dir_ / "surface.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
     std::filesystem::remove(dir_ / "surface.partial.pvd", removeError);
+  }
+  if (!obstacleFrames_.empty()) {
+    writeFileAtomically(dir_ / "obstacles.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+    std::filesystem::remove(dir_ / "obstacles.partial.pvd", removeError);
   }
   for (const auto& [series, frames] : networkFrames_) {
     writeFileAtomically(dir_ / (series + ".pvd"), [&](std::ostream& o) { writePvd(o, frames); });

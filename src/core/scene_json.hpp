@@ -101,6 +101,17 @@ class Reader {
     }
   }
 
+  void checkKeys(const json& obj, const std::string& ptr, const std::vector<std::string>& allowed) const {
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+      if (std::find(allowed.begin(), allowed.end(), it.key()) == allowed.end()) {
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        fail(ptr + "/" + escapePointerToken(it.key()),
+             "unknown key \"" + it.key() + "\" (expected one of: " + list + ")");
+      }
+    }
+  }
+
   const json* find(const json& obj, const std::string& key) const {
     auto it = obj.find(key);
     return it == obj.end() ? nullptr : &*it;

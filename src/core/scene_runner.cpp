@@ -59,6 +59,10 @@ SceneRunner::SceneRunner(const Scene& scene) : scene_(scene), context_(std::make
     if (!entry) throw InvalidInput(f.location.where(scene_.file.string()), "unknown force field type \"" + f.type + "\"");
     sim_->addForceField(entry->build(f.parameters, sim_->topology()), labels[i]);
   }
+  if (scene_.contact)
+    sim_->model().setContact(
+        std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
+        labels.back());
   for (const ConstraintSpec& c : scene_.constraints) {
     const auto* entry = ConstraintRegistry::instance().find(c.type);
     if (!entry) throw InvalidInput(c.location.where(scene_.file.string()), "unknown constraint type \"" + c.type + "\"");

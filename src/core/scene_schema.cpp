@@ -332,6 +332,10 @@ std::vector<std::string> Scene::forceFieldLabels() const {
     const int n = ++seen[base];
     labels.push_back(n == 1 ? base : base + "_" + std::to_string(n));
   }
+  if (contact) {  // the contact field comes last
+    const int n = ++seen["contact"];
+    labels.push_back(n == 1 ? "contact" : "contact_" + std::to_string(n));
+  }
   return labels;
 }
 
@@ -432,6 +436,146 @@ void parseConstraintsAndTimeline(const Reader& r, const json& root, Scene& s) {
   }
 }
 
+void parseContact(const Reader& r, const json& j, const std::string& ptr, Scene& s) {
+  r.expectObject(j, ptr);
+  r.checkKeys(j, ptr, {"thickness", "stiffness", "friction", "stickVelocity", "selfContact",
+                       "displacementFraction", "splitAbove", "maxSplits"});
+  forcefields::ContactParameters c;
+  c.thickness = r.positive(r.require(j, ptr, "thickness"), ptr + "/thickness");
+  c.stiffness = r.positive(r.require(j, ptr, "stiffness"), ptr + "/stiffness");
+  if (const json* v = r.find(j, "friction")) c.friction = r.nonNegative(*v, ptr + "/friction");
+  if (const json* v = r.find(j, "stickVelocity")) c.stickVelocity = r.positive(*v, ptr + "/stickVelocity");
+  if (const json* v = r.find(j, "selfContact")) c.selfContact = r.boolean(*v, ptr + "/selfContact");
+  if (const json* v = r.find(j, "displacementFraction"))
+    c.displacementFraction = r.positive(*v, ptr + "/displacementFraction");
+  if (const json* v = r.find(j, "splitAbove")) c.splitAbove = r.nonNegative(*v, ptr + "/splitAbove");
+  if (const json* v = r.find(j, "maxSplits")) c.maxSplits = int(r.integer(*v, ptr + "/maxSplits", 0, 20));
+  try {
+    c.validate();
+  } catch (const InvalidInput& e) {
+    r.fail(ptr + "/" + e.where(), e.message());
+  }
+  s.contact = c;
+  s.contactLocation = r.location(ptr);
+}
+
+forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::string& ptr,
+                                    const std::filesystem::path& baseDir) {
+  using Shape = forcefields::Obstacle::Shape;
+  r.expectObject(j, ptr);
+  forcefields::Obstacle o;
+  const std::string type = r.string(r.require(j, ptr, "type"), ptr + "/type");
+  std::vector<std::string> keys{"type", "name", "friction", "path"};
+  if (type == "plane") {
+    o.shape = Shape::Plane;
+    keys.insert(keys.end(), {"point", "normal"});
+  } else if (type == "sphere") {
+    o.shape = Shape::Sphere;
+    keys.insert(keys.end(), {"center", "radius"});
+  } else if (type == "box") {
+    o.shape = Shape::Box;
+    keys.insert(keys.end(), {"center", "size"});
+  } else if (type == "capsule") {
+    o.shape = Shape::Capsule;
+    keys.insert(keys.end(), {"a", "b", "radius"});
+  } else if (type == "mesh") {
+    o.shape = Shape::Mesh;
+    keys.insert(keys.end(), {"file", "translation", "scale"});
+  } else {
+    r.fail(ptr + "/type", "unknown obstacle type \"" + type + "\" (plane, sphere, box, capsule, mesh)");
+  }
+  r.checkKeys(j, ptr, keys);
+  if (const json* v = r.find(j, "name")) o.name = r.string(*v, ptr + "/name");
+  if (const json* v = r.find(j, "friction")) o.friction = r.nonNegative(*v, ptr + "/friction");
+  switch (o.shape) {
+    case Shape::Plane:
+      o.point = r.vec3(r.require(j, ptr, "point"), ptr + "/point");
+      o.normal = r.vec3(r.require(j, ptr, "normal"), ptr + "/normal");
+      break;
+    case Shape::Sphere:
+      o.point = r.vec3(r.require(j, ptr, "center"), ptr + "/center");
+      o.radius = r.positive(r.require(j, ptr, "radius"), ptr + "/radius");
+      break;
+    case Shape::Box: {
+      o.point = r.vec3(r.require(j, ptr, "center"), ptr + "/center");
+      const Vec3 size = r.vec3(r.require(j, ptr, "size"), ptr + "/size");
+      for (int c = 0; c < 3; ++c) {
+        if (!(size[std::size_t(c)] > 0)) r.fail(ptr + "/size/" + Reader::idx(std::size_t(c)), "must be > 0");
+        o.halfExtents[std::size_t(c)] = size[std::size_t(c)] / 2;
+      }
+      break;
+    }
+    case Shape::Capsule:
+      o.point = r.vec3(r.require(j, ptr, "a"), ptr + "/a");
+      o.pointB = r.vec3(r.require(j, ptr, "b"), ptr + "/b");
+      o.radius = r.positive(r.require(j, ptr, "radius"), ptr + "/radius");
+      break;
+    case Shape::Mesh: {
+      const std::string file = r.string(r.require(j, ptr, "file"), ptr + "/file");
+      std::filesystem::path path(file);
+      if (path.is_relative()) path = baseDir / path;
+      topology::MeshData m;
+      try {
+        m = topology::readMesh(path);
+      } catch (const InvalidInput& e) {
+        r.fail(ptr + "/file", "the obstacle mesh does not read: " + std::string(e.what()));
+      }
+      Vec3 t{0, 0, 0};
+      double scale = 1.0;
+      if (const json* v = r.find(j, "translation")) t = r.vec3(*v, ptr + "/translation");
+      if (const json* v = r.find(j, "scale")) scale = r.positive(*v, ptr + "/scale");
+      for (const Vec3& p : m.points)
+        o.vertices.push_back({scale * p[0] + t[0], scale * p[1] + t[1], scale * p[2] + t[2]});
+      for (const auto& tri : m.triangles)
+        o.triangles.push_back({int(topology::Index(tri[0])), int(topology::Index(tri[1])), int(topology::Index(tri[2]))});
+      if (o.triangles.empty()) r.fail(ptr + "/file", "the obstacle mesh " + path.string() + " has no triangle");
+      break;
+    }
+  }
+  if (const json* v = r.find(j, "path")) {
+    r.expectArray(*v, ptr + "/path");
+    if (v->empty()) r.fail(ptr + "/path", "expected at least one [time, dx, dy, dz]");
+    for (std::size_t k = 0; k < v->size(); ++k) {
+      const std::string kp = ptr + "/path/" + Reader::idx(k);
+      const json& row = (*v)[k];
+      if (!row.is_array() || row.size() != 4) r.fail(kp, "expected [time, dx, dy, dz]");
+      forcefields::ObstacleKey key;
+      key.time = r.number(row[0], kp + "/0");
+      for (int c = 0; c < 3; ++c) key.offset[std::size_t(c)] = r.number(row[std::size_t(c + 1)], kp + "/" + Reader::idx(std::size_t(c + 1)));
+      if (k > 0 && !(key.time > o.path.back().time)) r.fail(kp + "/0", "times must increase");
+      o.path.push_back(key);
+    }
+  }
+  if (o.shape == Shape::Plane) {
+    const Vec3& n = o.normal;
+    if (!(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-24)) r.fail(ptr + "/normal", "must be a nonzero vector");
+  }
+  try {
+    o.validate();
+  } catch (const InvalidInput& e) {
+    r.fail(ptr + "/" + e.where(), e.message());
+  }
+  return o;
+}
+
+/// A scene with contact must start free of intersections (within the thickness is allowed: the
+/// penalty pushes the primitives apart).
+void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshData& mesh) {
+  topology::Topology topo(mesh);
+  forcefields::Contact contact(topo, *s.contact, s.obstacles);
+  std::vector<double> x(3 * topo.pointCapacity(), 0.0);
+  for (topology::PointId p : topo.points())
+    for (int c = 0; c < 3; ++c) x[3 * std::size_t(p) + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
+  const auto found = contact.intersections(x, 1);
+  if (found.empty()) return;
+  const auto& c = found.front();
+  std::string where = "/contact";
+  for (std::size_t k = 0; k < s.obstacles.size(); ++k)
+    if (c.what.find("obstacle \"" + s.obstacles[k].name + "\"") != std::string::npos) where = "/obstacles/" + Reader::idx(k);
+  r.fail(where, "the scene starts in intersection: " + c.what +
+                    " (contact can only keep apart what starts apart: move the mesh or the obstacle)");
+}
+
 }  // namespace
 }  // namespace detail
 
@@ -443,7 +587,8 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   r.expectObject(root, "");
   r.checkKeys(root, "",
               {"name", "description", "mesh", "mass", "gravity", "forceFields", "constraints",
-               "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline"});
+               "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline",
+               "contact", "obstacles"});
   Scene s;
   parseHeader(r, root, sourceName, s);
   const std::string meshPtr = parseMesh(r, root, baseDir, s);
@@ -453,6 +598,23 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
     r.expectArray(*v, "/forceFields");
     for (std::size_t i = 0; i < v->size(); ++i)
       s.forceFields.push_back(parseForceField(r, (*v)[i], "/forceFields/" + Reader::idx(i)));
+  }
+  if (const json* v = r.find(root, "contact")) parseContact(r, *v, "/contact", s);
+  if (const json* v = r.find(root, "obstacles")) {
+    r.expectArray(*v, "/obstacles");
+    if (!s.contact && !v->empty())
+      r.fail("/obstacles", "obstacles need a \"contact\" section (its thickness and stiffness)");
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < v->size(); ++i) {
+      const std::string ptr = "/obstacles/" + Reader::idx(i);
+      s.obstacles.push_back(parseObstacle(r, (*v)[i], ptr, baseDir));
+      s.obstacleLocations.push_back(r.location(ptr));
+      if (s.obstacles.back().name.empty()) s.obstacles.back().name = s.obstacles.back().shapeName() + std::to_string(i);
+      const std::string& name = s.obstacles.back().name;
+      if (name.find_first_of(",\"\n\r") != std::string::npos)
+        r.fail(ptr + "/name", "must not contain a comma, a quote or a line break (it names CSV columns)");
+      if (!names.insert(name).second) r.fail(ptr + "/name", "another obstacle has the name \"" + name + "\"");
+    }
   }
   parseStepping(r, root, s);
   s.timeStep = r.positive(r.require(root, "", "timeStep"), "/timeStep");
@@ -466,6 +628,7 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   topology::checkManifold(meshData);
   parseConstraintsAndTimeline(r, root, s);
   dryRun(r, s, meshData);
+  if (s.contact) checkContactAtStart(r, s, meshData);
   return s;
 }
 

@@ -4,6 +4,7 @@
 
 #include <sstream>
 
+#include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 
@@ -26,16 +27,58 @@ void Simulation::setSolver(const SolverSettings& s) { setIntegrator(makeIntegrat
 StepStats Simulation::step(double dt) {
   forcefields::requireFinitePositive("timeStep", dt);
   if (!model_->hasMass()) throw SolverError("the simulation has no mass: give a density or a total mass");
+  StepStats stats;
+  stats.substeps = 0;
+  const double t0 = time_;
+  // With contact a step may be taken in parts: a failing part leaves the state as at the start.
+  std::vector<double> x0, v0;
+  if (model_->contact()) {
+    x0.assign(model_->state().x().begin(), model_->state().x().end());
+    v0.assign(model_->state().v().begin(), model_->state().v().end());
+  }
+  try {
+    advance(dt, 0, stats);
+  } catch (...) {
+    time_ = t0;
+    if (!x0.empty()) {
+      std::copy(x0.begin(), x0.end(), model_->state().x().begin());
+      std::copy(v0.begin(), v0.end(), model_->state().v().begin());
+    }
+    throw;
+  }
+  time_ = t0 + dt;
+  ++steps_;
+  if (stats.flagged()) {
+    ++summary_.flaggedSteps;
+    if (stats.flags & StepStats::MissedTolerance) ++summary_.missedTolerance;
+    if (stats.flags & StepStats::Indefinite) ++summary_.indefinite;
+    if (stats.flags & StepStats::FellBack) ++summary_.fellBack;
+    if (stats.flags & StepStats::NewtonNotConverged) ++summary_.newtonNotConverged;
+    const double worst = std::max(stats.worstResidual, stats.newtonResidual);
+    if (!(worst <= summary_.worstResidual)) {
+      summary_.worstResidual = worst;
+      summary_.worstStep = steps_;
+    }
+  }
+  return stats;
+}
+
+void Simulation::advance(double h, int depth, StepStats& stats) {
   auto stepName = [&] {
     std::ostringstream s;
     s << "step " << steps_ + 1 << " (t = " << time_ << "): ";
     return s.str();
   };
-  const StepConstraints constraints = model_->constraints(time_ + dt);
-  StepInput in{dt, &constraints, model_->topology().revision()};
-  StepOutput out;
-  StepStats stats;
+  forcefields::Contact* contact = model_->contact();
   const std::size_t n = model_->numSlots();
+  std::vector<double> x0;
+  if (contact) {
+    x0.assign(model_->state().x().begin(), model_->state().x().end());
+    contact->beginStep(model_->state().x(), model_->state().v(), time_, h);
+  }
+  const StepConstraints constraints = model_->constraints(time_ + h);
+  StepInput in{h, &constraints, model_->topology().revision()};
+  StepOutput out;
   try {
     integrator_->step(*model_, in, out, stats);
     requireFinite(std::span<const double>(out.v.data(), std::size_t(out.v.size())), "velocity", "");
@@ -51,6 +94,21 @@ StepStats Simulation::step(double dt) {
   } catch (const StepFailure& e) {
     throw SolverError(stepName() + e.message);
   }
+  if (contact) {
+    const std::size_t clamped = contact->limitDisplacement(
+        x0, std::span<double>(out.x.data(), std::size_t(out.x.size())),
+        std::span<double>(out.v.data(), std::size_t(out.v.size())), h, constraints.constrained);
+    const auto& P = contact->parameters();
+    const double live = double(model_->topology().numPoints());
+    if (clamped > 0 && double(clamped) > P.splitAbove * live && depth < P.maxSplits) {
+      ++stats.splits;
+      advance(h / 2, depth + 1, stats);
+      advance(h / 2, depth + 1, stats);
+      return;
+    }
+    stats.clamped += int(clamped);
+  }
+  ++stats.substeps;
   // Dead points and points without mass (isolated) do not move.
   auto xs = model_->state().x();
   auto vs = model_->state().v();
@@ -71,21 +129,7 @@ StepStats Simulation::step(double dt) {
         for (int c = 0; c < 3; ++c) r[c] += out.reaction[Eigen::Index(3 * p + c)];
     grasp.setReaction(r);
   }
-  time_ += dt;
-  ++steps_;
-  if (stats.flagged()) {
-    ++summary_.flaggedSteps;
-    if (stats.flags & StepStats::MissedTolerance) ++summary_.missedTolerance;
-    if (stats.flags & StepStats::Indefinite) ++summary_.indefinite;
-    if (stats.flags & StepStats::FellBack) ++summary_.fellBack;
-    if (stats.flags & StepStats::NewtonNotConverged) ++summary_.newtonNotConverged;
-    const double worst = std::max(stats.worstResidual, stats.newtonResidual);
-    if (!(worst <= summary_.worstResidual)) {
-      summary_.worstResidual = worst;
-      summary_.worstStep = steps_;
-    }
-  }
-  return stats;
+  time_ += h;
 }
 
 }  // namespace cutsim::core

@@ -54,6 +54,9 @@ struct StepStats {
   int newtonIterations = 0;  ///< Newton iterations (newton only)
   double newtonResidual = 0.0;  ///< |residual| / |first residual| at Newton's end (newton only)
   bool analysed = false;     ///< a direct solver redid its symbolic analysis this step
+  int clamped = 0;           ///< points whose displacement the contact bound clamped (all substeps)
+  int splits = 0;            ///< times the step (or a part of it) was redone as two halves
+  int substeps = 1;          ///< integrator steps taken for this step
   std::uint8_t flags = 0;
   bool flagged() const { return flags != 0; }
   /// "ok", or the flags joined by '+': "missed-tolerance", "indefinite", "fallback", "newton".

@@ -15,6 +15,10 @@
 #include "cutsim/forcefields/force_field.hpp"
 #include "cutsim/topology/topology.hpp"
 
+namespace cutsim::forcefields {
+class Contact;
+}
+
 namespace cutsim::core {
 
 /// Thrown by the model's and the integrators' checks when a value stops being finite; the
@@ -65,6 +69,12 @@ class Model {
   /// The fields, for SystemOperator.
   std::span<forcefields::ForceField* const> fields() const { return fieldPointers_; }
 
+  /// Contact (self-contact and obstacles): one per model, a force field labelled "contact" that
+  /// the simulation also asks for its displacement bound after each solve.
+  forcefields::Contact& setContact(std::unique_ptr<forcefields::Contact> contact,
+                                   std::string label = "contact");
+  forcefields::Contact* contact() const { return contact_; }
+
   PointSet& fixed() { return *fixed_; }
   const PointSet& fixed() const { return *fixed_; }
   /// Starts a grasp of `points` at time `now`, anchored at their current positions.
@@ -106,6 +116,7 @@ class Model {
   std::vector<std::unique_ptr<forcefields::ForceField>> fields_;
   std::vector<forcefields::ForceField*> fieldPointers_;
   std::vector<std::string> labels_;
+  forcefields::Contact* contact_ = nullptr;
   Vec3 gravity_{0, 0, 0};
 };
 

@@ -46,6 +46,9 @@ void writeNetworkVtp(std::ostream& out, const Simulation& sim,
                      std::span<const std::array<PointId, 2>> segments);
 /// A ParaView collection: (time, file name relative to the .pvd) per frame.
 void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames);
+/// The obstacles' surfaces at time t (planes drawn as squares of side planeSize).
+void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles, double t,
+                       double planeSize);
 /// OBJ of the live surface at current positions, 17 significant digits.
 void writeSurfaceObj(std::ostream& out, const Simulation& sim);
 
@@ -62,12 +65,18 @@ struct StepRecord {
 ///   steps.csv: time, kinetic_energy, potential_<label> per force field, gravity_energy,
 ///     solver_iterations, solver_residual, solver_flags ("ok" or the StepStats flags joined by
 ///     '+'), newton_iterations, active_springs, points, edges, triangles,
-///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active)
+///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active);
+///     with contact: contact_candidates, contact_active, contact_excluded, contact_clamped,
+///     contact_splits, self_normal_force, self_friction_force, and <obstacle>_normal_force,
+///     <obstacle>_friction_force per obstacle (sums of the pairs' force magnitudes, N)
+///   obstacles.pvd, obstacles_NNNNNN.vtp: the obstacles' surfaces (cell data "obstacle": the
+///     obstacle's index), when the scene has obstacles
 class OutputWriter {
  public:
-  /// Creates the folder. fieldLabels and graspNames fix the CSV's columns.
+  /// Creates the folder. fieldLabels, graspNames, contact and obstacleNames fix the CSV's columns.
   OutputWriter(std::filesystem::path dir, OutputSettings settings,
-               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames);
+               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames,
+               bool contact = false, std::vector<std::string> obstacleNames = {});
   ~OutputWriter();
   OutputWriter(const OutputWriter&) = delete;
   OutputWriter& operator=(const OutputWriter&) = delete;
@@ -88,6 +97,9 @@ class OutputWriter {
   std::filesystem::path dir_;
   OutputSettings settings_;
   std::vector<std::string> labels_, grasps_;
+  bool contact_ = false;
+  std::vector<std::string> obstacles_;
+  std::vector<std::pair<double, std::string>> obstacleFrames_;
   std::ofstream csv_;
   std::filesystem::path csvTemp_;
   std::vector<std::pair<double, std::string>> surfaceFrames_;

@@ -20,6 +20,7 @@
 #include "cutsim/core/constraints.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/core/timeline.hpp"
+#include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
@@ -99,6 +100,11 @@ struct Scene {
   Vec3 gravity{0, 0, 0};
   std::vector<ForceFieldSpec> forceFields;
   std::vector<ConstraintSpec> constraints;
+  /// The "contact" section (self-contact and obstacles), if any.
+  std::optional<forcefields::ContactParameters> contact;
+  SceneLocation contactLocation;
+  std::vector<forcefields::Obstacle> obstacles;  ///< the "obstacles" list (needs "contact")
+  std::vector<SceneLocation> obstacleLocations;
   ComponentSpec integrator;                  ///< by default implicit-euler
   std::optional<ComponentSpec> linearSolver;  ///< for integrators that use one (default cg)
   double timeStep = 0.0, duration = 0.0;
@@ -109,7 +115,8 @@ struct Scene {
   long numSteps() const;
   /// The mesh the scene starts from (read or generated).
   topology::MeshData mesh() const;
-  /// Labels of the force fields as the simulation gets them (unique: "Type", "Type_2", ...).
+  /// Labels of the force fields as the simulation gets them (unique: "Type", "Type_2", ...),
+  /// the contact field's last ("contact") when the scene has contact.
   std::vector<std::string> forceFieldLabels() const;
   /// Names of every grasp of the timeline, in order of first appearance.
   std::vector<std::string> graspNames() const;

@@ -70,7 +70,9 @@ class Simulation {
 
   /// Advances by dt (> 0). Throws SolverError naming the step, the component and the point if a
   /// force, velocity or position becomes non-finite, or if a solve fails under the integrator's
-  /// failure policy (the state is then left as before the step).
+  /// failure policy (the state is then left as before the step). With contact, the step's
+  /// displacements are bounded (forcefields::Contact::limitDisplacement) and a step that clamps
+  /// more than the contact's splitAbove fraction of the points is redone as two half steps.
   StepStats step(double dt);
   double time() const { return time_; }
   long steps() const { return steps_; }
@@ -85,6 +87,10 @@ class Simulation {
   std::vector<double> totalForce() const { return model_->totalForce(); }
 
  private:
+  /// One integrator step of h (with the contact's bound), or two of h / 2 when the bound clamps
+  /// too many points.
+  void advance(double h, int depth, StepStats& stats);
+
   std::unique_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
   SolveSummary summary_;

@@ -1,0 +1,187 @@
+#pragma once
+// Contact: the surface against itself and against obstacles, as a penalty force field with
+// Coulomb friction and a per-step displacement bound that keeps the surface free of
+// intersections. Notes: docs/contact.md.
+//
+// Detection. A bounding volume hierarchy over the live triangles (boxes inflated by half the
+// query radius r), rebuilt when the topology's revision changes and refitted at every step's
+// start; it follows the topology's events like every other observer (validate() compares it and
+// its tables with a rebuild). At the step's start the candidate pairs within r are collected once
+// each: vertex-triangle (VT) and edge-edge (EE) pairs of the surface that share no point (each
+// point and edge is owned by one of its triangles, and a pair of triangles is visited once), and
+// each point against each analytic obstacle; a triangle-mesh obstacle gives VT pairs (surface
+// point, obstacle triangle), TV pairs (obstacle point, surface triangle) and EE pairs. r is
+// max(2 d, d + 4 max |v| dt).
+//
+// Response. For a pair at distance s (unsigned, between closest points; for an analytic obstacle
+// the signed distance of the point) with thickness d and stiffness k:
+//
+//   E(s) = k / 3 (d - s)^3 for s < d, else 0    (C2: E, E' = -k (d - s)^2, E'' = 2 k (d - s))
+//   f_i = k (d - s)^2 w_i n,   K_ij = -E''(s) w_i w_j n n^T    (Gauss-Newton: the curvature of s
+//                                                               is left out, K is NSD)
+//
+// with n the unit direction from the second primitive's closest point to the first's and w_i the
+// closest points' barycentric weights (+ on the first primitive, - on the second). K is exact only
+// along n: stiffnessIsExact() is false. The energy is part of potentialEnergy().
+//
+// Friction (lagged): at the step's start each pair's normal force lambda = k (d - s)^2 and normal
+// n0 are frozen; the friction force on the pair's tangential relative velocity u_T is
+// -mu lambda u_T / max(|u_T|, eps_v) (viscous below the stick velocity eps_v, Coulomb above),
+// spread with the same weights; its derivative is the damping matrix B (NSD).
+//
+// Guarantee. After the step's solve, limitDisplacement() clamps each point's displacement to
+// gamma b_p, where b_p is the smallest distance at the step's start of the pairs it belongs to
+// (capped at r, and for analytic obstacles the distance of its triangles to the obstacle), and
+// gamma < 1/2: two primitives at distance D both move by at most gamma D, so they cannot meet
+// (the offset geometric contact argument). Pairs excluded below are not bounded.
+//
+// Cuts and tears. Pairs that a topology transaction creates within d (the two lips of a cut,
+// points made by a split) are excluded from the penalty, friction and bound until their distance
+// first exceeds d; then they get their normal thickness.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/topology/events.hpp"
+#include "cutsim/topology/types.hpp"
+
+namespace cutsim::topology {
+class Topology;
+class Subscription;
+}  // namespace cutsim::topology
+
+namespace cutsim::forcefields {
+
+using topology::Vec3;
+
+/// The contact settings of a scene.
+struct ContactParameters {
+  double thickness = 0.0;       ///< d, m: > 0
+  double stiffness = 0.0;       ///< k, N/m^2: > 0 (E = k/3 (d - s)^3)
+  double friction = 0.0;        ///< mu of self-contact: >= 0
+  double stickVelocity = 1e-3;  ///< eps_v, m/s: > 0
+  bool selfContact = true;
+  double displacementFraction = 0.4;  ///< gamma: in (0, 0.5)
+  /// A step whose bound clamped more than this fraction of the points is redone as two halves
+  /// (in [0, 1]), at most maxSplits times in a row (>= 0).
+  double splitAbove = 0.01;
+  int maxSplits = 4;
+  /// Throws InvalidInput (where = the parameter's name) for a value out of range.
+  void validate() const;
+};
+
+/// A keyframe of a moving obstacle: its offset from its scene position at a time.
+struct ObstacleKey {
+  double time = 0.0;
+  Vec3 offset{0, 0, 0};
+};
+
+/// An obstacle: a kinematic collider (it pushes; it neither cuts nor grasps).
+struct Obstacle {
+  enum class Shape { Plane, Sphere, Box, Capsule, Mesh };
+  Shape shape = Shape::Plane;
+  std::string name;
+  Vec3 point{0, 0, 0};        ///< plane: a point on it; sphere, box: centre; capsule: one end
+  Vec3 normal{0, 0, 1};       ///< plane: unit normal (the free side)
+  Vec3 halfExtents{0, 0, 0};  ///< box: half sizes along x, y, z (axis-aligned)
+  Vec3 pointB{0, 0, 0};       ///< capsule: the other end
+  double radius = 0.0;        ///< sphere, capsule
+  std::vector<Vec3> vertices;                 ///< mesh
+  std::vector<std::array<int, 3>> triangles;  ///< mesh (any triangle soup)
+  double friction = 0.0;                      ///< mu against this obstacle: >= 0
+  /// Keyframes (ascending times): the offset is interpolated linearly and held before the first
+  /// and after the last. Empty: fixed.
+  std::vector<ObstacleKey> path;
+
+  Vec3 offsetAt(double t) const;
+  bool moving() const { return !path.empty(); }
+  /// Throws InvalidInput naming the key ("radius", "normal", "triangles/3", ...) for bad values.
+  void validate() const;
+  /// Its surface as triangles at offset `offset`, for drawing (a plane: a square of side
+  /// `planeSize` around its point).
+  void surface(const Vec3& offset, double planeSize, std::vector<Vec3>& points,
+               std::vector<std::array<int, 3>>& triangles) const;
+  /// "plane", "sphere", "box", "capsule", "mesh".
+  std::string shapeName() const;
+};
+
+/// What contact did at given positions and velocities (for the CSV).
+struct ContactMeasure {
+  std::size_t candidates = 0;  ///< pairs within the query radius
+  std::size_t active = 0;      ///< pairs within the thickness (penalty on)
+  std::size_t excluded = 0;    ///< pairs excluded after a topology change
+  double selfNormal = 0.0, selfFriction = 0.0;  ///< sums of the pairs' force magnitudes (N)
+  std::vector<double> obstacleNormal, obstacleFriction;  ///< per obstacle (N)
+};
+
+/// Two primitives closer than a distance (the start check of a scene).
+struct ContactProximity {
+  std::string what;  ///< "point 12 and triangle 40", "point 3 and obstacle \"floor\""
+  double distance = 0.0;
+};
+
+class Contact final : public ForceField, public topology::TopologyObserver {
+ public:
+  Contact(topology::Topology& topology, ContactParameters parameters, std::vector<Obstacle> obstacles);
+  ~Contact() override;
+
+  const ContactParameters& parameters() const { return parameters_; }
+  const std::vector<Obstacle>& obstacles() const { return obstacles_; }
+
+  /// Before each step of dt from time t0 at positions x and velocities v: the obstacles move to
+  /// their poses at t0 + dt, the candidate pairs are found at x, the exclusions are updated, the
+  /// friction's normal forces are frozen and the displacement bounds computed.
+  void beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt);
+
+  /// After the step's solve: clamps each unconstrained point's displacement x1 - x0 to its bound
+  /// (velocities of clamped points become (x1 - x0) / dt). Returns the number of clamped points.
+  std::size_t limitDisplacement(std::span<const double> x0, std::span<double> x1, std::span<double> v1,
+                                double dt, std::span<const char> constrained) const;
+
+  /// Forces and counts at x, v with the current pairs.
+  ContactMeasure measure(std::span<const double> x, std::span<const double> v) const;
+
+  /// Pairs (surface-surface and surface-obstacle) closer than `within` at x, ignoring the
+  /// exclusions; at most `limit` of them, closest first.
+  std::vector<ContactProximity> closePairs(std::span<const double> x, double within,
+                                           std::size_t limit = 5) const;
+
+  /// Triangles that intersect each other (sharing no point) or an obstacle at x, or have a
+  /// corner inside an analytic obstacle; at most `limit` (the start check of a scene).
+  std::vector<ContactProximity> intersections(std::span<const double> x, std::size_t limit = 5) const;
+
+  /// The bound of each point slot after the last limitDisplacement (infinity: none; for tests).
+  const std::vector<double>& bounds() const;
+  /// The largest triangle margin of the last detection.
+  double queryRadius() const;
+
+  // ---- ForceField ----
+  std::string typeName() const override { return "Contact"; }
+  void addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const override;
+  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                 double kFactor, double bFactor) const override;
+  double potentialEnergy(std::span<const double> x) const override;
+  void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
+  void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
+  bool stiffnessIsExact() const override { return false; }
+
+  // ---- TopologyObserver ----
+  void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
+  void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) override;
+  std::string observerName() const override { return "Contact"; }
+  void validate(const topology::Topology& topology, std::vector<std::string>& problems) const override;
+
+  struct Impl;
+
+ private:
+  ContactParameters parameters_;
+  std::vector<Obstacle> obstacles_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cutsim::forcefields

@@ -1,0 +1,1289 @@
+// Contact: detection, penalty, friction, displacement bound, exclusions after topology changes
+// (contact.hpp).
+#include "cutsim/forcefields/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <unordered_set>
+
+#include "contact_bvh.hpp"
+#include "contact_geometry.hpp"
+#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/forcefields/registry.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::forcefields {
+
+using namespace contact;
+using topology::Index;
+using topology::kInvalidIndex;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// The kinds of pairs.
+enum class Kind : std::uint8_t {
+  VT,  ///< surface point [0] vs surface triangle [1..3]
+  EE,  ///< surface edge [0, 1] vs surface edge [2, 3]
+  PO,  ///< surface point [0] vs an analytic obstacle
+  VO,  ///< surface point [0] vs obstacle triangle [1..3] (obstacle vertices)
+  OV,  ///< obstacle point [0] vs surface triangle [1..3]
+  EO,  ///< surface edge [0, 1] vs obstacle edge [2, 3]
+  FO,  ///< a surface point [0], edge [0, 1] or triangle [0, 1, 2] vs a sphere or a capsule
+};
+
+struct Pair {
+  Kind kind;
+  std::int32_t obstacle = -1;       ///< -1: self-contact
+  std::array<std::uint32_t, 4> id{};  ///< point ids (surface) or vertex indices (obstacle mesh)
+  std::uint8_t surface = 0;         ///< bit i: id[i] is a surface point
+  bool excluded = false;
+  // Frozen at the step's start:
+  double s0 = 0.0, lambda = 0.0, mu = 0.0;
+  V3 n0 = V3::UnitZ();
+  std::array<double, 4> w0{};
+  Eigen::Matrix3d frictionJacobian = Eigen::Matrix3d::Zero();  ///< dF/du at the step's start
+};
+
+/// The penalty law: E(s) = k/3 (d - s)^3 / s for d / 100 < s < d, zero beyond d with its first
+/// two derivatives (C2), steep towards zero (the force at d / 100 is about 3300 k d) and continued
+/// quadratically below d / 100 (the force grows linearly on, through zero and below: a pair
+/// found at or through zero distance has finite values, and the stiffness stays bounded, so that
+/// the solves stay well conditioned).
+struct Law {
+  double d, k;
+  double sm() const { return 1e-2 * d; }
+  static double energyAt(double d, double k, double s) { return k / 3 * (d - s) * (d - s) * (d - s) / s; }
+  static double forceAt(double d, double k, double s) {
+    const double a = d - s;
+    return k * a * a / s + k / 3 * a * a * a / (s * s);
+  }
+  static double curvatureAt(double d, double k, double s) {
+    const double a = d - s, r = a / s;
+    return 2 * k * r + 2 * k * r * r + 2 * k / 3 * r * r * r;
+  }
+  /// E(s).
+  double energy(double s) const {
+    if (s >= d) return 0.0;
+    if (s >= sm()) return energyAt(d, k, s);
+    const double m = sm(), t = s - m;
+    return energyAt(d, k, m) - forceAt(d, k, m) * t + 0.5 * curvatureAt(d, k, m) * t * t;
+  }
+  /// -E'(s) >= 0: the magnitude of the normal force.
+  double force(double s) const {
+    if (s >= d) return 0.0;
+    if (s >= sm()) return forceAt(d, k, s);
+    return forceAt(d, k, sm()) - curvatureAt(d, k, sm()) * (s - sm());
+  }
+  /// E''(s) >= 0.
+  double curvature(double s) const {
+    if (s >= d) return 0.0;
+    return curvatureAt(d, k, std::max(s, sm()));
+  }
+};
+
+/// Distance, unit normal and weights of a pair at some positions.
+struct Eval {
+  double s = kInf;
+  V3 n = V3::UnitZ();
+  std::array<double, 4> w{};
+};
+
+
+/// Friction force on the pair's relative velocity u (tangential to n0), and its derivative.
+V3 frictionForce(const Pair& p, double eps, const V3& u, Eigen::Matrix3d* dFdu) {
+  const Eigen::Matrix3d T = Eigen::Matrix3d::Identity() - p.n0 * p.n0.transpose();
+  const V3 ut = T * u;
+  const double l = ut.norm();
+  const double c = p.mu * p.lambda;
+  if (l <= eps) {
+    if (dFdu) *dFdu = -(c / eps) * T;
+    return -(c / eps) * ut;
+  }
+  const V3 t = ut / l;
+  if (dFdu) *dFdu = -(c / l) * (T - t * t.transpose());
+  return -c * t;
+}
+
+}  // namespace
+
+struct Contact::Impl {
+  topology::Topology& topo;
+  const ContactParameters& P;
+  std::vector<Obstacle>& O;
+  topology::Subscription subscription;
+
+  // ---- the surface's tables (rebuilt when the topology's revision changes) ----
+  bool built = false, bvhBuilt = false;
+  std::uint64_t revision = 0;
+  std::vector<TriangleId> tris;
+  std::vector<std::array<std::uint32_t, 3>> triV;
+  std::vector<std::array<std::uint32_t, 3>> triE;  // edge i opposite vertex i
+  std::vector<std::int32_t> pointOwner, edgeOwner;  // index into tris, -1: none
+  std::vector<Box> boxes;
+  Bvh bvh;
+
+  // ---- obstacle meshes (and the analytic shapes' poses) ----
+  struct MeshObstacle {
+    std::vector<Vec3> vertices;                 // at offset 0
+    std::vector<std::array<int, 3>> triangles;  // a box: its twelve faces
+    std::vector<std::array<int, 2>> edges;
+    std::vector<std::array<int, 3>> triEdges;
+    std::vector<int> vertexOwner, edgeOwner;
+    std::vector<Box> boxes;
+    Bvh bvh;
+  };
+  std::vector<MeshObstacle> meshes;  // per obstacle (empty for analytic ones)
+  std::vector<V3> offset, velocity;  // per obstacle, at the step's end
+
+  // ---- the step's pairs ----
+  std::vector<Pair> pairs;
+  // Margins: a triangle's is the largest of its corners'; a pair of triangles is examined when
+  // their boxes, each inflated by its margin, overlap, and a primitive pair is kept within the
+  // sum of the margins (analytic obstacles: within the point's margin). At the step's start a
+  // point's margin is 0.75 d (the penalty's pairs); after the solve it is the point's proposed
+  // displacement, so that a pair not kept cannot meet during the step.
+  std::vector<double> pointMargin, triMargin, obstacleMargin;
+  // Self pairs move relative to each other: margins are taken relative to the surface's mean
+  // motion, and `shift` (that motion's size) is added for the obstacles, which stay put.
+  double shift = 0.0;
+  double radius = 0.0;  // the largest triangle margin (reported)
+  std::vector<double> bound;  // per point slot: gamma times the smallest distance, kInf: none
+
+  // ---- exclusions after topology changes ----
+  std::set<std::array<std::uint32_t, 5>> excluded;  // pairs by their points (exclusionKey)
+  std::vector<PointId> pending;                     // points created since the last step's start
+  std::vector<double> lastX;                        // positions of the last beginStep (validate)
+
+  Impl(topology::Topology& t, const ContactParameters& p, std::vector<Obstacle>& o)
+      : topo(t), P(p), O(o) {}
+
+  // ---------------------------------------------------------------------------------------------
+  V3 surfacePoint(std::span<const double> x, std::uint32_t p) const {
+    return {x[3 * p], x[3 * p + 1], x[3 * p + 2]};
+  }
+  /// Triangle meshes and boxes meet the surface through their triangles, edges and corners.
+  bool meshLike(std::size_t k) const {
+    return O[k].shape == Obstacle::Shape::Mesh || O[k].shape == Obstacle::Shape::Box;
+  }
+  V3 obstaclePoint(int k, std::uint32_t i) const {
+    const Vec3& v = meshes[std::size_t(k)].vertices[i];
+    return V3(v[0], v[1], v[2]) + offset[std::size_t(k)];
+  }
+  V3 pointOf(const Pair& p, std::span<const double> x, int i) const {
+    return (p.surface >> i) & 1 ? surfacePoint(x, p.id[std::size_t(i)]) : obstaclePoint(p.obstacle, p.id[std::size_t(i)]);
+  }
+
+  /// The pair's relative velocity (weights frozen at the step's start; obstacles move with their
+  /// paths).
+  V3 relativeVelocity(const Pair& p, std::span<const double> v) const {
+    V3 u = V3::Zero();
+    for (int i = 0; i < 4; ++i) {
+      if ((p.surface >> i) & 1) u += p.w0[std::size_t(i)] * surfacePoint(v, p.id[std::size_t(i)]);
+      else if (p.kind != Kind::PO && p.kind != Kind::FO) u += p.w0[std::size_t(i)] * velocity[std::size_t(p.obstacle)];
+    }
+    if (p.kind == Kind::PO || p.kind == Kind::FO) u -= velocity[std::size_t(p.obstacle)];
+    return u;
+  }
+
+  /// Signed distance of q to an analytic obstacle and its gradient.
+  double sdf(int k, const V3& q, V3& g) const {
+    const Obstacle& o = O[std::size_t(k)];
+    const V3 off = offset[std::size_t(k)];
+    const V3 c = V3(o.point[0], o.point[1], o.point[2]) + off;
+    switch (o.shape) {
+      case Obstacle::Shape::Plane: {
+        g = V3(o.normal[0], o.normal[1], o.normal[2]).normalized();
+        return g.dot(q - c);
+      }
+      case Obstacle::Shape::Sphere: {
+        const V3 d = q - c;
+        const double l = d.norm();
+        g = l > 0 ? V3(d / l) : V3(V3::UnitZ());
+        return l - o.radius;
+      }
+      case Obstacle::Shape::Capsule: {
+        const V3 b = V3(o.pointB[0], o.pointB[1], o.pointB[2]) + off;
+        const V3 ab = b - c;
+        const double ll = ab.squaredNorm();
+        const double t = ll > 0 ? std::clamp((q - c).dot(ab) / ll, 0.0, 1.0) : 0.0;
+        const V3 d = q - (c + t * ab);
+        const double l = d.norm();
+        g = l > 0 ? V3(d / l) : V3(V3::UnitZ());
+        return l - o.radius;
+      }
+      case Obstacle::Shape::Box: {
+        const V3 h(o.halfExtents[0], o.halfExtents[1], o.halfExtents[2]);
+        const V3 d = q - c;
+        const V3 a = d.cwiseAbs() - h;
+        const V3 e = a.cwiseMax(0.0);
+        const double outside = e.norm();
+        if (outside > 0) {
+          g = V3(d.x() < 0 ? -e.x() : e.x(), d.y() < 0 ? -e.y() : e.y(), d.z() < 0 ? -e.z() : e.z()) / outside;
+          return outside;
+        }
+        int axis = 0;
+        if (a.y() > a[axis]) axis = 1;
+        if (a.z() > a[axis]) axis = 2;
+        g = V3::Zero();
+        g[axis] = d[axis] < 0 ? -1.0 : 1.0;
+        return a[axis];
+      }
+      case Obstacle::Shape::Mesh: break;
+    }
+    g = V3::UnitZ();
+    return kInf;
+  }
+
+  /// Distance, normal and weights of a pair at x.
+  Eval evaluate(const Pair& p, std::span<const double> x) const {
+    if (p.kind == Kind::PO || p.kind == Kind::FO) {
+      std::array<V3, 4> q{V3::Zero(), V3::Zero(), V3::Zero(), V3::Zero()};
+      for (int i = 0; i < 3; ++i)
+        if ((p.surface >> i) & 1) q[std::size_t(i)] = surfacePoint(x, p.id[std::size_t(i)]);
+      return evaluatePoints(p, q);
+    }
+    return evaluatePoints(p, {pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3)});
+  }
+
+  /// The same from the pair's points.
+  Eval evaluatePoints(const Pair& p, const std::array<V3, 4>& q) const {
+    Eval e;
+    switch (p.kind) {
+      case Kind::PO: {
+        e.s = sdf(p.obstacle, q[0], e.n);
+        e.w = {1, 0, 0, 0};
+        return e;
+      }
+      case Kind::FO: {
+        const int m = (p.surface & 4) ? 3 : (p.surface & 2) ? 2 : 1;
+        return roundObstacle(p.obstacle, q, m, p.n0);
+      }
+      case Kind::VT:
+      case Kind::VO:
+      case Kind::OV: {
+        const auto bw = closestOnTriangle(q[0], q[1], q[2], q[3]);
+        const V3 d = q[0] - (bw[0] * q[1] + bw[1] * q[2] + bw[2] * q[3]);
+        e.s = d.norm();
+        e.n = e.s > 1e-300 ? V3(d / e.s) : p.n0;
+        e.w = {1, -bw[0], -bw[1], -bw[2]};
+        return e;
+      }
+      case Kind::EE:
+      case Kind::EO: {
+        const auto st = closestSegmentSegment(q[0], q[1], q[2], q[3]);
+        const V3 d = (q[0] + st[0] * (q[1] - q[0])) - (q[2] + st[1] * (q[3] - q[2]));
+        e.s = d.norm();
+        e.n = e.s > 1e-300 ? V3(d / e.s) : p.n0;
+        e.w = {1 - st[0], st[0], -(1 - st[1]), -st[1]};
+        return e;
+      }
+    }
+    return e;
+  }
+
+  /// The closest points of a point (m = 1), an edge (2) or a triangle (3) of the surface and a
+  /// sphere or capsule k (a point or a segment, its core, thickened by its radius): the signed
+  /// distance to the round surface, the unit normal from the core, the weights on the points.
+  Eval roundObstacle(int k, const std::array<V3, 4>& q, int m, const V3& fallback) const {
+    const Obstacle& o = O[std::size_t(k)];
+    const V3 a = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
+    const V3 b = o.shape == Obstacle::Shape::Capsule ? V3(V3(o.pointB[0], o.pointB[1], o.pointB[2]) + offset[std::size_t(k)]) : a;
+    Eval e;
+    V3 pf = q[0], pc = a;
+    e.w = {1, 0, 0, 0};
+    if (m == 1) {
+      const auto st = closestSegmentSegment(q[0], q[0], a, b);
+      pc = a + st[1] * (b - a);
+    } else if (m == 2) {
+      const auto st = closestSegmentSegment(q[0], q[1], a, b);
+      pf = q[0] + st[0] * (q[1] - q[0]);
+      pc = a + st[1] * (b - a);
+      e.w = {1 - st[0], st[0], 0, 0};
+    } else if ((b - a).squaredNorm() > 0 && segmentCrossesTriangle(a, b, q[0], q[1], q[2])) {
+      // The core pierces the triangle: distance -radius at the crossing, along the old normal.
+      const V3 n = (q[1] - q[0]).cross(q[2] - q[0]);
+      const double s0 = n.dot(a - q[0]), s1 = n.dot(b - q[0]);
+      const V3 xp = a + (s0 / (s0 - s1)) * (b - a);
+      const auto bw = closestOnTriangle(xp, q[0], q[1], q[2]);
+      e.s = -o.radius;
+      e.n = fallback;
+      e.w = {bw[0], bw[1], bw[2], 0};
+      return e;
+    } else {
+      double best = kInf;
+      for (const V3& c : {a, b}) {
+        const auto bw = closestOnTriangle(c, q[0], q[1], q[2]);
+        const V3 f = bw[0] * q[0] + bw[1] * q[1] + bw[2] * q[2];
+        const double dd = (f - c).squaredNorm();
+        if (dd < best) {
+          best = dd;
+          pf = f;
+          pc = c;
+          e.w = {bw[0], bw[1], bw[2], 0};
+        }
+      }
+      if ((b - a).squaredNorm() > 0)
+        for (int i = 0; i < 3; ++i) {
+          const int j = (i + 1) % 3;
+          const auto st = closestSegmentSegment(q[std::size_t(i)], q[std::size_t(j)], a, b);
+          const V3 f = q[std::size_t(i)] + st[0] * (q[std::size_t(j)] - q[std::size_t(i)]);
+          const V3 c = a + st[1] * (b - a);
+          const double dd = (f - c).squaredNorm();
+          if (dd < best) {
+            best = dd;
+            pf = f;
+            pc = c;
+            e.w = {0, 0, 0, 0};
+            e.w[std::size_t(i)] = 1 - st[0];
+            e.w[std::size_t(j)] = st[0];
+          }
+        }
+    }
+    const V3 d = pf - pc;
+    const double l = d.norm();
+    e.s = l - o.radius;
+    e.n = l > 1e-300 ? V3(d / l) : fallback;
+    return e;
+  }
+
+  /// Additive continuous collision detection (Li, Kaufman and Jiang 2021) of something whose
+  /// distance at time t in [0, 1] is dist(t) and changes by at most lp per unit of t: true when
+  /// the distance provably stays above a tenth of its start over the whole step.
+  template <class Dist>
+  static bool staysApart(const Dist& dist, double lp) {
+    const double d0 = dist(0.0);
+    if (!(d0 > 0)) return false;
+    if (!(lp > 0)) return true;
+    const double floor = 0.1 * d0;
+    double t = 0.0, d = d0;
+    for (int i = 0; i < 64; ++i) {
+      t += 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
+      if (t >= 1.0) return true;
+      d = dist(t);
+      if (!(d > floor)) return false;
+    }
+    return false;
+  }
+
+  /// Whether a pair moving linearly by the displacements dx (scaled per point) provably stays
+  /// apart over the step.
+  bool pairStaysApart(const Pair& p, std::span<const double> x0, const std::vector<V3>& dx) const {
+    if (p.kind == Kind::PO || p.kind == Kind::FO) return true;  // (bounded per triangle)
+    std::array<V3, 4> q0, d;
+    V3 mean = V3::Zero();
+    for (int i = 0; i < 4; ++i) {
+      q0[std::size_t(i)] = pointOf(p, x0, i);
+      d[std::size_t(i)] = (p.surface >> i) & 1 ? dx[p.id[std::size_t(i)]] : V3(V3::Zero());
+      mean += 0.25 * d[std::size_t(i)];
+    }
+    // The two primitives' points: [0, split) and [split, 4).
+    const int split = (p.kind == Kind::EE || p.kind == Kind::EO) ? 2 : 1;
+    double a = 0, b = 0;
+    for (int i = 0; i < 4; ++i) {
+      const double m = (d[std::size_t(i)] - mean).norm();
+      (i < split ? a : b) = std::max(i < split ? a : b, m);
+    }
+    return staysApart(
+        [&](double t) {
+          std::array<V3, 4> q;
+          for (int i = 0; i < 4; ++i) q[std::size_t(i)] = q0[std::size_t(i)] + t * d[std::size_t(i)];
+          return evaluatePoints(p, q).s;
+        },
+        a + b);
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // The pairs at some positions, evaluated once per x (the integrators ask at the same x many
+  // times: forces, then every product of a CG solve). A pair whose points moved less than
+  // (s0 - d) / 2 from the step's start cannot be within d (the weights' magnitudes sum to at
+  // most 2) and is not evaluated.
+  std::vector<Eval> evals;
+  std::vector<char> within;  // per pair: evaluated and closer than d
+  std::vector<std::uint32_t> busy;  // pairs within d or with friction (the ones that act)
+  std::vector<double> evalX;
+  bool evalValid = false;
+
+  void evaluateAt(std::span<const double> x) {
+    if (evalValid && evalX.size() == x.size() && std::equal(x.begin(), x.end(), evalX.begin())) return;
+    const double d = P.thickness;
+    std::vector<double> moved;
+    const bool atStart = lastX.size() == x.size() && std::equal(x.begin(), x.end(), lastX.begin());
+    if (!atStart) {
+      moved.assign(x.size() / 3, kInf);
+      if (lastX.size() == x.size())
+        for (std::size_t p = 0; p < moved.size(); ++p)
+          moved[p] = (surfacePoint(x, std::uint32_t(p)) - surfacePoint(lastX, std::uint32_t(p))).norm();
+    }
+    evals.resize(pairs.size());
+    within.assign(pairs.size(), 0);
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const Pair& p = pairs[i];
+      if (p.excluded) continue;
+      double m = 0.0;
+      if (!atStart)
+        for (int k = 0; k < 4; ++k)
+          if ((p.surface >> k) & 1) m = std::max(m, moved[p.id[std::size_t(k)]]);
+      if (p.s0 - 2 * m >= d) continue;
+      evals[i] = evaluate(p, x);
+      within[i] = evals[i].s < d;
+    }
+    busy.clear();
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      if (!pairs[i].excluded && (within[i] || (pairs[i].lambda > 0 && pairs[i].mu > 0))) busy.push_back(std::uint32_t(i));
+    evalX.assign(x.begin(), x.end());
+    evalValid = true;
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // Tables
+
+  void rebuildTables() {
+    tris = topo.triangles();
+    triV.resize(tris.size());
+    triE.resize(tris.size());
+    pointOwner.assign(topo.pointCapacity(), -1);
+    edgeOwner.assign(topo.edgeCapacity(), -1);
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      const auto v = topo.triangleVertices(tris[i]);
+      const auto e = topo.triangleEdges(tris[i]);
+      for (int k = 0; k < 3; ++k) {
+        triV[i][std::size_t(k)] = Index(v[std::size_t(k)]);
+        triE[i][std::size_t(k)] = Index(e[std::size_t(k)]);
+        if (pointOwner[Index(v[std::size_t(k)])] < 0) pointOwner[Index(v[std::size_t(k)])] = std::int32_t(i);
+        if (edgeOwner[Index(e[std::size_t(k)])] < 0) edgeOwner[Index(e[std::size_t(k)])] = std::int32_t(i);
+      }
+    }
+    built = true;
+    revision = topo.revision();
+  }
+
+  void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
+    out.resize(tris.size());
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      Box b;
+      for (int k = 0; k < 3; ++k) b.add(surfacePoint(x, triV[i][std::size_t(k)]));
+      b.inflate(triMargin[i]);
+      out[i] = b;
+    }
+  }
+
+  void buildObstacleMeshes() {
+    meshes.assign(O.size(), {});
+    for (std::size_t k = 0; k < O.size(); ++k) {
+      if (!meshLike(k)) continue;
+      MeshObstacle& m = meshes[k];
+      if (O[k].shape == Obstacle::Shape::Box) O[k].surface({0, 0, 0}, 0.0, m.vertices, m.triangles);
+      else {
+        m.vertices = O[k].vertices;
+        m.triangles = O[k].triangles;
+      }
+      const auto& T = m.triangles;
+      m.vertexOwner.assign(m.vertices.size(), -1);
+      std::map<std::pair<int, int>, int> edgeIndex;
+      m.triEdges.resize(T.size());
+      for (std::size_t t = 0; t < T.size(); ++t) {
+        for (int c = 0; c < 3; ++c) {
+          const int a = T[t][std::size_t((c + 1) % 3)], b = T[t][std::size_t((c + 2) % 3)];
+          const auto key = std::minmax(a, b);
+          auto it = edgeIndex.find(key);
+          if (it == edgeIndex.end()) {
+            it = edgeIndex.emplace(key, int(m.edges.size())).first;
+            m.edges.push_back({key.first, key.second});
+            m.edgeOwner.push_back(int(t));
+          }
+          m.triEdges[t][std::size_t(c)] = it->second;
+          if (m.vertexOwner[std::size_t(T[t][std::size_t(c)])] < 0) m.vertexOwner[std::size_t(T[t][std::size_t(c)])] = int(t);
+        }
+      }
+    }
+  }
+
+  void obstacleBoxes(int k, std::vector<Box>& out) const {
+    const double inflate = obstacleMargin[std::size_t(k)];
+    const auto& T = meshes[std::size_t(k)].triangles;
+    out.resize(T.size());
+    for (std::size_t t = 0; t < T.size(); ++t) {
+      Box b;
+      for (int c = 0; c < 3; ++c) b.add(obstaclePoint(k, std::uint32_t(T[t][std::size_t(c)])));
+      b.inflate(inflate);
+      out[t] = b;
+    }
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // Detection
+
+  bool shares(const std::array<std::uint32_t, 3>& t, std::uint32_t p) const {
+    return t[0] == p || t[1] == p || t[2] == p;
+  }
+
+  /// Every self pair of triangles i, j (as the BVH or the brute force gives them): the VT and EE
+  /// pairs that the two triangles own, within r at x.
+  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
+    const double r = triMargin[std::size_t(i)] + triMargin[std::size_t(j)];
+    const auto& A = triV[std::size_t(i)];
+    const auto& B = triV[std::size_t(j)];
+    auto vt = [&](std::uint32_t v, int t) {
+      const auto& T = triV[std::size_t(t)];
+      if (shares(T, v)) return;
+      Pair p{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111};
+      const Eval e = evaluate(p, x);
+      if (e.s < r) {
+        p.s0 = e.s;
+        p.n0 = e.n;
+        p.w0 = e.w;
+        out.push_back(p);
+      }
+    };
+    for (int k = 0; k < 3; ++k) {
+      if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j);
+      if (pointOwner[B[std::size_t(k)]] == j) vt(B[std::size_t(k)], i);
+    }
+    for (int a = 0; a < 3; ++a) {
+      const std::uint32_t ea = triE[std::size_t(i)][std::size_t(a)];
+      if (edgeOwner[ea] != i) continue;
+      const std::uint32_t a0 = A[std::size_t((a + 1) % 3)], a1 = A[std::size_t((a + 2) % 3)];
+      for (int b = 0; b < 3; ++b) {
+        const std::uint32_t eb = triE[std::size_t(j)][std::size_t(b)];
+        if (edgeOwner[eb] != j) continue;
+        const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
+        if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
+        Pair p{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111};
+        const Eval e = evaluate(p, x);
+        if (e.s < r) {
+          p.s0 = e.s;
+          p.n0 = e.n;
+          p.w0 = e.w;
+          out.push_back(p);
+        }
+      }
+    }
+  }
+
+  void meshTrianglePair(int k, int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
+    const double r = triMargin[std::size_t(i)] + obstacleMargin[std::size_t(k)];
+    const MeshObstacle& m = meshes[std::size_t(k)];
+    const auto& A = triV[std::size_t(i)];
+    const auto& T = m.triangles[std::size_t(j)];
+    auto keep = [&](Pair p) {
+      const Eval e = evaluate(p, x);
+      if (e.s < r) {
+        p.s0 = e.s;
+        p.n0 = e.n;
+        p.w0 = e.w;
+        out.push_back(p);
+      }
+    };
+    for (int c = 0; c < 3; ++c) {
+      if (pointOwner[A[std::size_t(c)]] == i)
+        keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001});
+      if (m.vertexOwner[std::size_t(T[std::size_t(c)])] == j)
+        keep(Pair{Kind::OV, k, {std::uint32_t(T[std::size_t(c)]), A[0], A[1], A[2]}, 0b1110});
+    }
+    for (int a = 0; a < 3; ++a) {
+      if (edgeOwner[triE[std::size_t(i)][std::size_t(a)]] != i) continue;
+      const std::uint32_t a0 = A[std::size_t((a + 1) % 3)], a1 = A[std::size_t((a + 2) % 3)];
+      for (int b = 0; b < 3; ++b) {
+        const int eb = m.triEdges[std::size_t(j)][std::size_t(b)];
+        if (m.edgeOwner[std::size_t(eb)] != j) continue;
+        keep(Pair{Kind::EO, k, {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]), std::uint32_t(m.edges[std::size_t(eb)][1])}, 0b0011});
+      }
+    }
+  }
+
+  /// All pairs within their margins at x (prepare() first).
+  void collect(std::span<const double> x, std::vector<Pair>& out) {
+    out.clear();
+    if (P.selfContact)
+      bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out); });
+    for (std::size_t k = 0; k < O.size(); ++k) {
+      if (meshLike(k)) {
+        MeshObstacle& m = meshes[k];
+        obstacleBoxes(int(k), m.boxes);
+        if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
+        else m.bvh.refit(m.boxes);
+        bvh.crossPairs(m.bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out); });
+      } else if (O[k].shape == Obstacle::Shape::Sphere || O[k].shape == Obstacle::Shape::Capsule) {
+        // Each triangle's closest feature (its interior, an edge, a corner), each feature once.
+        std::set<std::array<std::uint32_t, 3>> seen;
+        for (std::size_t t = 0; t < tris.size(); ++t) {
+          const auto& T = triV[t];
+          const double within = triMargin[t] + shift;
+          V3 g;
+          const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
+          const double smin = std::min({sdf(int(k), q[0], g), sdf(int(k), q[1], g), sdf(int(k), q[2], g)});
+          const double reach = std::max({(q[1] - q[0]).norm(), (q[2] - q[1]).norm(), (q[0] - q[2]).norm()});
+          if (smin - reach >= within) continue;
+          const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
+          if (!(e.s < within)) continue;
+          Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
+          int m = 0;
+          for (int c = 0; c < 3; ++c)
+            if (e.w[std::size_t(c)] > 0) {
+              pr.id[std::size_t(m)] = T[std::size_t(c)];
+              pr.w0[std::size_t(m)] = e.w[std::size_t(c)];
+              ++m;
+            }
+          if (m == 0) continue;
+          std::array<std::uint32_t, 3> key{pr.id[0], m > 1 ? pr.id[1] : kInvalidIndex, m > 2 ? pr.id[2] : kInvalidIndex};
+          std::sort(key.begin(), key.end());
+          if (!seen.insert(key).second) continue;
+          pr.surface = std::uint8_t((1 << m) - 1);
+          const Eval f = evaluate(pr, x);
+          pr.s0 = f.s;
+          pr.n0 = f.n;
+          pr.w0 = f.w;
+          out.push_back(pr);
+        }
+      } else {
+        for (std::uint32_t p = 0; p < pointOwner.size(); ++p) {
+          if (pointOwner[p] < 0) continue;
+          V3 g;
+          const double s = sdf(int(k), surfacePoint(x, p), g);
+          if (s < pointMargin[p] + shift) {
+            Pair pr{Kind::PO, std::int32_t(k), {p, 0, 0, 0}, 0b0001};
+            pr.s0 = s;
+            pr.n0 = g;
+            pr.w0 = {1, 0, 0, 0};
+            out.push_back(pr);
+          }
+        }
+      }
+    }
+  }
+
+  /// Brings the tables up to date (a topology change rebuilds them).
+  void updateTables() {
+    if (!built || revision != topo.revision()) {
+      rebuildTables();
+      bvhBuilt = false;
+    }
+  }
+
+  /// Triangle margins from the point margins, then the boxes and the BVH at x.
+  void prepare(std::span<const double> x) {
+    triMargin.resize(tris.size());
+    radius = 0.0;
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      triMargin[i] = std::max({pointMargin[triV[i][0]], pointMargin[triV[i][1]], pointMargin[triV[i][2]]});
+      radius = std::max(radius, triMargin[i]);
+    }
+    const bool rebuild = !bvhBuilt;
+    bvhBuilt = true;
+    surfaceBoxes(x, boxes);
+    if (rebuild || bvh.size() != boxes.size()) bvh.build(boxes);
+    else bvh.refit(boxes);
+  }
+
+  /// A self pair by its points, the same whichever way it was found.
+  static std::array<std::uint32_t, 5> exclusionKey(const Pair& p) {
+    std::array<std::uint32_t, 4> id = p.id;
+    if (p.kind == Kind::EE) {
+      std::array<std::uint32_t, 2> a{std::min(id[0], id[1]), std::max(id[0], id[1])};
+      std::array<std::uint32_t, 2> b{std::min(id[2], id[3]), std::max(id[2], id[3])};
+      if (b < a) std::swap(a, b);
+      id = {a[0], a[1], b[0], b[1]};
+    } else {
+      std::sort(id.begin() + 1, id.end());
+    }
+    return {std::uint32_t(p.kind), id[0], id[1], id[2], id[3]};
+  }
+
+  /// A box obstacle's twelve faces at its current offset (empty for other shapes).
+  std::vector<std::array<V3, 3>> boxFaces(int k) const {
+    std::vector<std::array<V3, 3>> faces;
+    const Obstacle& o = O[std::size_t(k)];
+    if (o.shape != Obstacle::Shape::Box) return faces;
+    std::vector<Vec3> bp;
+    std::vector<std::array<int, 3>> bt;
+    o.surface({offset[std::size_t(k)].x(), offset[std::size_t(k)].y(), offset[std::size_t(k)].z()}, 0.0, bp, bt);
+    for (const auto& f : bt) {
+      std::array<V3, 3> face;
+      for (int c = 0; c < 3; ++c) {
+        const Vec3& q = bp[std::size_t(f[std::size_t(c)])];
+        face[std::size_t(c)] = V3(q[0], q[1], q[2]);
+      }
+      faces.push_back(face);
+    }
+    return faces;
+  }
+
+  /// Distance of a triangle to an analytic obstacle: 0 if they intersect, -1 if a corner is
+  /// inside, infinity if it is surely farther than `within`.
+  double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, const std::vector<std::array<V3, 3>>& box,
+                                  double within) const {
+    const Obstacle& o = O[std::size_t(k)];
+    V3 g;
+    const double smin = std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)});
+    if (smin <= 0) return -1.0;
+    // Every point of a triangle lies within its longest edge of each corner.
+    const double reach = std::max({(tv[1] - tv[0]).norm(), (tv[2] - tv[1]).norm(), (tv[0] - tv[2]).norm()});
+    if (smin - reach >= within) return kInf;
+    double D = smin;
+    const V3 c = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
+    switch (o.shape) {
+      case Obstacle::Shape::Plane: break;
+      case Obstacle::Shape::Sphere: D = pointTriangleDistance(c, tv[0], tv[1], tv[2]) - o.radius; break;
+      case Obstacle::Shape::Capsule: {
+        const V3 b = V3(o.pointB[0], o.pointB[1], o.pointB[2]) + offset[std::size_t(k)];
+        D = segmentTriangleDistance(c, b, tv[0], tv[1], tv[2]) - o.radius;
+        break;
+      }
+      case Obstacle::Shape::Box:
+        for (const auto& f : box) D = std::min(D, triangleTriangleDistance(tv, f));
+        break;
+      case Obstacle::Shape::Mesh: break;
+    }
+    return std::max(D, 0.0);
+  }
+
+  /// The displacement bound after a solve. Every pair the margins let meet (and every triangle
+  /// near an analytic obstacle) is checked by additive CCD along the proposed displacements;
+  /// the points of a pair that cannot be proven to stay apart are bounded by gamma times the
+  /// pair's distance at the step's start (then it provably does: gamma < 1/2), which shortens
+  /// their displacements, and the checks run again until nothing changes. Returns the scale of
+  /// each point's displacement (1: unchanged) in `scale`.
+  void limit(std::span<const double> x, const std::vector<Pair>& near, const std::vector<V3>& disp,
+             std::span<const char> locked, double gamma, std::vector<double>& scale) {
+    const std::size_t n = x.size() / 3;
+    bound.assign(n, kInf);
+    scale.assign(n, 1.0);
+    struct TriangleItem {
+      int k;
+      std::size_t t;
+      double D;
+    };
+    std::vector<TriangleItem> items;
+    for (std::size_t k = 0; k < O.size(); ++k) {
+      if (meshLike(k)) continue;
+      const auto box = boxFaces(int(k));
+      for (std::size_t t = 0; t < tris.size(); ++t) {
+        const auto& T = triV[t];
+        const double reach = std::max({disp[T[0]].norm(), disp[T[1]].norm(), disp[T[2]].norm()});
+        if (!(reach > 0)) continue;
+        const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
+        const double D = triangleObstacleDistance(int(k), tv, box, reach);
+        // Already touching or inside (a corner inside, or made so by a topology operation): not
+        // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
+        if (D > 0 && D < kInf) items.push_back({int(k), t, D});
+      }
+    }
+    std::vector<const Pair*> pairsToCheck;
+    for (const Pair& p : near) {
+      if (p.kind == Kind::PO || p.kind == Kind::FO || !(p.s0 > 0)) continue;  // (at zero distance: as above)
+      if (p.obstacle < 0 && !excluded.empty() && excluded.count(exclusionKey(p))) continue;
+      pairsToCheck.push_back(&p);
+    }
+    std::vector<V3> dx(disp);
+    auto restrict = [&](std::uint32_t p, double b, bool& changed) {
+      if (p < locked.size() && locked[p]) return;  // prescribed: it pushes, like a moving obstacle
+      if (!(b < bound[p])) return;
+      bound[p] = b;
+      const double l = disp[p].norm();
+      if (l * scale[p] > b) {
+        scale[p] = b / l;
+        dx[p] = scale[p] * disp[p];
+        changed = true;
+      }
+    };
+    const int rounds = 8;
+    for (int round = 0; round <= rounds; ++round) {
+      bool changed = false;
+      const bool plain = round == rounds;  // the last resort: every pair bounded, no CCD
+      for (const Pair* p : pairsToCheck) {
+        if (!plain && pairStaysApart(*p, x, dx)) continue;
+        for (int i = 0; i < 4; ++i)
+          if ((p->surface >> i) & 1) restrict(p->id[std::size_t(i)], gamma * std::max(p->s0, 0.0), changed);
+      }
+      for (const TriangleItem& it : items) {
+        const auto& T = triV[it.t];
+        if (!plain) {
+          const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
+          const double lp = std::max({dx[T[0]].norm(), dx[T[1]].norm(), dx[T[2]].norm()});
+          const bool apart = staysApart(
+              [&](double t) {
+                const std::array<V3, 3> c{c0[0] + t * dx[T[0]], c0[1] + t * dx[T[1]], c0[2] + t * dx[T[2]]};
+                const double D = triangleObstacleDistance(it.k, c, boxFaces(it.k), kInf);
+                return D < 0 ? 0.0 : D;
+              },
+              lp);
+          if (apart) continue;
+        }
+        for (std::uint32_t p : T) restrict(p, gamma * it.D, changed);
+      }
+      if (!changed) break;
+    }
+  }
+};
+
+// -------------------------------------------------------------------------------------------------
+
+Contact::Contact(topology::Topology& topology, ContactParameters parameters, std::vector<Obstacle> obstacles)
+    : parameters_(parameters), obstacles_(std::move(obstacles)) {
+  parameters_.validate();
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    Obstacle& o = obstacles_[k];
+    try {
+      o.validate();
+    } catch (const InvalidInput& e) {
+      throw InvalidInput("obstacles/" + std::to_string(k) + (e.where().empty() ? "" : "/" + e.where()), e.message());
+    }
+    if (o.shape == Obstacle::Shape::Plane) {
+      const double l = std::sqrt(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2]);
+      for (double& c : o.normal) c /= l;
+    }
+    if (o.name.empty()) o.name = o.shapeName() + std::to_string(k);
+  }
+  impl_ = std::make_unique<Impl>(topology, parameters_, obstacles_);
+  impl_->buildObstacleMeshes();
+  impl_->offset.assign(obstacles_.size(), V3::Zero());
+  impl_->velocity.assign(obstacles_.size(), V3::Zero());
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    const Vec3 o = obstacles_[k].offsetAt(0.0);
+    impl_->offset[k] = V3(o[0], o[1], o[2]);
+  }
+  impl_->subscription = topology.subscribe(*this);
+}
+
+Contact::~Contact() = default;
+
+const std::vector<double>& Contact::bounds() const { return impl_->bound; }
+double Contact::queryRadius() const { return impl_->radius; }
+
+void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt) {
+  Impl& I = *impl_;
+  const ContactParameters& P = parameters_;
+  // Obstacles at the step's end.
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
+    I.offset[k] = V3(b[0], b[1], b[2]);
+    I.velocity[k] = dt > 0 ? V3((V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])) / dt) : V3(V3::Zero());
+  }
+  // The penalty's pairs: those within 1.5 d at the step's start (the linearised integrators take
+  // forces and stiffness there; a pair that comes closer during the step is bounded by
+  // limitDisplacement and found at the next step).
+  const std::size_t n = x.size() / 3;
+  I.updateTables();
+  // Margins: 0.75 d plus what the points may travel relative to the surface's mean motion (with
+  // room to spare: 4 |v - mean| dt), so that Newton's iterations find the pairs they approach.
+  V3 mean = V3::Zero();
+  double live = 0;
+  for (std::size_t p = 0; p < n && p < v.size() / 3; ++p)
+    if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) {
+      mean += V3(v[3 * p], v[3 * p + 1], v[3 * p + 2]);
+      ++live;
+    }
+  if (live > 0) mean /= live;
+  I.pointMargin.assign(n, 0.75 * P.thickness);
+  for (std::size_t p = 0; p < n && p < v.size() / 3; ++p)
+    if (I.pointOwner.size() > p && I.pointOwner[p] >= 0)
+      I.pointMargin[p] += 4 * (V3(v[3 * p], v[3 * p + 1], v[3 * p + 2]) - mean).norm() * dt;
+  I.shift = 0.25 * P.thickness + 4 * mean.norm() * dt;
+  I.obstacleMargin.assign(obstacles_.size(), 0.0);
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
+    I.obstacleMargin[k] = I.shift + (V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])).norm();
+  }
+  I.prepare(x);
+  I.collect(x, I.pairs);
+  I.lastX.assign(x.begin(), x.end());
+  I.evalValid = false;
+
+  // Exclusions: pairs at zero distance that involve a point created since the last step start.
+  std::unordered_set<std::uint32_t> fresh;
+  for (PointId p : I.pending)
+    if (I.topo.isPointAlive(p)) fresh.insert(Index(p));
+  I.pending.clear();
+  std::set<std::array<std::uint32_t, 5>> stillClose;
+  for (Pair& p : I.pairs) {
+    if (p.obstacle >= 0) continue;
+    const bool involved = !fresh.empty() && (fresh.count(p.id[0]) || fresh.count(p.id[1]) ||
+                                             fresh.count(p.id[2]) || fresh.count(p.id[3]));
+    if (!involved && I.excluded.empty()) continue;
+    const auto key = Impl::exclusionKey(p);
+    // New pairs at (nearly) zero distance start excluded: the lips of a cut, a split's points.
+    // Pairs made nearer than d but apart get the penalty and the bound at once.
+    const bool start = involved && p.s0 <= 1e-6 * P.thickness;
+    if ((start || I.excluded.count(key)) && p.s0 <= P.thickness) {
+      p.excluded = true;
+      stillClose.insert(key);
+    }
+  }
+  I.excluded = std::move(stillClose);  // an excluded pair farther than d (or gone) ends its exclusion
+
+  // Frozen normal forces and friction coefficients.
+  const Law law{P.thickness, P.stiffness};
+  for (Pair& p : I.pairs) {
+    p.lambda = law.force(p.s0);
+    p.mu = p.obstacle < 0 ? P.friction : obstacles_[std::size_t(p.obstacle)].friction;
+    if (p.lambda > 0 && p.mu > 0 && !p.excluded)
+      frictionForce(p, P.stickVelocity, I.relativeVelocity(p, v), &p.frictionJacobian);
+  }
+}
+
+std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<double> x1, std::span<double> v1,
+                                       double dt, std::span<const char> constrained) const {
+  Impl& I = *impl_;
+  const std::size_t n = x0.size() / 3;
+  I.updateTables();
+  // Margins: the proposed displacements. A pair farther apart than its two primitives' largest
+  // displacements cannot meet; the others bound their points.
+  std::vector<V3> disp(n, V3::Zero());
+  V3 mean = V3::Zero();
+  double live = 0;
+  for (std::size_t p = 0; p < n; ++p)
+    if (I.topo.isPointAlive(PointId(Index(p)))) {
+      disp[p] = V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
+      if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) {
+        mean += disp[p];
+        ++live;
+      }
+    }
+  if (live > 0) mean /= live;
+  // Two primitives cannot meet when they are farther apart than their largest displacements
+  // relative to any common translation (the mean one here); the obstacles (taken at the step's
+  // end) do not move, so their margin is the mean displacement's size.
+  I.pointMargin.assign(n, 0.0);
+  for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (disp[p] - mean).norm();
+  I.shift = mean.norm();
+  I.obstacleMargin.assign(obstacles_.size(), I.shift);
+  I.prepare(x0);
+  std::vector<Pair> near;
+  I.collect(x0, near);
+  std::vector<double> scale;
+  I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale);
+  std::size_t clamped = 0;
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!(scale[p] < 1.0)) continue;
+    for (int c = 0; c < 3; ++c) {
+      x1[3 * p + std::size_t(c)] = x0[3 * p + std::size_t(c)] + scale[p] * disp[p][c];
+      v1[3 * p + std::size_t(c)] = scale[p] * disp[p][c] / dt;
+    }
+    ++clamped;
+  }
+  return clamped;
+}
+
+// -------------------------------------------------------------------------------------------------
+// The force field
+
+
+void Contact::addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const {
+  Impl& I = *impl_;
+  const Law law{parameters_.thickness, parameters_.stiffness};
+  I.evaluateAt(x);
+  for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
+    const Pair& p = I.pairs[pi];
+    if (p.excluded) continue;
+    const Eval& e = I.evals[pi];
+    if (I.within[pi]) {
+      const double mag = law.force(e.s);
+      for (int i = 0; i < 4; ++i)
+        if ((p.surface >> i) & 1)
+          for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += mag * e.w[std::size_t(i)] * e.n[c];
+    }
+    if (p.lambda > 0 && p.mu > 0) {
+      const V3 ff = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v), nullptr);
+      for (int i = 0; i < 4; ++i)
+        if ((p.surface >> i) & 1)
+          for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * ff[c];
+    }
+  }
+}
+
+void Contact::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df, double kFactor,
+                        double bFactor) const {
+  Impl& I = *impl_;
+  const Law law{parameters_.thickness, parameters_.stiffness};
+  I.evaluateAt(x);
+  for (const std::uint32_t pi : I.busy) {
+    const Pair& p = I.pairs[pi];
+    if (kFactor != 0.0) {
+      const Eval& e = I.evals[pi];
+      if (I.within[pi]) {
+        const double h = law.curvature(e.s);
+        double proj = 0.0;  // n . (sum w_i dx_i)
+        for (int i = 0; i < 4; ++i)
+          if ((p.surface >> i) & 1) proj += e.w[std::size_t(i)] * e.n.dot(I.surfacePoint(dx, p.id[std::size_t(i)]));
+        for (int i = 0; i < 4; ++i)
+          if ((p.surface >> i) & 1)
+            for (int c = 0; c < 3; ++c)
+              df[3 * p.id[std::size_t(i)] + std::size_t(c)] -= kFactor * h * proj * e.w[std::size_t(i)] * e.n[c];
+      }
+    }
+    if (bFactor != 0.0 && p.lambda > 0 && p.mu > 0) {
+      V3 du = V3::Zero();
+      for (int i = 0; i < 4; ++i)
+        if ((p.surface >> i) & 1) du += p.w0[std::size_t(i)] * I.surfacePoint(dx, p.id[std::size_t(i)]);
+      const V3 g = bFactor * (p.frictionJacobian * du);
+      for (int i = 0; i < 4; ++i)
+        if ((p.surface >> i) & 1)
+          for (int c = 0; c < 3; ++c) df[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * g[c];
+    }
+  }
+}
+
+double Contact::potentialEnergy(std::span<const double> x) const {
+  Impl& I = *impl_;
+  const Law law{parameters_.thickness, parameters_.stiffness};
+  double E = 0.0;
+  I.evaluateAt(x);
+  for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
+    const Eval& e = I.evals[pi];
+    if (I.within[pi]) E += law.energy(e.s);
+  }
+  return E;
+}
+
+void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const {
+  Impl& I = *impl_;
+  const Law law{parameters_.thickness, parameters_.stiffness};
+  I.evaluateAt(x);
+  for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
+    const Pair& p = I.pairs[pi];
+    if (!I.within[pi]) continue;
+    const Eval& e = I.evals[pi];
+    const Eigen::Matrix3d nn = (-kFactor * law.curvature(e.s)) * (e.n * e.n.transpose());
+    for (int i = 0; i < 4; ++i) {
+      if (!((p.surface >> i) & 1)) continue;
+      for (int j = 0; j < 4; ++j) {
+        if (!((p.surface >> j) & 1)) continue;
+        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]),
+                   (e.w[std::size_t(i)] * e.w[std::size_t(j)]) * nn);
+      }
+    }
+  }
+}
+
+void Contact::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m, double bFactor) const {
+  const Impl& I = *impl_;
+  for (const Pair& p : I.pairs) {
+    if (p.excluded || !(p.lambda > 0 && p.mu > 0)) continue;
+    const Eigen::Matrix3d J = bFactor * p.frictionJacobian;
+    for (int i = 0; i < 4; ++i) {
+      if (!((p.surface >> i) & 1)) continue;
+      for (int j = 0; j < 4; ++j) {
+        if (!((p.surface >> j) & 1)) continue;
+        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]),
+                   (p.w0[std::size_t(i)] * p.w0[std::size_t(j)]) * J);
+      }
+    }
+  }
+}
+
+ContactMeasure Contact::measure(std::span<const double> x, std::span<const double> v) const {
+  Impl& I = *impl_;
+  const Law law{parameters_.thickness, parameters_.stiffness};
+  I.evaluateAt(x);
+  ContactMeasure m;
+  m.obstacleNormal.assign(obstacles_.size(), 0.0);
+  m.obstacleFriction.assign(obstacles_.size(), 0.0);
+  for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
+    const Pair& p = I.pairs[pi];
+    ++m.candidates;
+    if (p.excluded) {
+      ++m.excluded;
+      continue;
+    }
+    const Eval& e = I.evals[pi];
+    double fn = 0.0, ft = 0.0;
+    if (I.within[pi]) {
+      ++m.active;
+      fn = law.force(e.s);
+    }
+    if (p.lambda > 0 && p.mu > 0) ft = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v), nullptr).norm();
+    if (p.obstacle < 0) {
+      m.selfNormal += fn;
+      m.selfFriction += ft;
+    } else {
+      m.obstacleNormal[std::size_t(p.obstacle)] += fn;
+      m.obstacleFriction[std::size_t(p.obstacle)] += ft;
+    }
+  }
+  return m;
+}
+
+std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, double within, std::size_t limit) const {
+  Impl& I = *impl_;
+  I.updateTables();
+  I.pointMargin.assign(x.size() / 3, within);
+  I.shift = 0.0;
+  I.obstacleMargin.assign(obstacles_.size(), 0.5 * within);
+  I.prepare(x);
+  for (double& m : I.triMargin) m = 0.5 * within;
+  I.surfaceBoxes(x, I.boxes);
+  I.bvh.refit(I.boxes);
+  std::vector<Pair> found;
+  I.collect(x, found);
+  I.pairs.clear();
+  I.evalValid = false;
+  std::sort(found.begin(), found.end(), [](const Pair& a, const Pair& b) { return a.s0 < b.s0; });
+  std::vector<ContactProximity> out;
+  for (const Pair& p : found) {
+    if (out.size() >= limit) break;
+    std::ostringstream s;
+    const std::string obstacle = p.obstacle >= 0 ? "obstacle \"" + obstacles_[std::size_t(p.obstacle)].name + "\"" : "";
+    switch (p.kind) {
+      case Kind::VT:
+        s << "point " << p.id[0] << " and the triangle of points " << p.id[1] << ", " << p.id[2] << ", " << p.id[3];
+        break;
+      case Kind::EE:
+        s << "the edge of points " << p.id[0] << ", " << p.id[1] << " and the edge of points " << p.id[2] << ", " << p.id[3];
+        break;
+      case Kind::PO: s << "point " << p.id[0] << " and " << obstacle; break;
+      case Kind::FO: s << "point " << p.id[0] << " and " << obstacle; break;
+      case Kind::VO: s << "point " << p.id[0] << " and " << obstacle; break;
+      case Kind::OV:
+        s << obstacle << " (its vertex " << p.id[0] << ") and the triangle of points " << p.id[1] << ", " << p.id[2]
+          << ", " << p.id[3];
+        break;
+      case Kind::EO: s << "the edge of points " << p.id[0] << ", " << p.id[1] << " and " << obstacle; break;
+    }
+    out.push_back({s.str(), p.s0});
+  }
+  return out;
+}
+
+std::vector<ContactProximity> Contact::intersections(std::span<const double> x, std::size_t limit) const {
+  Impl& I = *impl_;
+  I.updateTables();
+  I.pointMargin.assign(x.size() / 3, 0.0);
+  I.shift = 0.0;
+  I.obstacleMargin.assign(obstacles_.size(), 0.0);
+  I.prepare(x);
+  std::vector<ContactProximity> out;
+  auto corners = [&](int i) {
+    const auto& T = I.triV[std::size_t(i)];
+    return std::array<V3, 3>{I.surfacePoint(x, T[0]), I.surfacePoint(x, T[1]), I.surfacePoint(x, T[2])};
+  };
+  auto name = [&](int i) {
+    const auto& T = I.triV[std::size_t(i)];
+    std::ostringstream s;
+    s << "the triangle of points " << T[0] << ", " << T[1] << ", " << T[2];
+    return s.str();
+  };
+  if (parameters_.selfContact)
+    I.bvh.selfPairs([&](int i, int j) {
+      if (out.size() >= limit) return;
+      for (std::uint32_t p : I.triV[std::size_t(i)])
+        if (I.shares(I.triV[std::size_t(j)], p)) return;
+      if (triangleTriangleDistance(corners(i), corners(j)) == 0.0) out.push_back({name(i) + " and " + name(j), 0.0});
+    });
+  for (std::size_t k = 0; k < obstacles_.size() && out.size() < limit; ++k) {
+    const std::string obstacle = "obstacle \"" + obstacles_[k].name + "\"";
+    if (I.meshLike(k)) {
+      Impl::MeshObstacle& m = I.meshes[k];
+      I.obstacleBoxes(int(k), m.boxes);
+      m.bvh.build(m.boxes);
+      if (obstacles_[k].shape == Obstacle::Shape::Box)
+        for (std::uint32_t p = 0; p < I.pointOwner.size() && out.size() < limit; ++p) {
+          V3 g;
+          if (I.pointOwner[p] >= 0 && I.sdf(int(k), I.surfacePoint(x, p), g) < 0)
+            out.push_back({"point " + std::to_string(p) + " is inside " + obstacle, 0.0});
+        }
+      I.bvh.crossPairs(m.bvh, [&](int i, int j) {
+        if (out.size() >= limit) return;
+        const auto& T = m.triangles[std::size_t(j)];
+        const std::array<V3, 3> u{I.obstaclePoint(int(k), std::uint32_t(T[0])), I.obstaclePoint(int(k), std::uint32_t(T[1])),
+                                  I.obstaclePoint(int(k), std::uint32_t(T[2]))};
+        if (triangleTriangleDistance(corners(int(i)), u) == 0.0)
+          out.push_back({name(i) + " and " + obstacle + " (its triangle " + std::to_string(j) + ")", 0.0});
+      });
+      continue;
+    }
+    const auto box = I.boxFaces(int(k));
+    for (std::size_t t = 0; t < I.tris.size() && out.size() < limit; ++t) {
+      const double D = I.triangleObstacleDistance(int(k), corners(int(t)), box, 1e-300);
+      if (D == 0.0 || D < 0) out.push_back({name(int(t)) + (D < 0 ? " has a corner inside " : " crosses ") + obstacle, 0.0});
+    }
+  }
+  return out;
+}
+
+// -------------------------------------------------------------------------------------------------
+// Following the topology
+
+void Contact::onPointsCreated(const topology::Topology&, const topology::PointsCreated& e) {
+  impl_->pending.insert(impl_->pending.end(), e.points.begin(), e.points.end());
+}
+
+void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
+  Impl& I = *impl_;
+  auto map = [&](std::uint32_t p) {
+    return p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
+  };
+  std::vector<PointId> pending;
+  for (PointId p : I.pending)
+    if (map(Index(p)) != kInvalidIndex) pending.push_back(PointId(map(Index(p))));
+  I.pending = std::move(pending);
+  std::set<std::array<std::uint32_t, 5>> ex;
+  for (const auto& key : I.excluded) {
+    Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
+    if (std::find(p.id.begin(), p.id.end(), std::uint32_t(kInvalidIndex)) != p.id.end()) continue;
+    ex.insert(Impl::exclusionKey(p));
+  }
+  I.excluded = std::move(ex);
+}
+
+void Contact::onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) {
+  // The tables and the BVH are rebuilt at the next step's start (the revision changed); the
+  // pairs of the last step refer to points that may be gone: drop them now.
+  Impl& I = *impl_;
+  I.pairs.clear();
+  I.evalValid = false;
+}
+
+void Contact::validate(const topology::Topology& topology, std::vector<std::string>& problems) const {
+  const Impl& I = *impl_;
+  if (!I.built || I.revision != topology.revision() || I.lastX.size() < 3 * topology.pointCapacity()) return;
+  if (I.tris != topology.triangles()) {
+    problems.push_back("Contact: its triangle list differs from the topology's");
+    return;
+  }
+  for (std::size_t i = 0; i < I.tris.size(); ++i) {
+    const auto v = topology.triangleVertices(I.tris[i]);
+    for (int k = 0; k < 3; ++k)
+      if (I.triV[i][std::size_t(k)] != Index(v[std::size_t(k)]))
+        problems.push_back("Contact: triangle " + std::to_string(Index(I.tris[i])) + " has other corners in its table");
+  }
+  std::vector<Box> boxes;
+  I.surfaceBoxes(I.lastX, boxes);
+  I.bvh.check(boxes, problems);
+  // The BVH's pairs against every pair of triangles (small meshes).
+  if (I.tris.size() > 3000 || !parameters_.selfContact) return;
+  auto keys = [](const std::vector<Pair>& ps) {
+    std::set<std::array<std::uint32_t, 5>> out;
+    for (const Pair& p : ps) {
+      if (p.obstacle >= 0) continue;
+      std::array<std::uint32_t, 4> id = p.id;
+      if (p.kind == Kind::EE) {  // either edge may come first
+        std::array<std::uint32_t, 2> a{std::min(id[0], id[1]), std::max(id[0], id[1])};
+        std::array<std::uint32_t, 2> b{std::min(id[2], id[3]), std::max(id[2], id[3])};
+        if (b < a) std::swap(a, b);
+        id = {a[0], a[1], b[0], b[1]};
+      }
+      out.insert({std::uint32_t(p.kind), id[0], id[1], id[2], id[3]});
+    }
+    return out;
+  };
+  std::vector<Pair> brute;
+  for (std::size_t i = 0; i < I.tris.size(); ++i)
+    for (std::size_t j = i + 1; j < I.tris.size(); ++j)
+      if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute);
+  std::vector<Pair> fast;
+  I.bvh.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast); });
+  const auto a = keys(brute), b = keys(fast);
+  if (a != b || brute.size() != fast.size()) {
+    std::ostringstream s;
+    s << "Contact: the BVH finds " << fast.size() << " self pairs, every pair of triangles gives " << brute.size();
+    problems.push_back(s.str());
+  }
+}
+
+}  // namespace cutsim::forcefields

@@ -1,0 +1,358 @@
+// Contact in whole simulations, against known answers and the exact intersection oracle: a sheet
+// resting on a plane settles at the penalty law's gap with the total normal force m g; on an
+// incline it sticks below the friction limit and slides with g (sin - mu cos) above it; a cloth
+// thrown at v dt = 5 d does not tunnel; a frictionless undamped drop gains no energy; a cut opens
+// exactly as without contact; random cuts and tears under contact leave no intersection.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include "cutsim/core/scene.hpp"
+#include "cutsim/forcefields/contact.hpp"
+#include "cutsim/topology/topology.hpp"
+#include "support/intersection_oracle.hpp"
+#include "support/scene_text.hpp"
+
+namespace cutsim::core {
+namespace {
+
+Scene sceneOf(const std::string& text) { return parseScene(text, "contact.json", test::kSceneDir); }
+
+/// The penalty law's normal force at distance s (docs/contact.md): -E'(s) for
+/// E(s) = k/3 (d - s)^3 / s, written out here independently of the code.
+double lawForce(double d, double k, double s) { return s >= d ? 0.0 : k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s); }
+
+/// The distance at which the law carries a weight w (bisection).
+double restGap(double d, double k, double w) {
+  double lo = 1e-9 * d, hi = d;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (lawForce(d, k, mid) > w ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+/// The obstacles' triangles at the simulation's time (for the oracle).
+void obstacleSoup(const Simulation& sim, std::vector<std::array<double, 3>>& pts,
+                  std::vector<std::array<std::size_t, 3>>& tris) {
+  pts.clear();
+  tris.clear();
+  const forcefields::Contact* c = sim.model().contact();
+  if (!c) return;
+  for (const auto& o : c->obstacles()) {
+    std::vector<topology::Vec3> p;
+    std::vector<std::array<int, 3>> t;
+    o.surface(o.offsetAt(sim.time()), 10.0, p, t);
+    const std::size_t base = pts.size();
+    for (const auto& q : p) pts.push_back({q[0], q[1], q[2]});
+    for (const auto& a : t) tris.push_back({base + std::size_t(a[0]), base + std::size_t(a[1]), base + std::size_t(a[2])});
+  }
+}
+
+std::string describe(const std::vector<test::Intersection>& found) {
+  std::string s;
+  for (const auto& f : found) s += f.describe() + "; ";
+  return s;
+}
+
+TEST(ContactScenes, ASheetRestingOnAPlaneSettlesAtThePenaltyGap) {
+  const double d = 0.01, k = 1.5, g = 9.81;
+  std::ostringstream s;
+  s << R"({"mesh": {"grid": {"nx": 11, "ny": 11, "size": [0.5, 0.5], "origin": [0, 0, 0.0105]}},
+    "mass": {"total": 0.1}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 10}],
+    "contact": {"thickness": )" << d << R"(, "stiffness": )" << k << R"(, "selfContact": false},
+    "obstacles": [{"type": "plane", "name": "floor", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+    "integrator": {"type": "implicit-euler", "rayleighMass": 8},
+    "linearSolver": {"type": "cg", "iterations": 200, "tolerance": 1e-10},
+    "timeStep": 0.005, "duration": 3})";
+  SceneRunner runner(sceneOf(s.str()));
+  runner.start();
+  while (!runner.finished()) runner.advance();
+  const Simulation& sim = runner.simulation();
+  const auto x = sim.state().x();
+  const auto m = sim.mass().perPoint();
+  double total = 0;
+  for (topology::PointId p : sim.topology().points()) {
+    const double gap = restGap(d, k, m[p] * g);
+    EXPECT_NEAR(x[3 * p + 2], gap, 0.01 * gap) << "point " << p << " (mass " << m[p] << ")";
+    total += m[p];
+  }
+  const auto measure = sim.model().contact()->measure(sim.state().x(), sim.state().v());
+  EXPECT_NEAR(measure.obstacleNormal[0], total * g, 0.01 * total * g);
+}
+
+/// A sheet on a plane z = 0 under gravity tilted by theta about y (it slides along +x), friction
+/// mu, no damping, started at rest at the gap of its mean point weight. Returns the sheet's mean x
+/// velocity at each step.
+std::vector<double> incline(double tanTheta, double mu, double stick, double duration) {
+  const double th = std::atan(tanTheta), g = 9.81, d = 0.01, k = 2;
+  const double mass = 0.05, n = 6;
+  const double gap = restGap(d, k, mass / (n * n) * g * std::cos(th));
+  std::ostringstream s;
+  s.precision(17);
+  s << R"({"mesh": {"grid": {"nx": 6, "ny": 6, "size": [0.1, 0.1], "origin": [0, 0, )" << gap << R"(]}},
+    "mass": {"total": )" << mass << R"(}, "gravity": [)" << g * std::sin(th) << ", 0, " << -g * std::cos(th) << R"(],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 5}],
+    "contact": {"thickness": )" << d << R"(, "stiffness": )" << k << R"(, "selfContact": false, "stickVelocity": )" << stick << R"(},
+    "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "friction": )" << mu << R"(}],
+    "integrator": {"type": "implicit-euler"},
+    "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-10},
+    "timeStep": 0.001, "duration": )" << duration << "}";
+  SceneRunner runner(sceneOf(s.str()));
+  runner.start();
+  // Each point starts at the gap that carries its own weight's normal part (no bouncing).
+  {
+    Simulation& sim = runner.simulation();
+    const auto m = sim.mass().perPoint();
+    for (topology::PointId p : sim.topology().points())
+      sim.state().x()[3 * p + 2] = restGap(d, k, m[p] * g * std::cos(th));
+  }
+  std::vector<double> vx;
+  while (!runner.finished()) {
+    runner.advance();
+    const Simulation& sim = runner.simulation();
+    double sum = 0, cnt = 0;
+    for (topology::PointId p : sim.topology().points()) {
+      sum += sim.state().v()[3 * p];
+      ++cnt;
+    }
+    vx.push_back(sum / cnt);
+  }
+  return vx;
+}
+
+TEST(ContactScenes, OnAnInclineBelowTheFrictionLimitTheSheetSticks) {
+  const double mu = 0.5, stick = 1e-3;
+  const auto vx = incline(0.8 * mu, mu, stick, 0.5);
+  double worst = 0;
+  for (double v : vx) worst = std::max(worst, std::abs(v));
+  EXPECT_LT(worst, stick) << "the sliding speed must stay below the stick velocity";
+}
+
+TEST(ContactScenes, OnAnInclineAboveTheFrictionLimitTheSheetSlidesWithTheCoulombAcceleration) {
+  const double mu = 0.5, tanTheta = 1.2 * mu, th = std::atan(tanTheta);
+  const auto vx = incline(tanTheta, mu, 1e-3, 0.6);
+  const double dt = 0.001;
+  const std::size_t a = std::size_t(0.2 / dt) - 1, b = vx.size() - 1;
+  const double measured = (vx[b] - vx[a]) / (double(b - a) * dt);
+  const double expected = 9.81 * (std::sin(th) - mu * std::cos(th));
+  EXPECT_NEAR(measured, expected, 0.05 * expected);
+}
+
+TEST(ContactScenes, AClothThrownAtFiveThicknessesPerStepDoesNotTunnel) {
+  const double d = 0.004, dt = 0.002, speed = 5 * d / dt;
+  std::ostringstream s;
+  s << R"({"mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.2, 0.2], "origin": [-0.1, -0.1, 0.03]}},
+    "mass": {"total": 0.02}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 200}, {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0005}],
+    "contact": {"thickness": )" << d << R"(, "stiffness": 2},
+    "obstacles": [{"type": "box", "name": "plate", "center": [0, 0, 0], "size": [0.12, 0.12, 0.002]}],
+    "integrator": {"type": "implicit-euler", "rayleighMass": 1},
+    "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8},
+    "timeStep": )" << dt << R"(, "duration": 0.3})";
+  SceneRunner runner(sceneOf(s.str()));
+  runner.start();
+  auto v = runner.simulation().state().v();
+  for (topology::PointId p : runner.simulation().topology().points()) v[3 * p + 2] = -speed;
+  std::vector<std::array<double, 3>> pts;
+  std::vector<std::array<std::size_t, 3>> tris;
+  long clamped = 0;
+  while (!runner.finished()) {
+    clamped += runner.advance().clamped;
+    obstacleSoup(runner.simulation(), pts, tris);
+    const auto found = test::simulationIntersections(runner.simulation(), true, pts, tris);
+    ASSERT_TRUE(found.empty()) << "t = " << runner.time() << ": " << describe(found);
+  }
+  EXPECT_GT(clamped, 0) << "at 5 thicknesses per step the bound must have acted";
+  // The part of the cloth above the plate rests on it (nothing passed below).
+  const Simulation& sim = runner.simulation();
+  for (topology::PointId p : sim.topology().points()) {
+    const double X = sim.state().x()[3 * p], Y = sim.state().x()[3 * p + 1];
+    if (std::abs(X) < 0.05 && std::abs(Y) < 0.05) EXPECT_GT(sim.state().x()[3 * p + 2], 0.001) << "point " << p;
+  }
+}
+
+TEST(ContactScenes, AFrictionlessUndampedDropGainsNoEnergy) {
+  const double g = 9.81;
+  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.3, 0.3], "origin": [0, 0, 0.05]}},
+    "mass": {"total": 0.05}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 100}],
+    "contact": {"thickness": 0.01, "stiffness": 5},
+    "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+    "integrator": {"type": "newton"},
+    "linearSolver": {"type": "cg", "iterations": 400, "tolerance": 1e-12},
+    "timeStep": 0.001, "duration": 0.4})");
+  SceneRunner runner(scene);
+  runner.start();
+  auto energy = [&] {
+    const Simulation& sim = runner.simulation();
+    // Gravity measured from the plane (above the resting height the sum stays positive).
+    double e = sim.kineticEnergy();
+    for (std::size_t i = 0; i < sim.numForceFields(); ++i) e += sim.potentialEnergy(i);
+    const auto m = sim.mass().perPoint();
+    for (topology::PointId p : sim.topology().points()) e += m[p] * g * sim.state().x()[3 * p + 2];
+    return e;
+  };
+  double before = energy();
+  double peakContact = 0;
+  while (!runner.finished()) {
+    runner.advance();
+    const double now = energy();
+    EXPECT_LE(now - before, 1e-3 * before) << "t = " << runner.time();
+    before = now;
+    peakContact = std::max(peakContact, runner.simulation().potentialEnergy(1));
+  }
+  EXPECT_GT(peakContact, 0.0) << "the sheet must have reached the plane";
+}
+
+/// The hanging cloth of the demo, smaller, cut at t = 0.3 s; with or without contact.
+std::vector<double> hangingCut(bool contact) {
+  std::string text = R"({"mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+    "mass": {"total": 0.2}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 1000, "damping": 0.2},
+                    {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.002}],
+    "constraints": [{"type": "fixed", "near": [[0, 1, 0], [1, 1, 0]]}],)";
+  if (contact) text += R"( "contact": {"thickness": 0.004, "stiffness": 1},)";
+  text += R"( "integrator": {"type": "implicit-euler", "rayleighMass": 3.0},
+    "linearSolver": {"type": "cg", "iterations": 200, "tolerance": 1e-8},
+    "timeStep": 0.005, "duration": 0.8,
+    "timeline": [{"at": 0.3, "action": "cut", "polyline": [[0, 0.5, 0], [0.7, 0.5, 0]]}]})";
+  SceneRunner runner(sceneOf(text));
+  runner.start();
+  long excludedSeen = 0;
+  while (!runner.finished()) {
+    const StepStats st = runner.advance();
+    EXPECT_EQ(st.clamped, 0);
+    if (contact) {
+      const auto m = runner.simulation().model().contact()->measure(runner.simulation().state().x(),
+                                                                      runner.simulation().state().v());
+      EXPECT_EQ(m.active, 0u) << "t = " << runner.time();
+      excludedSeen += long(m.excluded);
+    }
+  }
+  if (contact) EXPECT_GT(excludedSeen, 0) << "the lips must have been excluded";
+  const auto x = runner.simulation().state().x();
+  return std::vector<double>(x.begin(), x.end());
+}
+
+TEST(ContactScenes, ACutOpensExactlyAsWithoutContact) {
+  const auto a = hangingCut(false), b = hangingCut(true);
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
+  EXPECT_LE(worst, 1e-12);
+}
+
+TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
+  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 15, "ny": 15, "size": [0.6, 0.6], "origin": [-0.3, -0.3, 0.25]}},
+    "mass": {"total": 0.05}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 300, "damping": 0.05},
+                    {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
+    "contact": {"thickness": 0.006, "stiffness": 1, "friction": 0.2},
+    "obstacles": [{"type": "sphere", "center": [0, 0, 0.1], "radius": 0.1, "friction": 0.3},
+                  {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "friction": 0.5}],
+    "integrator": {"type": "implicit-euler", "rayleighMass": 0.5},
+    "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-6},
+    "timeStep": 0.002, "duration": 0.6})");
+  SceneRunner runner(scene);
+  runner.start();
+  Simulation& sim = runner.simulation();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.05, 0.55);
+  std::vector<std::array<double, 3>> pts;
+  std::vector<std::array<std::size_t, 3>> tris;
+  int ops = 0;
+  topology::RepairOptions repair;
+  repair.minAngle = 20;
+  // A topology operation on a deformed surface can itself make triangles meet (a flip changes
+  // the shape of a curved quad, a new point is interpolated from its ancestors); a step must
+  // never add one.
+  auto pairsNow = [&] {
+    obstacleSoup(sim, pts, tris);
+    std::set<std::pair<std::size_t, std::size_t>> out;
+    for (const auto& f : test::simulationIntersections(sim, true, pts, tris))
+      out.insert({std::min(f.a, f.b), std::max(f.a, f.b)});
+    return out;
+  };
+  std::set<std::pair<std::size_t, std::size_t>> before = pairsNow();
+  ASSERT_TRUE(before.empty());
+  std::size_t madeByOperations = 0;
+  // Triangles an operation left in an intersection or inside an obstacle: the penalty pushes them
+  // out, the bound does not hold them (it would freeze them), so they are not asked to stay clear.
+  std::set<std::size_t> tainted;
+  auto taint = [&] {
+    using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+    const auto x = sim.state().x();
+    for (topology::TriangleId t : sim.topology().triangles()) {
+      const auto v = sim.topology().triangleVertices(t);
+      std::array<K::Point_3, 3> c;
+      bool below = false;
+      for (int k = 0; k < 3; ++k) {
+        c[std::size_t(k)] = K::Point_3(x[3 * v[std::size_t(k)]], x[3 * v[std::size_t(k)] + 1], x[3 * v[std::size_t(k)] + 2]);
+        below = below || x[3 * v[std::size_t(k)] + 2] < 0;
+      }
+      if (below || CGAL::to_double(CGAL::squared_distance(K::Point_3(0, 0, 0.1), K::Triangle_3(c[0], c[1], c[2]))) < 0.01)
+        tainted.insert(std::size_t(t));
+    }
+    for (const auto& p : before) {
+      tainted.insert(p.first);
+      tainted.insert(p.second);
+    }
+  };
+  while (!runner.finished()) {
+    runner.advance();
+    const auto after = pairsNow();
+    for (const auto& p : after) {
+      if (tainted.count(p.first) || tainted.count(p.second)) continue;
+      ASSERT_TRUE(before.count(p)) << "t = " << runner.time() << ": the step made triangles " << p.first << " and "
+                                   << p.second << " intersect";
+    }
+    before = after;
+    if (runner.currentStep() % 30 == 0) {
+      try {
+        if (ops % 2 == 0) {
+          topology::CutOptions o;
+          o.repair = repair;
+          const double y = u(rng) - 0.3;
+          sim.topology().cutPolyline(std::vector<topology::Vec3>{{-0.3, y, 0.25}, {u(rng) - 0.3, u(rng) - 0.3, 0.25}}, o);
+        } else {
+          const auto edges = sim.topology().edges();
+          for (int k = 0; k < 50; ++k) {
+            const auto e = edges[std::size_t(rng() % edges.size())];
+            if (!sim.topology().isBoundaryEdge(e)) {
+              sim.topology().tear(e, repair);
+              break;
+            }
+          }
+        }
+        ++ops;
+      } catch (const TopologyError&) {
+      }
+      const auto report = sim.topology().validate();
+      ASSERT_TRUE(report.ok()) << report.summary();
+      const auto now = pairsNow();
+      for (const auto& p : now) madeByOperations += before.count(p) ? 0 : 1;
+      before = now;
+      taint();
+    }
+  }
+  // Reported, not asserted: the repair's flips and collapses work in rest coordinates and may
+  // fold a curved part of the surface onto a layer it lies on (docs/contact.md).
+  std::cout << "[ info ] intersecting pairs right after the " << ops << " operations: " << madeByOperations
+            << "; triangles they left intersecting or inside an obstacle: " << tainted.size() << "\n";
+  EXPECT_GE(ops, 6);
+  const auto report = sim.topology().validate();
+  EXPECT_TRUE(report.ok()) << report.summary();
+}
+
+}  // namespace
+}  // namespace cutsim::core

@@ -1,0 +1,351 @@
+// Contact as a force field: forces against finite differences of the energy, the stiffness
+// (Gauss-Newton, exact along the normal) symmetric, negative semi-definite and equal to its
+// matrix, the friction's damping against finite differences in the velocities, the pairs against
+// a brute force over every primitive pair (distances by CGAL), the BVH against a rebuild, and the
+// lips of a cut excluded until they separate.
+#include <gtest/gtest.h>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <random>
+
+#include "cutsim/core/scene.hpp"
+#include "cutsim/forcefields/contact.hpp"
+#include "cutsim/topology/topology.hpp"
+#include "support/intersection_oracle.hpp"
+
+namespace cutsim::forcefields {
+namespace {
+
+using topology::MeshData;
+using topology::PointId;
+using topology::Topology;
+using topology::Vec3;
+
+/// A crumpled sheet: a grid whose points are displaced randomly and folded so that parts come
+/// close to other parts (rest = current positions at the start).
+struct Crumpled {
+  std::unique_ptr<Topology> topo;
+  std::vector<double> x;
+};
+
+Crumpled crumpled(unsigned seed, int n = 9, double fold = 0.97) {
+  core::GridSpec g;
+  g.nx = g.ny = n;
+  g.width = g.height = 1.0;
+  MeshData m = core::makeGrid(g);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Crumpled c;
+  c.topo = std::make_unique<Topology>(m);
+  c.x.assign(3 * c.topo->pointCapacity(), 0.0);
+  for (PointId p : c.topo->points()) {
+    Vec3 r = c.topo->restPosition(p);
+    // Fold the sheet about x = 0.5 so that the right half comes back over the left one.
+    double X = r[0], Z = 0.0;
+    if (X > 0.5) {
+      const double a = fold * M_PI * std::min(1.0, (X - 0.5) / 0.06);
+      const double rad = 0.06 / (fold * M_PI);
+      if (X - 0.5 < 0.06) {
+        X = 0.5 + rad * std::sin(a);
+        Z = rad * (1 - std::cos(a));
+      } else {
+        X = 0.5 + rad * std::sin(a) + (r[0] - 0.56) * std::cos(fold * M_PI);
+        Z = rad * (1 - std::cos(a)) + (r[0] - 0.56) * std::sin(fold * M_PI);
+      }
+    }
+    c.x[3 * p] = X + 0.01 * u(rng);
+    c.x[3 * p + 1] = r[1] + 0.01 * u(rng);
+    c.x[3 * p + 2] = Z + 0.01 * u(rng);
+  }
+  return c;
+}
+
+ContactParameters params(double d = 0.05, double k = 1e3, double mu = 0.0) {
+  ContactParameters p;
+  p.thickness = d;
+  p.stiffness = k;
+  p.friction = mu;
+  return p;
+}
+
+Eigen::MatrixXd denseK(const Contact& c, std::span<const double> x, std::size_t n) {
+  TripletAccumulator acc;
+  c.addKToMatrix(x, acc, 1.0);
+  return Eigen::MatrixXd(acc.toSparse(topology::Index(n)));
+}
+
+TEST(Contact, ForcesAreMinusTheEnergyGradient) {
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    Crumpled c = crumpled(seed);
+    Contact contact(*c.topo, params(), {});
+    std::vector<double> v(c.x.size(), 0.0);
+    contact.beginStep(c.x, v, 0.0, 1e-3);
+    std::vector<double> f(c.x.size(), 0.0);
+    contact.addForce(c.x, v, f);
+    double fmax = 0;
+    for (double a : f) fmax = std::max(fmax, std::abs(a));
+    ASSERT_GT(fmax, 0.0) << "seed " << seed << ": no pair is within the thickness";
+    const double h = 1e-7;
+    double worst = 0;
+    for (std::size_t i = 0; i < c.x.size(); ++i) {
+      if (f[i] == 0.0) continue;
+      std::vector<double> xp = c.x, xm = c.x;
+      xp[i] += h;
+      xm[i] -= h;
+      const double fd = -(contact.potentialEnergy(xp) - contact.potentialEnergy(xm)) / (2 * h);
+      worst = std::max(worst, std::abs(fd - f[i]));
+    }
+    EXPECT_LT(worst, 1e-5 * fmax) << "seed " << seed;
+  }
+}
+
+TEST(Contact, StiffnessIsSymmetricNegativeSemidefiniteAndEqualToItsMatrix) {
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    Crumpled c = crumpled(seed);
+    Contact contact(*c.topo, params(), {});
+    std::vector<double> v(c.x.size(), 0.0);
+    contact.beginStep(c.x, v, 0.0, 1e-3);
+    const Eigen::MatrixXd K = denseK(contact, c.x, c.topo->pointCapacity());
+    EXPECT_LT((K - K.transpose()).norm(), 1e-12 * K.norm());
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (K + K.transpose()));
+    EXPECT_LT(es.eigenvalues().maxCoeff(), 1e-9 * K.norm()) << "K must be negative semi-definite";
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> g;
+    std::vector<double> dx(c.x.size()), df(c.x.size(), 0.0);
+    for (double& a : dx) a = g(rng);
+    contact.addDForce(c.x, dx, df, 1.0, 0.0);
+    const Eigen::VectorXd ref = K * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
+    EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm());
+  }
+}
+
+TEST(Contact, StiffnessAgainstAPlaneIsExact) {
+  // A point-plane pair has no curvature term: K is the exact derivative of the force.
+  core::GridSpec g;
+  g.nx = g.ny = 4;
+  g.origin = {0, 0, 0.03};
+  Topology topo(core::makeGrid(g));
+  std::vector<double> x(3 * topo.pointCapacity());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.02, 0.02);
+  for (PointId p : topo.points())
+    for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)] + u(rng);
+  Obstacle plane;
+  plane.shape = Obstacle::Shape::Plane;
+  plane.normal = {0.1, 0.2, 1.0};
+  ContactParameters p = params(0.05, 1e3);
+  p.selfContact = false;
+  Contact contact(topo, p, {plane});
+  std::vector<double> v(x.size(), 0.0);
+  contact.beginStep(x, v, 0.0, 1e-3);
+  const Eigen::MatrixXd K = denseK(contact, x, topo.pointCapacity());
+  ASSERT_GT(K.norm(), 0.0);
+  const double h = 1e-7;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    std::vector<double> xp = x, xm = x, fp(x.size(), 0.0), fm(x.size(), 0.0);
+    xp[i] += h;
+    xm[i] -= h;
+    contact.addForce(xp, v, fp);
+    contact.addForce(xm, v, fm);
+    for (std::size_t j = 0; j < x.size(); ++j)
+      EXPECT_NEAR(K(Eigen::Index(j), Eigen::Index(i)), (fp[j] - fm[j]) / (2 * h), 1e-5 * K.norm()) << i << ", " << j;
+  }
+}
+
+TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
+  core::GridSpec g;
+  g.nx = g.ny = 3;
+  g.origin = {0, 0, 0.02};
+  Topology topo(core::makeGrid(g));
+  std::vector<double> x(3 * topo.pointCapacity());
+  for (PointId p : topo.points())
+    for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
+  Obstacle plane;
+  plane.shape = Obstacle::Shape::Plane;
+  plane.friction = 0.5;
+  ContactParameters prm = params(0.05, 1e3);
+  prm.selfContact = false;
+  prm.stickVelocity = 0.01;
+  for (double speed : {0.003, 0.2}) {  // below and above the stick velocity
+    Contact contact(topo, prm, {plane});
+    std::vector<double> v(x.size(), 0.0);
+    std::mt19937 rng(7);
+    std::normal_distribution<double> n;
+    for (PointId p : topo.points()) {
+      const double a = n(rng);
+      v[3 * p] = speed * std::cos(a);
+      v[3 * p + 1] = speed * std::sin(a);
+      v[3 * p + 2] = 0.1 * speed * n(rng);
+    }
+    contact.beginStep(x, v, 0.0, 1e-3);
+    TripletAccumulator acc;
+    contact.addBToMatrix(x, acc, 1.0);
+    const Eigen::MatrixXd B(acc.toSparse(topo.pointCapacity()));
+    ASSERT_GT(B.norm(), 0.0);
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (B + B.transpose()));
+    EXPECT_LT(es.eigenvalues().maxCoeff(), 1e-9 * B.norm());
+    const double h = 1e-8;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      std::vector<double> vp = v, vm = v, fp(x.size(), 0.0), fm(x.size(), 0.0);
+      vp[i] += h;
+      vm[i] -= h;
+      contact.addForce(x, vp, fp);
+      contact.addForce(x, vm, fm);
+      for (std::size_t j = 0; j < x.size(); ++j)
+        EXPECT_NEAR(B(Eigen::Index(j), Eigen::Index(i)), (fp[j] - fm[j]) / (2 * h), 1e-4 * B.norm())
+            << "speed " << speed << ": " << i << ", " << j;
+    }
+    // addDForce's damping part is B.
+    std::vector<double> dv(x.size()), df(x.size(), 0.0);
+    for (double& a : dv) a = n(rng);
+    contact.addDForce(x, dv, df, 0.0, 1.0);
+    const Eigen::VectorXd ref = B * Eigen::Map<const Eigen::VectorXd>(dv.data(), Eigen::Index(dv.size()));
+    EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm());
+  }
+}
+
+TEST(Contact, PairsEqualABruteForceOverEveryPrimitivePair) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    Crumpled c = crumpled(seed, 11);
+    const double d = 0.04;
+    Contact contact(*c.topo, params(d), {});
+    std::vector<double> v(c.x.size(), 0.0);
+    contact.beginStep(c.x, v, 0.0, 1e-3);  // at rest: every margin is 0.75 d, pairs are kept within 1.5 d
+    auto P = [&](PointId p) { return K::Point_3(c.x[3 * p], c.x[3 * p + 1], c.x[3 * p + 2]); };
+    std::size_t brute = 0;
+    for (topology::TriangleId t : c.topo->triangles()) {
+      const auto tv = c.topo->triangleVertices(t);
+      const K::Triangle_3 tri(P(tv[0]), P(tv[1]), P(tv[2]));
+      for (PointId p : c.topo->points())
+        if (p != tv[0] && p != tv[1] && p != tv[2] && std::sqrt(CGAL::to_double(CGAL::squared_distance(P(p), tri))) < 1.5 * d)
+          ++brute;
+    }
+    const auto edges = c.topo->edges();
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+      const auto a = c.topo->edgeVertices(edges[i]);
+      const K::Segment_3 sa(P(a[0]), P(a[1]));
+      for (std::size_t j = i + 1; j < edges.size(); ++j) {
+        const auto b = c.topo->edgeVertices(edges[j]);
+        if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
+        if (std::sqrt(CGAL::to_double(CGAL::squared_distance(sa, K::Segment_3(P(b[0]), P(b[1]))))) < 1.5 * d) ++brute;
+      }
+    }
+    const ContactMeasure m = contact.measure(c.x, v);
+    EXPECT_GT(brute, 100u);
+    EXPECT_EQ(m.candidates, brute) << "seed " << seed;
+    const auto report = c.topo->validate();
+    EXPECT_TRUE(report.ok()) << report.summary();
+  }
+}
+
+TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {
+  Crumpled c = crumpled(5, 13);
+  Contact contact(*c.topo, params(0.04), {});
+  std::vector<double> v(c.x.size(), 0.0);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.1, 0.9);
+  for (int op = 0; op < 8; ++op) {
+    contact.beginStep(c.x, v, 0.0, 1e-3);
+    auto report = c.topo->validate();
+    ASSERT_TRUE(report.ok()) << "before operation " << op << ": " << report.summary();
+    // A cut across part of the sheet (rest coordinates); new points take their ancestors' x.
+    const std::vector<Vec3> line{{u(rng), 0.02, 0}, {u(rng), u(rng), 0}};
+    topology::CutOptions o;
+    o.repair.minAngle = 20;
+    try {
+      c.topo->cutPolyline(line, o);
+    } catch (const TopologyError&) {
+      continue;
+    }
+    c.x.resize(3 * c.topo->pointCapacity(), 0.0);
+    v.resize(c.x.size(), 0.0);
+    for (PointId p : c.topo->points())
+      if (c.x[3 * p] == 0.0 && c.x[3 * p + 1] == 0.0 && c.x[3 * p + 2] == 0.0)
+        for (int k = 0; k < 3; ++k) c.x[3 * p + std::size_t(k)] = c.topo->restPosition(p)[std::size_t(k)];
+  }
+  contact.beginStep(c.x, v, 0.0, 1e-3);
+  const auto report = c.topo->validate();
+  EXPECT_TRUE(report.ok()) << report.summary();
+}
+
+TEST(Contact, TheLipsOfACutAreExcludedUntilTheySeparate) {
+  core::GridSpec g;
+  g.nx = g.ny = 11;
+  Topology topo(core::makeGrid(g));
+  Contact contact(topo, params(0.02), {});
+  auto xOf = [&] {
+    std::vector<double> x(3 * topo.pointCapacity());
+    for (PointId p : topo.points())
+      for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
+    return x;
+  };
+  std::vector<double> x = xOf(), v(x.size(), 0.0);
+  contact.beginStep(x, v, 0.0, 1e-3);
+  EXPECT_EQ(contact.measure(x, v).active, 0u) << "a flat sheet is free of contact";
+  const auto cut = topo.cutPolyline(std::vector<Vec3>{{0, 0.5, 0}, {0.6, 0.5, 0}});
+  x = xOf();
+  v.assign(x.size(), 0.0);
+  contact.beginStep(x, v, 0.0, 1e-3);
+  ContactMeasure m = contact.measure(x, v);
+  EXPECT_GT(m.excluded, 0u);
+  EXPECT_EQ(m.active, 0u) << "the lips start at distance zero: excluded";
+  std::vector<double> f(x.size(), 0.0);
+  contact.addForce(x, v, f);
+  for (double a : f) EXPECT_EQ(a, 0.0);
+  // Open the cut: the part above y = 0.5 moves up by 3 d; its lips are no longer excluded.
+  for (PointId p : topo.points())
+    if (topo.restPosition(p)[1] > 0.5 + 1e-9 || std::find(cut.copies.begin(), cut.copies.end(), p) != cut.copies.end())
+      x[3 * p + 2] += 0.06;
+  contact.beginStep(x, v, 0.0, 1e-3);
+  m = contact.measure(x, v);
+  EXPECT_EQ(m.excluded, 0u);
+  // Close it again: now the lips push each other apart.
+  x = xOf();
+  contact.beginStep(x, v, 0.0, 1e-3);
+  m = contact.measure(x, v);
+  EXPECT_EQ(m.excluded, 0u);
+  EXPECT_GT(m.active, 0u);
+}
+
+TEST(Contact, DisplacementBoundKeepsEveryPairApart) {
+  // Every point moves at most gamma times its smallest pair distance: two primitives at distance
+  // D cannot meet, whatever the solve proposed.
+  Crumpled c = crumpled(2, 11);
+  Contact contact(*c.topo, params(0.03), {});
+  std::vector<double> v(c.x.size(), 0.0);
+  contact.beginStep(c.x, v, 0.0, 1e-2);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> n;
+  std::vector<double> x1 = c.x, v1(c.x.size(), 0.0);
+  for (double& a : x1) a += 0.2 * n(rng);  // a wild proposal
+  const std::size_t clamped = contact.limitDisplacement(c.x, x1, v1, 1e-2, {});
+  EXPECT_GT(clamped, 0u);
+  const auto& b = contact.bounds();
+  for (PointId p : c.topo->points()) {
+    const double moved = std::hypot(x1[3 * p] - c.x[3 * p], x1[3 * p + 1] - c.x[3 * p + 1], x1[3 * p + 2] - c.x[3 * p + 2]);
+    EXPECT_LE(moved, b[p] * (1 + 1e-12));
+    if (moved >= b[p] * (1 - 1e-12))
+      EXPECT_NEAR(v1[3 * p] * 1e-2, x1[3 * p] - c.x[3 * p], 1e-15) << "velocity of a clamped point";
+  }
+  // The oracle: the crumpled sheet did not intersect itself, and does not after the step.
+  auto soup = [&](const std::vector<double>& x) {
+    std::vector<std::array<double, 3>> pts(c.topo->pointCapacity());
+    for (PointId p : c.topo->points()) pts[p] = {x[3 * p], x[3 * p + 1], x[3 * p + 2]};
+    std::vector<std::array<std::size_t, 3>> tris;
+    for (topology::TriangleId t : c.topo->triangles()) {
+      const auto v = c.topo->triangleVertices(t);
+      tris.push_back({std::size_t(v[0]), std::size_t(v[1]), std::size_t(v[2])});
+    }
+    return test::findIntersections(pts, tris).size();
+  };
+  ASSERT_EQ(soup(c.x), 0u);
+  EXPECT_EQ(soup(x1), 0u);
+}
+
+}  // namespace
+}  // namespace cutsim::forcefields
