@@ -99,6 +99,7 @@ def draw_frame(ax, points, tris, strain, vmax, title, view, obstacles=None):
     colors = cmap(np.clip(strain / vmax if vmax > 0 else strain * 0, 0, 1))
     lo, hi = points.min(axis=0), points.max(axis=0)
     obs = obstacle_polys(obstacles, lo, hi)
+    surface_lo, surface_hi = lo, hi
     if len(obs):
         # One collection, so that the surface and the obstacles are depth-sorted together.
         polys = np.concatenate([polys, obs])
@@ -133,7 +134,7 @@ def render_frames(run, fractions, out, view):
     chosen = sorted({min(len(frames) - 1, int(round(f * (len(frames) - 1)))) for f in fractions})
     data = [(frames[i][0],) + read_vtp(frames[i][1]) for i in chosen]
     vmax = max(float(np.percentile(a["strain"], 99)) for _, _, _, a in data if len(a["strain"])) or 1e-6
-    fig = plt.figure(figsize=(4.2 * len(data), 4.6))
+    fig = plt.figure(figsize=(5.2 * len(data), 5.2))
     for k, (t, pts, tris, arrays) in enumerate(data):
         ax = fig.add_subplot(1, len(data), k + 1, projection="3d")
         obs = read_vtp(obstacles[t]) if t in obstacles else None

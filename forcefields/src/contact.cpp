@@ -156,8 +156,10 @@ struct Contact::Impl {
   std::vector<double> bound;  // per point slot: gamma times the smallest distance, kInf: none
 
   // ---- exclusions after topology changes ----
-  std::set<std::array<std::uint32_t, 5>> excluded;  // pairs by their points (exclusionKey)
-  std::vector<PointId> pending;                     // points created since the last step's start
+  /// Excluded pairs by their points (exclusionKey): neighbours in the material within d.
+  std::set<std::array<std::uint32_t, 5>> excluded;
+  /// Neighbours in the material that have separated beyond d once: contact as any other pair.
+  std::set<std::array<std::uint32_t, 5>> released;
   std::vector<double> lastX;                        // positions of the last beginStep (validate)
 
   Impl(topology::Topology& t, const ContactParameters& p, std::vector<Obstacle>& o)
@@ -749,11 +751,11 @@ struct Contact::Impl {
   /// pair's distance at the step's start (then it provably does: gamma < 1/2), which shortens
   /// their displacements, and the checks run again until nothing changes. Returns the scale of
   /// each point's displacement (1: unchanged) in `scale`.
-  void limit(std::span<const double> x, const std::vector<Pair>& near, const std::vector<V3>& disp,
-             std::span<const char> locked, double gamma, std::vector<double>& scale) {
-    const std::size_t n = x.size() / 3;
-    bound.assign(n, kInf);
-    scale.assign(n, 1.0);
+  /// One pass over a set of near pairs: starts from the given scales (and `bound`), returns
+  /// whether it shortened any displacement. With `plain`, every pair is bounded without CCD.
+  bool limit(std::span<const double> x, const std::vector<Pair>& near, const std::vector<V3>& disp,
+             std::span<const char> locked, double gamma, std::vector<double>& scale, bool plain) {
+    bool any = false;
     struct TriangleItem {
       int k;
       std::size_t t;
@@ -765,7 +767,8 @@ struct Contact::Impl {
       const auto box = boxFaces(int(k));
       for (std::size_t t = 0; t < tris.size(); ++t) {
         const auto& T = triV[t];
-        const double reach = std::max({disp[T[0]].norm(), disp[T[1]].norm(), disp[T[2]].norm()});
+        const double reach = std::max({scale[T[0]] * disp[T[0]].norm(), scale[T[1]] * disp[T[1]].norm(),
+                                       scale[T[2]] * disp[T[2]].norm()});
         if (!(reach > 0)) continue;
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
         const double D = triangleObstacleDistance(int(k), tv, box, reach);
@@ -777,10 +780,13 @@ struct Contact::Impl {
     std::vector<const Pair*> pairsToCheck;
     for (const Pair& p : near) {
       if (p.kind == Kind::PO || p.kind == Kind::FO || !(p.s0 > 0)) continue;  // (at zero distance: as above)
+      // Excluded pairs (new after a cut) have no penalty but are kept apart like the others; at
+      // zero distance (the lips themselves) they cannot be, and are left to separate.
       if (p.obstacle < 0 && !excluded.empty() && excluded.count(exclusionKey(p))) continue;
       pairsToCheck.push_back(&p);
     }
-    std::vector<V3> dx(disp);
+    std::vector<V3> dx(disp.size());
+    for (std::size_t p = 0; p < disp.size(); ++p) dx[p] = scale[p] * disp[p];
     auto restrict = [&](std::uint32_t p, double b, bool& changed) {
       if (p < locked.size() && locked[p]) return;  // prescribed: it pushes, like a moving obstacle
       if (!(b < bound[p])) return;
@@ -792,10 +798,8 @@ struct Contact::Impl {
         changed = true;
       }
     };
-    const int rounds = 8;
-    for (int round = 0; round <= rounds; ++round) {
+    for (int round = 0; round < 8; ++round) {
       bool changed = false;
-      const bool plain = round == rounds;  // the last resort: every pair bounded, no CCD
       for (const Pair* p : pairsToCheck) {
         if (!plain && pairStaysApart(*p, x, dx)) continue;
         for (int i = 0; i < 4; ++i)
@@ -817,8 +821,10 @@ struct Contact::Impl {
         }
         for (std::uint32_t p : T) restrict(p, gamma * it.D, changed);
       }
-      if (!changed) break;
+      any = any || changed;
+      if (!changed || plain) break;
     }
+    return any;
   }
 };
 
@@ -895,27 +901,35 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   I.lastX.assign(x.begin(), x.end());
   I.evalValid = false;
 
-  // Exclusions: pairs at zero distance that involve a point created since the last step start.
-  std::unordered_set<std::uint32_t> fresh;
-  for (PointId p : I.pending)
-    if (I.topo.isPointAlive(p)) fresh.insert(Index(p));
-  I.pending.clear();
+  // Exclusions. A self pair within d whose primitives are within d of each other in the rest
+  // configuration (neighbours in the material: the two lips of a cut, which start at distance
+  // zero, the small triangles a repair leaves next to a cut) has no penalty, no friction and no
+  // bound (the lips of a cut may slide along each other) until its distance first exceeds d;
+  // then it is a pair like any other.
   std::set<std::array<std::uint32_t, 5>> stillClose;
   for (Pair& p : I.pairs) {
-    if (p.obstacle >= 0) continue;
-    const bool involved = !fresh.empty() && (fresh.count(p.id[0]) || fresh.count(p.id[1]) ||
-                                             fresh.count(p.id[2]) || fresh.count(p.id[3]));
-    if (!involved && I.excluded.empty()) continue;
+    if (p.obstacle >= 0 || p.s0 > P.thickness) continue;
     const auto key = Impl::exclusionKey(p);
-    // New pairs at (nearly) zero distance start excluded: the lips of a cut, a split's points.
-    // Pairs made nearer than d but apart get the penalty and the bound at once.
-    const bool start = involved && p.s0 <= 1e-6 * P.thickness;
-    if ((start || I.excluded.count(key)) && p.s0 <= P.thickness) {
+    if (I.excluded.count(key)) {
+      p.excluded = true;
+      stillClose.insert(key);
+      continue;
+    }
+    std::array<V3, 4> rest;
+    for (int i = 0; i < 4; ++i) {
+      const Vec3 r = I.topo.restPosition(PointId(p.id[std::size_t(i)]));
+      rest[std::size_t(i)] = V3(r[0], r[1], r[2]);
+    }
+    if (I.evaluatePoints(p, rest).s <= P.thickness && !I.released.count(key)) {
       p.excluded = true;
       stillClose.insert(key);
     }
   }
-  I.excluded = std::move(stillClose);  // an excluded pair farther than d (or gone) ends its exclusion
+  // An excluded pair farther than d (or gone) ends its exclusion; neighbours in the material are
+  // released for good.
+  for (const auto& key : I.excluded)
+    if (!stillClose.count(key)) I.released.insert(key);
+  I.excluded = std::move(stillClose);
 
   // Frozen normal forces and friction coefficients.
   const Law law{P.thickness, P.stiffness};
@@ -935,29 +949,38 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
   // Margins: the proposed displacements. A pair farther apart than its two primitives' largest
   // displacements cannot meet; the others bound their points.
   std::vector<V3> disp(n, V3::Zero());
-  V3 mean = V3::Zero();
-  double live = 0;
   for (std::size_t p = 0; p < n; ++p)
-    if (I.topo.isPointAlive(PointId(Index(p)))) {
+    if (I.topo.isPointAlive(PointId(Index(p))))
       disp[p] = V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
-      if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) {
-        mean += disp[p];
-        ++live;
-      }
-    }
-  if (live > 0) mean /= live;
+  std::vector<double> scale(n, 1.0);
+  I.bound.assign(n, kInf);
   // Two primitives cannot meet when they are farther apart than their largest displacements
   // relative to any common translation (the mean one here); the obstacles (taken at the step's
-  // end) do not move, so their margin is the mean displacement's size.
-  I.pointMargin.assign(n, 0.0);
-  for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (disp[p] - mean).norm();
-  I.shift = mean.norm();
-  I.obstacleMargin.assign(obstacles_.size(), I.shift);
-  I.prepare(x0);
-  std::vector<Pair> near;
-  I.collect(x0, near);
-  std::vector<double> scale;
-  I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale);
+  // end) do not move, so their margin is the mean displacement's size. Shortening a displacement
+  // changes the mean and the relative ones: the pairs are found again for the shortened
+  // displacements until a pass changes nothing. The last resort takes absolute margins (which
+  // shortening keeps valid) and bounds every pair they find.
+  const int passes = 5;
+  for (int pass = 0; pass <= passes; ++pass) {
+    const bool last = pass == passes;
+    V3 mean = V3::Zero();
+    double live = 0;
+    if (!last)
+      for (std::size_t p = 0; p < n; ++p)
+        if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) {
+          mean += scale[p] * disp[p];
+          ++live;
+        }
+    if (live > 0) mean /= live;
+    I.pointMargin.assign(n, 0.0);
+    for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (scale[p] * disp[p] - mean).norm();
+    I.shift = mean.norm();
+    I.obstacleMargin.assign(obstacles_.size(), I.shift);
+    I.prepare(x0);
+    std::vector<Pair> near;
+    I.collect(x0, near);
+    if (!I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale, last)) break;
+  }
   std::size_t clamped = 0;
   for (std::size_t p = 0; p < n; ++p) {
     if (!(scale[p] < 1.0)) continue;
@@ -1209,19 +1232,11 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
 // -------------------------------------------------------------------------------------------------
 // Following the topology
 
-void Contact::onPointsCreated(const topology::Topology&, const topology::PointsCreated& e) {
-  impl_->pending.insert(impl_->pending.end(), e.points.begin(), e.points.end());
-}
-
 void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
   Impl& I = *impl_;
   auto map = [&](std::uint32_t p) {
     return p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
   };
-  std::vector<PointId> pending;
-  for (PointId p : I.pending)
-    if (map(Index(p)) != kInvalidIndex) pending.push_back(PointId(map(Index(p))));
-  I.pending = std::move(pending);
   std::set<std::array<std::uint32_t, 5>> ex;
   for (const auto& key : I.excluded) {
     Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
@@ -1229,6 +1244,13 @@ void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renu
     ex.insert(Impl::exclusionKey(p));
   }
   I.excluded = std::move(ex);
+  std::set<std::array<std::uint32_t, 5>> rel;
+  for (const auto& key : I.released) {
+    Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
+    if (std::find(p.id.begin(), p.id.end(), std::uint32_t(kInvalidIndex)) != p.id.end()) continue;
+    rel.insert(Impl::exclusionKey(p));
+  }
+  I.released = std::move(rel);
 }
 
 void Contact::onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) {

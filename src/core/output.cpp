@@ -314,7 +314,7 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
     if (contact_) {
       const forcefields::Contact* c = sim.model().contact();
       forcefields::ContactMeasure m;
-      if (c) m = c->measure(sim.state().x(), sim.state().v());
+      if (c) m = c->lastStep();
       row << ',' << m.candidates << ',' << m.active << ',' << m.excluded << ',' << r.stats.clamped << ','
           << r.stats.splits << ',' << formatNumber(m.selfNormal) << ',' << formatNumber(m.selfFriction);
       for (std::size_t k = 0; k < obstacles_.size(); ++k)

@@ -129,6 +129,7 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
         for (int c = 0; c < 3; ++c) r[c] += out.reaction[Eigen::Index(3 * p + c)];
     grasp.setReaction(r);
   }
+  if (contact) contact->recordStep(model_->state().x(), model_->state().v());
   time_ += h;
 }
 

@@ -74,7 +74,8 @@ std::vector<Intersection> findIntersections(const std::vector<std::array<double,
 
 std::vector<Intersection> simulationIntersections(const core::Simulation& sim, bool skipLips,
                                                   const std::vector<std::array<double, 3>>& obstaclePoints,
-                                                  const std::vector<std::array<std::size_t, 3>>& obstacleTriangles) {
+                                                  const std::vector<std::array<std::size_t, 3>>& obstacleTriangles,
+                                                  double restNear) {
   const auto& topo = sim.topology();
   const auto x = sim.state().x();
   std::vector<std::array<double, 3>> points(topo.pointCapacity());
@@ -104,7 +105,7 @@ std::vector<Intersection> simulationIntersections(const core::Simulation& sim, b
       const auto r = topo.restPosition(p);
       size2 = std::max(size2, r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     }
-    const double touch2 = 1e-18 * std::max(size2, 1e-30);
+    const double touch2 = std::max(1e-18 * std::max(size2, 1e-30), restNear * restNear);
     auto R = [&](std::size_t p) {
       const auto r = topo.restPosition(topology::PointId(topology::Index(p)));
       return P3(r[0], r[1], r[2]);

@@ -27,11 +27,13 @@ std::vector<Intersection> findIntersections(
     const std::function<bool(std::size_t, std::size_t)>& skip = {}, std::size_t limit = 10);
 
 /// The simulation's live triangles at its current positions, excluding pairs of triangles that
-/// share no point but touch in the rest configuration (the lips of a cut, which the contact
-/// excludes until they separate) when `skipLips`; optionally also against obstacle triangles
+/// are within `restNear` of each other in the rest configuration (neighbours in the material: the
+/// lips of a cut, which the contact excludes until they separate; 0 skips only the triangles that
+/// touch there) when `skipLips`; optionally also against obstacle triangles
 /// (extra points and triangles appended, checked like the rest but never among themselves).
 std::vector<Intersection> simulationIntersections(const core::Simulation& sim, bool skipLips = true,
                                                   const std::vector<std::array<double, 3>>& obstaclePoints = {},
-                                                  const std::vector<std::array<std::size_t, 3>>& obstacleTriangles = {});
+                                                  const std::vector<std::array<std::size_t, 3>>& obstacleTriangles = {},
+                                                  double restNear = 0.0);
 
 }  // namespace cutsim::test

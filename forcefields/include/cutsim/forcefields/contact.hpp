@@ -3,41 +3,52 @@
 // Coulomb friction and a per-step displacement bound that keeps the surface free of
 // intersections. Notes: docs/contact.md.
 //
-// Detection. A bounding volume hierarchy over the live triangles (boxes inflated by half the
-// query radius r), rebuilt when the topology's revision changes and refitted at every step's
-// start; it follows the topology's events like every other observer (validate() compares it and
-// its tables with a rebuild). At the step's start the candidate pairs within r are collected once
-// each: vertex-triangle (VT) and edge-edge (EE) pairs of the surface that share no point (each
+// Detection. A bounding volume hierarchy over the live triangles (each box inflated by the
+// triangle's margin), rebuilt when the topology's revision changes and refitted otherwise; it
+// follows the topology's events like every other observer (validate() compares it and its
+// tables with a rebuild). The candidate pairs within their margins are collected once each: vertex-triangle (VT) and edge-edge (EE) pairs of the surface that share no point (each
 // point and edge is owned by one of its triangles, and a pair of triangles is visited once), and
 // each point against each analytic obstacle; a triangle-mesh obstacle gives VT pairs (surface
-// point, obstacle triangle), TV pairs (obstacle point, surface triangle) and EE pairs. r is
-// max(2 d, d + 4 max |v| dt).
+// point, obstacle triangle), TV pairs (obstacle point, surface triangle) and EE pairs; a box is
+// such a mesh of twelve triangles; against a sphere or a capsule each triangle's closest feature
+// (interior, edge, corner) makes one pair, each feature once; against a plane, each point. At
+// the step's start the pairs within 1.5 d (plus four times the points' velocities relative to
+// the mean one, times dt) are kept.
 //
 // Response. For a pair at distance s (unsigned, between closest points; for an analytic obstacle
 // the signed distance of the point) with thickness d and stiffness k:
 //
-//   E(s) = k / 3 (d - s)^3 for s < d, else 0    (C2: E, E' = -k (d - s)^2, E'' = 2 k (d - s))
-//   f_i = k (d - s)^2 w_i n,   K_ij = -E''(s) w_i w_j n n^T    (Gauss-Newton: the curvature of s
-//                                                               is left out, K is NSD)
+//   E(s) = k/3 (d - s)^3 / s for d/100 < s < d, 0 for s >= d    (C2 at d: E = E' = E'' = 0)
+//   continued quadratically below d/100 (finite through zero and below; bounded stiffness)
+//   f_i = -E'(s) w_i n,   K_ij = -E''(s) w_i w_j n n^T    (Gauss-Newton: the curvature of s is
+//                                                         left out, K is NSD)
+//
+// with k in N/m: -E'(d/2) = 2/3 k d, -E'(d/100) ~ 3300 k d.
 //
 // with n the unit direction from the second primitive's closest point to the first's and w_i the
 // closest points' barycentric weights (+ on the first primitive, - on the second). K is exact only
 // along n: stiffnessIsExact() is false. The energy is part of potentialEnergy().
 //
-// Friction (lagged): at the step's start each pair's normal force lambda = k (d - s)^2 and normal
+// Friction (lagged): at the step's start each pair's normal force lambda = -E'(s) and normal
 // n0 are frozen; the friction force on the pair's tangential relative velocity u_T is
 // -mu lambda u_T / max(|u_T|, eps_v) (viscous below the stick velocity eps_v, Coulomb above),
 // spread with the same weights; its derivative is the damping matrix B (NSD).
 //
-// Guarantee. After the step's solve, limitDisplacement() clamps each point's displacement to
-// gamma b_p, where b_p is the smallest distance at the step's start of the pairs it belongs to
-// (capped at r, and for analytic obstacles the distance of its triangles to the obstacle), and
-// gamma < 1/2: two primitives at distance D both move by at most gamma D, so they cannot meet
-// (the offset geometric contact argument). Pairs excluded below are not bounded.
+// Guarantee. After the step's solve, limitDisplacement() takes the proposed displacements and
+// finds every pair that could meet (within the sum of its primitives' displacements relative to
+// the mean one; every triangle that could reach an analytic obstacle); additive continuous
+// collision detection (Li et al. 2021) along the linear motion checks each; the points of a pair
+// it cannot prove apart are bounded by gamma times the pair's distance at the step's start,
+// gamma < 1/2, so that the pair cannot meet (the offset geometric contact argument), and the
+// search runs again for the shortened displacements until nothing changes. A step that clamps
+// more than splitAbove of the points is redone as two halves. Pairs excluded below are not
+// bounded; pairs at zero distance (made so by a topology operation) are left to the penalty.
 //
-// Cuts and tears. Pairs that a topology transaction creates within d (the two lips of a cut,
-// points made by a split) are excluded from the penalty, friction and bound until their distance
-// first exceeds d; then they get their normal thickness.
+// Cuts and tears. A self pair within d whose primitives are within d of each other in the rest
+// configuration (neighbours in the material: the two lips of a cut, which start at distance zero,
+// the small triangles a repair leaves next to a cut) is excluded from the penalty, the friction
+// and the bound until its distance first exceeds d; then it gets its normal thickness. (With d
+// below the mesh's smallest altitude, only the lips of cuts are such pairs.)
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -61,7 +72,7 @@ using topology::Vec3;
 /// The contact settings of a scene.
 struct ContactParameters {
   double thickness = 0.0;       ///< d, m: > 0
-  double stiffness = 0.0;       ///< k, N/m^2: > 0 (E = k/3 (d - s)^3)
+  double stiffness = 0.0;       ///< k, N/m: > 0 (E = k/3 (d - s)^3 / s)
   double friction = 0.0;        ///< mu of self-contact: >= 0
   double stickVelocity = 1e-3;  ///< eps_v, m/s: > 0
   bool selfContact = true;
@@ -111,7 +122,7 @@ struct Obstacle {
 
 /// What contact did at given positions and velocities (for the CSV).
 struct ContactMeasure {
-  std::size_t candidates = 0;  ///< pairs within the query radius
+  std::size_t candidates = 0;  ///< pairs within their margins at the step's start
   std::size_t active = 0;      ///< pairs within the thickness (penalty on)
   std::size_t excluded = 0;    ///< pairs excluded after a topology change
   double selfNormal = 0.0, selfFriction = 0.0;  ///< sums of the pairs' force magnitudes (N)
@@ -144,6 +155,10 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   /// Forces and counts at x, v with the current pairs.
   ContactMeasure measure(std::span<const double> x, std::span<const double> v) const;
+  /// measure() at the end of a step (the simulation calls it after committing the step; the
+  /// CSV reports it, also for a step after which a cut changed the mesh).
+  void recordStep(std::span<const double> x, std::span<const double> v) { last_ = measure(x, v); }
+  const ContactMeasure& lastStep() const { return last_; }
 
   /// Pairs (surface-surface and surface-obstacle) closer than `within` at x, ignoring the
   /// exclusions; at most `limit` of them, closest first.
@@ -170,7 +185,6 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   bool stiffnessIsExact() const override { return false; }
 
   // ---- TopologyObserver ----
-  void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
   void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
   void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) override;
   std::string observerName() const override { return "Contact"; }
@@ -181,6 +195,7 @@ class Contact final : public ForceField, public topology::TopologyObserver {
  private:
   ContactParameters parameters_;
   std::vector<Obstacle> obstacles_;
+  ContactMeasure last_;
   std::unique_ptr<Impl> impl_;
 };
 
