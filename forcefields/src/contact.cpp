@@ -139,7 +139,8 @@ struct Contact::Impl {
     Bvh bvh;
   };
   std::vector<MeshObstacle> meshes;  // per obstacle (empty for analytic ones)
-  std::vector<V3> offset, velocity;  // per obstacle, at the step's end
+  std::vector<V3> offset, velocity;  // per obstacle, at the step's end (the penalty's pose)
+  std::vector<V3> startOffset, move;  // per obstacle: at the step's start, and its motion over the step
 
   // ---- the step's pairs ----
   std::vector<Pair> pairs;
@@ -381,7 +382,7 @@ struct Contact::Impl {
     V3 mean = V3::Zero();
     for (int i = 0; i < 4; ++i) {
       q0[std::size_t(i)] = pointOf(p, x0, i);
-      d[std::size_t(i)] = (p.surface >> i) & 1 ? dx[p.id[std::size_t(i)]] : V3(V3::Zero());
+      d[std::size_t(i)] = (p.surface >> i) & 1 ? dx[p.id[std::size_t(i)]] : move[std::size_t(p.obstacle)];
       mean += 0.25 * d[std::size_t(i)];
     }
     // The two primitives' points: [0, split) and [split, 4).
@@ -809,10 +810,13 @@ struct Contact::Impl {
         const auto& T = triV[it.t];
         if (!plain) {
           const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-          const double lp = std::max({dx[T[0]].norm(), dx[T[1]].norm(), dx[T[2]].norm()});
+          const V3& m = move[std::size_t(it.k)];
+          const double lp = std::max({(dx[T[0]] - m).norm(), (dx[T[1]] - m).norm(), (dx[T[2]] - m).norm()});
           const bool apart = staysApart(
               [&](double t) {
-                const std::array<V3, 3> c{c0[0] + t * dx[T[0]], c0[1] + t * dx[T[1]], c0[2] + t * dx[T[2]]};
+                // Relative to the obstacle, which moves by `move` over the step.
+                const V3& m = move[std::size_t(it.k)];
+                const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m), c0[2] + t * (dx[T[2]] - m)};
                 const double D = triangleObstacleDistance(it.k, c, boxFaces(it.k), kInf);
                 return D < 0 ? 0.0 : D;
               },
@@ -850,10 +854,12 @@ Contact::Contact(topology::Topology& topology, ContactParameters parameters, std
   impl_->buildObstacleMeshes();
   impl_->offset.assign(obstacles_.size(), V3::Zero());
   impl_->velocity.assign(obstacles_.size(), V3::Zero());
+  impl_->move.assign(obstacles_.size(), V3::Zero());
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
     const Vec3 o = obstacles_[k].offsetAt(0.0);
     impl_->offset[k] = V3(o[0], o[1], o[2]);
   }
+  impl_->startOffset = impl_->offset;
   impl_->subscription = topology.subscribe(*this);
 }
 
@@ -869,7 +875,9 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
     const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
     I.offset[k] = V3(b[0], b[1], b[2]);
-    I.velocity[k] = dt > 0 ? V3((V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])) / dt) : V3(V3::Zero());
+    I.startOffset[k] = V3(a[0], a[1], a[2]);
+    I.move[k] = I.offset[k] - I.startOffset[k];
+    I.velocity[k] = dt > 0 ? V3(I.move[k] / dt) : V3(V3::Zero());
   }
   // The penalty's pairs: those within 1.5 d at the step's start (the linearised integrators take
   // forces and stiffness there; a pair that comes closer during the step is bounded by
@@ -954,6 +962,10 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
       disp[p] = V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
   std::vector<double> scale(n, 1.0);
   I.bound.assign(n, kInf);
+  // The obstacles from where they start the step, moving by `move` along it (the penalty took
+  // them where they end it).
+  const std::vector<V3> endOffset = I.offset;
+  I.offset = I.startOffset;
   // Two primitives cannot meet when they are farther apart than their largest displacements
   // relative to any common translation (the mean one here); the obstacles (taken at the step's
   // end) do not move, so their margin is the mean displacement's size. Shortening a displacement
@@ -976,11 +988,13 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (scale[p] * disp[p] - mean).norm();
     I.shift = mean.norm();
     I.obstacleMargin.assign(obstacles_.size(), I.shift);
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] += I.move[k].norm();
     I.prepare(x0);
     std::vector<Pair> near;
     I.collect(x0, near);
     if (!I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale, last)) break;
   }
+  I.offset = endOffset;
   std::size_t clamped = 0;
   for (std::size_t p = 0; p < n; ++p) {
     if (!(scale[p] < 1.0)) continue;

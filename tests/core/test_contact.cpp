@@ -3,6 +3,7 @@
 // incline it sticks below the friction limit and slides with g (sin - mu cos) above it; a cloth
 // thrown at v dt = 5 d does not tunnel; a frictionless undamped drop gains no energy; a cut opens
 // exactly as without contact; random cuts and tears under contact leave no intersection.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -373,6 +374,89 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
   EXPECT_GE(ops, 6);
   const auto report = sim.topology().validate();
   EXPECT_TRUE(report.ok()) << report.summary();
+}
+
+}  // namespace
+}  // namespace cutsim::core
+
+namespace cutsim::core {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+TEST(ContactScenes, BadContactInputIsReportedWhereItIs) {
+  struct Case {
+    std::string extra, where, what;
+  };
+  const std::vector<Case> cases{
+      {R"("contact": {"thickness": 0, "stiffness": 1})", "/contact/thickness", "> 0"},
+      {R"("contact": {"thickness": -0.01, "stiffness": 1})", "/contact/thickness", "> 0"},
+      {R"("contact": {"thickness": 0.01})", "/contact", "stiffness"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1, "friction": -0.1})", "/contact/friction", ">= 0"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1, "displacementFraction": 0.7})",
+       "/contact/displacementFraction", "(0, 0.5)"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1, "thickness2": 1})", "/contact/thickness2", "unknown key"},
+      {R"("obstacles": [{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1]}])", "/obstacles",
+       "need a \"contact\" section"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "cone"}])", "/obstacles/0/type",
+       "unknown obstacle type"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "sphere", "center": [0, 0, -1], "radius": -2}])",
+       "/obstacles/0/radius", ""},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 0]}])",
+       "/obstacles/0/normal", "nonzero"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "mesh", "file": "../bad/index_out_of_range.obj"}])",
+       "/obstacles/0/file", "does not read"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "mesh", "file": "no_such_file.obj"}])",
+       "/obstacles/0/file", "does not read"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "box", "center": [0, 0, -1], "size": [1, 1, 0]}])",
+       "/obstacles/0/size/2", "> 0"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "plane", "name": "a", "point": [0, 0, -1], "normal": [0, 0, 1]}, {"type": "plane", "name": "a", "point": [0, 0, -2], "normal": [0, 0, 1]}])",
+       "/obstacles/1/name", "another obstacle"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "plane", "name": "a,b", "point": [0, 0, -1], "normal": [0, 0, 1]}])",
+       "/obstacles/0/name", "comma"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "sphere", "center": [0, 0, -1], "radius": 0.5, "path": [[0, 0, 0, 0], [0, 1, 0, 0]]}])",
+       "/obstacles/0/path/1/0", "increase"},
+      // The grid lies in z = 0 over [0, 1]^2: a sphere through it, a plane above part of it.
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "sphere", "center": [0.5, 0.5, 0], "radius": 0.2}])",
+       "/obstacles/0", "starts in intersection"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "plane", "point": [0, 0, 0.5], "normal": [1, 0, 1]}])",
+       "/obstacles/0", "starts in intersection"},
+  };
+  for (const Case& c : cases) {
+    const std::string message = test::parseError(test::scene(c.extra));
+    EXPECT_THAT(message, StartsWith("inline.json:")) << c.extra;
+    EXPECT_THAT(message, HasSubstr(": " + c.where + ": ")) << c.extra;
+    EXPECT_THAT(message, HasSubstr(c.what)) << c.extra;
+  }
+}
+
+TEST(ContactScenes, AClothOnAMovingMeshObstacleStaysClearOfIt) {
+  // The unit icosphere of data/meshes as a triangle-mesh obstacle, scaled to 0.15 m, rising
+  // through the height of a falling sheet; the oracle checks the cloth against its triangles.
+  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 13, "ny": 13, "size": [0.5, 0.5], "origin": [-0.25, -0.25, 0.2]}},
+    "mass": {"total": 0.03}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 100, "damping": 0.05},
+                    {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
+    "contact": {"thickness": 0.005, "stiffness": 1, "friction": 0.2},
+    "obstacles": [{"type": "mesh", "name": "ball", "file": ")" + std::string(CUTSIM_DATA_DIR) + R"(/meshes/icosphere_1.off",
+                   "scale": 0.15, "friction": 0.3, "path": [[0, 0, 0, 0], [0.4, 0, 0, 0.1]]}],
+    "integrator": {"type": "implicit-euler", "rayleighMass": 0.5},
+    "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-6},
+    "timeStep": 0.002, "duration": 0.4})");
+  SceneRunner runner(scene);
+  runner.start();
+  std::vector<std::array<double, 3>> pts;
+  std::vector<std::array<std::size_t, 3>> tris;
+  double pushed = 0;
+  while (!runner.finished()) {
+    runner.advance();
+    obstacleSoup(runner.simulation(), pts, tris);
+    const auto found = test::simulationIntersections(runner.simulation(), true, pts, tris);
+    ASSERT_TRUE(found.empty()) << "t = " << runner.time() << ": " << describe(found);
+    pushed = std::max(pushed, runner.simulation().model().contact()->lastStep().obstacleNormal[0]);
+  }
+  EXPECT_GT(pushed, 0.0) << "the ball must have carried the cloth";
 }
 
 }  // namespace
