@@ -1078,6 +1078,34 @@ double Contact::potentialEnergy(std::span<const double> x) const {
   return E;
 }
 
+namespace {
+/// Adds w_i w_j B to block (i, j) of every pair of the pair's surface points; where a block has
+/// no place in the accumulator's pattern, adds |w_i| (sum_j |w_j|) B to the diagonal blocks
+/// instead (B is semi-definite: the lumped blocks bound the true ones in the same direction, by
+/// Cauchy-Schwarz), and says so.
+void addPairBlocks(const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& B, MatrixAccumulator& m) {
+  bool fits = true;
+  double sum = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    if (!((p.surface >> i) & 1)) continue;
+    sum += std::abs(w[std::size_t(i)]);
+    for (int j = 0; j < i && fits; ++j)
+      if ((p.surface >> j) & 1) fits = m.contains(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]));
+  }
+  if (!fits) m.approximated();
+  for (int i = 0; i < 4; ++i) {
+    if (!((p.surface >> i) & 1)) continue;
+    if (!fits) {
+      m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(i)]), (std::abs(w[std::size_t(i)]) * sum) * B);
+      continue;
+    }
+    for (int j = 0; j < 4; ++j)
+      if ((p.surface >> j) & 1)
+        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]), (w[std::size_t(i)] * w[std::size_t(j)]) * B);
+  }
+}
+}  // namespace
+
 void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const {
   Impl& I = *impl_;
   const Law law{parameters_.thickness, parameters_.stiffness};
@@ -1087,14 +1115,7 @@ void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, doub
     if (!I.within[pi]) continue;
     const Eval& e = I.evals[pi];
     const Eigen::Matrix3d nn = (-kFactor * law.curvature(e.s)) * (e.n * e.n.transpose());
-    for (int i = 0; i < 4; ++i) {
-      if (!((p.surface >> i) & 1)) continue;
-      for (int j = 0; j < 4; ++j) {
-        if (!((p.surface >> j) & 1)) continue;
-        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]),
-                   (e.w[std::size_t(i)] * e.w[std::size_t(j)]) * nn);
-      }
-    }
+    addPairBlocks(p, e.w, nn, m);
   }
 }
 
@@ -1102,15 +1123,7 @@ void Contact::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m, 
   const Impl& I = *impl_;
   for (const Pair& p : I.pairs) {
     if (p.excluded || !(p.lambda > 0 && p.mu > 0)) continue;
-    const Eigen::Matrix3d J = bFactor * p.frictionJacobian;
-    for (int i = 0; i < 4; ++i) {
-      if (!((p.surface >> i) & 1)) continue;
-      for (int j = 0; j < 4; ++j) {
-        if (!((p.surface >> j) & 1)) continue;
-        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]),
-                   (p.w0[std::size_t(i)] * p.w0[std::size_t(j)]) * J);
-      }
-    }
+    addPairBlocks(p, p.w0, bFactor * p.frictionJacobian, m);
   }
 }
 

@@ -25,6 +25,8 @@ struct PairCollector : forcefields::MatrixAccumulator {
   }
   void addBlock(PointId i, PointId j, const Eigen::Matrix3d&) override { add(i, j); }
   void addScaledIdentity(PointId i, PointId j, double) override { add(i, j); }
+  /// The pattern follows the mesh: couplings that come and go (contact) are lumped.
+  bool contains(PointId i, PointId j) const override { return i == j; }
 };
 
 /// Writes each block straight to its place in the compressed columns (lower triangle only: the
@@ -37,6 +39,14 @@ struct Filler : forcefields::MatrixAccumulator {
   const int* outer = nullptr;
   double* values = nullptr;
   bool missing = false;
+  bool lumped = false;
+  bool contains(PointId i, PointId j) const override {
+    if (i >= numSlots || j >= numSlots) return false;
+    std::int32_t I = newIndex[i], J = newIndex[j];
+    if (I < J) std::swap(I, J);
+    return I == J || offDiagonal(I, J) >= 0;
+  }
+  void approximated() override { lumped = true; }
 
   /// Offset of block row I in block column J's scalar columns, past the diagonal block; -1 if
   /// the pair is not in the pattern.
@@ -194,6 +204,7 @@ bool SystemMatrix::fill(const Fields& fields, std::span<const double> x, double 
     f->addBToMatrix(x, filler, -bFactor);
     if (filler.missing) return false;
   }
+  approximate_ = filler.lumped;
   for (std::size_t p = 0; p < numSlots_; ++p) {
     const std::size_t J = std::size_t(newIndex_[p]);
     for (int c = 0; c < 3; ++c) values[outer[3 * J + std::size_t(c)]] += diagonalMass[p];

@@ -53,9 +53,13 @@ class SystemMatrix {
 
   /// New index of point p in the matrix's numbering.
   const std::vector<std::int32_t>& newIndex() const { return newIndex_; }
+  /// Whether the last fill lumped some field's blocks onto the diagonal (contact pairs outside
+  /// the pattern): the matrix then bounds the system's from above and is a preconditioner.
+  bool approximate() const { return approximate_; }
 
  private:
   bool built_ = false;
+  bool approximate_ = false;
   Ordering ordering_ = Ordering::NestedDissection;
   std::size_t numSlots_ = 0;
   std::vector<std::int32_t> newIndex_;  // point p -> its index in the matrix's numbering

@@ -47,6 +47,13 @@ class MatrixAccumulator {
   virtual void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) = 0;
   /// Adds s * I3 to block (i, j). Default: addBlock(i, j, s * I3).
   virtual void addScaledIdentity(PointId i, PointId j, double s);
+  /// Whether block (i, j) has a place (an assembled solver keeps a pattern; default: every block
+  /// has). A field whose couplings come and go between solves (contact) asks, and adds what has
+  /// no place to the diagonal blocks instead, as a bound from above (more stiffness and damping
+  /// than the true matrix in every direction), telling approximated().
+  virtual bool contains(PointId /*i*/, PointId /*j*/) const { return true; }
+  /// Called by a field that lumped blocks onto the diagonal (see contains()).
+  virtual void approximated() {}
 };
 
 /// Collects the blocks as Eigen triplets (duplicates are summed by toSparse).
