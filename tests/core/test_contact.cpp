@@ -461,3 +461,52 @@ TEST(ContactScenes, AClothOnAMovingMeshObstacleStaysClearOfIt) {
 
 }  // namespace
 }  // namespace cutsim::core
+
+namespace cutsim::core {
+namespace {
+
+/// The cloth dropped on the plate of the tunnelling test, with each integrator and linear solver.
+class ContactEveryIntegrator : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ContactEveryIntegrator, KeepsADroppedClothClearOfAPlate) {
+  const bool explicitStep = GetParam().find("explicit") != std::string::npos;
+  std::ostringstream s;
+  s << R"({"mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.2, 0.2], "origin": [-0.1, -0.1, 0.02]}},
+    "mass": {"total": 0.02}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 50}, {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
+    "contact": {"thickness": 0.004, "stiffness": 0.5, "friction": 0.3},
+    "obstacles": [{"type": "box", "name": "plate", "center": [0, 0, 0], "size": [0.12, 0.12, 0.002], "friction": 0.4}],
+    )" << GetParam() << R"(,
+    "timeStep": )" << (explicitStep ? 2e-4 : 0.002) << R"(, "duration": 0.25})";
+  SceneRunner runner(sceneOf(s.str()));
+  runner.start();
+  std::vector<std::array<double, 3>> pts;
+  std::vector<std::array<std::size_t, 3>> tris;
+  double carried = 0;
+  while (!runner.finished()) {
+    runner.advance();
+    obstacleSoup(runner.simulation(), pts, tris);
+    const auto found = test::simulationIntersections(runner.simulation(), true, pts, tris);
+    ASSERT_TRUE(found.empty()) << "t = " << runner.time() << ": " << describe(found);
+    carried = runner.simulation().model().contact()->lastStep().obstacleNormal[0];
+  }
+  EXPECT_GT(carried, 0.0) << "the plate must carry the cloth at the end";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Contact, ContactEveryIntegrator,
+    ::testing::Values(R"("integrator": {"type": "implicit-euler", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8})",
+                      R"("integrator": {"type": "implicit-euler", "rayleighMass": 1}, "linearSolver": {"type": "cholmod"})",
+                      R"("integrator": {"type": "bdf2", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8})",
+                      R"("integrator": {"type": "newton", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-10})",
+                      R"("integrator": {"type": "explicit-euler"})"),
+    [](const ::testing::TestParamInfo<std::string>& info) {
+      const std::string& p = info.param;
+      std::string name = p.find("explicit") != std::string::npos ? "explicit" : p.find("bdf2") != std::string::npos ? "bdf2"
+                         : p.find("newton") != std::string::npos ? "newton" : "implicit";
+      if (p.find("cholmod") != std::string::npos) name += "_cholmod";
+      return name;
+    });
+
+}  // namespace
+}  // namespace cutsim::core
