@@ -120,6 +120,7 @@ struct Contact::Impl {
 
   // ---- the surface's tables (rebuilt when the topology's revision changes) ----
   bool built = false, bvhBuilt = false;
+  double meanEdge = 0.0;  // of the rest mesh (the largest displacement a step may propose)
   std::uint64_t revision = 0;
   std::vector<TriangleId> tris;
   std::vector<std::array<std::uint32_t, 3>> triV;
@@ -365,7 +366,9 @@ struct Contact::Impl {
     if (!(lp > 0)) return true;
     const double floor = 0.1 * d0;
     double t = 0.0, d = d0;
-    for (int i = 0; i < 64; ++i) {
+    // A pair that needs many small advances moves far relative to its distance: the bound
+    // (gamma times the distance) is what it gets.
+    for (int i = 0; i < 8; ++i) {
       t += 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
       if (t >= 1.0) return true;
       d = dist(t);
@@ -464,6 +467,15 @@ struct Contact::Impl {
     }
     built = true;
     revision = topo.revision();
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (EdgeId e : topo.edges()) {
+      const auto v = topo.edgeVertices(e);
+      const Vec3 a = topo.restPosition(v[0]), b = topo.restPosition(v[1]);
+      sum += std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+      ++count;
+    }
+    meanEdge = count ? sum / double(count) : 0.0;
   }
 
   void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
@@ -788,6 +800,21 @@ struct Contact::Impl {
     }
     std::vector<V3> dx(disp.size());
     for (std::size_t p = 0; p < disp.size(); ++p) dx[p] = scale[p] * disp[p];
+    // Points shortened in the last round (the pairs that hold one are checked again).
+    std::vector<char> moved(disp.size(), 1), movedNext(disp.size(), 0);
+    auto touched = [&](const Pair& p) {
+      for (int i = 0; i < 4; ++i)
+        if (((p.surface >> i) & 1) && moved[p.id[std::size_t(i)]]) return true;
+      return false;
+    };
+    // Every point of the pair already moves less than gamma times its distance: it stays apart.
+    auto withinBound = [&](const Pair& p) {
+      const double b = gamma * p.s0;
+      for (int i = 0; i < 4; ++i)
+        if (((p.surface >> i) & 1) && dx[p.id[std::size_t(i)]].squaredNorm() > b * b) return false;
+      return p.kind != Kind::VO && p.kind != Kind::OV && p.kind != Kind::EO ? true
+                                                                              : move[std::size_t(p.obstacle)].squaredNorm() == 0.0;
+    };
     auto restrict = [&](std::uint32_t p, double b, bool& changed) {
       if (p < locked.size() && locked[p]) return;  // prescribed: it pushes, like a moving obstacle
       if (!(b < bound[p])) return;
@@ -797,17 +824,20 @@ struct Contact::Impl {
         scale[p] = b / l;
         dx[p] = scale[p] * disp[p];
         changed = true;
+        movedNext[p] = 1;
       }
     };
     for (int round = 0; round < 8; ++round) {
       bool changed = false;
       for (const Pair* p : pairsToCheck) {
-        if (!plain && pairStaysApart(*p, x, dx)) continue;
+        if (round > 0 && !touched(*p)) continue;  // nothing of it changed since its last check
+        if (!plain && (withinBound(*p) || pairStaysApart(*p, x, dx))) continue;
         for (int i = 0; i < 4; ++i)
           if ((p->surface >> i) & 1) restrict(p->id[std::size_t(i)], gamma * std::max(p->s0, 0.0), changed);
       }
       for (const TriangleItem& it : items) {
         const auto& T = triV[it.t];
+        if (round > 0 && !moved[T[0]] && !moved[T[1]] && !moved[T[2]]) continue;
         if (!plain) {
           const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
           const V3& m = move[std::size_t(it.k)];
@@ -827,6 +857,8 @@ struct Contact::Impl {
       }
       any = any || changed;
       if (!changed || plain) break;
+      std::swap(moved, movedNext);
+      std::fill(movedNext.begin(), movedNext.end(), 0);
     }
     return any;
   }
@@ -962,6 +994,17 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
       disp[p] = V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
   std::vector<double> scale(n, 1.0);
   I.bound.assign(n, kInf);
+  // No point travels more than two mean rest edges in a step (a solve that proposes more is far
+  // from the motion it linearised; the step splits): this also keeps the search below local.
+  const double travel = 2.0 * I.meanEdge;
+  if (travel > 0)
+    for (std::size_t p = 0; p < n; ++p) {
+      const double l = disp[p].norm();
+      if (l > travel && !(p < constrained.size() && constrained[p])) {
+        scale[p] = travel / l;
+        I.bound[p] = travel;
+      }
+    }
   // The obstacles from where they start the step, moving by `move` along it (the penalty took
   // them where they end it).
   const std::vector<V3> endOffset = I.offset;

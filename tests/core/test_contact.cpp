@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <cstdlib>
 #include <iostream>
 #include <random>
@@ -507,6 +509,46 @@ INSTANTIATE_TEST_SUITE_P(
       if (p.find("cholmod") != std::string::npos) name += "_cholmod";
       return name;
     });
+
+}  // namespace
+}  // namespace cutsim::core
+
+namespace cutsim::core {
+namespace {
+
+/// The contact demo scenes, on a coarser grid (16 x 16 instead of 31 x 31) and cut short after
+/// their main event (the drape's cut at 1.2 s, the fold's landing), so that the test is quick,
+/// checked by the oracle after every step.
+class ContactDemoScene : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ContactDemoScene, StaysFreeOfIntersectionsOnACoarserGrid) {
+  std::ifstream in(std::filesystem::path(CUTSIM_DATA_DIR) / "scenes" / GetParam(), std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  std::string s = text.str();
+  const std::string grid = "\"nx\": 31, \"ny\": 31";
+  ASSERT_NE(s.find(grid), std::string::npos);
+  s.replace(s.find(grid), grid.size(), "\"nx\": 16, \"ny\": 16");
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"\"duration\": 3,", "\"duration\": 1.6,"},
+                                 {"\"duration\": 1.5,", "\"duration\": 0.8,"}})
+    if (s.find(from) != std::string::npos) s.replace(s.find(from), from.size(), to);
+  SceneRunner runner(parseScene(s, GetParam(), std::filesystem::path(CUTSIM_DATA_DIR) / "scenes"));
+  runner.start();
+  std::vector<std::array<double, 3>> pts;
+  std::vector<std::array<std::size_t, 3>> tris;
+  const double d = runner.scene().contact->thickness;
+  while (!runner.finished()) {
+    runner.advance();
+    obstacleSoup(runner.simulation(), pts, tris);
+    const auto found = test::simulationIntersections(runner.simulation(), true, pts, tris, d);
+    ASSERT_TRUE(found.empty()) << "t = " << runner.time() << ": " << describe(found);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Contact, ContactDemoScene, ::testing::Values("drape_cut.json", "fold_ground.json"),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return info.param.substr(0, info.param.find('.'));
+                         });
 
 }  // namespace
 }  // namespace cutsim::core
