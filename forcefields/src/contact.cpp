@@ -815,6 +815,16 @@ struct Contact::Impl {
       return p.kind != Kind::VO && p.kind != Kind::OV && p.kind != Kind::EO ? true
                                                                               : move[std::size_t(p.obstacle)].squaredNorm() == 0.0;
     };
+    // A pair's bound on its free points: gamma times its distance, less what its prescribed
+    // points (a grasp) travel, which cannot be shortened.
+    auto pairBound = [&](const Pair& p) {
+      double lockedMove = 0.0;
+      for (int i = 0; i < 4; ++i) {
+        const std::uint32_t q = p.id[std::size_t(i)];
+        if (((p.surface >> i) & 1) && q < locked.size() && locked[q]) lockedMove = std::max(lockedMove, dx[q].norm());
+      }
+      return gamma * std::max(p.s0 - lockedMove, 0.0);
+    };
     auto restrict = [&](std::uint32_t p, double b, bool& changed) {
       if (p < locked.size() && locked[p]) return;  // prescribed: it pushes, like a moving obstacle
       if (!(b < bound[p])) return;
@@ -833,7 +843,7 @@ struct Contact::Impl {
         if (round > 0 && !touched(*p)) continue;  // nothing of it changed since its last check
         if (!plain && (withinBound(*p) || pairStaysApart(*p, x, dx))) continue;
         for (int i = 0; i < 4; ++i)
-          if ((p->surface >> i) & 1) restrict(p->id[std::size_t(i)], gamma * std::max(p->s0, 0.0), changed);
+          if ((p->surface >> i) & 1) restrict(p->id[std::size_t(i)], pairBound(*p), changed);
       }
       for (const TriangleItem& it : items) {
         const auto& T = triV[it.t];

@@ -50,7 +50,18 @@ class IncrementalPotential {
       : model_(model), c_(c), h_(h), rM_(s.rayleighMass), rK_(s.rayleighStiffness),
         n_(model.numSlots()), N_(Eigen::Index(3 * n_)), m_(model.mass().perPoint()),
         xn_(Eigen::Map<const Vec>(model.state().x().data(), N_)),
-        vn_(Eigen::Map<const Vec>(model.state().v().data(), N_)), zero_(Vec::Zero(N_)) {}
+        vn_(Eigen::Map<const Vec>(model.state().v().data(), N_)), zero_(Vec::Zero(N_)), lag_(Vec::Zero(N_)) {
+    // Forces that are not linear in the velocities (contact friction) enter linearised about
+    // v_n, as in the linearised integrators: F(x, v) ~ F(x, 0) + [F(x_n, v_n) - F(x_n, 0) -
+    // B(x_n) v_n] + B(x_n) v. The bracket is zero for linear damping; for Coulomb friction it is
+    // the sliding force, which B (zero along the sliding direction) does not give.
+    Vec withV = Vec::Zero(N_), withoutV = Vec::Zero(N_), bv = Vec::Zero(N_);
+    model_.addForce(span(xn_), span(vn_), std::span<double>(withV.data(), withV.size()));
+    model_.addForce(span(xn_), span(zero_), std::span<double>(withoutV.data(), withoutV.size()));
+    model_.addDForce(span(xn_), span(vn_), std::span<double>(bv.data(), bv.size()), 0.0, 1.0);
+    lag_ = withV - withoutV - bv;
+    if (lag_.lpNorm<Eigen::Infinity>() <= 1e-12 * std::max(withV.lpNorm<Eigen::Infinity>(), 1e-300)) lag_.setZero();
+  }
 
   /// v_n on the free points, the velocity that reaches the target on the prescribed ones.
   Vec start() const {
@@ -67,13 +78,13 @@ class IncrementalPotential {
   double phi(const Vec& v) const {
     const Vec dvn = v - vn_;
     return 0.5 * massDot(dvn, dvn) + 0.5 * h_ * rM_ * massDot(v, v) + model_.potentialEnergy(span(position(v))) -
-           0.5 * h_ * v.dot(damping(v));
+           0.5 * h_ * v.dot(damping(v)) - h_ * lag_.dot(v);
   }
   /// r = h (F(x) + M g - rM M v + D v) - M (v - v_n); with `all`, on the prescribed points too.
   Vec residual(const Vec& v, bool all = false) const {
     Vec r = Vec::Zero(N_);
     model_.addForce(span(position(v)), span(zero_), std::span<double>(r.data(), r.size()));
-    r += damping(v);
+    r += damping(v) + lag_;
     for (std::size_t p = 0; p < n_; ++p)
       for (int k = 0; k < 3; ++k) {
         const Eigen::Index i = Eigen::Index(3 * p + k);
@@ -115,6 +126,7 @@ class IncrementalPotential {
   Eigen::Index N_;
   std::span<const double> m_;
   Vec xn_, vn_, zero_;
+  Vec lag_;  // the velocity-nonlinear forces' part that B misses (see the constructor)
 };
 
 /// A Newton iterate: the velocities, the potential there and the residual.
