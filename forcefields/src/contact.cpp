@@ -154,7 +154,6 @@ struct Contact::Impl {
   // Self pairs move relative to each other: margins are taken relative to the surface's mean
   // motion, and `shift` (that motion's size) is added for the obstacles, which stay put.
   double shift = 0.0;
-  double radius = 0.0;  // the largest triangle margin (reported)
   std::vector<double> bound;  // per point slot: gamma times the smallest distance, kInf: none
 
   // ---- exclusions after topology changes ----
@@ -538,6 +537,16 @@ struct Contact::Impl {
     return t[0] == p || t[1] == p || t[2] == p;
   }
 
+  /// Keeps the pair if it is closer than r at x, with its distance, normal and weights there.
+  void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out) const {
+    const Eval e = evaluate(p, x);
+    if (!(e.s < r)) return;
+    p.s0 = e.s;
+    p.n0 = e.n;
+    p.w0 = e.w;
+    out.push_back(p);
+  }
+
   /// Every self pair of triangles i, j (as the BVH or the brute force gives them): the VT and EE
   /// pairs that the two triangles own, within r at x.
   void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
@@ -546,15 +555,7 @@ struct Contact::Impl {
     const auto& B = triV[std::size_t(j)];
     auto vt = [&](std::uint32_t v, int t) {
       const auto& T = triV[std::size_t(t)];
-      if (shares(T, v)) return;
-      Pair p{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111};
-      const Eval e = evaluate(p, x);
-      if (e.s < r) {
-        p.s0 = e.s;
-        p.n0 = e.n;
-        p.w0 = e.w;
-        out.push_back(p);
-      }
+      if (!shares(T, v)) keepIfNear(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111}, x, r, out);
     };
     for (int k = 0; k < 3; ++k) {
       if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j);
@@ -569,14 +570,7 @@ struct Contact::Impl {
         if (edgeOwner[eb] != j) continue;
         const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
         if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
-        Pair p{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111};
-        const Eval e = evaluate(p, x);
-        if (e.s < r) {
-          p.s0 = e.s;
-          p.n0 = e.n;
-          p.w0 = e.w;
-          out.push_back(p);
-        }
+        keepIfNear(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111}, x, r, out);
       }
     }
   }
@@ -586,15 +580,7 @@ struct Contact::Impl {
     const MeshObstacle& m = meshes[std::size_t(k)];
     const auto& A = triV[std::size_t(i)];
     const auto& T = m.triangles[std::size_t(j)];
-    auto keep = [&](Pair p) {
-      const Eval e = evaluate(p, x);
-      if (e.s < r) {
-        p.s0 = e.s;
-        p.n0 = e.n;
-        p.w0 = e.w;
-        out.push_back(p);
-      }
-    };
+    auto keep = [&](const Pair& p) { keepIfNear(p, x, r, out); };
     for (int c = 0; c < 3; ++c) {
       if (pointOwner[A[std::size_t(c)]] == i)
         keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001});
@@ -684,10 +670,8 @@ struct Contact::Impl {
   /// Triangle margins from the point margins, then the boxes and the BVH at x.
   void prepare(std::span<const double> x) {
     triMargin.resize(tris.size());
-    radius = 0.0;
     for (std::size_t i = 0; i < tris.size(); ++i) {
       triMargin[i] = std::max({pointMargin[triV[i][0]], pointMargin[triV[i][1]], pointMargin[triV[i][2]]});
-      radius = std::max(radius, triMargin[i]);
     }
     const bool rebuild = !bvhBuilt;
     bvhBuilt = true;
@@ -710,29 +694,10 @@ struct Contact::Impl {
     return {std::uint32_t(p.kind), id[0], id[1], id[2], id[3]};
   }
 
-  /// A box obstacle's twelve faces at its current offset (empty for other shapes).
-  std::vector<std::array<V3, 3>> boxFaces(int k) const {
-    std::vector<std::array<V3, 3>> faces;
-    const Obstacle& o = O[std::size_t(k)];
-    if (o.shape != Obstacle::Shape::Box) return faces;
-    std::vector<Vec3> bp;
-    std::vector<std::array<int, 3>> bt;
-    o.surface({offset[std::size_t(k)].x(), offset[std::size_t(k)].y(), offset[std::size_t(k)].z()}, 0.0, bp, bt);
-    for (const auto& f : bt) {
-      std::array<V3, 3> face;
-      for (int c = 0; c < 3; ++c) {
-        const Vec3& q = bp[std::size_t(f[std::size_t(c)])];
-        face[std::size_t(c)] = V3(q[0], q[1], q[2]);
-      }
-      faces.push_back(face);
-    }
-    return faces;
-  }
-
-  /// Distance of a triangle to an analytic obstacle: 0 if they intersect, -1 if a corner is
-  /// inside, infinity if it is surely farther than `within`.
-  double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, const std::vector<std::array<V3, 3>>& box,
-                                  double within) const {
+  /// Distance of a triangle to a plane, a sphere or a capsule (boxes and meshes meet the
+  /// surface through their triangles): 0 if they intersect, -1 if a corner is inside, infinity if
+  /// it is surely farther than `within`.
+  double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within) const {
     const Obstacle& o = O[std::size_t(k)];
     V3 g;
     const double smin = std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)});
@@ -751,8 +716,6 @@ struct Contact::Impl {
         break;
       }
       case Obstacle::Shape::Box:
-        for (const auto& f : box) D = std::min(D, triangleTriangleDistance(tv, f));
-        break;
       case Obstacle::Shape::Mesh: break;
     }
     return std::max(D, 0.0);
@@ -777,14 +740,13 @@ struct Contact::Impl {
     std::vector<TriangleItem> items;
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) continue;
-      const auto box = boxFaces(int(k));
       for (std::size_t t = 0; t < tris.size(); ++t) {
         const auto& T = triV[t];
         const double reach = std::max({scale[T[0]] * disp[T[0]].norm(), scale[T[1]] * disp[T[1]].norm(),
                                        scale[T[2]] * disp[T[2]].norm()});
         if (!(reach > 0)) continue;
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-        const double D = triangleObstacleDistance(int(k), tv, box, reach);
+        const double D = triangleObstacleDistance(int(k), tv, reach);
         // Already touching or inside (a corner inside, or made so by a topology operation): not
         // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
         if (D > 0 && D < kInf) items.push_back({int(k), t, D});
@@ -857,7 +819,7 @@ struct Contact::Impl {
                 // Relative to the obstacle, which moves by `move` over the step.
                 const V3& m = move[std::size_t(it.k)];
                 const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m), c0[2] + t * (dx[T[2]] - m)};
-                const double D = triangleObstacleDistance(it.k, c, boxFaces(it.k), kInf);
+                const double D = triangleObstacleDistance(it.k, c, kInf);
                 return D < 0 ? 0.0 : D;
               },
               lp);
@@ -908,7 +870,6 @@ Contact::Contact(topology::Topology& topology, ContactParameters parameters, std
 Contact::~Contact() = default;
 
 const std::vector<double>& Contact::bounds() const { return impl_->bound; }
-double Contact::queryRadius() const { return impl_->radius; }
 
 void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt) {
   Impl& I = *impl_;
@@ -1300,9 +1261,8 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
       });
       continue;
     }
-    const auto box = I.boxFaces(int(k));
     for (std::size_t t = 0; t < I.tris.size() && out.size() < limit; ++t) {
-      const double D = I.triangleObstacleDistance(int(k), corners(int(t)), box, 1e-300);
+      const double D = I.triangleObstacleDistance(int(k), corners(int(t)), 1e-300);
       if (D == 0.0 || D < 0) out.push_back({name(int(t)) + (D < 0 ? " has a corner inside " : " crosses ") + obstacle, 0.0});
     }
   }
@@ -1317,20 +1277,18 @@ void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renu
   auto map = [&](std::uint32_t p) {
     return p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
   };
-  std::set<std::array<std::uint32_t, 5>> ex;
-  for (const auto& key : I.excluded) {
-    Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
-    if (std::find(p.id.begin(), p.id.end(), std::uint32_t(kInvalidIndex)) != p.id.end()) continue;
-    ex.insert(Impl::exclusionKey(p));
-  }
-  I.excluded = std::move(ex);
-  std::set<std::array<std::uint32_t, 5>> rel;
-  for (const auto& key : I.released) {
-    Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
-    if (std::find(p.id.begin(), p.id.end(), std::uint32_t(kInvalidIndex)) != p.id.end()) continue;
-    rel.insert(Impl::exclusionKey(p));
-  }
-  I.released = std::move(rel);
+  // Pairs by their points: renumbered, and dropped when a point is gone.
+  auto remap = [&](std::set<std::array<std::uint32_t, 5>>& keys) {
+    std::set<std::array<std::uint32_t, 5>> out;
+    for (const auto& key : keys) {
+      Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
+      if (std::find(p.id.begin(), p.id.end(), std::uint32_t(kInvalidIndex)) == p.id.end())
+        out.insert(Impl::exclusionKey(p));
+    }
+    keys = std::move(out);
+  };
+  remap(I.excluded);
+  remap(I.released);
 }
 
 void Contact::onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) {

@@ -171,8 +171,6 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   /// The bound of each point slot after the last limitDisplacement (infinity: none; for tests).
   const std::vector<double>& bounds() const;
-  /// The largest triangle margin of the last detection.
-  double queryRadius() const;
 
   // ---- ForceField ----
   std::string typeName() const override { return "Contact"; }
