@@ -7,7 +7,7 @@ config="${1:-release}"; shift || true
 case "$config" in
   release)  flags=(-DCMAKE_BUILD_TYPE=Release) ;;
   debug)    flags=(-DCMAKE_BUILD_TYPE=Debug) ;;
-  sanitize) flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DCUTSIM_SANITIZE=ON -DCUTSIM_NATIVE=OFF -DCUTSIM_BUILD_BENCHMARKS=OFF -DCUTSIM_BUILD_EXAMPLES=OFF) ;;
+  sanitize) flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DCUTSIM_SANITIZE=ON -DCUTSIM_NATIVE=OFF -DCUTSIM_BUILD_BENCHMARKS=OFF -DCUTSIM_BUILD_EXAMPLES=OFF -DCUTSIM_PYTHON=OFF) ;;
   *) echo "scripts/build.sh: unknown configuration '$config' (release, debug, sanitize)" >&2; exit 2 ;;
 esac
 build="$root/build/$config"

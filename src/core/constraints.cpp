@@ -19,6 +19,13 @@ void PointSet::add(PointId p, const Vec3& data) {
   data_[p] = data;
 }
 
+void PointSet::remove(PointId p) {
+  if (p >= flags_.numSlots() || !flags_[p]) return;
+  flags_[p] = 0;
+  data_[p] = {0, 0, 0};
+  --count_;
+}
+
 void PointSet::clear() {
   flags_.reset();
   count_ = 0;
@@ -86,6 +93,30 @@ Grasp::Grasp(topology::Topology& topology, std::string name, double startTime, D
     for (double c : path_.displacements[i])
       if (!std::isfinite(c)) throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
   }
+}
+
+void Grasp::moveBy(double now, const Vec3& delta, double duration) {
+  if (!std::isfinite(now) || !(duration >= 0) || !std::isfinite(duration))
+    throw InvalidInput("grasp '" + points_.name() + "'", "a move needs a finite duration >= 0");
+  for (double c : delta)
+    if (!std::isfinite(c)) throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
+  const double tau = now - start_;
+  const Vec3 d0 = path_.at(tau);
+  DisplacementPath next;
+  for (std::size_t i = 0; i < path_.times.size() && path_.times[i] < tau; ++i) {
+    next.times.push_back(path_.times[i]);
+    next.displacements.push_back(path_.displacements[i]);
+  }
+  next.times.push_back(tau);
+  next.displacements.push_back(d0);
+  const Vec3 d1{d0[0] + delta[0], d0[1] + delta[1], d0[2] + delta[2]};
+  if (duration > 0) {
+    next.times.push_back(tau + duration);
+    next.displacements.push_back(d1);
+  } else {
+    next.displacements.back() = d1;
+  }
+  path_ = std::move(next);
 }
 
 Vec3 Grasp::target(PointId p, double t) const {

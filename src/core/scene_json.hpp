@@ -47,8 +47,8 @@ class Reader {
     std::string p = pointer;
     while (true) {
       auto it = lines_.find(p);
-      if (it != lines_.end()) return {pointer, it->second};
-      if (p.empty()) return {pointer, 0};
+      if (it != lines_.end()) return {pointer, it->second, ""};
+      if (p.empty()) return {pointer, 0, ""};
       p = p.substr(0, p.rfind('/'));
     }
   }

@@ -20,11 +20,11 @@ class SceneRunner::Context final : public ActionContext {
   explicit Context(SceneRunner& r) : r_(r) {}
   Simulation& simulation() override { return *r_.sim_; }
   double time() const override { return r_.time(); }
-  double timeStep() const override { return r_.scene_.timeStep; }
+  double timeStep() const override { return r_.timeStep_; }
   double meanRestEdge() const override { return r_.meanEdge_; }
   [[noreturn]] void fail(const std::string& message) const override {
     const SceneLocation& where = current->location;
-    throw Error(where.where(r_.scene_.file.string()) + ": " + where.pointer +
+    throw Error(where.where(r_.scene_.file.string()) + ": " + (where.pointer.empty() ? "/" : where.pointer) +
                 ": at t = " + forcefields::describeNumber(r_.time()) + " " + message);
   }
   void countCut() override { ++r_.cutsDone_; }
@@ -70,6 +70,7 @@ SceneRunner::SceneRunner(const Scene& scene) : scene_(scene), context_(std::make
   }
   sim_->setIntegrator(makeIntegrator(scene_));
   numSteps_ = scene_.numSteps();
+  timeStep_ = scene_.timeStep;
 }
 
 SceneRunner::~SceneRunner() = default;
@@ -87,7 +88,28 @@ std::unique_ptr<Integrator> SceneRunner::makeIntegrator(const Scene& scene) {
 }
 
 double SceneRunner::time() const {
-  return double(step_) * scene_.timeStep;
+  return timeBase_ + double(step_ - stepBase_) * timeStep_;
+}
+
+void SceneRunner::setTimeStep(double dt) {
+  forcefields::requireFinitePositive("timeStep", dt);
+  timeBase_ = time();
+  stepBase_ = step_;
+  timeStep_ = dt;
+}
+
+void SceneRunner::schedule(ActionSpec action) {
+  const double start = action.startTime();
+  auto at = std::upper_bound(scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), start,
+                             [](double t, const ActionSpec& a) { return t < a.startTime(); });
+  scheduled_.insert(at, std::move(action));
+  if (started_) runDueActions(time());
+}
+
+void SceneRunner::applyConstraint(const ConstraintSpec& constraint) {
+  const auto* entry = ConstraintRegistry::instance().find(constraint.type);
+  if (!entry) throw InvalidInput(constraint.location.where(scene_.file.string()), "unknown constraint type \"" + constraint.type + "\"");
+  entry->build(constraint.parameters)->apply(*sim_);
 }
 
 const forcefields::FastTriangularBendingSprings* SceneRunner::bendingField() const {
@@ -106,7 +128,12 @@ void SceneRunner::start() {
 StepStats SceneRunner::advance() {
   if (!started_) start();
   if (finished()) return lastStats_;
-  lastStats_ = sim_->step(scene_.timeStep);
+  return stepOnce();
+}
+
+StepStats SceneRunner::stepOnce() {
+  if (!started_) start();
+  lastStats_ = sim_->step(timeStep_);
   ++step_;
   for (Running& r : running_) {
     context_->current = r.spec;
@@ -117,12 +144,27 @@ StepStats SceneRunner::advance() {
 }
 
 void SceneRunner::runDueActions(double t) {
-  const double eps = 1e-9 * scene_.timeStep;
-  while (nextAction_ < scene_.timeline.size() && scene_.timeline[nextAction_].startTime() <= t + eps) {
-    const ActionSpec& spec = scene_.timeline[nextAction_++];
+  const double eps = 1e-9 * timeStep_;
+  // The scene's timeline and the actions given while running, merged by start time (the scene's
+  // first at equal times).
+  while (true) {
+    const bool sceneDue =
+        nextAction_ < scene_.timeline.size() && scene_.timeline[nextAction_].startTime() <= t + eps;
+    const bool scheduledDue =
+        nextScheduled_ < scheduled_.size() && scheduled_[nextScheduled_].startTime() <= t + eps;
+    if (!sceneDue && !scheduledDue) return;
+    const bool fromScene =
+        sceneDue && (!scheduledDue || scene_.timeline[nextAction_].startTime() <=
+                                          scheduled_[nextScheduled_].startTime());
+    const ActionSpec& spec = fromScene ? scene_.timeline[nextAction_++] : scheduled_[nextScheduled_++];
     running_.push_back({&spec, spec.build()});
     context_->current = &spec;
-    running_.back().action->start(*context_);
+    try {
+      running_.back().action->start(*context_);
+    } catch (...) {
+      running_.pop_back();  // an action that could not start does not go on
+      throw;
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 // integrators and linear solvers read through their registries) and loadScene. The format is
 // described in docs/scenes.md.
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -21,7 +22,8 @@ using namespace detail;
 using topology::geometry::dist2;
 
 std::string SceneLocation::where(const std::string& file) const {
-  return line ? file + ":" + std::to_string(line) : file;
+  const std::string& f = source.empty() ? file : source;
+  return line ? f + ":" + std::to_string(line) : f;
 }
 
 namespace detail {
@@ -630,6 +632,26 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   dryRun(r, s, meshData);
   if (s.contact) checkContactAtStart(r, s, meshData);
   return s;
+}
+
+ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName, double now) {
+  const JsonDocument doc = parseJsonWithLines(text, sourceName);
+  const Reader r(sourceName, doc.lines);
+  ActionSpec a = parseAction(r, doc.root, "", std::numeric_limits<double>::infinity());
+  const double eps = 1e-9 * std::max(1.0, std::abs(now));
+  if (a.startTime() < now - eps)
+    r.fail(a.timing.interval ? "/from" : "/at",
+           "time " + Reader::text(a.startTime()) + " is before the current time " + Reader::text(now));
+  a.location.source = sourceName;
+  return a;
+}
+
+ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& sourceName) {
+  const JsonDocument doc = parseJsonWithLines(text, sourceName);
+  const Reader r(sourceName, doc.lines);
+  ConstraintSpec c = parseConstraint(r, doc.root, "");
+  c.location.source = sourceName;
+  return c;
 }
 
 Scene loadScene(const std::filesystem::path& file) {

@@ -21,6 +21,7 @@ class PointSet : public topology::TopologyObserver {
  public:
   PointSet(topology::Topology& topology, std::string name);
   void add(PointId p, const Vec3& data = {0, 0, 0});
+  void remove(PointId p);  ///< no effect if p is not a member
   void clear();
   bool contains(PointId p) const { return p < flags_.numSlots() && flags_[p]; }
   const Vec3& data(PointId p) const { return data_[p]; }
@@ -67,6 +68,9 @@ class Grasp {
   void setReaction(const Vec3& r) { reaction_ = r; }
   double startTime() const { return start_; }
   const DisplacementPath& path() const { return path_; }
+  /// From time `now` on, the path moves the points by `delta` more over `duration` (>= 0; 0: at
+  /// once), then holds them; the path's keys after `now` are dropped.
+  void moveBy(double now, const Vec3& delta, double duration);
 
  private:
   PointSet points_;

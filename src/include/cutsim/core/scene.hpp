@@ -9,6 +9,7 @@
 // registries.hpp). SceneRunner builds the core::Simulation from a validated scene (nothing the
 // scene does not ask for) and plays it.
 #include <any>
+#include <deque>
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -30,6 +31,9 @@ namespace cutsim::core {
 struct SceneLocation {
   std::string pointer;  ///< JSON pointer, "/timeline/2"
   std::size_t line = 0;
+  /// The text the value came from when it is not the scene's file (an action given while the
+  /// simulation runs); "" for the scene's file.
+  std::string source;
   /// "FILE:LINE" (or "FILE" when the line is unknown).
   std::string where(const std::string& file) const;
 };
@@ -130,6 +134,14 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
 /// Reads and parses the file (a missing or unreadable file: InvalidInput "PATH: ...").
 Scene loadScene(const std::filesystem::path& file);
 
+/// One timeline entry given while a simulation runs (the "action" key and the action's keys, with
+/// "at", or "from" and "to", not before `now`): read through the action registry with the checks
+/// of a scene's timeline, InvalidInput "SOURCE:LINE: /pointer: message". No dry run: the action
+/// meets the running surface when it starts, and fails there if it must.
+ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName, double now);
+/// One entry of a scene's "constraints" list, given while a simulation runs.
+ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& sourceName);
+
 /// Builds the simulation a scene describes and plays its timeline.
 class SceneRunner {
  public:
@@ -144,15 +156,26 @@ class SceneRunner {
 
   long numSteps() const { return numSteps_; }
   long currentStep() const { return step_; }
-  /// Time of the current step: currentStep() * timeStep (not accumulated).
+  /// Time of the current step: currentStep() * timeStep (not accumulated) while the time step is
+  /// the scene's; after setTimeStep, the sum from there.
   double time() const;
   bool finished() const { return step_ >= numSteps_; }
 
   /// Runs the actions due at time 0. Called once, before the first advance().
   void start();
   /// One step: the simulation step, then the actions that go on (progressive cuts, tearing) in
-  /// timeline order, then the actions due at the new time.
+  /// timeline order, then the actions due at the new time. Nothing once finished().
   StepStats advance();
+  /// The same step, also past the scene's duration (scripts that run on).
+  StepStats stepOnce();
+  /// Adds an action (parseActionEntry) to the timeline: it starts at once if it is due now (as
+  /// the scene's actions due now have), else when its time comes. Its failures name its source.
+  void schedule(ActionSpec action);
+  /// Applies a constraint (parseConstraintEntry) now.
+  void applyConstraint(const ConstraintSpec& constraint);
+  /// Changes the time step of the following steps (finite, > 0).
+  void setTimeStep(double dt);
+  double timeStep() const { return timeStep_; }
   const StepStats& lastStats() const { return lastStats_; }
 
   /// The first FastTriangularBendingSprings field, or null.
@@ -180,6 +203,11 @@ class SceneRunner {
   bool started_ = false;
   StepStats lastStats_;
   std::vector<Running> running_;  // started actions, in timeline order
+  std::deque<ActionSpec> scheduled_;  // actions given while running (stable addresses)
+  std::size_t nextScheduled_ = 0;    // scheduled_ is kept sorted from here on by start time
+  double timeStep_ = 0.0;
+  long stepBase_ = 0;       // the step and the time at the last change of time step
+  double timeBase_ = 0.0;
   double meanEdge_ = 0.0;
   long tornEdges_ = 0, cutsDone_ = 0;
 };

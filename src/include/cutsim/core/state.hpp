@@ -4,6 +4,7 @@
 // follow the topology's point events by themselves: new points interpolate x, v and rest from
 // their ancestors; destroyed points are zeroed; compaction renumbers. The state itself only
 // places a free point (addPoints: no ancestors) at its rest position.
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -24,6 +25,11 @@ class MechanicalState : public topology::TopologyObserver {
   std::span<const double> v() const { return v_.values(); }
   std::span<const double> rest() const { return rest_.values(); }
   std::size_t numSlots() const { return x_.numSlots(); }
+  /// Shared ownership of the buffers x(), v() and rest() point into now: they stay readable after
+  /// a topology change has moved the state to new buffers (topology::SlotData::buffer).
+  std::shared_ptr<const void> xBuffer() const { return x_.buffer(); }
+  std::shared_ptr<const void> vBuffer() const { return v_.buffer(); }
+  std::shared_ptr<const void> restBuffer() const { return rest_.buffer(); }
 
   void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
   std::string observerName() const override { return "MechanicalState"; }

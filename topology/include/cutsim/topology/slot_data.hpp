@@ -14,8 +14,15 @@
 // An owner that subscribes AFTER constructing its SlotData members sees every event after them:
 // its created handlers find the slots grown (and interpolated), its destroyed handlers still find
 // the old values. No owner writes a resize or a renumbering loop of its own.
+//
+// The values live in a shared buffer that is never reallocated in place: growing past its
+// capacity, or a renumbering, moves the values to a new buffer. buffer() hands out shared
+// ownership of the current one, so that a view of the values held elsewhere (a numpy array in
+// the Python module) stays readable memory after the table has moved on (it then shows the values
+// as they were when the table left it).
 #include <algorithm>
 #include <cstddef>
+#include <memory>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -44,29 +51,32 @@ class SlotData final : public TopologyObserver {
     if (policy_ == NewSlots::Interpolate && !std::is_arithmetic_v<T>)
       throw std::logic_error(name_ + ": only numbers can be interpolated");
     const std::size_t slots = capacity(topology);
-    values_.reserve(Width * (slots * 5 / 4 + 16));
-    values_.assign(Width * slots, default_);
+    values_ = std::make_shared<std::vector<T>>();
+    values_->reserve(Width * (slots * 5 / 4 + 16));
+    values_->assign(Width * slots, default_);
     subscription_ = topology.subscribe(*this);
   }
   SlotData(const SlotData&) = delete;
   SlotData& operator=(const SlotData&) = delete;
 
-  std::size_t numSlots() const { return values_.size() / Width; }
+  std::size_t numSlots() const { return values_->size() / Width; }
   /// Every value, Width per slot, dead slots included (at the default).
-  std::span<T> values() { return values_; }
-  std::span<const T> values() const { return values_; }
+  std::span<T> values() { return *values_; }
+  std::span<const T> values() const { return *values_; }
+  /// Shared ownership of the buffer that values() points into now (see the top of this file).
+  std::shared_ptr<const void> buffer() const { return values_; }
   /// The Width values of slot id.
   std::span<T, Width> at(IdT id) {
-    return std::span<T, Width>(values_.data() + Width * id.index(), Width);
+    return std::span<T, Width>(values_->data() + Width * id.index(), Width);
   }
   std::span<const T, Width> at(IdT id) const {
-    return std::span<const T, Width>(values_.data() + Width * id.index(), Width);
+    return std::span<const T, Width>(values_->data() + Width * id.index(), Width);
   }
-  T& operator[](IdT id) requires(Width == 1) { return values_[id.index()]; }
-  const T& operator[](IdT id) const requires(Width == 1) { return values_[id.index()]; }
+  T& operator[](IdT id) requires(Width == 1) { return (*values_)[id.index()]; }
+  const T& operator[](IdT id) const requires(Width == 1) { return (*values_)[id.index()]; }
   const T& defaultValue() const { return default_; }
   /// Sets every slot to the default value.
-  void reset() { std::fill(values_.begin(), values_.end(), default_); }
+  void reset() { std::fill(values_->begin(), values_->end(), default_); }
 
   // ---- the events ----
   void onPointsCreated(const Topology& t, const PointsCreated& e) override {
@@ -79,8 +89,8 @@ class SlotData final : public TopologyObserver {
           T sum[Width]{};
           for (auto k = e.offsets[i]; k < e.offsets[i + 1]; ++k)
             for (std::size_t c = 0; c < Width; ++c)
-              sum[c] += e.weights[k] * values_[Width * e.ancestors[k].index() + c];
-          for (std::size_t c = 0; c < Width; ++c) values_[Width * e.points[i].index() + c] = sum[c];
+              sum[c] += e.weights[k] * (*values_)[Width * e.ancestors[k].index() + c];
+          for (std::size_t c = 0; c < Width; ++c) (*values_)[Width * e.points[i].index() + c] = sum[c];
         }
       }
     }
@@ -102,8 +112,8 @@ class SlotData final : public TopologyObserver {
   }
   void onTransactionEnd(const Topology&, const TransactionSummary&) override {
     for (Index s : destroyed_)
-      if (Width * std::size_t(s) < values_.size())
-        std::fill_n(values_.begin() + std::ptrdiff_t(Width * s), Width, default_);
+      if (Width * std::size_t(s) < values_->size())
+        std::fill_n(values_->begin() + std::ptrdiff_t(Width * s), Width, default_);
     destroyed_.clear();
   }
   void onPointsRenumbered(const Topology&, const Renumbering& r) override {
@@ -126,7 +136,7 @@ class SlotData final : public TopologyObserver {
     for (std::size_t s = 0; s < numSlots(); ++s) {
       if (alive(t, s)) continue;
       for (std::size_t c = 0; c < Width; ++c)
-        if (!(values_[Width * s + c] == default_)) {
+        if (!((*values_)[Width * s + c] == default_)) {
           problems.push_back("dead slot " + std::to_string(s) + " does not hold the default value");
           break;
         }
@@ -152,7 +162,15 @@ class SlotData final : public TopologyObserver {
   }
   void grow(const Topology& t) {
     const std::size_t slots = capacity(t);
-    if (slots > numSlots()) values_.resize(Width * slots, default_);
+    if (slots <= numSlots()) return;
+    const std::size_t size = Width * slots;
+    if (size > values_->capacity()) {  // a new buffer, never a reallocation in place
+      auto next = std::make_shared<std::vector<T>>();
+      next->reserve(size + size / 4 + Width * 16);
+      next->assign(values_->begin(), values_->end());
+      values_ = std::move(next);
+    }
+    values_->resize(size, default_);
   }
   void remember(std::span<const IdT> ids) {
     for (IdT id : ids) destroyed_.push_back(id.index());
@@ -162,16 +180,16 @@ class SlotData final : public TopologyObserver {
     for (std::size_t o = 0; o < r.oldToNew.size() && o < numSlots(); ++o) {
       const Index n = r.oldToNew[o];
       if (n == kInvalidIndex) continue;
-      std::copy_n(values_.begin() + std::ptrdiff_t(Width * o), Width,
+      std::copy_n(values_->begin() + std::ptrdiff_t(Width * o), Width,
                   next.begin() + std::ptrdiff_t(Width * n));
     }
-    values_.swap(next);
+    values_ = std::make_shared<std::vector<T>>(std::move(next));
   }
 
   std::string name_;
   T default_;
   NewSlots policy_;
-  std::vector<T> values_;
+  std::shared_ptr<std::vector<T>> values_;
   std::vector<Index> destroyed_;
   Subscription subscription_;
 };

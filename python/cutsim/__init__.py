@@ -1,0 +1,187 @@
+"""cutsim: thin deformable surfaces (cloth, skin, membranes) cut, torn and carved while they run.
+
+A scene is loaded from a JSON file or built from Python dicts (the same keys, registry and checks
+as scene files: docs/scenes.md); the simulation is stepped from Python with the GIL released,
+its state read through zero-copy numpy views, and changed between steps by topology operations,
+grasps, constraints and parameters. The API and examples: docs/python.md.
+
+    import cutsim
+    sim = cutsim.load("data/scenes/hanging_cut.json")
+    sim.step(10)
+    x = sim.x                      # (slots, 3) read-only view of the positions, shared memory
+    sim.cut([[0.3, 0.5, 0], [0.7, 0.5, 0]])
+"""
+import json
+import os
+
+import numpy as np
+
+from . import _cutsim
+from ._cutsim import (  # noqa: F401  (the public names of the compiled part)
+    Editor,
+    Error,
+    InvalidInputError,
+    SolverError,
+    SolverWarning,
+    StaleViewError,
+    StateView,
+    TopologyError,
+    TopologyEvent,
+    UsageError,
+    __version__,
+)
+
+__all__ = [
+    "Controller", "Editor", "Error", "InvalidInputError", "Simulation", "SolverError",
+    "SolverWarning", "StaleViewError", "StateView", "TopologyError", "TopologyEvent",
+    "UsageError", "load", "__version__",
+]
+
+
+def _json(obj, what):
+    """JSON text of a dict, one value per line (so that messages' line numbers mean something)."""
+    def default(o):
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, os.PathLike):
+            return os.fspath(o)
+        raise TypeError(f"{what}: {type(o).__name__} is not a JSON value")
+    return json.dumps(obj, indent=1, default=default)
+
+
+class Controller:
+    """A controller called at each step, as SofaPython3's Sofa.Core.Controller.
+
+    Override on_step_begin(sim) and/or on_step_end(sim); add it with sim.add_controller(c).
+    Controllers may change the simulation (cut, grasp, move, release, parameters); they run with
+    the GIL held, between the steps, which run with the GIL released.
+    """
+
+    def on_step_begin(self, sim):
+        pass
+
+    def on_step_end(self, sim):
+        pass
+
+
+class Simulation(_cutsim._Simulation):
+    """A running scene.
+
+    Simulation(path) loads a scene file; Simulation(dict, base_dir=...) builds one from a dict
+    with the keys of a scene file (relative mesh paths resolved against base_dir, by default the
+    current folder). Bad scenes raise InvalidInputError("SOURCE:LINE: /json/pointer: message").
+    """
+
+    def __init__(self, scene, *, base_dir=None, source="<scene dict>"):
+        if isinstance(scene, dict):
+            base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
+            super().__init__(_json(scene, "scene"), source, base)
+        elif isinstance(scene, (str, os.PathLike)):
+            if base_dir is not None:
+                raise TypeError("base_dir is for scenes given as dicts (a file's paths are relative to it)")
+            super().__init__(os.fspath(scene), "", "")
+        else:
+            raise TypeError(f"Simulation: expected a scene file path or a dict, got {type(scene).__name__}")
+
+    @classmethod
+    def from_dict(cls, scene, base_dir=None):
+        """The scene of a dict (the keys of a scene file)."""
+        return cls(scene, base_dir=base_dir)
+
+    # ---- topology operations ----
+    def cut(self, polyline, snap_tolerance=0.1, min_angle=20.0):
+        """Cuts along a polyline in rest coordinates, then repairs the triangles around the cut
+        (smallest-angle target min_angle degrees; 0: no repair). Returns the incision: path,
+        copies, copied_from, inserted (point slots) and the repair's figures. A cut the topology
+        refuses raises TopologyError and changes nothing."""
+        return self._cut(np.asarray(polyline, dtype=float), float(snap_tolerance), float(min_angle))
+
+    def tear(self, edge=None, *, points=None, min_angle=20.0):
+        """Tears one interior edge open (by its id, or by its two end points), then repairs."""
+        if (edge is None) == (points is None):
+            raise TypeError("tear: give either an edge id or points=(a, b)")
+        if points is not None:
+            a, b = (int(p) for p in points)
+            edge = self.find_edge(a, b)
+            if edge < 0:
+                raise TopologyError(f"tear: points {a} and {b} share no edge")
+        return self._tear(int(edge), float(min_angle))
+
+    def remove(self, *, sphere=None, box=None, boundary="cut", min_angle=20.0):
+        """Removes the surface inside a region of rest space: sphere=(center, radius) or
+        box=(min, max); boundary "cut" cuts along the region's boundary, "triangles" removes whole
+        triangles (the timeline's "remove" action)."""
+        entry = {"action": "remove", "boundary": boundary, "minAngle": min_angle}
+        if sphere is not None:
+            center, radius = sphere
+            entry["sphere"] = {"center": list(map(float, center)), "radius": float(radius)}
+        if box is not None:
+            entry["box"] = [list(map(float, box[0])), list(map(float, box[1]))]
+        self.act(entry)
+
+    def grasp(self, name, *, points=None, box=None, near=None, path=None):
+        """Grasps points (ids, a rest-space box, or the nearest point to each position) from now
+        on; path: [[t, dx, dy, dz], ...] relative to now (default: hold them where they are)."""
+        entry = {"action": "grasp", "name": name, "path": path if path is not None else [[0, 0, 0, 0]]}
+        entry.update(_selection(points, box, near))
+        self.act(entry)
+
+    def fix(self, *, points=None, box=None, near=None):
+        """Fixes points (ids, a rest-space box, or the nearest point to each position) from now on."""
+        entry = {"type": "fixed"}
+        entry.update(_selection(points, box, near))
+        self._constrain(_json(entry, "fix"), "<fix>")
+
+    def act(self, entry):
+        """Adds a timeline action (a dict with the keys of a scene's timeline entry: "action" and
+        the action's keys). Without "at" (or "from" and "to") it starts now."""
+        if not isinstance(entry, dict):
+            raise TypeError("act: expected a dict (a timeline entry)")
+        entry = dict(entry)
+        if "at" not in entry and "from" not in entry and "to" not in entry:
+            entry["at"] = self.time
+        self._act(_json(entry, "act"), f"<action {entry.get('action', '?')}>")
+
+    # ---- evaluations ----
+    def eval(self, field, x=None, v=None):
+        """(energy, forces) of one force field (by label) at positions x and velocities v
+        ((slots, 3) arrays; default: the current positions and zero velocities)."""
+        return self._eval(field, x, v)
+
+    def eval_bending(self, x=None):
+        """(energy, forces) of the scene's first FastTriangularBendingSprings field at x."""
+        for label in self.field_labels:
+            if label.startswith("FastTriangularBendingSprings"):
+                return self._eval(label, x, None)
+        raise InvalidInputError("eval_bending: the scene has no FastTriangularBendingSprings field")
+
+    def surface(self):
+        """(points, triangles, slots): the live surface densely numbered (copies), as the frames
+        write it: points[i] is the position of slot slots[i]; triangles index points."""
+        alive = self.alive
+        slots = np.flatnonzero(alive)
+        dense = np.full(alive.shape[0], -1, dtype=np.int64)
+        dense[slots] = np.arange(slots.size)
+        return np.array(self.x[slots]), dense[self.triangles()], slots
+
+    def __repr__(self):
+        return (f"<cutsim.Simulation '{self.name}' t={self.time:g} step {self.step_count}: "
+                f"{self.num_points} points, {self.num_triangles} triangles>")
+
+
+def _selection(points, box, near):
+    given = [k for k, v in (("points", points), ("box", box), ("near", near)) if v is not None]
+    if len(given) != 1:
+        raise TypeError("give exactly one of points=, box=, near=")
+    if points is not None:
+        return {"points": [int(p) for p in np.ravel(points)]}
+    if box is not None:
+        return {"box": [list(map(float, box[0])), list(map(float, box[1]))]}
+    return {"near": np.asarray(near, dtype=float).reshape(-1, 3).tolist()}
+
+
+def load(path):
+    """The Simulation of a scene file (JSON)."""
+    return Simulation(path)

@@ -1,0 +1,913 @@
+// The compiled part of the Python module `cutsim` (cutsim/_cutsim): a running scene (SceneRunner)
+// with zero-copy numpy views of its state, topology operations, topology-event and step
+// callbacks, outputs, and the project's errors as Python exceptions. The pure-Python part
+// (python/cutsim/__init__.py) adds the dict-based entry points and the documentation; the API is
+// described in docs/python.md.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cutsim/core/output.hpp"
+#include "cutsim/core/scene.hpp"
+#include "cutsim/core/timeline.hpp"
+#include "cutsim/core/version.hpp"
+#include "cutsim/forcefields/contact.hpp"
+#include "cutsim/topology/errors.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace cutsim::python {
+namespace {
+
+using core::PointId;
+using topology::Index;
+
+// ---------------------------------------------------------------------------------------------
+// Errors
+
+PyObject* gError = nullptr;         // cutsim.Error(Exception)
+PyObject* gInvalidInput = nullptr;  // cutsim.InvalidInputError(Error, ValueError)
+PyObject* gTopologyError = nullptr; // cutsim.TopologyError(Error, ValueError)
+PyObject* gSolverError = nullptr;   // cutsim.SolverError(Error, RuntimeError)
+PyObject* gStaleView = nullptr;     // cutsim.StaleViewError(Error, RuntimeError)
+PyObject* gUsageError = nullptr;    // cutsim.UsageError(Error, RuntimeError)
+PyObject* gSolverWarning = nullptr; // cutsim.SolverWarning(UserWarning)
+
+/// A view used after the layout it was made for went away.
+struct StaleView : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+/// A call the simulation cannot take now (re-entrant stepping, a change from an event callback).
+struct Usage : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+PyObject* makeException(py::module_& m, const char* name, const char* doc, py::tuple bases) {
+  const std::string full = std::string("cutsim.") + name;
+  PyObject* type = PyErr_NewExceptionWithDoc(full.c_str(), doc, bases.ptr(), nullptr);
+  if (!type) throw py::error_already_set();
+  m.add_object(name, py::handle(type));
+  return type;
+}
+
+// ---------------------------------------------------------------------------------------------
+// numpy helpers
+
+/// A (rows x cols) array over `data`, kept alive by `owner` (shared ownership of the buffer).
+py::array_t<double> viewOf(double* data, std::size_t rows, std::size_t cols,
+                           std::shared_ptr<const void> owner, bool writable) {
+  auto* holder = new std::shared_ptr<const void>(std::move(owner));
+  py::capsule base(holder, [](void* p) { delete static_cast<std::shared_ptr<const void>*>(p); });
+  py::array_t<double> a({rows, cols}, {cols * sizeof(double), sizeof(double)}, data, base);
+  if (!writable) a.attr("setflags")("write"_a = false);
+  return a;
+}
+
+template <class T, std::size_t W>
+py::array_t<std::int64_t> indexArray(const std::vector<std::array<T, W>>& rows) {
+  py::array_t<std::int64_t> a({rows.size(), W});
+  auto r = a.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    for (std::size_t c = 0; c < W; ++c) r(py::ssize_t(i), py::ssize_t(c)) = std::int64_t(rows[i][c]);
+  return a;
+}
+
+/// Index ids as int64 (kInvalidIndex as -1).
+template <class Id>
+py::array_t<std::int64_t> idArray(std::span<const Id> ids) {
+  py::array_t<std::int64_t> a(py::ssize_t(ids.size()));
+  auto r = a.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    r(py::ssize_t(i)) = Index(ids[i]) == topology::kInvalidIndex ? -1 : std::int64_t(Index(ids[i]));
+  return a;
+}
+template <class Id>
+py::array_t<std::int64_t> idArray(const std::vector<Id>& ids) {
+  return idArray(std::span<const Id>(ids));
+}
+
+template <class Row>
+py::array_t<std::int64_t> rowArray(std::span<const Row> rows) {
+  constexpr std::size_t W = std::tuple_size_v<Row>;
+  py::array_t<std::int64_t> a({rows.size(), W});
+  auto r = a.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    for (std::size_t c = 0; c < W; ++c) {
+      const Index v = Index(rows[i][c]);
+      r(py::ssize_t(i), py::ssize_t(c)) = v == topology::kInvalidIndex ? -1 : std::int64_t(v);
+    }
+  return a;
+}
+
+/// Reads an (n, 3) float array (any float layout) into a flat vector; n must be `rows`.
+std::vector<double> readPoints(const py::handle& obj, std::size_t rows, const char* what) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a || a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != rows)
+    throw py::value_error(std::string(what) + ": expected an array of shape (" + std::to_string(rows) +
+                          ", 3), one row per point slot");
+  std::vector<double> out(a.data(), a.data() + a.size());
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (!std::isfinite(out[i]))
+      throw py::value_error(std::string(what) + ": non-finite value at point slot " + std::to_string(i / 3));
+  return out;
+}
+
+std::vector<core::Vec3> readVec3List(const py::handle& obj, const char* what) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a || a.ndim() != 2 || a.shape(1) != 3)
+    throw py::value_error(std::string(what) + ": expected a list of [x, y, z] points");
+  std::vector<core::Vec3> out(std::size_t(a.shape(0)));
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (std::size_t c = 0; c < 3; ++c) {
+      out[i][c] = a.at(py::ssize_t(i), py::ssize_t(c));
+      if (!std::isfinite(out[i][c]))
+        throw py::value_error(std::string(what) + "[" + std::to_string(i) + "]: non-finite coordinate");
+    }
+  return out;
+}
+
+core::Vec3 readVec3(const py::handle& obj, const char* what) {
+  auto list = readVec3List(py::array_t<double>::ensure(py::reinterpret_borrow<py::object>(obj))
+                               .attr("reshape")(1, 3),
+                           what);
+  return list.front();
+}
+
+py::dict statsDict(const core::StepStats& s) {
+  return py::dict("iterations"_a = s.iterations, "residual"_a = s.residual,
+                  "worst_residual"_a = s.worstResidual, "solves"_a = s.solves,
+                  "newton_iterations"_a = s.newtonIterations, "newton_residual"_a = s.newtonResidual,
+                  "analysed"_a = s.analysed, "clamped"_a = s.clamped, "splits"_a = s.splits,
+                  "substeps"_a = s.substeps, "flags"_a = s.flagText());
+}
+
+py::dict incisionDict(const topology::IncisionResult& r) {
+  return py::dict("path"_a = idArray(r.path), "copies"_a = idArray(r.copies),
+                  "copied_from"_a = idArray(r.copiedFrom), "inserted"_a = idArray(r.insertedPoints),
+                  "flips"_a = r.repair.flips, "collapses"_a = r.repair.collapses,
+                  "relocations"_a = r.repair.relocations, "min_angle_before"_a = r.repair.minAngleBefore,
+                  "min_angle_after"_a = r.repair.minAngleAfter);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Topology events as Python objects
+
+struct Event {
+  std::string kind;  // "points_created", ...
+  py::object ids = py::none(), vertices = py::none(), edges = py::none();
+  py::object offsets = py::none(), ancestors = py::none(), weights = py::none();
+  py::object oldToNew = py::none();
+  long newSize = 0;
+  std::string operation;
+  py::object summary = py::none();
+};
+
+class Simulation;
+
+/// Forwards every topology event to the Python callbacks (with the GIL), and stamps the layout.
+class EventBridge final : public topology::TopologyObserver {
+ public:
+  explicit EventBridge(Simulation& s) : sim_(s) {}
+  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed& e) override {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{"triangles_destroyed"};
+      ev.ids = idArray(e.triangles);
+      ev.vertices = rowArray(e.vertices);
+      ev.edges = rowArray(e.edges);
+      return ev;
+    });
+  }
+  void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed& e) override {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{"edges_destroyed"};
+      ev.ids = idArray(e.edges);
+      ev.vertices = rowArray(e.vertices);
+      return ev;
+    });
+  }
+  void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed& e) override {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{"points_destroyed"};
+      ev.ids = idArray(e.points);
+      return ev;
+    });
+  }
+  void onPointsCreated(const topology::Topology&, const topology::PointsCreated& e) override {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{"points_created"};
+      ev.ids = idArray(e.points);
+      py::array_t<std::int64_t> off(py::ssize_t(e.offsets.size()));
+      for (std::size_t i = 0; i < e.offsets.size(); ++i) off.mutable_at(py::ssize_t(i)) = e.offsets[i];
+      ev.offsets = off;
+      ev.ancestors = idArray(e.ancestors);
+      ev.weights = py::array_t<double>(py::ssize_t(e.weights.size()), e.weights.data());
+      return ev;
+    });
+  }
+  void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated& e) override {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{"edges_created"};
+      ev.ids = idArray(e.edges);
+      ev.vertices = rowArray(e.vertices);
+      return ev;
+    });
+  }
+  void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated& e) override {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{"triangles_created"};
+      ev.ids = idArray(e.triangles);
+      ev.vertices = rowArray(e.vertices);
+      ev.edges = rowArray(e.edges);
+      return ev;
+    });
+  }
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
+    renumbered("points_renumbered", r);
+  }
+  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
+    renumbered("edges_renumbered", r);
+  }
+  void onTrianglesRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
+    renumbered("triangles_renumbered", r);
+  }
+  void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary& s) override;
+  std::string observerName() const override { return "Python event callbacks"; }
+
+  bool wanted() const;
+
+ private:
+  void renumbered(const char* kind, const topology::Renumbering& r) {
+    if (!wanted()) return;
+    emit([&] {
+      Event ev{kind};
+      py::array_t<std::int64_t> map(py::ssize_t(r.oldToNew.size()));
+      for (std::size_t i = 0; i < r.oldToNew.size(); ++i)
+        map.mutable_at(py::ssize_t(i)) = r.oldToNew[i] == topology::kInvalidIndex ? -1 : std::int64_t(r.oldToNew[i]);
+      ev.oldToNew = map;
+      ev.newSize = long(r.newSize);
+      return ev;
+    });
+  }
+  template <class Make>
+  void emit(Make&& make);
+
+  Simulation& sim_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// The simulation
+
+class Simulation {
+ public:
+  explicit Simulation(const core::Scene& scene) : runner_(std::make_unique<core::SceneRunner>(scene)) {
+    bridge_ = std::make_unique<EventBridge>(*this);
+    subscription_ = runner_->simulation().topology().subscribe(*bridge_);
+  }
+  ~Simulation() {
+    subscription_.reset();
+    if (writer_) {
+      try {
+        writer_->finish();
+      } catch (...) {
+      }
+    }
+  }
+
+  core::SceneRunner& runner() { return *runner_; }
+  core::Simulation& sim() { return runner_->simulation(); }
+  const core::Scene& scene() const { return runner_->scene(); }
+
+  // ---- guards ----
+  /// Throws unless the simulation may be changed now.
+  void requireMutable(const char* what) const {
+    if (inEvent_)
+      throw Usage(std::string(what) +
+                  ": a topology event callback may read the simulation but not change it (the event "
+                  "contract: events arrive while the operation is finishing)");
+    if (stepping_) throw Usage(std::string(what) + ": the simulation is stepping (in another thread)");
+    if (editing_) throw Usage(std::string(what) + ": not inside edit(): leave the with-block first");
+  }
+  void requireReadable(const char* what) const {
+    if (stepping_ && !inEvent_) throw Usage(std::string(what) + ": the simulation is stepping (in another thread)");
+  }
+
+  // ---- stepping ----
+  py::object step(long n) {
+    if (n < 0) throw py::value_error("step: n must be >= 0");
+    if (inStepLoop_) throw Usage("step: called from a controller or callback of a step in progress");
+    requireMutable("step");
+    inStepLoop_ = true;
+    struct Reset {
+      bool& b;
+      ~Reset() { b = false; }
+    } reset{inStepLoop_};
+    core::StepStats stats;
+    bool any = false;
+    long flagged = 0;
+    for (long i = 0; i < n; ++i) {
+      callControllers("on_step_begin");
+      {
+        stepping_ = true;
+        std::exception_ptr failure;
+        {
+          py::gil_scoped_release release;
+          try {
+            stats = runner_->stepOnce();
+            if (writer_) writer_->record(sim(), {runner_->currentStep(), runner_->time(), stats}, runner_->finished());
+          } catch (...) {
+            failure = std::current_exception();
+          }
+        }
+        stepping_ = false;
+        raisePendingCallbackError();
+        if (failure) std::rethrow_exception(failure);
+      }
+      any = true;
+      if (stats.flagged()) ++flagged;
+      callControllers("on_step_end");
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    }
+    if (flagged > 0) {
+      std::ostringstream w;
+      w << flagged << " of " << n << " steps were flagged by their solves (last: " << stats.flagText()
+        << ", worst relative residual " << stats.worstResidual << "); see last_stats and solve_summary";
+      if (PyErr_WarnEx(gSolverWarning, w.str().c_str(), 2) != 0) throw py::error_already_set();
+    }
+    return any ? py::object(statsDict(stats)) : py::object(py::none());
+  }
+  py::object runUntil(double t) {
+    if (!std::isfinite(t)) throw py::value_error("run_until: the time must be finite");
+    const double eps = 1e-9 * runner_->timeStep();
+    long n = 0;
+    if (t > runner_->time() + eps) n = long(std::ceil((t - runner_->time()) / runner_->timeStep() - 1e-9));
+    return step(n);
+  }
+  py::object run() { return step(std::max(0L, runner_->numSteps() - runner_->currentStep())); }
+
+  // ---- views ----
+  std::uint64_t layout() const { return runner_->simulation().topology().revision(); }
+  std::size_t slots() { return sim().state().numSlots(); }
+  py::array_t<double> x(bool writable = false) {
+    requireReadable("x");
+    auto& s = sim().state();
+    return viewOf(s.x().data(), s.numSlots(), 3, s.xBuffer(), writable);
+  }
+  py::array_t<double> v(bool writable = false) {
+    requireReadable("v");
+    auto& s = sim().state();
+    return viewOf(s.v().data(), s.numSlots(), 3, s.vBuffer(), writable);
+  }
+  py::array_t<double> rest() {
+    requireReadable("rest");
+    auto& s = sim().state();
+    return viewOf(const_cast<double*>(s.rest().data()), s.numSlots(), 3, s.restBuffer(), false);
+  }
+  py::array_t<bool> alive() {
+    requireReadable("alive");
+    const auto& topo = sim().topology();
+    py::array_t<bool> a(py::ssize_t(slots()));
+    for (std::size_t p = 0; p < slots(); ++p) a.mutable_at(py::ssize_t(p)) = topo.isPointAlive(PointId(p));
+    return a;
+  }
+  py::array_t<std::int64_t> triangles() {
+    requireReadable("triangles");
+    const auto& topo = sim().topology();
+    std::vector<topology::TriangleVertices> rows;
+    for (auto t : topo.triangles()) rows.push_back(topo.triangleVertices(t));
+    return rowArray(std::span<const topology::TriangleVertices>(rows));
+  }
+  py::array_t<std::int64_t> edges() {
+    requireReadable("edges");
+    const auto& topo = sim().topology();
+    std::vector<topology::EdgeVertices> rows;
+    for (auto e : topo.edges()) rows.push_back(topo.edgeVertices(e));
+    return rowArray(std::span<const topology::EdgeVertices>(rows));
+  }
+
+  // ---- topology operations ----
+  py::dict cut(const py::handle& polyline, double snapTolerance, double minAngle) {
+    requireMutable("cut");
+    const auto points = readVec3List(polyline, "cut: polyline");
+    if (points.size() < 2) throw py::value_error("cut: a polyline needs at least two points");
+    if (!(minAngle >= 0 && minAngle < 60)) throw py::value_error("cut: min_angle must be in [0, 60) degrees");
+    topology::CutOptions o;
+    o.snapTolerance = snapTolerance;
+    o.repair = core::repairOptions(sim(), minAngle);
+    const auto result = operate([&] { return sim().topology().cutPolyline(points, o); });
+    return incisionDict(result);
+  }
+  py::dict tear(long edge, double minAngle) {
+    requireMutable("tear");
+    auto& topo = sim().topology();
+    if (edge < 0 || edge >= long(topo.edgeCapacity()) || !topo.isEdgeAlive(topology::EdgeId(Index(edge))))
+      throw TopologyError("tear: edge " + std::to_string(edge) + " does not exist");
+    const auto result = operate([&] {
+      return topo.tear(topology::EdgeId(Index(edge)), core::repairOptions(sim(), minAngle));
+    });
+    return incisionDict(result);
+  }
+  long findEdge(long a, long b) {
+    const auto& topo = sim().topology();
+    if (a < 0 || b < 0 || a >= long(topo.pointCapacity()) || b >= long(topo.pointCapacity())) return -1;
+    const auto e = topo.findEdge(PointId(Index(a)), PointId(Index(b)));
+    return e == topology::kInvalidIndex ? -1 : long(Index(e));
+  }
+  void compact() {
+    requireMutable("compact");
+    operate([&] {
+      sim().topology().compact();
+      return 0;
+    });
+  }
+  void act(const std::string& text, const std::string& source) {
+    requireMutable("act");
+    auto spec = core::parseActionEntry(text, source, runner_->time());
+    operate([&] {
+      runner_->schedule(std::move(spec));
+      return 0;
+    });
+  }
+  void constrain(const std::string& text, const std::string& source) {
+    requireMutable("fix");
+    const auto spec = core::parseConstraintEntry(text, source);
+    runner_->applyConstraint(spec);
+  }
+  void unfix(const std::vector<long>& points) {
+    requireMutable("unfix");
+    for (long p : points) {
+      if (p < 0 || p >= long(slots())) throw py::value_error("unfix: point " + std::to_string(p) + " does not exist");
+      sim().fixed().remove(PointId(Index(p)));
+    }
+  }
+  void move(const std::string& name, const py::handle& delta, double duration) {
+    requireMutable("move");
+    core::Grasp* g = sim().findGrasp(name);
+    if (!g) throw InvalidInput("move", "no grasp named \"" + name + "\" is active");
+    g->moveBy(runner_->time(), readVec3(delta, "move: delta"), duration);
+  }
+  void release(const std::string& name) {
+    requireMutable("release");
+    if (!sim().findGrasp(name)) throw InvalidInput("release", "no grasp named \"" + name + "\" is active");
+    sim().releaseGrasp(name);
+  }
+
+  // ---- queries ----
+  py::dict energies() {
+    requireReadable("energies");
+    py::dict d;
+    d["kinetic"] = sim().kineticEnergy();
+    d["gravity"] = sim().gravityEnergy();
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i) d[py::str(sim().forceFieldLabel(i))] = sim().potentialEnergy(i);
+    return d;
+  }
+  py::array_t<double> forces() {
+    requireReadable("forces");
+    const auto f = sim().totalForce();
+    py::array_t<double> a({f.size() / 3, std::size_t(3)});
+    std::copy(f.begin(), f.end(), a.mutable_data());
+    return a;
+  }
+  std::size_t fieldIndex(const std::string& label) {
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i)
+      if (sim().forceFieldLabel(i) == label) return i;
+    std::string known;
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i) known += (i ? ", " : "") + sim().forceFieldLabel(i);
+    throw InvalidInput("field", "no force field labelled \"" + label + "\" (the scene has: " + known + ")");
+  }
+  py::tuple fieldEval(const std::string& label, const py::object& xObj, const py::object& vObj) {
+    requireReadable("eval");
+    const std::size_t i = fieldIndex(label);
+    const std::size_t n = slots();
+    std::vector<double> x = xObj.is_none() ? std::vector<double>(sim().state().x().begin(), sim().state().x().end())
+                                           : readPoints(xObj, n, "eval: x");
+    std::vector<double> v = vObj.is_none() ? std::vector<double>(3 * n, 0.0) : readPoints(vObj, n, "eval: v");
+    // Dead slots are not part of the surface: their entries are ignored, as the state's are.
+    const auto& field = sim().forceField(i);
+    py::array_t<double> f({n, std::size_t(3)});
+    std::fill(f.mutable_data(), f.mutable_data() + 3 * n, 0.0);
+    double energy = 0;
+    {
+      py::gil_scoped_release release;
+      field.addForce(x, v, std::span<double>(f.mutable_data(), 3 * n));
+      energy = field.potentialEnergy(x);
+    }
+    return py::make_tuple(energy, f);
+  }
+  std::vector<std::string> fieldLabels() {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i) out.push_back(sim().forceFieldLabel(i));
+    return out;
+  }
+  py::dict graspForces() {
+    py::dict d;
+    for (std::size_t i = 0; i < sim().numGrasps(); ++i) {
+      const auto& g = sim().grasp(i);
+      const auto& r = g.reaction();
+      d[py::str(g.name())] = py::array_t<double>(3, r.data());
+    }
+    return d;
+  }
+  py::array_t<std::int64_t> graspPoints(const std::string& name) {
+    core::Grasp* g = sim().findGrasp(name);
+    if (!g) throw InvalidInput("grasp_points", "no grasp named \"" + name + "\" is active");
+    return idArray(g->points().points());
+  }
+  py::array_t<std::int64_t> fixedPoints() { return idArray(sim().fixed().points()); }
+  py::dict summary() {
+    const auto& s = sim().solveSummary();
+    return py::dict("flagged_steps"_a = s.flaggedSteps, "missed_tolerance"_a = s.missedTolerance,
+                    "indefinite"_a = s.indefinite, "fell_back"_a = s.fellBack,
+                    "newton_not_converged"_a = s.newtonNotConverged, "worst_residual"_a = s.worstResidual,
+                    "worst_step"_a = s.worstStep);
+  }
+  std::vector<std::string> validate() {
+    requireReadable("validate");
+    return sim().topology().validate().problems;
+  }
+
+  // ---- outputs ----
+  void record(const std::filesystem::path& dir) {
+    requireMutable("record");
+    if (writer_) throw Usage("record: already recording to " + writer_->dir().string() + " (finish_recording() first)");
+    std::vector<std::string> obstacles;
+    for (const auto& o : scene().obstacles) obstacles.push_back(o.name);
+    writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(),
+                                                   scene().graspNames(), scene().contact.has_value(), obstacles);
+    runner_->start();
+    writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()}, runner_->finished());
+  }
+  py::object finishRecording() {
+    if (!writer_) return py::none();
+    const std::filesystem::path dir = writer_->dir();
+    auto w = std::move(writer_);
+    w->finish();
+    return py::cast(dir);
+  }
+  void dumpFinal(const std::filesystem::path& dir) {
+    requireReadable("dump_final");
+    core::dumpFinal(dir, sim(), runner_->bendingField());
+  }
+
+  // ---- callbacks ----
+  void addController(py::object c) {
+    if (!py::hasattr(c, "on_step_begin") && !py::hasattr(c, "on_step_end"))
+      throw py::type_error("add_controller: the controller has neither on_step_begin nor on_step_end");
+    controllers_.push_back(std::move(c));
+  }
+  void removeController(const py::object& c) {
+    for (auto it = controllers_.begin(); it != controllers_.end(); ++it)
+      if (it->is(c)) {
+        controllers_.erase(it);
+        return;
+      }
+    throw py::value_error("remove_controller: not a controller of this simulation");
+  }
+  void onTopologyEvent(py::function f) { eventCallbacks_.push_back(std::move(f)); }
+  void removeTopologyCallback(const py::function& f) {
+    for (auto it = eventCallbacks_.begin(); it != eventCallbacks_.end(); ++it)
+      if (it->is(f)) {
+        eventCallbacks_.erase(it);
+        return;
+      }
+    throw py::value_error("remove_topology_callback: not a callback of this simulation");
+  }
+
+  // ---- edits ----
+  bool editing() const { return editing_; }
+  void beginEdit() {
+    requireMutable("edit");
+    editing_ = true;
+  }
+  void endEdit() { editing_ = false; }
+
+  // ---- event delivery (EventBridge) ----
+  bool hasEventCallbacks() const { return !eventCallbacks_.empty(); }
+  template <class Make>
+  void deliver(Make&& make) {
+    py::gil_scoped_acquire gil;
+    Event ev = make();
+    auto obj = py::cast(std::move(ev));
+    inEvent_ = true;
+    for (const auto& f : std::vector<py::function>(eventCallbacks_)) {
+      try {
+        f(obj);
+      } catch (py::error_already_set& e) {
+        // The transaction is finishing: nothing may unwind through the topology. The first error
+        // is raised when the operation returns.
+        if (!pendingError_) pendingError_ = std::make_unique<py::error_already_set>(std::move(e));
+      }
+    }
+    inEvent_ = false;
+  }
+
+ private:
+  void callControllers(const char* method) {
+    for (const auto& c : std::vector<py::object>(controllers_))
+      if (py::hasattr(c, method)) c.attr(method)(self());
+  }
+  py::object self() { return py::cast(this, py::return_value_policy::reference); }
+  void raisePendingCallbackError() {
+    if (!pendingError_) return;
+    auto e = std::move(pendingError_);
+    e->restore();
+    throw py::error_already_set();
+  }
+  /// Runs a topology operation; a callback's error is raised after it.
+  template <class F>
+  auto operate(F&& f) {
+    try {
+      auto r = f();
+      raisePendingCallbackError();
+      return r;
+    } catch (...) {
+      pendingError_.reset();
+      throw;
+    }
+  }
+
+  std::unique_ptr<core::SceneRunner> runner_;
+  std::unique_ptr<EventBridge> bridge_;
+  topology::Subscription subscription_;
+  std::unique_ptr<core::OutputWriter> writer_;
+  std::vector<py::object> controllers_;
+  std::vector<py::function> eventCallbacks_;
+  std::unique_ptr<py::error_already_set> pendingError_;
+  std::atomic<bool> stepping_{false};
+  bool inStepLoop_ = false, inEvent_ = false, editing_ = false;
+};
+
+bool EventBridge::wanted() const { return sim_.hasEventCallbacks(); }
+
+template <class Make>
+void EventBridge::emit(Make&& make) {
+  sim_.deliver(std::forward<Make>(make));
+}
+
+void EventBridge::onTransactionEnd(const topology::Topology&, const topology::TransactionSummary& s) {
+  if (!wanted()) return;
+  emit([&] {
+    Event ev{"transaction_end"};
+    ev.operation = std::string(s.operation);
+    ev.summary = py::dict("points_created"_a = s.pointsCreated, "points_destroyed"_a = s.pointsDestroyed,
+                          "edges_created"_a = s.edgesCreated, "edges_destroyed"_a = s.edgesDestroyed,
+                          "triangles_created"_a = s.trianglesCreated,
+                          "triangles_destroyed"_a = s.trianglesDestroyed, "renumbered"_a = s.renumbered);
+    return ev;
+  });
+}
+
+/// A handle on the state's layout at one moment: its arrays, or StaleViewError once the topology
+/// has changed since.
+class StateView {
+ public:
+  StateView(Simulation& s, py::object owner) : sim_(&s), owner_(std::move(owner)), layout_(s.layout()) {}
+  void check(const char* what) const {
+    if (sim_->layout() != layout_)
+      throw StaleView(std::string("StateView.") + what +
+                      ": the topology has changed since this view was made (the state's slots may have moved, "
+                      "grown or been renumbered): take a new view");
+  }
+  bool valid() const { return sim_->layout() == layout_; }
+  Simulation& sim() const { return *sim_; }
+  std::uint64_t revision() const { return layout_; }
+
+ private:
+  Simulation* sim_;
+  py::object owner_;  // keeps the simulation alive
+  std::uint64_t layout_;
+};
+
+/// The writable arrays of an edit (Simulation.edit()).
+class Editor {
+ public:
+  Editor(Simulation& s, py::object owner) : sim_(&s), owner_(std::move(owner)) {}
+  py::object enter() {
+    sim_->beginEdit();
+    auto& st = sim_->sim().state();
+    x0_.assign(st.x().begin(), st.x().end());
+    v0_.assign(st.v().begin(), st.v().end());
+    x_ = sim_->x(true);
+    v_ = sim_->v(true);
+    return py::cast(this, py::return_value_policy::reference);
+  }
+  bool exit(const py::object& type, const py::object&, const py::object&) {
+    sim_->endEdit();
+    auto& st = sim_->sim().state();
+    const auto& topo = sim_->sim().topology();
+    for (py::object* a : {&x_, &v_})
+      if (!a->is_none()) a->attr("setflags")("write"_a = false);
+    auto restore = [&] {
+      std::copy(x0_.begin(), x0_.end(), st.x().begin());
+      std::copy(v0_.begin(), v0_.end(), st.v().begin());
+    };
+    if (!type.is_none()) {  // the block raised: nothing of it is kept
+      restore();
+      return false;
+    }
+    for (const auto& [values, name] : {std::pair{st.x(), "x"}, std::pair{st.v(), "v"}}) {
+      for (std::size_t i = 0; i < values.size(); ++i) {
+        const PointId p(Index(i / 3));
+        const bool dead = !topo.isPointAlive(p);
+        if (!std::isfinite(values[i]) || (dead && values[i] != 0.0)) {
+          restore();
+          throw InvalidInput("edit", std::string(name) + "[" + std::to_string(i / 3) + ", " + std::to_string(i % 3) +
+                                         "]: " + (dead ? "the slot is dead (not a point of the surface)" : "non-finite value") +
+                                         "; the edit was undone");
+        }
+      }
+    }
+    return false;
+  }
+  py::object x() const { return x_; }
+  py::object v() const { return v_; }
+
+ private:
+  Simulation* sim_;
+  py::object owner_;
+  std::vector<double> x0_, v0_;
+  py::object x_ = py::none(), v_ = py::none();
+};
+
+}  // namespace
+
+PYBIND11_MODULE(_cutsim, m) {
+  m.doc() = "cutsim: thin deformable surfaces cut, torn and carved while they run (compiled part)";
+  m.attr("__version__") = core::version();
+
+  py::tuple errorBases = py::make_tuple(py::handle(PyExc_Exception));
+  gError = makeException(m, "Error", "Base of every error cutsim raises on purpose.", errorBases);
+  py::handle error(gError);
+  gInvalidInput = makeException(m, "InvalidInputError",
+                                "Bad input: a scene, a parameter, an array (\"FILE:LINE: /pointer: message\").",
+                                py::make_tuple(error, py::handle(PyExc_ValueError)));
+  gTopologyError = makeException(m, "TopologyError",
+                                 "A topology operation that cannot be carried out; nothing was changed.",
+                                 py::make_tuple(error, py::handle(PyExc_ValueError)));
+  gSolverError = makeException(m, "SolverError",
+                               "A numerical failure of a step; the state is as before the step.",
+                               py::make_tuple(error, py::handle(PyExc_RuntimeError)));
+  gStaleView = makeException(m, "StaleViewError", "A StateView used after the topology changed.",
+                             py::make_tuple(error, py::handle(PyExc_RuntimeError)));
+  gUsageError = makeException(m, "UsageError",
+                              "A call the simulation cannot take now (re-entrant stepping, a change from an event "
+                              "callback or inside edit()).",
+                              py::make_tuple(error, py::handle(PyExc_RuntimeError)));
+  gSolverWarning = PyErr_NewExceptionWithDoc("cutsim.SolverWarning", "Steps whose solves missed their tolerance.",
+                                             PyExc_UserWarning, nullptr);
+  m.add_object("SolverWarning", py::handle(gSolverWarning));
+
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const TopologyError& e) {
+      PyErr_SetString(gTopologyError, e.what());
+    } catch (const InvalidInput& e) {
+      PyErr_SetString(gInvalidInput, e.what());
+    } catch (const SolverError& e) {
+      PyErr_SetString(gSolverError, e.what());
+    } catch (const Error& e) {
+      PyErr_SetString(gError, e.what());
+    } catch (const StaleView& e) {
+      PyErr_SetString(gStaleView, e.what());
+    } catch (const Usage& e) {
+      PyErr_SetString(gUsageError, e.what());
+    }
+  });
+
+  py::class_<Event>(m, "TopologyEvent",
+                    "One topology event, as the C++ observers get it (docs/topology-events.md). Arrays are "
+                    "copies; ids are slots (-1: none).")
+      .def_readonly("kind", &Event::kind)
+      .def_readonly("ids", &Event::ids)
+      .def_readonly("vertices", &Event::vertices)
+      .def_readonly("edges", &Event::edges)
+      .def_readonly("offsets", &Event::offsets)
+      .def_readonly("ancestors", &Event::ancestors)
+      .def_readonly("weights", &Event::weights)
+      .def_readonly("old_to_new", &Event::oldToNew)
+      .def_readonly("new_size", &Event::newSize)
+      .def_readonly("operation", &Event::operation)
+      .def_readonly("summary", &Event::summary)
+      .def("__repr__", [](const Event& e) {
+        std::string s = "<TopologyEvent " + e.kind;
+        if (!e.ids.is_none()) s += " " + std::to_string(py::len(e.ids));
+        if (!e.operation.empty()) s += " " + e.operation;
+        return s + ">";
+      });
+
+  py::class_<Simulation>(m, "_Simulation")
+      // A scene file (text = its path, source = ""), or a scene's JSON text named `source` whose
+      // relative paths are resolved against `base`.
+      .def(py::init([](const std::string& text, const std::string& source, const std::filesystem::path& base) {
+             const core::Scene scene = source.empty() ? core::loadScene(text) : core::parseScene(text, source, base);
+             return std::make_unique<Simulation>(scene);
+           }),
+           "text"_a, "source"_a, "base"_a)
+      .def("step", &Simulation::step, "n"_a = 1)
+      .def("run_until", &Simulation::runUntil, "t"_a)
+      .def("run", &Simulation::run)
+      .def_property_readonly("time", [](Simulation& s) { return s.runner().time(); })
+      .def_property_readonly("step_count", [](Simulation& s) { return s.runner().currentStep(); })
+      .def_property("time_step", [](Simulation& s) { return s.runner().timeStep(); },
+                    [](Simulation& s, double dt) {
+                      s.requireMutable("time_step");
+                      s.runner().setTimeStep(dt);
+                    })
+      .def_property_readonly("duration", [](Simulation& s) { return s.scene().duration; })
+      .def_property_readonly("num_steps", [](Simulation& s) { return s.runner().numSteps(); })
+      .def_property_readonly("finished", [](Simulation& s) { return s.runner().finished(); })
+      .def_property_readonly("name", [](Simulation& s) { return s.scene().name; })
+      .def_property_readonly("description", [](Simulation& s) { return s.scene().description; })
+      .def_property_readonly("scene_file", [](Simulation& s) { return s.scene().file; })
+      .def_property("gravity",
+                    [](Simulation& s) { return py::array_t<double>(3, s.sim().gravity().data()); },
+                    [](Simulation& s, const py::object& g) {
+                      s.requireMutable("gravity");
+                      s.sim().setGravity(readVec3(g, "gravity"));
+                    })
+      .def_property_readonly("x", [](Simulation& s) { return s.x(false); })
+      .def_property_readonly("v", [](Simulation& s) { return s.v(false); })
+      .def_property_readonly("rest", &Simulation::rest)
+      .def_property_readonly("alive", &Simulation::alive)
+      .def_property_readonly("revision", &Simulation::layout)
+      .def("triangles", &Simulation::triangles)
+      .def("edges", &Simulation::edges)
+      .def_property_readonly("num_points", [](Simulation& s) { return s.sim().topology().numPoints(); })
+      .def_property_readonly("num_edges", [](Simulation& s) { return s.sim().topology().numEdges(); })
+      .def_property_readonly("num_triangles", [](Simulation& s) { return s.sim().topology().numTriangles(); })
+      .def_property_readonly("num_slots", &Simulation::slots)
+      .def("_cut", &Simulation::cut)
+      .def("_tear", &Simulation::tear)
+      .def("find_edge", &Simulation::findEdge, "a"_a, "b"_a)
+      .def("compact", &Simulation::compact)
+      .def("_act", &Simulation::act)
+      .def("_constrain", &Simulation::constrain)
+      .def("unfix", &Simulation::unfix, "points"_a)
+      .def("move", &Simulation::move, "name"_a, "delta"_a, "duration"_a = 0.0)
+      .def("release", &Simulation::release, "name"_a)
+      .def("energies", &Simulation::energies)
+      .def("forces", &Simulation::forces)
+      .def("_eval", &Simulation::fieldEval)
+      .def_property_readonly("field_labels", &Simulation::fieldLabels)
+      .def("grasp_forces", &Simulation::graspForces)
+      .def("grasp_points", &Simulation::graspPoints, "name"_a)
+      .def("fixed_points", &Simulation::fixedPoints)
+      .def_property_readonly("last_stats", [](Simulation& s) { return statsDict(s.runner().lastStats()); })
+      .def_property_readonly("solve_summary", &Simulation::summary)
+      .def_property_readonly("torn_edges", [](Simulation& s) { return s.runner().tornEdges(); })
+      .def_property_readonly("cuts_done", [](Simulation& s) { return s.runner().cutsDone(); })
+      .def("validate", &Simulation::validate)
+      .def("record", &Simulation::record, "dir"_a)
+      .def("finish_recording", &Simulation::finishRecording)
+      .def("dump_final", &Simulation::dumpFinal, "dir"_a)
+      .def("add_controller", &Simulation::addController, "controller"_a)
+      .def("remove_controller", &Simulation::removeController, "controller"_a)
+      .def("on_topology_event", &Simulation::onTopologyEvent, "callback"_a)
+      .def("remove_topology_callback", &Simulation::removeTopologyCallback, "callback"_a)
+      .def("view",
+           [](py::object self) {
+             auto& s = self.cast<Simulation&>();
+             return StateView(s, self);
+           })
+      .def("edit", [](py::object self) {
+        auto& s = self.cast<Simulation&>();
+        return Editor(s, self);
+      });
+
+  py::class_<StateView>(m, "StateView",
+                        "Read-only, zero-copy arrays of the state at one layout; StaleViewError once the topology "
+                        "has changed.")
+      .def_property_readonly("x", [](const StateView& v) { v.check("x"); return v.sim().x(false); })
+      .def_property_readonly("v", [](const StateView& v) { v.check("v"); return v.sim().v(false); })
+      .def_property_readonly("rest", [](const StateView& v) { v.check("rest"); return v.sim().rest(); })
+      .def_property_readonly("alive", [](const StateView& v) { v.check("alive"); return v.sim().alive(); })
+      .def_property_readonly("triangles", [](const StateView& v) { v.check("triangles"); return v.sim().triangles(); })
+      .def_property_readonly("valid", &StateView::valid)
+      .def_property_readonly("revision", &StateView::revision);
+
+  py::class_<Editor>(m, "Editor", "Writable positions and velocities inside `with sim.edit() as e:`")
+      .def("__enter__", &Editor::enter)
+      .def("__exit__", &Editor::exit)
+      .def_property_readonly("x", &Editor::x)
+      .def_property_readonly("v", &Editor::v);
+}
+
+}  // namespace cutsim::python
