@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -383,7 +384,7 @@ class Simulation {
   py::array_t<bool> alive() {
     requireReadable("alive");
     const auto& topo = sim().topology();
-    py::array_t<bool> a(py::ssize_t(slots()));
+    auto a = py::array_t<bool>(static_cast<py::ssize_t>(slots()));
     for (std::size_t p = 0; p < slots(); ++p) a.mutable_at(py::ssize_t(p)) = topo.isPointAlive(PointId(p));
     return a;
   }
@@ -632,7 +633,7 @@ class Simulation {
   }
   /// Runs a topology operation; a callback's error is raised after it.
   template <class F>
-  auto operate(F&& f) {
+  std::invoke_result_t<F> operate(F&& f) {
     try {
       auto r = f();
       raisePendingCallbackError();

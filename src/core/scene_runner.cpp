@@ -99,11 +99,14 @@ void SceneRunner::setTimeStep(double dt) {
 }
 
 void SceneRunner::schedule(ActionSpec action) {
-  const double start = action.startTime();
-  auto at = std::upper_bound(scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), start,
+  const double begins = action.startTime();
+  auto at = std::upper_bound(scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), begins,
                              [](double t, const ActionSpec& a) { return t < a.startTime(); });
   scheduled_.insert(at, std::move(action));
-  if (started_) runDueActions(time());
+  if (!started_)
+    start();  // the scene's actions due at time 0 first
+  else
+    runDueActions(time());
 }
 
 void SceneRunner::applyConstraint(const ConstraintSpec& constraint) {

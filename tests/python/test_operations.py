@@ -1,0 +1,118 @@
+"""Topology operations, grasps, constraints and actions from Python."""
+import numpy as np
+import pytest
+
+import cutsim
+
+
+def test_rejected_cut_changes_nothing(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    sim.step(3)
+    before = (np.array(sim.x), sim.triangles(), sim.revision)
+    events = []
+    sim.on_topology_event(events.append)
+    with pytest.raises(cutsim.TopologyError) as e:
+        sim.cut([[5.0, 5.0, 0.0], [6.0, 5.0, 0.0]])  # off the surface
+    assert isinstance(e.value, ValueError) and str(e.value)
+    np.testing.assert_array_equal(sim.x, before[0])
+    np.testing.assert_array_equal(sim.triangles(), before[1])
+    assert sim.revision == before[2] and events == []
+    with pytest.raises(ValueError, match="at least two points"):
+        sim.cut([[0.5, 0.5, 0.0]])
+    with pytest.raises(ValueError, match="non-finite"):
+        sim.cut([[0.5, 0.5, 0.0], [np.inf, 0.5, 0.0]])
+
+
+def test_cut_result(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    r = sim.cut([[0.0, 0.5, 0.0], [0.6, 0.5, 0.0]], min_angle=20)
+    assert len(r["path"]) >= 2 and len(r["copies"]) == len(r["copied_from"]) > 0
+    assert r["min_angle_after"] >= 20 - 1e-9 or r["min_angle_after"] >= r["min_angle_before"]
+    np.testing.assert_allclose(sim.rest[r["copies"]], sim.rest[r["copied_from"]], atol=1e-15)
+
+
+def test_grasp_move_release(small_scene):
+    small_scene["constraints"] = []
+    small_scene["gravity"] = [0, 0, 0]
+    sim = cutsim.Simulation(small_scene)
+    sim.grasp("forceps", near=[[0.5, 1.0, 0.0]])
+    p = int(sim.grasp_points("forceps")[0])
+    sim.move("forceps", [0, 0, 0.05], duration=0.05)
+    sim.step(10)  # 0.05 s: the move is done
+    assert sim.x[p, 2] == pytest.approx(0.05, abs=1e-12)
+    force = sim.grasp_forces()["forceps"]
+    assert force.shape == (3,) and force[2] > 0  # pulling the cloth up
+    sim.step(5)
+    assert sim.x[p, 2] == pytest.approx(0.05, abs=1e-12)  # held there
+    sim.release("forceps")
+    assert "forceps" not in sim.grasp_forces()
+    with pytest.raises(cutsim.InvalidInputError, match="no grasp named"):
+        sim.move("forceps", [0, 0, 1])
+    with pytest.raises(cutsim.InvalidInputError, match="no grasp named"):
+        sim.release("forceps")
+    sim.step(5)
+    assert sim.x[p, 2] != pytest.approx(0.05, abs=1e-9)
+
+
+def test_grasp_with_a_path_and_duplicate_names(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    sim.step(2)
+    sim.grasp("g", box=[[0.3, 0.0, -1], [0.7, 0.1, 1]], path=[[0, 0, 0, 0], [0.05, 0, 0.1, 0]])
+    assert len(sim.grasp_points("g")) >= 2
+    with pytest.raises(cutsim.Error, match="g"):
+        sim.grasp("g", points=[0])
+
+
+def test_fix_and_unfix(small_scene):
+    small_scene["constraints"] = []
+    sim = cutsim.Simulation(small_scene)
+    sim.fix(near=[[0, 1, 0], [1, 1, 0]])
+    fixed = sim.fixed_points()
+    assert len(fixed) == 2
+    sim.step(10)
+    np.testing.assert_array_equal(sim.x[fixed], sim.rest[fixed])
+    sim.unfix(fixed[:1])
+    assert list(sim.fixed_points()) == [fixed[1]]
+    sim.step(5)
+    assert sim.x[fixed[0], 2] < 0
+    with pytest.raises(cutsim.InvalidInputError, match=r"<fix>:\d+: /: give exactly one of"):
+        sim._constrain('{"type": "fixed"}', "<fix>")
+    with pytest.raises(TypeError, match="exactly one of"):
+        sim.fix(points=[1], box=[[0, 0, 0], [1, 1, 1]])
+
+
+def test_actions_from_dicts(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    with pytest.raises(cutsim.InvalidInputError, match=r"<action tearing>:\d+: /threshold: "):
+        sim.act({"action": "tearing", "threshold": -1})
+    with pytest.raises(cutsim.InvalidInputError, match=r"/action: unknown action \"slice\""):
+        sim.act({"action": "slice"})
+    sim.step(4)
+    with pytest.raises(cutsim.InvalidInputError, match="before the current time"):
+        sim.act({"action": "cut", "at": 0.0, "polyline": [[0, 0.5, 0], [0.5, 0.5, 0]]})
+    # A progressive cut, scheduled ahead: it runs while the steps go.
+    sim.act({"action": "cut", "from": 0.03, "to": 0.06, "polyline": [[0, 0.5, 0], [0.6, 0.5, 0]]})
+    points = sim.num_points
+    sim.step(4)
+    assert sim.num_points > points
+    sim.run_until(0.08)
+    assert sim.cuts_done >= 2 and sim.validate() == []
+    # A cut that fails when it meets the surface names its source.
+    with pytest.raises(cutsim.Error, match=r"<action cut>:\d+: /: at t = .*the cut failed"):
+        sim.act({"action": "cut", "polyline": [[5, 5, 0], [6, 5, 0]]})
+    assert sim.validate() == []
+
+
+def test_remove_and_parameters_between_steps(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    sim.step(5)
+    n = sim.num_triangles
+    sim.remove(box=([0.3, 0.3, -1], [0.6, 0.6, 1]))
+    assert sim.num_triangles < n
+    sim.gravity = [0, 0, -20]
+    np.testing.assert_array_equal(sim.gravity, [0, 0, -20])
+    z = sim.x[:, 2].min()
+    sim.step(5)
+    assert sim.x[:, 2].min() < z
+    with pytest.raises(ValueError, match="non-finite"):
+        sim.gravity = [0, 0, np.nan]
