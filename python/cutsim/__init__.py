@@ -78,10 +78,13 @@ class Simulation(_cutsim._Simulation):
         if isinstance(scene, dict):
             base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
             super().__init__(_json(scene, "scene"), source, base)
+            self._fields = json.loads(_json(scene.get("forceFields", []), "scene"))
         elif isinstance(scene, (str, os.PathLike)):
             if base_dir is not None:
                 raise TypeError("base_dir is for scenes given as dicts (a file's paths are relative to it)")
             super().__init__(os.fspath(scene), "", "")
+            with open(scene, encoding="utf-8") as f:  # read and checked by the line above
+                self._fields = json.load(f).get("forceFields", [])
         else:
             raise TypeError(f"Simulation: expected a scene file path or a dict, got {type(scene).__name__}")
 
@@ -111,7 +114,7 @@ class Simulation(_cutsim._Simulation):
 
     def remove(self, *, sphere=None, box=None, boundary="cut", min_angle=20.0):
         """Removes the surface inside a region of rest space: sphere=(center, radius) or
-        box=(min, max); boundary "cut" cuts along the region's boundary, "triangles" removes whole
+        box=(min, max); boundary "cut" cuts along the region's boundary, "centroid" removes whole
         triangles (the timeline's "remove" action)."""
         entry = {"action": "remove", "boundary": boundary, "minAngle": min_angle}
         if sphere is not None:
@@ -143,6 +146,33 @@ class Simulation(_cutsim._Simulation):
         if "at" not in entry and "from" not in entry and "to" not in entry:
             entry["at"] = self.time
         self._act(_json(entry, "act"), f"<action {entry.get('action', '?')}>")
+
+    # ---- parameters ----
+    def parameters(self, field):
+        """The scene entry (a dict) of a force field, by label, as it is now."""
+        return dict(self._fields[self._field_index(field)])
+
+    def set_parameters(self, field, changes=None, **kw):
+        """Changes parameters of a force field (by label) from the next step on, with the keys of
+        its scene entry: sim.set_parameters("FastTriangularBendingSprings", bendingStiffness=0.01),
+        sim.set_parameters("membrane", restScale=0.98) (prestrain). The field is built anew on the
+        mesh as it is now, through the registry and the checks of a scene's entry."""
+        index = self._field_index(field)
+        entry = {**self._fields[index], **(changes or {}), **kw}
+        if entry.get("type") != self._fields[index].get("type"):
+            raise InvalidInputError(f"set_parameters: \"{field}\" is a {self._fields[index].get('type')}: its "
+                                    f"parameters can change, not its type")
+        self._replace_field(index, _json(entry, "set_parameters"), f"<set_parameters {field}>")
+        self._fields[index] = entry
+
+    def _field_index(self, field):
+        labels = self.field_labels
+        if field not in labels:
+            raise InvalidInputError(f"no force field labelled \"{field}\" (the scene has: {', '.join(labels)})")
+        index = labels.index(field)
+        if index >= len(self._fields):
+            raise InvalidInputError(f"\"{field}\" is the contact: its settings are fixed when the scene is built")
+        return index
 
     # ---- evaluations ----
     def eval(self, field, x=None, v=None):

@@ -446,6 +446,11 @@ class Simulation {
       return 0;
     });
   }
+  void replaceField(std::size_t i, const std::string& text, const std::string& source) {
+    requireMutable("set_parameters");
+    const auto spec = core::parseForceFieldEntry(text, source);
+    runner_->replaceForceField(i, spec);
+  }
   void constrain(const std::string& text, const std::string& source) {
     requireMutable("fix");
     const auto spec = core::parseConstraintEntry(text, source);
@@ -861,6 +866,7 @@ PYBIND11_MODULE(_cutsim, m) {
       .def("compact", &Simulation::compact)
       .def("_act", &Simulation::act)
       .def("_constrain", &Simulation::constrain)
+      .def("_replace_field", &Simulation::replaceField)
       .def("unfix", &Simulation::unfix, "points"_a)
       .def("move", &Simulation::move, "name"_a, "delta"_a, "duration"_a = 0.0)
       .def("release", &Simulation::release, "name"_a)

@@ -42,6 +42,18 @@ forcefields::ForceField& Model::addForceField(std::unique_ptr<forcefields::Force
   return *fields_.back();
 }
 
+void Model::replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceField> field) {
+  if (i >= fields_.size()) throw InvalidInput("forceFields", "no force field " + std::to_string(i));
+  if (!field) throw InvalidInput(labels_[i], "no force field");
+  if (fields_[i].get() == static_cast<forcefields::ForceField*>(contact_))
+    throw InvalidInput(labels_[i], "the contact cannot be replaced");
+  if (field->typeName() != fields_[i]->typeName())
+    throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() + " can only be replaced by another (got a " +
+                                       field->typeName() + ")");
+  fields_[i] = std::move(field);
+  fieldPointers_[i] = fields_[i].get();
+}
+
 forcefields::Contact& Model::setContact(std::unique_ptr<forcefields::Contact> contact, std::string label) {
   if (!contact) throw InvalidInput("contact", "no contact");
   if (contact_) throw InvalidInput("contact", "the model has contact already");

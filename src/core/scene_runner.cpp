@@ -109,6 +109,20 @@ void SceneRunner::schedule(ActionSpec action) {
     runDueActions(time());
 }
 
+void SceneRunner::replaceForceField(std::size_t i, const ForceFieldSpec& spec) {
+  const auto* entry = forcefields::ForceFieldRegistry::instance().find(spec.type);
+  if (!entry) throw InvalidInput(spec.location.where(scene_.file.string()), "unknown force field type \"" + spec.type + "\"");
+  if (i >= scene_.forceFields.size())
+    throw InvalidInput("forceFields", "the scene has " + std::to_string(scene_.forceFields.size()) + " force fields (asked for " +
+                                          std::to_string(i) + ")");
+  if (spec.type != scene_.forceFields[i].type)
+    throw InvalidInput(spec.location.where(scene_.file.string()),
+                       "/type: force field " + std::to_string(i) + " is a " + scene_.forceFields[i].type +
+                           ": its parameters can change, not its type (got \"" + spec.type + "\")");
+  sim_->model().replaceForceField(i, entry->build(spec.parameters, sim_->topology()));
+  scene_.forceFields[i].parameters = spec.parameters;
+}
+
 void SceneRunner::applyConstraint(const ConstraintSpec& constraint) {
   const auto* entry = ConstraintRegistry::instance().find(constraint.type);
   if (!entry) throw InvalidInput(constraint.location.where(scene_.file.string()), "unknown constraint type \"" + constraint.type + "\"");

@@ -646,6 +646,14 @@ ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName
   return a;
 }
 
+ForceFieldSpec parseForceFieldEntry(std::string_view text, const std::string& sourceName) {
+  const JsonDocument doc = parseJsonWithLines(text, sourceName);
+  const Reader r(sourceName, doc.lines);
+  ForceFieldSpec f = parseForceField(r, doc.root, "");
+  f.location.source = sourceName;
+  return f;
+}
+
 ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& sourceName) {
   const JsonDocument doc = parseJsonWithLines(text, sourceName);
   const Reader r(sourceName, doc.lines);

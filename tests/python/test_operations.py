@@ -116,3 +116,30 @@ def test_remove_and_parameters_between_steps(small_scene):
     assert sim.x[:, 2].min() < z
     with pytest.raises(ValueError, match="non-finite"):
         sim.gravity = [0, 0, np.nan]
+
+
+def test_set_parameters_between_steps(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    sim.step(20)
+    x = np.array(sim.x)
+    e0, f0 = sim.eval_bending(x)
+    sim.set_parameters("FastTriangularBendingSprings", bendingStiffness=0.004)
+    e1, f1 = sim.eval_bending(x)
+    assert e1 == pytest.approx(2 * e0, rel=1e-12)
+    np.testing.assert_allclose(f1, 2 * f0, rtol=1e-12, atol=1e-15)
+    assert sim.parameters("FastTriangularBendingSprings")["bendingStiffness"] == 0.004
+    # Prestrain: rest lengths 0.9 of the mesh's stretch the cloth at its rest positions.
+    assert sim.eval("StretchSprings", sim.rest)[0] == pytest.approx(0, abs=1e-20)
+    sim.set_parameters("StretchSprings", {"restScale": 0.9})
+    assert sim.eval("StretchSprings", sim.rest)[0] > 0
+    # The new fields follow the topology like the old ones.
+    sim.cut([[0.0, 0.5, 0.0], [0.6, 0.5, 0.0]])
+    assert sim.validate() == []
+    sim.step(5)
+    with pytest.raises(cutsim.InvalidInputError, match=r"<set_parameters StretchSprings>:\d+: /stiffness: "):
+        sim.set_parameters("StretchSprings", stiffness=-5)
+    with pytest.raises(cutsim.InvalidInputError, match="can change, not its type"):
+        sim.set_parameters("StretchSprings", type="FastTriangularBendingSprings", bendingStiffness=1)
+    with pytest.raises(cutsim.InvalidInputError, match="no force field labelled"):
+        sim.set_parameters("Nope", stiffness=1)
+    assert sim.parameters("StretchSprings")["restScale"] == 0.9

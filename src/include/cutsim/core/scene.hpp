@@ -139,6 +139,9 @@ Scene loadScene(const std::filesystem::path& file);
 /// of a scene's timeline, InvalidInput "SOURCE:LINE: /pointer: message". No dry run: the action
 /// meets the running surface when it starts, and fails there if it must.
 ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName, double now);
+/// One entry of a scene's "forceFields" list, given while a simulation runs (a change of its
+/// parameters: SceneRunner::replaceForceField).
+ForceFieldSpec parseForceFieldEntry(std::string_view text, const std::string& sourceName);
 /// One entry of a scene's "constraints" list, given while a simulation runs.
 ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& sourceName);
 
@@ -171,6 +174,9 @@ class SceneRunner {
   /// Adds an action (parseActionEntry) to the timeline: it starts at once if it is due now (as
   /// the scene's actions due now have), else when its time comes. Its failures name its source.
   void schedule(ActionSpec action);
+  /// Replaces force field i by the one `spec` (parseForceFieldEntry) describes, of the same type,
+  /// built on the current mesh: new parameters (stiffness, prestrain) from the next step on.
+  void replaceForceField(std::size_t i, const ForceFieldSpec& spec);
   /// Applies a constraint (parseConstraintEntry) now.
   void applyConstraint(const ConstraintSpec& constraint);
   /// Changes the time step of the following steps (finite, > 0).

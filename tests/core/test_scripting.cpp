@@ -1,0 +1,165 @@
+// What scripts (the Python module) use of the core: actions, constraints and force-field
+// parameters given while a scene runs, steps past the duration, a changing time step, grasps moved
+// by a displacement, and state buffers that outlive a topology change.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "cutsim/core/scene.hpp"
+#include "cutsim/topology/errors.hpp"
+#include "support/scene_text.hpp"
+
+namespace cutsim::test {
+namespace {
+
+using core::SceneRunner;
+
+std::string cloth(const std::string& extra = "") {
+  return scene(
+      "\"gravity\": [0, 0, -9.81],\n"
+      "  \"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 100},\n"
+      "                  {\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 0.01}],\n"
+      "  \"constraints\": [{\"type\": \"fixed\", \"near\": [[0, 1, 0], [1, 1, 0]]}]" +
+      (extra.empty() ? "" : ",\n  " + extra));
+}
+
+std::string actionError(SceneRunner& r, const std::string& text) {
+  try {
+    r.schedule(core::parseActionEntry(text, "<action>", r.time()));
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Scripting, SlotBuffersOutliveTheirTable) {
+  const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  r.start();
+  auto& state = r.simulation().state();
+  std::shared_ptr<const void> held = state.xBuffer();
+  const double* old = state.x().data();
+  const std::vector<double> before(state.x().begin(), state.x().end());
+  // Cut until the positions move to a new buffer (never a reallocation in place).
+  int k = 0;
+  while (state.x().data() == old) {
+    ASSERT_LT(++k, 40);
+    const double y = 0.05 + 0.02 * k;
+    r.simulation().topology().cutPolyline(std::vector<core::Vec3>{{0, y, 0}, {0.6, y + 0.01, 0}});
+  }
+  const std::vector<double> left(old, old + before.size());
+  for (int i = 0; i < 5; ++i) r.stepOnce();  // writes go to the new buffer only
+  EXPECT_EQ(std::vector<double>(old, old + before.size()), left);
+  EXPECT_NE(state.xBuffer(), held);
+  EXPECT_TRUE(r.simulation().topology().validate().ok());
+}
+
+TEST(Scripting, ActionsGivenWhileRunning) {
+  const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  for (int i = 0; i < 3; ++i) r.advance();
+  EXPECT_NE(actionError(r, "{\"action\": \"cut\", \"at\": 0.0, \"polyline\": [[0, 0.5, 0], [0.5, 0.5, 0]]}")
+                .find("<action>:1: /at: time 0 is before the current time 0.03"),
+            std::string::npos);
+  EXPECT_NE(actionError(r, "{\"action\": \"tearing\",\n \"at\": 1,\n \"threshold\": -2}")
+                .find("<action>:3: /threshold:"),
+            std::string::npos);
+  // Due now: it runs at once; later: when its time comes (past the scene's duration too).
+  const auto points = r.simulation().topology().numPoints();
+  EXPECT_EQ(actionError(r, "{\"action\": \"cut\", \"at\": 0.03, \"polyline\": [[0, 0.5, 0], [0.5, 0.5, 0]]}"), "");
+  EXPECT_GT(r.simulation().topology().numPoints(), points);
+  EXPECT_EQ(actionError(r, "{\"action\": \"remove\", \"at\": 0.15, \"sphere\": {\"center\": [0.75, 0.25, 0], "
+                           "\"radius\": 0.2}, \"boundary\": \"centroid\"}"),
+            "");
+  const auto triangles = r.simulation().topology().numTriangles();
+  while (!r.finished()) r.advance();
+  EXPECT_EQ(r.simulation().topology().numTriangles(), triangles);
+  for (int i = 0; i < 6; ++i) r.stepOnce();
+  EXPECT_LT(r.simulation().topology().numTriangles(), triangles);
+  EXPECT_NEAR(r.time(), 0.16, 1e-12);
+  // A failing action names its own source, and does not stay in the timeline.
+  EXPECT_NE(actionError(r, "{\"action\": \"cut\", \"polyline\": [[5, 5, 0], [6, 5, 0]], \"at\": 0.16}")
+                .find("<action>:1: /: at t = 0.16 the cut failed"),
+            std::string::npos);
+  r.stepOnce();
+  EXPECT_TRUE(r.simulation().topology().validate().ok());
+}
+
+TEST(Scripting, TimeStepChanges) {
+  const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  for (int i = 0; i < 4; ++i) r.advance();
+  r.setTimeStep(0.0025);
+  for (int i = 0; i < 4; ++i) r.advance();
+  EXPECT_NEAR(r.time(), 0.05, 1e-15);
+  EXPECT_NEAR(r.simulation().time(), 0.05, 1e-12);
+  EXPECT_THROW(r.setTimeStep(0.0), InvalidInput);
+  EXPECT_THROW(r.setTimeStep(std::nan("")), InvalidInput);
+}
+
+TEST(Scripting, ForceFieldParametersChange) {
+  const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  for (int i = 0; i < 5; ++i) r.advance();
+  auto& sim = r.simulation();
+  const double e = sim.potentialEnergy(1);
+  ASSERT_GT(e, 0);
+  r.replaceForceField(1, core::parseForceFieldEntry(
+                             "{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 0.03}", "<f>"));
+  EXPECT_NEAR(sim.potentialEnergy(1), 3 * e, 1e-12 * e);
+  EXPECT_EQ(sim.forceFieldLabel(1), "FastTriangularBendingSprings");
+  // Another type is refused, and changes nothing.
+  EXPECT_THROW(r.replaceForceField(1, core::parseForceFieldEntry("{\"type\": \"StretchSprings\", \"stiffness\": 1}", "<f>")),
+               InvalidInput);
+  EXPECT_NEAR(sim.potentialEnergy(1), 3 * e, 1e-12 * e);
+  // The new field follows the topology: cut, then every observer agrees with its rebuild.
+  sim.topology().cutPolyline(std::vector<core::Vec3>{{0, 0.5, 0}, {0.6, 0.5, 0}});
+  EXPECT_TRUE(sim.topology().validate().ok()) << sim.topology().validate().summary();
+  r.advance();
+}
+
+TEST(Scripting, GraspMovedByADisplacement) {
+  const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  r.start();
+  r.schedule(core::parseActionEntry(
+      "{\"action\": \"grasp\", \"at\": 0, \"name\": \"g\", \"near\": [[0.5, 0, 0]], \"path\": [[0, 0, 0, 0], [0.02, 0, 0, 0.01]]}",
+      "<a>", 0.0));
+  core::Grasp* g = r.simulation().findGrasp("g");
+  ASSERT_NE(g, nullptr);
+  const auto p = g->points().points().front();
+  for (int i = 0; i < 2; ++i) r.advance();  // t = 0.02: the path's end
+  EXPECT_NEAR(r.simulation().state().x()[3 * p + 2], 0.01, 1e-12);
+  g->moveBy(r.time(), {0.1, 0, 0}, 0.04);  // 0.1 along x over 0.04 s
+  for (int i = 0; i < 2; ++i) r.advance();
+  EXPECT_NEAR(r.simulation().state().x()[3 * p], 0.5 + 0.05, 1e-12);
+  for (int i = 0; i < 4; ++i) r.advance();
+  EXPECT_NEAR(r.simulation().state().x()[3 * p], 0.5 + 0.1, 1e-12);
+  EXPECT_NEAR(r.simulation().state().x()[3 * p + 2], 0.01, 1e-12);
+  EXPECT_THROW(g->moveBy(r.time(), {std::nan(""), 0, 0}, 0.1), InvalidInput);
+  EXPECT_THROW(g->moveBy(r.time(), {0, 0, 0}, -1), InvalidInput);
+}
+
+TEST(Scripting, ConstraintsGivenWhileRunning) {
+  const core::Scene s = core::parseScene(scene("\"gravity\": [0, 0, -9.81]"), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  r.applyConstraint(core::parseConstraintEntry("{\"type\": \"fixed\", \"near\": [[0, 0, 0]]}", "<c>"));
+  ASSERT_EQ(r.simulation().fixed().size(), 1u);
+  const auto p = r.simulation().fixed().points().front();
+  r.advance();
+  EXPECT_EQ(r.simulation().state().x()[3 * p + 2], 0.0);
+  r.simulation().fixed().remove(p);
+  EXPECT_EQ(r.simulation().fixed().size(), 0u);
+  r.advance();
+  EXPECT_LT(r.simulation().state().x()[3 * p + 2], 0.0);
+  try {
+    core::parseConstraintEntry("{\"type\": \"fixed\",\n \"box\": 3}", "<c>");
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("<c>:2: /box:"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace cutsim::test
