@@ -38,8 +38,30 @@ __all__ = [
 ]
 
 
+def _nonfinite(obj, pointer=""):
+    """The JSON pointer of the first NaN or infinite number in obj, or None."""
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            p = _nonfinite(v, f"{pointer}/{str(k).replace('~', '~0').replace('/', '~1')}")
+            if p is not None:
+                return p
+    elif isinstance(obj, (list, tuple, np.ndarray)):
+        for i, v in enumerate(obj):
+            p = _nonfinite(v, f"{pointer}/{i}")
+            if p is not None:
+                return p
+    elif isinstance(obj, (float, np.floating)) and not np.isfinite(obj):
+        return (pointer or "/", obj)
+    return None
+
+
 def _json(obj, what):
-    """JSON text of a dict, one value per line (so that messages' line numbers mean something)."""
+    """JSON text of a dict, one value per line (so that messages' line numbers mean something).
+    A NaN or infinite number (which JSON cannot hold) is an InvalidInputError naming its place."""
+    bad = _nonfinite(obj)
+    if bad is not None:
+        raise InvalidInputError(f"{what}: {bad[0]}: {bad[1]} is not a finite number")
+
     def default(o):
         if isinstance(o, np.ndarray):
             return o.tolist()
@@ -77,8 +99,8 @@ class Simulation(_cutsim._Simulation):
     def __init__(self, scene, *, base_dir=None, source="<scene dict>"):
         if isinstance(scene, dict):
             base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
-            super().__init__(_json(scene, "scene"), source, base)
-            self._fields = json.loads(_json(scene.get("forceFields", []), "scene"))
+            super().__init__(_json(scene, source), source, base)
+            self._fields = json.loads(_json(scene.get("forceFields", []), source))
         elif isinstance(scene, (str, os.PathLike)):
             if base_dir is not None:
                 raise TypeError("base_dir is for scenes given as dicts (a file's paths are relative to it)")
@@ -131,10 +153,21 @@ class Simulation(_cutsim._Simulation):
         entry.update(_selection(points, box, near))
         self.act(entry)
 
+    def record(self, dir, grasps=()):
+        """Writes frames and steps.csv to dir, as `cutsim run --out dir` does, from now until
+        finish_recording(). The CSV has reaction-force columns for the scene's grasps and for the
+        names in `grasps` (grasps a script will start)."""
+        self._record(os.fspath(dir), list(grasps))
+
     def fix(self, *, points=None, box=None, near=None):
         """Fixes points (ids, a rest-space box, or the nearest point to each position) from now on."""
         entry = {"type": "fixed"}
         entry.update(_selection(points, box, near))
+        if points is not None:
+            alive = self.alive
+            for p in entry["points"]:
+                if not (0 <= p < alive.size and alive[p]):
+                    raise InvalidInputError(f"fix: point {p} is not a live point of the surface")
         self._constrain(_json(entry, "fix"), "<fix>")
 
     def act(self, entry):
@@ -145,7 +178,8 @@ class Simulation(_cutsim._Simulation):
         entry = dict(entry)
         if "at" not in entry and "from" not in entry and "to" not in entry:
             entry["at"] = self.time
-        self._act(_json(entry, "act"), f"<action {entry.get('action', '?')}>")
+        source = f"<action {entry.get('action', '?')}>"
+        self._act(_json(entry, source), source)
 
     # ---- parameters ----
     def parameters(self, field):
@@ -162,6 +196,8 @@ class Simulation(_cutsim._Simulation):
         if entry.get("type") != self._fields[index].get("type"):
             raise InvalidInputError(f"set_parameters: \"{field}\" is a {self._fields[index].get('type')}: its "
                                     f"parameters can change, not its type")
+        if entry.get("label") != self._fields[index].get("label"):
+            raise InvalidInputError(f"set_parameters: \"{field}\": a force field's label cannot change")
         self._replace_field(index, _json(entry, "set_parameters"), f"<set_parameters {field}>")
         self._fields[index] = entry
 
@@ -182,8 +218,8 @@ class Simulation(_cutsim._Simulation):
 
     def eval_bending(self, x=None):
         """(energy, forces) of the scene's first FastTriangularBendingSprings field at x."""
-        for label in self.field_labels:
-            if label.startswith("FastTriangularBendingSprings"):
+        for label, kind in zip(self.field_labels, self.field_types):
+            if kind == "FastTriangularBendingSprings":
                 return self._eval(label, x, None)
         raise InvalidInputError("eval_bending: the scene has no FastTriangularBendingSprings field")
 
@@ -206,10 +242,19 @@ def _selection(points, box, near):
     if len(given) != 1:
         raise TypeError("give exactly one of points=, box=, near=")
     if points is not None:
-        return {"points": [int(p) for p in np.ravel(points)]}
+        ids = np.ravel(np.asarray(points))
+        if ids.size == 0 or not all(float(p) == int(p) for p in ids):
+            raise TypeError(f"points: expected point ids (integers), got {points!r}")
+        return {"points": [int(p) for p in ids]}
     if box is not None:
-        return {"box": [list(map(float, box[0])), list(map(float, box[1]))]}
-    return {"near": np.asarray(near, dtype=float).reshape(-1, 3).tolist()}
+        b = np.asarray(box, dtype=float)
+        if b.shape != (2, 3):
+            raise ValueError(f"box: expected [[xmin, ymin, zmin], [xmax, ymax, zmax]], got {box!r}")
+        return {"box": b.tolist()}
+    n = np.asarray(near, dtype=float)
+    if n.ndim > 2 or n.size == 0 or n.shape[-1] != 3:
+        raise ValueError(f"near: expected [x, y, z] positions, got {near!r}")
+    return {"near": n.reshape(-1, 3).tolist()}
 
 
 def load(path):

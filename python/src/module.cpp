@@ -9,7 +9,10 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cstdio>
+#include <utility>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -113,8 +116,17 @@ py::array_t<std::int64_t> rowArray(std::span<const Row> rows) {
 }
 
 /// Reads an (n, 3) float array (any float layout) into a flat vector; n must be `rows`.
+/// The array of `obj` as float64 (an empty handle if it is not numbers).
+py::array_t<double, py::array::c_style | py::array::forcecast> floats(const py::handle& obj) {
+  try {
+    return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  } catch (const py::error_already_set&) {
+    return {};
+  }
+}
+
 std::vector<double> readPoints(const py::handle& obj, std::size_t rows, const char* what) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  auto a = floats(obj);
   if (!a || a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != rows)
     throw py::value_error(std::string(what) + ": expected an array of shape (" + std::to_string(rows) +
                           ", 3), one row per point slot");
@@ -126,7 +138,7 @@ std::vector<double> readPoints(const py::handle& obj, std::size_t rows, const ch
 }
 
 std::vector<core::Vec3> readVec3List(const py::handle& obj, const char* what) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  auto a = floats(obj);
   if (!a || a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error(std::string(what) + ": expected a list of [x, y, z] points");
   std::vector<core::Vec3> out(std::size_t(a.shape(0)));
@@ -140,10 +152,17 @@ std::vector<core::Vec3> readVec3List(const py::handle& obj, const char* what) {
 }
 
 core::Vec3 readVec3(const py::handle& obj, const char* what) {
-  auto list = readVec3List(py::array_t<double>::ensure(py::reinterpret_borrow<py::object>(obj))
-                               .attr("reshape")(1, 3),
-                           what);
-  return list.front();
+  py::array_t<double, py::array::c_style | py::array::forcecast> a;
+  try {
+    a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  } catch (const py::error_already_set&) {
+  }
+  if (!a || a.size() != 3 || a.ndim() > 2)
+    throw py::value_error(std::string(what) + ": expected three numbers [x, y, z]");
+  core::Vec3 v{a.data()[0], a.data()[1], a.data()[2]};
+  for (double c : v)
+    if (!std::isfinite(c)) throw py::value_error(std::string(what) + ": non-finite coordinate");
+  return v;
 }
 
 py::dict statsDict(const core::StepStats& s) {
@@ -273,6 +292,68 @@ class EventBridge final : public topology::TopologyObserver {
   Simulation& sim_;
 };
 
+/// A plain C++ observer that writes each event as one line of text, independently of the Python
+/// events: the tests compare the events Python callbacks receive with it (Simulation._cpp_events).
+class EventLog final : public topology::TopologyObserver {
+ public:
+  std::vector<std::string> lines;
+  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed& e) override {
+    lines.push_back("triangles_destroyed:" + join(e.triangles) + "|" + rows(e.vertices));
+  }
+  void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed& e) override {
+    lines.push_back("edges_destroyed:" + join(e.edges) + "|" + rows(e.vertices));
+  }
+  void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed& e) override {
+    lines.push_back("points_destroyed:" + join(e.points));
+  }
+  void onPointsCreated(const topology::Topology&, const topology::PointsCreated& e) override {
+    std::string w;
+    for (std::size_t i = 0; i < e.weights.size(); ++i) {
+      char buf[40];
+      std::snprintf(buf, sizeof buf, "%.17g", e.weights[i]);
+      w += (i ? "," : "") + std::string(buf);
+    }
+    lines.push_back("points_created:" + join(e.points) + "|" + join(e.offsets) + "|" + join(e.ancestors) + "|" + w);
+  }
+  void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated& e) override {
+    lines.push_back("edges_created:" + join(e.edges) + "|" + rows(e.vertices));
+  }
+  void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated& e) override {
+    lines.push_back("triangles_created:" + join(e.triangles) + "|" + rows(e.vertices) + "|" + rows(e.edges));
+  }
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) override { renumbered("points", r); }
+  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering& r) override { renumbered("edges", r); }
+  void onTrianglesRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
+    renumbered("triangles", r);
+  }
+  void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary& s) override {
+    std::ostringstream o;
+    o << "transaction_end:" << s.operation << "|" << s.pointsCreated << "," << s.pointsDestroyed << ","
+      << s.edgesCreated << "," << s.edgesDestroyed << "," << s.trianglesCreated << "," << s.trianglesDestroyed << ","
+      << (s.renumbered ? 1 : 0);
+    lines.push_back(o.str());
+  }
+  std::string observerName() const override { return "event log"; }
+
+ private:
+  static std::string number(Index v) { return v == topology::kInvalidIndex ? "-1" : std::to_string(v); }
+  template <class Ids>
+  static std::string join(const Ids& ids) {
+    std::string out;
+    for (std::size_t i = 0; i < ids.size(); ++i) out += (i ? "," : "") + number(Index(ids[i]));
+    return out;
+  }
+  template <class Rows>
+  static std::string rows(const Rows& r) {
+    std::string out;
+    for (std::size_t i = 0; i < r.size(); ++i) out += (i ? ";" : "") + join(r[i]);
+    return out;
+  }
+  void renumbered(const char* kind, const topology::Renumbering& r) {
+    lines.push_back(std::string(kind) + "_renumbered:" + std::to_string(r.newSize) + "|" + join(r.oldToNew));
+  }
+};
+
 // ---------------------------------------------------------------------------------------------
 // The simulation
 
@@ -284,6 +365,7 @@ class Simulation {
   }
   ~Simulation() {
     subscription_.reset();
+    eventLogSubscription_.reset();
     if (writer_) {
       try {
         writer_->finish();
@@ -303,18 +385,21 @@ class Simulation {
       throw Usage(std::string(what) +
                   ": a topology event callback may read the simulation but not change it (the event "
                   "contract: events arrive while the operation is finishing)");
-    if (stepping_) throw Usage(std::string(what) + ": the simulation is stepping (in another thread)");
-    if (editing_) throw Usage(std::string(what) + ": not inside edit(): leave the with-block first");
+    if (stepping_) throw Usage(std::string(what) + ": the simulation is stepping in another thread");
+    if (editing_)
+      throw Usage(std::string(what) + ": called inside a `with sim.edit()` block, which allows no step or topology "
+                                      "change: leave the block first");
   }
   void requireReadable(const char* what) const {
-    if (stepping_ && !inEvent_) throw Usage(std::string(what) + ": the simulation is stepping (in another thread)");
+    if (stepping_ && !inEvent_) throw Usage(std::string(what) + ": the simulation is stepping in another thread");
   }
 
   // ---- stepping ----
   py::object step(long n) {
     if (n < 0) throw py::value_error("step: n must be >= 0");
-    if (inStepLoop_) throw Usage("step: called from a controller or callback of a step in progress");
     requireMutable("step");
+    if (inStepLoop_)
+      throw Usage("step: a step loop is in progress (a controller or callback of a step cannot step)");
     inStepLoop_ = true;
     struct Reset {
       bool& b;
@@ -325,22 +410,30 @@ class Simulation {
     long flagged = 0;
     for (long i = 0; i < n; ++i) {
       callControllers("on_step_begin");
+      const long before = runner_->currentStep();
+      std::exception_ptr failure;
+      stepping_ = true;
       {
-        stepping_ = true;
-        std::exception_ptr failure;
-        {
-          py::gil_scoped_release release;
+        py::gil_scoped_release release;
+        try {
+          stats = runner_->stepOnce();
+        } catch (...) {
+          failure = std::current_exception();
+        }
+        // A step done, even if an action failed after it, is recorded as `cutsim run` would.
+        if (writer_ && runner_->currentStep() > before) {
           try {
-            stats = runner_->stepOnce();
-            if (writer_) writer_->record(sim(), {runner_->currentStep(), runner_->time(), stats}, runner_->finished());
+            const auto& st = failure ? runner_->lastStats() : stats;
+            writer_->record(sim(), {runner_->currentStep(), runner_->time(), st},
+                            runner_->currentStep() == runner_->numSteps());
           } catch (...) {
-            failure = std::current_exception();
+            if (!failure) failure = std::current_exception();
           }
         }
-        stepping_ = false;
-        raisePendingCallbackError();
-        if (failure) std::rethrow_exception(failure);
       }
+      stepping_ = false;
+      raisePendingCallbackError();
+      if (failure) std::rethrow_exception(failure);
       any = true;
       if (stats.flagged()) ++flagged;
       callControllers("on_step_end");
@@ -358,7 +451,12 @@ class Simulation {
     if (!std::isfinite(t)) throw py::value_error("run_until: the time must be finite");
     const double eps = 1e-9 * runner_->timeStep();
     long n = 0;
-    if (t > runner_->time() + eps) n = long(std::ceil((t - runner_->time()) / runner_->timeStep() - 1e-9));
+    if (t > runner_->time() + eps) {
+      const double steps = std::ceil((t - runner_->time()) / runner_->timeStep() - 1e-9);
+      if (steps > 1e12)
+        throw py::value_error("run_until: t = " + std::to_string(t) + " is more than 1e12 steps of time_step away");
+      n = long(steps);
+    }
     return step(n);
   }
   py::object run() { return step(std::max(0L, runner_->numSteps() - runner_->currentStep())); }
@@ -417,6 +515,7 @@ class Simulation {
   }
   py::dict tear(long edge, double minAngle) {
     requireMutable("tear");
+    if (!(minAngle >= 0 && minAngle < 60)) throw py::value_error("tear: min_angle must be in [0, 60) degrees");
     auto& topo = sim().topology();
     if (edge < 0 || edge >= long(topo.edgeCapacity()) || !topo.isEdgeAlive(topology::EdgeId(Index(edge))))
       throw TopologyError("tear: edge " + std::to_string(edge) + " does not exist");
@@ -426,6 +525,7 @@ class Simulation {
     return incisionDict(result);
   }
   long findEdge(long a, long b) {
+    requireReadable("find_edge");
     const auto& topo = sim().topology();
     if (a < 0 || b < 0 || a >= long(topo.pointCapacity()) || b >= long(topo.pointCapacity())) return -1;
     const auto e = topo.findEdge(PointId(Index(a)), PointId(Index(b)));
@@ -509,12 +609,9 @@ class Simulation {
     const auto& field = sim().forceField(i);
     py::array_t<double> f({n, std::size_t(3)});
     std::fill(f.mutable_data(), f.mutable_data() + 3 * n, 0.0);
-    double energy = 0;
-    {
-      py::gil_scoped_release release;
-      field.addForce(x, v, std::span<double>(f.mutable_data(), 3 * n));
-      energy = field.potentialEnergy(x);
-    }
+    // With the GIL held: no other thread can change the field's tables meanwhile.
+    field.addForce(x, v, std::span<double>(f.mutable_data(), 3 * n));
+    const double energy = field.potentialEnergy(x);
     return py::make_tuple(energy, f);
   }
   std::vector<std::string> fieldLabels() {
@@ -523,6 +620,7 @@ class Simulation {
     return out;
   }
   py::dict graspForces() {
+    requireReadable("grasp_forces");
     py::dict d;
     for (std::size_t i = 0; i < sim().numGrasps(); ++i) {
       const auto& g = sim().grasp(i);
@@ -532,17 +630,61 @@ class Simulation {
     return d;
   }
   py::array_t<std::int64_t> graspPoints(const std::string& name) {
+    requireReadable("grasp_points");
     core::Grasp* g = sim().findGrasp(name);
     if (!g) throw InvalidInput("grasp_points", "no grasp named \"" + name + "\" is active");
     return idArray(g->points().points());
   }
-  py::array_t<std::int64_t> fixedPoints() { return idArray(sim().fixed().points()); }
+  py::array_t<std::int64_t> fixedPoints() {
+    requireReadable("fixed_points");
+    return idArray(sim().fixed().points());
+  }
+  std::vector<std::string> fieldTypes() {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i) out.push_back(sim().forceField(i).typeName());
+    return out;
+  }
   py::dict summary() {
+    requireReadable("solve_summary");
     const auto& s = sim().solveSummary();
     return py::dict("flagged_steps"_a = s.flaggedSteps, "missed_tolerance"_a = s.missedTolerance,
                     "indefinite"_a = s.indefinite, "fell_back"_a = s.fellBack,
                     "newton_not_converged"_a = s.newtonNotConverged, "worst_residual"_a = s.worstResidual,
                     "worst_step"_a = s.worstStep);
+  }
+  /// The contact's settings, obstacles and last step's figures; None without contact.
+  py::object contact() {
+    requireReadable("contact");
+    const forcefields::Contact* c = sim().model().contact();
+    if (!c) return py::none();
+    const auto& p = c->parameters();
+    py::list obstacles;
+    for (const auto& o : c->obstacles()) {
+      const auto off = o.offsetAt(runner_->time());
+      obstacles.append(py::dict("name"_a = o.name, "shape"_a = o.shapeName(), "friction"_a = o.friction,
+                                "offset"_a = py::array_t<double>(3, off.data()), "moving"_a = o.moving()));
+    }
+    const auto& m = c->lastStep();
+    py::dict normal, friction;
+    for (std::size_t i = 0; i < c->obstacles().size(); ++i) {
+      normal[py::str(c->obstacles()[i].name)] = i < m.obstacleNormal.size() ? m.obstacleNormal[i] : 0.0;
+      friction[py::str(c->obstacles()[i].name)] = i < m.obstacleFriction.size() ? m.obstacleFriction[i] : 0.0;
+    }
+    return py::dict("thickness"_a = p.thickness, "stiffness"_a = p.stiffness, "friction"_a = p.friction,
+                    "self_contact"_a = p.selfContact, "obstacles"_a = obstacles, "candidates"_a = m.candidates,
+                    "active"_a = m.active, "excluded"_a = m.excluded, "self_normal_force"_a = m.selfNormal,
+                    "self_friction_force"_a = m.selfFriction, "obstacle_normal_force"_a = normal,
+                    "obstacle_friction_force"_a = friction);
+  }
+  /// Triangles that intersect each other or an obstacle at the current positions (the start check
+  /// of a scene): (description, distance), at most `limit`.
+  std::vector<std::pair<std::string, double>> intersections(std::size_t limit) {
+    requireReadable("intersections");
+    const forcefields::Contact* c = sim().model().contact();
+    if (!c) throw InvalidInput("intersections", "the scene has no contact section");
+    std::vector<std::pair<std::string, double>> out;
+    for (const auto& p : c->intersections(sim().state().x(), limit)) out.emplace_back(p.what, p.distance);
+    return out;
   }
   std::vector<std::string> validate() {
     requireReadable("validate");
@@ -550,20 +692,32 @@ class Simulation {
   }
 
   // ---- outputs ----
-  void record(const std::filesystem::path& dir) {
+  void record(const std::filesystem::path& dir, const std::vector<std::string>& extraGrasps) {
     requireMutable("record");
     if (writer_) throw Usage("record: already recording to " + writer_->dir().string() + " (finish_recording() first)");
     std::vector<std::string> obstacles;
     for (const auto& o : scene().obstacles) obstacles.push_back(o.name);
-    writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(),
-                                                   scene().graspNames(), scene().contact.has_value(), obstacles);
-    runner_->start();
-    writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()}, runner_->finished());
+    std::vector<std::string> grasps = scene().graspNames();
+    for (const auto& g : extraGrasps) {
+      if (g.empty() || g.find_first_of(",\"\n\r") != std::string::npos)
+        throw InvalidInput("record", "grasp name \"" + g + "\" cannot name CSV columns");
+      if (std::find(grasps.begin(), grasps.end(), g) == grasps.end()) grasps.push_back(g);
+    }
+    operate([&] {  // the scene's actions due at time 0, if they have not run yet
+      runner_->start();
+      return 0;
+    });
+    writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(), grasps,
+                                                   scene().contact.has_value(), obstacles);
+    writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()},
+                    runner_->currentStep() == runner_->numSteps());
   }
   py::object finishRecording() {
+    requireMutable("finish_recording");
     if (!writer_) return py::none();
     const std::filesystem::path dir = writer_->dir();
     auto w = std::move(writer_);
+    w->frame(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()});
     w->finish();
     return py::cast(dir);
   }
@@ -587,6 +741,16 @@ class Simulation {
     throw py::value_error("remove_controller: not a controller of this simulation");
   }
   void onTopologyEvent(py::function f) { eventCallbacks_.push_back(std::move(f)); }
+  /// Starts (or restarts) the C++ event log; returns and clears its lines.
+  void startEventLog() {
+    eventLogSubscription_.reset();
+    eventLog_ = std::make_unique<EventLog>();
+    eventLogSubscription_ = sim().topology().subscribe(*eventLog_);
+  }
+  std::vector<std::string> takeEventLog() {
+    if (!eventLog_) throw Usage("_cpp_events: the event log was not started");
+    return std::exchange(eventLog_->lines, {});
+  }
   void removeTopologyCallback(const py::function& f) {
     for (auto it = eventCallbacks_.begin(); it != eventCallbacks_.end(); ++it)
       if (it->is(f)) {
@@ -594,6 +758,17 @@ class Simulation {
         return;
       }
     throw py::value_error("remove_topology_callback: not a callback of this simulation");
+  }
+
+  // ---- the garbage collector's view ----
+  int traverse(visitproc visit, void* arg) {
+    for (const auto& c : controllers_) Py_VISIT(c.ptr());
+    for (const auto& f : eventCallbacks_) Py_VISIT(f.ptr());
+    return 0;
+  }
+  void clearReferences() {
+    controllers_.clear();
+    eventCallbacks_.clear();
   }
 
   // ---- edits ----
@@ -653,6 +828,8 @@ class Simulation {
   std::unique_ptr<EventBridge> bridge_;
   topology::Subscription subscription_;
   std::unique_ptr<core::OutputWriter> writer_;
+  std::unique_ptr<EventLog> eventLog_;
+  topology::Subscription eventLogSubscription_;
   std::vector<py::object> controllers_;
   std::vector<py::function> eventCallbacks_;
   std::unique_ptr<py::error_already_set> pendingError_;
@@ -701,56 +878,80 @@ class StateView {
   std::uint64_t layout_;
 };
 
-/// The writable arrays of an edit (Simulation.edit()).
+/// The writable arrays of an edit (Simulation.edit()): copies of the positions and velocities,
+/// written back when the block ends if every value is sound (nothing written otherwise), then
+/// read-only. Arrays derived from them inside the block stay copies: nothing escapes to the state.
 class Editor {
  public:
   Editor(Simulation& s, py::object owner) : sim_(&s), owner_(std::move(owner)) {}
   py::object enter() {
+    if (open_ || used_) throw Usage("edit: a with-block of sim.edit() is entered once");
     sim_->beginEdit();
-    auto& st = sim_->sim().state();
-    x0_.assign(st.x().begin(), st.x().end());
-    v0_.assign(st.v().begin(), st.v().end());
-    x_ = sim_->x(true);
-    v_ = sim_->v(true);
+    open_ = used_ = true;
+    revision_ = sim_->layout();
+    x_ = copyOf(sim_->sim().state().x());
+    v_ = copyOf(sim_->sim().state().v());
     return py::cast(this, py::return_value_policy::reference);
   }
   bool exit(const py::object& type, const py::object&, const py::object&) {
+    if (!open_) return false;  // not this edit's block
+    open_ = false;
     sim_->endEdit();
+    for (py::object* a : {&x_, &v_}) a->attr("setflags")("write"_a = false);
+    if (!type.is_none()) return false;  // the block raised: nothing of it is kept
     auto& st = sim_->sim().state();
     const auto& topo = sim_->sim().topology();
-    for (py::object* a : {&x_, &v_})
-      if (!a->is_none()) a->attr("setflags")("write"_a = false);
-    auto restore = [&] {
-      std::copy(x0_.begin(), x0_.end(), st.x().begin());
-      std::copy(v0_.begin(), v0_.end(), st.v().begin());
-    };
-    if (!type.is_none()) {  // the block raised: nothing of it is kept
-      restore();
-      return false;
-    }
-    for (const auto& [values, name] : {std::pair{st.x(), "x"}, std::pair{st.v(), "v"}}) {
-      for (std::size_t i = 0; i < values.size(); ++i) {
-        const PointId p(Index(i / 3));
-        const bool dead = !topo.isPointAlive(p);
-        if (!std::isfinite(values[i]) || (dead && values[i] != 0.0)) {
-          restore();
+    if (sim_->layout() != revision_ || st.numSlots() * 3 != std::size_t(x_.cast<py::array>().size()))
+      throw Usage("edit: the topology changed during the edit; nothing was written");
+    const auto xs = x_.cast<py::array_t<double>>(), vs = v_.cast<py::array_t<double>>();
+    for (const auto& [values, name] : {std::pair{xs.data(), "x"}, std::pair{vs.data(), "v"}}) {
+      for (std::size_t i = 0; i < st.x().size(); ++i) {
+        const bool dead = !topo.isPointAlive(PointId(Index(i / 3)));
+        if (!std::isfinite(values[i]) || (dead && values[i] != 0.0))
           throw InvalidInput("edit", std::string(name) + "[" + std::to_string(i / 3) + ", " + std::to_string(i % 3) +
                                          "]: " + (dead ? "the slot is dead (not a point of the surface)" : "non-finite value") +
-                                         "; the edit was undone");
-        }
+                                         "; nothing of the edit was written");
       }
     }
+    std::copy(xs.data(), xs.data() + xs.size(), st.x().begin());
+    std::copy(vs.data(), vs.data() + vs.size(), st.v().begin());
     return false;
   }
   py::object x() const { return x_; }
   py::object v() const { return v_; }
 
  private:
+  static py::array_t<double> copyOf(std::span<const double> values) {
+    py::array_t<double> a({values.size() / 3, std::size_t(3)});
+    std::copy(values.begin(), values.end(), a.mutable_data());
+    return a;
+  }
   Simulation* sim_;
   py::object owner_;
-  std::vector<double> x0_, v0_;
+  bool open_ = false, used_ = false;
+  std::uint64_t revision_ = 0;
   py::object x_ = py::none(), v_ = py::none();
 };
+
+/// Lets Python's garbage collector see the callbacks and controllers a simulation holds (a
+/// closure that refers to the simulation makes a cycle).
+int traverseSimulation(PyObject* self, visitproc visit, void* arg);
+int clearSimulation(PyObject* self);
+
+int traverseSimulation(PyObject* self, visitproc visit, void* arg) {
+#if PY_VERSION_HEX >= 0x03090000
+  Py_VISIT(Py_TYPE(self));
+#endif
+  auto* inst = reinterpret_cast<py::detail::instance*>(self);
+  if (!inst->get_value_and_holder().holder_constructed()) return 0;
+  return py::handle(self).cast<Simulation&>().traverse(visit, arg);
+}
+
+int clearSimulation(PyObject* self) {
+  auto* inst = reinterpret_cast<py::detail::instance*>(self);
+  if (inst->get_value_and_holder().holder_constructed()) py::handle(self).cast<Simulation&>().clearReferences();
+  return 0;
+}
 
 }  // namespace
 
@@ -819,7 +1020,12 @@ PYBIND11_MODULE(_cutsim, m) {
         return s + ">";
       });
 
-  py::class_<Simulation>(m, "_Simulation")
+  py::class_<Simulation>(m, "_Simulation", py::custom_type_setup([](PyHeapTypeObject* heapType) {
+                           auto* type = &heapType->ht_type;
+                           type->tp_flags |= Py_TPFLAGS_HAVE_GC;
+                           type->tp_traverse = traverseSimulation;
+                           type->tp_clear = clearSimulation;
+                         }))
       // A scene file (text = its path, source = ""), or a scene's JSON text named `source` whose
       // relative paths are resolved against `base`.
       .def(py::init([](const std::string& text, const std::string& source, const std::filesystem::path& base) {
@@ -844,7 +1050,7 @@ PYBIND11_MODULE(_cutsim, m) {
       .def_property_readonly("description", [](Simulation& s) { return s.scene().description; })
       .def_property_readonly("scene_file", [](Simulation& s) { return s.scene().file; })
       .def_property("gravity",
-                    [](Simulation& s) { return py::array_t<double>(3, s.sim().gravity().data()); },
+                    [](Simulation& s) { s.requireReadable("gravity"); return py::array_t<double>(3, s.sim().gravity().data()); },
                     [](Simulation& s, const py::object& g) {
                       s.requireMutable("gravity");
                       s.sim().setGravity(readVec3(g, "gravity"));
@@ -853,13 +1059,13 @@ PYBIND11_MODULE(_cutsim, m) {
       .def_property_readonly("v", [](Simulation& s) { return s.v(false); })
       .def_property_readonly("rest", &Simulation::rest)
       .def_property_readonly("alive", &Simulation::alive)
-      .def_property_readonly("revision", &Simulation::layout)
+      .def_property_readonly("revision", [](Simulation& s) { s.requireReadable("revision"); return s.layout(); })
       .def("triangles", &Simulation::triangles)
       .def("edges", &Simulation::edges)
-      .def_property_readonly("num_points", [](Simulation& s) { return s.sim().topology().numPoints(); })
-      .def_property_readonly("num_edges", [](Simulation& s) { return s.sim().topology().numEdges(); })
-      .def_property_readonly("num_triangles", [](Simulation& s) { return s.sim().topology().numTriangles(); })
-      .def_property_readonly("num_slots", &Simulation::slots)
+      .def_property_readonly("num_points", [](Simulation& s) { s.requireReadable("num_points"); return s.sim().topology().numPoints(); })
+      .def_property_readonly("num_edges", [](Simulation& s) { s.requireReadable("num_edges"); return s.sim().topology().numEdges(); })
+      .def_property_readonly("num_triangles", [](Simulation& s) { s.requireReadable("num_triangles"); return s.sim().topology().numTriangles(); })
+      .def_property_readonly("num_slots", [](Simulation& s) { s.requireReadable("num_slots"); return s.slots(); })
       .def("_cut", &Simulation::cut)
       .def("_tear", &Simulation::tear)
       .def("find_edge", &Simulation::findEdge, "a"_a, "b"_a)
@@ -874,21 +1080,26 @@ PYBIND11_MODULE(_cutsim, m) {
       .def("forces", &Simulation::forces)
       .def("_eval", &Simulation::fieldEval)
       .def_property_readonly("field_labels", &Simulation::fieldLabels)
+      .def_property_readonly("field_types", &Simulation::fieldTypes)
       .def("grasp_forces", &Simulation::graspForces)
       .def("grasp_points", &Simulation::graspPoints, "name"_a)
       .def("fixed_points", &Simulation::fixedPoints)
-      .def_property_readonly("last_stats", [](Simulation& s) { return statsDict(s.runner().lastStats()); })
+      .def_property_readonly("last_stats", [](Simulation& s) { s.requireReadable("last_stats"); return statsDict(s.runner().lastStats()); })
       .def_property_readonly("solve_summary", &Simulation::summary)
       .def_property_readonly("torn_edges", [](Simulation& s) { return s.runner().tornEdges(); })
       .def_property_readonly("cuts_done", [](Simulation& s) { return s.runner().cutsDone(); })
       .def("validate", &Simulation::validate)
-      .def("record", &Simulation::record, "dir"_a)
+      .def("contact", &Simulation::contact)
+      .def("intersections", &Simulation::intersections, "limit"_a = 5)
+      .def("_record", &Simulation::record, "dir"_a, "grasps"_a)
       .def("finish_recording", &Simulation::finishRecording)
       .def("dump_final", &Simulation::dumpFinal, "dir"_a)
       .def("add_controller", &Simulation::addController, "controller"_a)
       .def("remove_controller", &Simulation::removeController, "controller"_a)
       .def("on_topology_event", &Simulation::onTopologyEvent, "callback"_a)
       .def("remove_topology_callback", &Simulation::removeTopologyCallback, "callback"_a)
+      .def("_start_cpp_events", &Simulation::startEventLog)
+      .def("_cpp_events", &Simulation::takeEventLog)
       .def("view",
            [](py::object self) {
              auto& s = self.cast<Simulation&>();

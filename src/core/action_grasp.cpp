@@ -44,7 +44,10 @@ class ReleaseAction final : public TimelineAction {
     if (!c.activeGrasps().erase(p_.name))
       c.fail("name", "no grasp named \"" + p_.name + "\" is active at that time");
   }
-  void start(ActionContext& c) override { c.simulation().releaseGrasp(p_.name); }
+  void start(ActionContext& c) override {
+    if (!c.simulation().findGrasp(p_.name)) c.fail("no grasp named \"" + p_.name + "\" is active");
+    c.simulation().releaseGrasp(p_.name);
+  }
 
  private:
   ReleaseParameters p_;

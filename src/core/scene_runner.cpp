@@ -93,7 +93,14 @@ double SceneRunner::time() const {
 
 void SceneRunner::setTimeStep(double dt) {
   forcefields::requireFinitePositive("timeStep", dt);
-  timeBase_ = time();
+  const double now = time();
+  // The steps of dt that reach the duration (as Scene::numSteps rounds), after those taken.
+  const double n = std::max(0.0, (scene_.duration - now) / dt);
+  if (n > 1e12)
+    throw InvalidInput("timeStep", "more than 1e12 steps of " + forcefields::describeNumber(dt) + " to the end of the scene");
+  const double r = std::round(n);
+  numSteps_ = step_ + (std::abs(n - r) <= 1e-9 * std::max(1.0, r) ? long(r) : long(std::ceil(n)));
+  timeBase_ = now;
   stepBase_ = step_;
   timeStep_ = dt;
 }
@@ -101,8 +108,8 @@ void SceneRunner::setTimeStep(double dt) {
 void SceneRunner::schedule(ActionSpec action) {
   const double begins = action.startTime();
   auto at = std::upper_bound(scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), begins,
-                             [](double t, const ActionSpec& a) { return t < a.startTime(); });
-  scheduled_.insert(at, std::move(action));
+                             [](double t, const std::unique_ptr<ActionSpec>& a) { return t < a->startTime(); });
+  scheduled_.insert(at, std::make_unique<ActionSpec>(std::move(action)));
   if (!started_)
     start();  // the scene's actions due at time 0 first
   else
@@ -152,37 +159,51 @@ StepStats SceneRunner::stepOnce() {
   if (!started_) start();
   lastStats_ = sim_->step(timeStep_);
   ++step_;
-  for (Running& r : running_) {
-    context_->current = r.spec;
-    r.action->afterStep(*context_);
+  std::exception_ptr failure;
+  for (auto it = running_.begin(); it != running_.end();) {
+    context_->current = it->spec;
+    try {
+      it->action->afterStep(*context_);
+      ++it;
+    } catch (...) {
+      if (!failure) failure = std::current_exception();
+      it = running_.erase(it);  // a failed action does not go on
+    }
   }
-  runDueActions(time());
+  try {
+    runDueActions(time());
+  } catch (...) {
+    if (!failure) failure = std::current_exception();
+  }
+  if (failure) std::rethrow_exception(failure);
   return lastStats_;
 }
 
 void SceneRunner::runDueActions(double t) {
   const double eps = 1e-9 * timeStep_;
+  std::exception_ptr failure;  // the first action that fails; the others due still start
   // The scene's timeline and the actions given while running, merged by start time (the scene's
   // first at equal times).
   while (true) {
     const bool sceneDue =
         nextAction_ < scene_.timeline.size() && scene_.timeline[nextAction_].startTime() <= t + eps;
     const bool scheduledDue =
-        nextScheduled_ < scheduled_.size() && scheduled_[nextScheduled_].startTime() <= t + eps;
-    if (!sceneDue && !scheduledDue) return;
+        nextScheduled_ < scheduled_.size() && scheduled_[nextScheduled_]->startTime() <= t + eps;
+    if (!sceneDue && !scheduledDue) break;
     const bool fromScene =
         sceneDue && (!scheduledDue || scene_.timeline[nextAction_].startTime() <=
-                                          scheduled_[nextScheduled_].startTime());
-    const ActionSpec& spec = fromScene ? scene_.timeline[nextAction_++] : scheduled_[nextScheduled_++];
+                                          scheduled_[nextScheduled_]->startTime());
+    const ActionSpec& spec = fromScene ? scene_.timeline[nextAction_++] : *scheduled_[nextScheduled_++];
     running_.push_back({&spec, spec.build()});
     context_->current = &spec;
     try {
       running_.back().action->start(*context_);
     } catch (...) {
       running_.pop_back();  // an action that could not start does not go on
-      throw;
+      if (!failure) failure = std::current_exception();
     }
   }
+  if (failure) std::rethrow_exception(failure);
 }
 
 }  // namespace cutsim::core

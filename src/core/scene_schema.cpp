@@ -663,6 +663,8 @@ ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& so
 }
 
 Scene loadScene(const std::filesystem::path& file) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec)) throw InvalidInput(file.string(), "is a folder, not a scene file");
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InvalidInput(file.string(), "cannot open the scene file");
   std::ostringstream text;

@@ -86,6 +86,32 @@ TEST(Scripting, ActionsGivenWhileRunning) {
   EXPECT_TRUE(r.simulation().topology().validate().ok());
 }
 
+TEST(Scripting, ActionsGivenOutOfOrderKeepTheirOwnSpecs) {
+  const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
+  SceneRunner r(s);
+  r.start();
+  // A progressive cut that runs off the surface, then actions inserted before and after it in
+  // time: when the cut fails, its failure names the cut, not another action.
+  r.schedule(core::parseActionEntry(
+      "{\"action\": \"cut\", \"from\": 0, \"to\": 0.05, \"polyline\": [[0.3, 0.5, 0], [0.5, 0.5, 0], [3, 0.5, 0]]}",
+      "<the cut>", 0.0));
+  for (const char* at : {"0.2", "0.21", "0.22", "0.1", "0.15"})
+    r.schedule(core::parseActionEntry(std::string("{\"action\": \"tearing\", \"threshold\": 10, \"at\": ") + at + "}",
+                                      std::string("<tearing at ") + at + ">", 0.0));
+  std::vector<std::string> failures;
+  for (int i = 0; i < 25; ++i) {
+    try {
+      r.stepOnce();
+    } catch (const Error& e) {
+      failures.push_back(e.what());
+    }
+  }
+  ASSERT_EQ(failures.size(), 1u);  // once: the failed action leaves the timeline
+  EXPECT_EQ(failures[0].rfind("<the cut>:1: /: at t = ", 0), 0u) << failures[0];
+  EXPECT_EQ(r.currentStep(), 25);  // every step was taken
+  EXPECT_TRUE(r.simulation().topology().validate().ok());
+}
+
 TEST(Scripting, TimeStepChanges) {
   const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
   SceneRunner r(s);
@@ -94,6 +120,9 @@ TEST(Scripting, TimeStepChanges) {
   for (int i = 0; i < 4; ++i) r.advance();
   EXPECT_NEAR(r.time(), 0.05, 1e-15);
   EXPECT_NEAR(r.simulation().time(), 0.05, 1e-12);
+  EXPECT_EQ(r.numSteps(), 8 + 20);  // the rest of the duration (0.1) in steps of 0.0025
+  while (!r.finished()) r.advance();
+  EXPECT_NEAR(r.time(), 0.1, 1e-12);
   EXPECT_THROW(r.setTimeStep(0.0), InvalidInput);
   EXPECT_THROW(r.setTimeStep(std::nan("")), InvalidInput);
 }

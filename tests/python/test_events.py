@@ -206,3 +206,49 @@ def test_no_reentrant_step(small_scene):
     sim.add_controller(Nested())
     with pytest.raises(cutsim.UsageError, match="step"):
         sim.step()
+
+
+def as_line(ev):
+    """The event as the module's C++ event log writes it (an observer of its own, in C++)."""
+    def j(a):
+        return ",".join(str(int(v)) for v in a)
+
+    def rows(r):
+        return ";".join(j(x) for x in r)
+
+    k = ev.kind
+    if k in ("triangles_destroyed", "edges_destroyed", "edges_created"):
+        return f"{k}:{j(ev.ids)}|{rows(ev.vertices)}"
+    if k == "points_destroyed":
+        return f"{k}:{j(ev.ids)}"
+    if k == "points_created":
+        return f"{k}:{j(ev.ids)}|{j(ev.offsets)}|{j(ev.ancestors)}|" + ",".join("%.17g" % w for w in ev.weights)
+    if k == "triangles_created":
+        return f"{k}:{j(ev.ids)}|{rows(ev.vertices)}|{rows(ev.edges)}"
+    if k.endswith("_renumbered"):
+        return f"{k}:{ev.new_size}|{j(ev.old_to_new)}"
+    s = ev.summary
+    counts = [s["points_created"], s["points_destroyed"], s["edges_created"], s["edges_destroyed"],
+              s["triangles_created"], s["triangles_destroyed"], int(s["renumbered"])]
+    return f"{k}:{ev.operation}|" + ",".join(map(str, counts))
+
+
+def test_callbacks_get_exactly_what_a_cpp_observer_gets(small_scene):
+    small_scene["timeline"] = [{"at": 0.02, "action": "tearing", "threshold": 0.02, "maxPerStep": 3},
+                               {"from": 0.0, "to": 0.05, "action": "cut",
+                                "polyline": [[0.0, 0.3, 0.0], [0.5, 0.35, 0.0]]}]
+    sim = cutsim.Simulation(small_scene)
+    lines = []
+    sim.on_topology_event(lambda ev: lines.append(as_line(ev)))
+    sim._start_cpp_events()
+    sim.cut([[0.0, 0.5, 0.0], [0.6, 0.5, 0.0]])
+    sim.remove(sphere=([0.75, 0.25, 0.0], 0.12))
+    sim.gravity = [0, 0, -200.0]
+    sim.step(30)  # the progressive cut and tearing, from the steps
+    sim.compact()
+    sim.cut([[0.9, 0.0, 0.0], [0.9, 0.4, 0.0]])
+    cpp = sim._cpp_events()
+    assert sum(line.startswith("transaction_end:") for line in cpp) >= 5
+    assert any(line.startswith("points_renumbered:") for line in cpp)
+    assert sim.torn_edges > 0
+    assert lines == cpp

@@ -143,3 +143,22 @@ def test_set_parameters_between_steps(small_scene):
     with pytest.raises(cutsim.InvalidInputError, match="no force field labelled"):
         sim.set_parameters("Nope", stiffness=1)
     assert sim.parameters("StretchSprings")["restScale"] == 0.9
+
+
+def test_contact_figures(source_dir):
+    import json
+    scene = json.loads((source_dir / "data/scenes/fold_ground.json").read_text())
+    scene["mesh"]["grid"].update(nx=12, ny=12)
+    sim = cutsim.Simulation(scene, base_dir=source_dir / "data/scenes")
+    assert sim.contact()["thickness"] == scene["contact"]["thickness"]
+    sim.run_until(0.3)
+    c = sim.contact()
+    assert [o["name"] for o in c["obstacles"]] == [o.get("name", f"{o['type']}0") for o in scene["obstacles"]]
+    assert c["candidates"] >= c["active"] > 0
+    assert sum(c["obstacle_normal_force"].values()) > 0
+    assert sim.intersections() == []
+    without = {k: v for k, v in scene.items() if k not in ("contact", "obstacles")}
+    small = cutsim.Simulation(without, base_dir=source_dir / "data/scenes")
+    assert small.contact() is None
+    with pytest.raises(cutsim.InvalidInputError, match="no contact"):
+        small.intersections()

@@ -77,11 +77,15 @@ def test_edit_writes_positions_and_velocities(small_scene):
     sim = cutsim.Simulation(small_scene)
     p = int(np.flatnonzero(sim.alive)[40])
     with sim.edit() as e:
-        assert e.x.flags.writeable and address(e.x) == address(sim.x)
+        assert e.x.flags.writeable and address(e.x) != address(sim.x)  # a copy, written back at the end
         e.x[p] += [0, 0, 0.01]
         e.v[p] = [0, 0, 1.0]
+        assert sim.x[p, 2] == 0.0
         kept_x = e.x
+        escaped = e.x[:]  # a view of the copy: it cannot reach the state
     assert sim.x[p, 2] == pytest.approx(0.01)
+    escaped[p, 2] = np.nan
+    assert np.isfinite(sim.x).all()
     assert sim.v[p, 2] == 1.0
     assert not kept_x.flags.writeable  # the edit's arrays are read-only after the block
     sim.step(1)
@@ -96,11 +100,28 @@ def test_edit_undone_on_error(small_scene):
             e.x[:] += 1.0
             raise RuntimeError("boom")
     np.testing.assert_array_equal(sim.x, before)
-    with pytest.raises(cutsim.InvalidInputError, match=r"x\[3, 1\]: non-finite value; the edit was undone"):
+    with pytest.raises(cutsim.InvalidInputError, match=r"x\[3, 1\]: non-finite value; nothing of the edit was written"):
         with sim.edit() as e:
             e.x[0] += 1.0
             e.x[3, 1] = np.nan
     np.testing.assert_array_equal(sim.x, before)
+
+
+def test_edit_block_entered_once(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    e = sim.edit()
+    e.__enter__()
+    e.__exit__(None, None, None)
+    before = np.array(sim.x)
+    assert e.__exit__(RuntimeError, None, None) is False  # a stray exit does nothing
+    with pytest.raises(cutsim.UsageError, match="entered once"):
+        e.__enter__()
+    with sim.edit() as other:
+        other.x[0] += 1
+        e.__exit__(None, None, None)  # not this block: the other edit stays open
+        with pytest.raises(cutsim.UsageError):
+            sim.step()
+    np.testing.assert_array_equal(sim.x[0], before[0] + 1)
 
 
 def test_edit_refuses_dead_slots_and_topology_changes(small_scene):

@@ -83,6 +83,11 @@ class OutputWriter {
 
   /// The CSV row of this step, and a frame if the step is a multiple of `every` or `last`.
   void record(Simulation& sim, const StepRecord& r, bool last);
+  /// A frame of this step unless it has one already (the end of a recording that stops between
+  /// the `every` steps).
+  void frame(Simulation& sim, const StepRecord& r) {
+    if (r.step != lastFrameStep_) writeFrame(sim, r);
+  }
   /// Flushes and closes the CSV (throws cutsim::Error if it could not be written).
   void finish();
 

@@ -9,7 +9,6 @@
 // registries.hpp). SceneRunner builds the core::Simulation from a validated scene (nothing the
 // scene does not ask for) and plays it.
 #include <any>
-#include <deque>
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -169,7 +168,9 @@ class SceneRunner {
   /// One step: the simulation step, then the actions that go on (progressive cuts, tearing) in
   /// timeline order, then the actions due at the new time. Nothing once finished().
   StepStats advance();
-  /// The same step, also past the scene's duration (scripts that run on).
+  /// The same step, also past the scene's duration (scripts that run on). When an action fails
+  /// after the step (a running action, or one due), the step stays done, the failed action leaves
+  /// the timeline, the other actions still run, and the first failure is thrown.
   StepStats stepOnce();
   /// Adds an action (parseActionEntry) to the timeline: it starts at once if it is due now (as
   /// the scene's actions due now have), else when its time comes. Its failures name its source.
@@ -179,7 +180,8 @@ class SceneRunner {
   void replaceForceField(std::size_t i, const ForceFieldSpec& spec);
   /// Applies a constraint (parseConstraintEntry) now.
   void applyConstraint(const ConstraintSpec& constraint);
-  /// Changes the time step of the following steps (finite, > 0).
+  /// Changes the time step of the following steps (finite, > 0); numSteps() becomes the steps
+  /// so far and those of the new time step that reach the scene's duration.
   void setTimeStep(double dt);
   double timeStep() const { return timeStep_; }
   const StepStats& lastStats() const { return lastStats_; }
@@ -209,8 +211,10 @@ class SceneRunner {
   bool started_ = false;
   StepStats lastStats_;
   std::vector<Running> running_;  // started actions, in timeline order
-  std::deque<ActionSpec> scheduled_;  // actions given while running (stable addresses)
-  std::size_t nextScheduled_ = 0;    // scheduled_ is kept sorted from here on by start time
+  // Actions given while running (running_ points at them: each is allocated once), sorted by
+  // start time from nextScheduled_ on.
+  std::vector<std::unique_ptr<ActionSpec>> scheduled_;
+  std::size_t nextScheduled_ = 0;
   double timeStep_ = 0.0;
   long stepBase_ = 0;       // the step and the time at the last change of time step
   double timeBase_ = 0.0;

@@ -1,0 +1,172 @@
+"""Hostile use: wrong types and values, failures in the middle of a run, threads, garbage
+collection. Each must end in a clear error or the documented behaviour, never a crash."""
+import gc
+import threading
+import weakref
+
+import numpy as np
+import pytest
+
+import cutsim
+
+
+@pytest.mark.parametrize("value", ["abc", {}, object(), [1, 2], None, [0, 0, np.inf]])
+def test_bad_vectors_raise(small_scene, value):
+    sim = cutsim.Simulation(small_scene)
+    with pytest.raises((ValueError, TypeError), match="gravity"):
+        sim.gravity = value
+    sim.grasp("g", points=[40])
+    with pytest.raises((ValueError, TypeError), match="delta"):
+        sim.move("g", value)
+
+
+def test_bad_selections_raise(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    with pytest.raises(TypeError, match="points"):
+        sim.grasp("g", points=[1.7])
+    with pytest.raises(ValueError, match="near"):
+        sim.grasp("g", near=[1, 2])
+    with pytest.raises(ValueError, match="box"):
+        sim.fix(box=[0, 0, 0])
+    sim.remove(sphere=([0.5, 0.5, 0], 0.2), boundary="centroid")
+    dead = int(np.flatnonzero(~sim.alive)[0])
+    with pytest.raises(cutsim.InvalidInputError, match=f"point {dead} is not a live point"):
+        sim.fix(points=[dead])
+    with pytest.raises(ValueError, match="min_angle"):
+        sim.tear(0, min_angle=75)
+    with pytest.raises(ValueError, match="1e12 steps"):
+        sim.run_until(1e30)
+
+
+def test_non_finite_numbers_name_their_place(small_scene):
+    small_scene["forceFields"][1]["bendingStiffness"] = float("nan")
+    with pytest.raises(cutsim.InvalidInputError, match=r"<scene dict>: /forceFields/1/bendingStiffness: nan"):
+        cutsim.Simulation(small_scene)
+    small_scene["forceFields"][1]["bendingStiffness"] = 0.01
+    sim = cutsim.Simulation(small_scene)
+    with pytest.raises(cutsim.InvalidInputError, match=r"<action cut>: /polyline/1/0: inf"):
+        sim.act({"action": "cut", "polyline": [[0, 0.5, 0], [np.inf, 0.5, 0]]})
+    with pytest.raises(cutsim.InvalidInputError, match="/stiffness: nan"):
+        sim.set_parameters("StretchSprings", stiffness=np.nan)
+
+
+def test_a_folder_is_not_a_scene(tmp_path):
+    with pytest.raises(cutsim.InvalidInputError, match="is a folder, not a scene file"):
+        cutsim.load(tmp_path)
+
+
+def test_labels_and_types(small_scene):
+    small_scene["forceFields"][1]["label"] = "bend"
+    sim = cutsim.Simulation(small_scene)
+    assert sim.field_labels == ["StretchSprings", "bend"]
+    assert sim.field_types == ["StretchSprings", "FastTriangularBendingSprings"]
+    assert sim.eval_bending()[0] == sim.eval("bend")[0]
+    with pytest.raises(cutsim.InvalidInputError, match="label cannot change"):
+        sim.set_parameters("bend", label="other")
+
+
+def test_a_failing_action_leaves_the_run_going(small_scene, tmp_path):
+    sim = cutsim.Simulation(small_scene)
+    sim.record(tmp_path)
+    # A progressive cut whose end is off the surface: it fails when the scalpel gets there.
+    sim.act({"action": "cut", "from": 0.0, "to": 0.1, "polyline": [[0.3, 0.5, 0], [0.5, 0.5, 0], [3, 0.5, 0]]})
+    sim.act({"action": "release", "at": 0.05, "name": "nobody"})
+    sim.act({"action": "tearing", "at": 0.05, "threshold": 10})
+    failures = []
+    for _ in range(40):
+        try:
+            sim.step()
+        except cutsim.Error as e:
+            failures.append((sim.step_count, str(e)))
+    # Each failing action fails once, names itself, and leaves the timeline; the steps go on.
+    assert [f[0] for f in failures] == sorted({f[0] for f in failures})
+    assert any("<action release>" in m and "no grasp named \"nobody\"" in m for _, m in failures), failures
+    assert any("<action cut>" in m and "the cut failed" in m for _, m in failures), failures
+    assert len(failures) == 2 and sim.step_count == 40
+    sim.finish_recording()
+    rows = (tmp_path / "steps.csv").read_text().splitlines()
+    assert len(rows) == 1 + 41  # the header, t = 0 and every step, failed actions or not
+
+
+def test_time_step_change_moves_the_end(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    sim.step(50)  # t = 0.25 of 0.5
+    sim.time_step = 0.01
+    assert sim.num_steps == 50 + 25
+    sim.run()
+    assert sim.finished and sim.time == pytest.approx(0.5)
+
+
+def test_frames_past_the_end_keep_their_spacing(small_scene, tmp_path):
+    sim = cutsim.Simulation(small_scene)
+    sim.record(tmp_path)
+    sim.run()  # 100 steps, a frame every 10
+    sim.step(25)
+    sim.finish_recording()  # and one of the last step
+    frames = sorted(tmp_path.glob("surface_*.vtp"))
+    assert len(frames) == 11 + 2 + 1
+
+
+def test_callback_error_during_record_is_raised_by_record(small_scene, tmp_path):
+    small_scene["timeline"] = [{"at": 0, "action": "cut", "polyline": [[0, 0.5, 0], [0.5, 0.5, 0]]}]
+    sim = cutsim.Simulation(small_scene)
+
+    def broken(ev):
+        raise KeyError("callback")
+
+    sim.on_topology_event(broken)
+    with pytest.raises(KeyError):
+        sim.record(tmp_path)
+    sim.remove_topology_callback(broken)
+    sim.step()
+
+
+def test_cycles_through_callbacks_are_collected(small_scene):
+    refs = []
+    for _ in range(3):
+        sim = cutsim.Simulation(small_scene)
+        sim.on_topology_event(lambda ev, s=sim: s.time)
+
+        class Holder(cutsim.Controller):
+            def __init__(self, s):
+                self.s = s
+
+        sim.add_controller(Holder(sim))
+        refs.append(weakref.ref(sim))
+        del sim
+    gc.collect()
+    assert all(r() is None for r in refs)
+
+
+def test_other_threads_are_refused_while_it_steps():
+    scene = {
+        "mesh": {"grid": {"nx": 40, "ny": 40}}, "mass": {"total": 0.2}, "gravity": [0, 0, -9.81],
+        "forceFields": [{"type": "StretchSprings", "stiffness": 1000}],
+        "constraints": [{"type": "fixed", "near": [[0, 1, 0]]}], "linearSolver": {"type": "cholmod"},
+        "timeStep": 0.005, "duration": 1,
+    }
+    sim = cutsim.Simulation(scene)
+    done = threading.Event()
+    errors = []
+
+    def stepper():
+        try:
+            sim.step(60)
+        except Exception as e:  # pragma: no cover - reported below
+            errors.append(e)
+        done.set()
+
+    t = threading.Thread(target=stepper)
+    t.start()
+    refused = 0
+    calls = [lambda: sim.cut([[0, 0.5, 0], [0.4, 0.5, 0]]), lambda: sim.x, lambda: sim.finish_recording(),
+             lambda: sim.grasp_forces(), lambda: sim.eval("StretchSprings"), lambda: sim.step()]
+    while not done.is_set():
+        for call in calls:
+            try:
+                call()
+            except cutsim.UsageError:
+                refused += 1
+    t.join()
+    assert errors == [] and sim.step_count >= 60 and sim.validate() == []  # 61: a step() just after the loop
+    assert refused > 0
