@@ -52,6 +52,8 @@ def _nonfinite(obj, pointer=""):
                 return p
     elif isinstance(obj, (float, np.floating)) and not np.isfinite(obj):
         return (pointer or "/", obj)
+    elif isinstance(obj, (int, np.integer)) and not isinstance(obj, bool) and abs(int(obj)) > 1.7e308:
+        return (pointer or "/", "an integer of %d digits" % len(str(abs(int(obj)))))
     return None
 
 
@@ -97,6 +99,8 @@ class Simulation(_cutsim._Simulation):
     """
 
     def __init__(self, scene, *, base_dir=None, source="<scene dict>"):
+        if "_fields" in self.__dict__:
+            raise TypeError("a Simulation is initialised once")
         if isinstance(scene, dict):
             base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
             super().__init__(_json(scene, source), source, base)
@@ -105,7 +109,7 @@ class Simulation(_cutsim._Simulation):
             if base_dir is not None:
                 raise TypeError("base_dir is for scenes given as dicts (a file's paths are relative to it)")
             super().__init__(os.fspath(scene), "", "")
-            with open(scene, encoding="utf-8") as f:  # read and checked by the line above
+            with open(scene, encoding="utf-8-sig") as f:  # read and checked by the line above
                 self._fields = json.load(f).get("forceFields", [])
         else:
             raise TypeError(f"Simulation: expected a scene file path or a dict, got {type(scene).__name__}")
@@ -128,11 +132,13 @@ class Simulation(_cutsim._Simulation):
         if (edge is None) == (points is None):
             raise TypeError("tear: give either an edge id or points=(a, b)")
         if points is not None:
-            a, b = (int(p) for p in points)
+            if len(points) != 2:
+                raise TypeError(f"tear: points=(a, b) names two points, got {points!r}")
+            a, b = (_index(p, "tear: points") for p in points)
             edge = self.find_edge(a, b)
             if edge < 0:
                 raise TopologyError(f"tear: points {a} and {b} share no edge")
-        return self._tear(int(edge), float(min_angle))
+        return self._tear(_index(edge, "tear: edge"), float(min_angle))
 
     def remove(self, *, sphere=None, box=None, boundary="cut", min_angle=20.0):
         """Removes the surface inside a region of rest space: sphere=(center, radius) or
@@ -157,7 +163,7 @@ class Simulation(_cutsim._Simulation):
         """Writes frames and steps.csv to dir, as `cutsim run --out dir` does, from now until
         finish_recording(). The CSV has reaction-force columns for the scene's grasps and for the
         names in `grasps` (grasps a script will start)."""
-        self._record(os.fspath(dir), list(grasps))
+        self._record(os.path.abspath(os.fspath(dir)), list(grasps))
 
     def fix(self, *, points=None, box=None, near=None):
         """Fixes points (ids, a rest-space box, or the nearest point to each position) from now on."""
@@ -233,8 +239,18 @@ class Simulation(_cutsim._Simulation):
         return np.array(self.x[slots]), dense[self.triangles()], slots
 
     def __repr__(self):
-        return (f"<cutsim.Simulation '{self.name}' t={self.time:g} step {self.step_count}: "
-                f"{self.num_points} points, {self.num_triangles} triangles>")
+        try:
+            counts = f": {self.num_points} points, {self.num_triangles} triangles"
+        except UsageError:
+            counts = " (stepping)"
+        return f"<cutsim.Simulation '{self.name}' t={self.time:g} step {self.step_count}{counts}>"
+
+
+def _index(value, what):
+    """An id: an integer (not a bool, not a float with a fraction)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{what}: expected an integer id, got {value!r}")
+    return int(value)
 
 
 def _selection(points, box, near):
@@ -242,10 +258,10 @@ def _selection(points, box, near):
     if len(given) != 1:
         raise TypeError("give exactly one of points=, box=, near=")
     if points is not None:
-        ids = np.ravel(np.asarray(points))
-        if ids.size == 0 or not all(float(p) == int(p) for p in ids):
-            raise TypeError(f"points: expected point ids (integers), got {points!r}")
-        return {"points": [int(p) for p in ids]}
+        ids = list(np.ravel(np.asarray(points, dtype=object)))
+        if not ids:
+            raise TypeError("points: expected point ids (integers), got none")
+        return {"points": [_index(p, "points") for p in ids]}
     if box is not None:
         b = np.asarray(box, dtype=float)
         if b.shape != (2, 3):

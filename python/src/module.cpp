@@ -11,7 +11,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <thread>
 #include <cstdio>
+#include <cstring>
 #include <utility>
 #include <cmath>
 #include <filesystem>
@@ -185,6 +187,7 @@ py::dict incisionDict(const topology::IncisionResult& r) {
 // Topology events as Python objects
 
 struct Event {
+  explicit Event(std::string k) : kind(std::move(k)) {}
   std::string kind;  // "points_created", ...
   py::object ids = py::none(), vertices = py::none(), edges = py::none();
   py::object offsets = py::none(), ancestors = py::none(), weights = py::none();
@@ -340,13 +343,19 @@ class EventLog final : public topology::TopologyObserver {
   template <class Ids>
   static std::string join(const Ids& ids) {
     std::string out;
-    for (std::size_t i = 0; i < ids.size(); ++i) out += (i ? "," : "") + number(Index(ids[i]));
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      if (i) out += ',';
+      out += number(Index(ids[i]));
+    }
     return out;
   }
   template <class Rows>
   static std::string rows(const Rows& r) {
     std::string out;
-    for (std::size_t i = 0; i < r.size(); ++i) out += (i ? ";" : "") + join(r[i]);
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      if (i) out += ';';
+      out += join(r[i]);
+    }
     return out;
   }
   void renumbered(const char* kind, const topology::Renumbering& r) {
@@ -381,17 +390,27 @@ class Simulation {
   // ---- guards ----
   /// Throws unless the simulation may be changed now.
   void requireMutable(const char* what) const {
-    if (inEvent_)
+    if (inEvent_ && std::this_thread::get_id() == eventThread_)
       throw Usage(std::string(what) +
                   ": a topology event callback may read the simulation but not change it (the event "
                   "contract: events arrive while the operation is finishing)");
-    if (stepping_) throw Usage(std::string(what) + ": the simulation is stepping in another thread");
+    if (stepping_ || inEvent_)
+      throw Usage(std::string(what) + ": the simulation is busy (stepping or changing) in another thread");
     if (editing_)
       throw Usage(std::string(what) + ": called inside a `with sim.edit()` block, which allows no step or topology "
                                       "change: leave the block first");
   }
+  /// Forces and energies are read between operations, or at an operation's transaction_end: before
+  /// it, the force fields have not all followed the operation yet.
+  void requireSettled(const char* what) const {
+    requireReadable(what);
+    if (inEvent_ && eventKind_ != "transaction_end")
+      throw Usage(std::string(what) + ": in a topology event callback, forces and energies are read at the "
+                                      "transaction_end event, when every table has followed the operation");
+  }
   void requireReadable(const char* what) const {
-    if (stepping_ && !inEvent_) throw Usage(std::string(what) + ": the simulation is stepping in another thread");
+    if (stepping_ && !(inEvent_ && std::this_thread::get_id() == eventThread_))
+      throw Usage(std::string(what) + ": the simulation is stepping in another thread");
   }
 
   // ---- stepping ----
@@ -432,8 +451,12 @@ class Simulation {
         }
       }
       stepping_ = false;
+      keepBridgeLast();
+      if (failure) {
+        warnPendingCallbackError();  // the action's failure is raised; the callback's is a warning
+        std::rethrow_exception(failure);
+      }
       raisePendingCallbackError();
-      if (failure) std::rethrow_exception(failure);
       any = true;
       if (stats.flagged()) ++flagged;
       callControllers("on_step_end");
@@ -541,6 +564,10 @@ class Simulation {
   void act(const std::string& text, const std::string& source) {
     requireMutable("act");
     auto spec = core::parseActionEntry(text, source, runner_->time());
+    struct Last {
+      Simulation& s;
+      ~Last() { s.keepBridgeLast(); }
+    } last{*this};
     operate([&] {
       runner_->schedule(std::move(spec));
       return 0;
@@ -550,11 +577,13 @@ class Simulation {
     requireMutable("set_parameters");
     const auto spec = core::parseForceFieldEntry(text, source);
     runner_->replaceForceField(i, spec);
+    keepBridgeLast();
   }
   void constrain(const std::string& text, const std::string& source) {
     requireMutable("fix");
     const auto spec = core::parseConstraintEntry(text, source);
     runner_->applyConstraint(spec);
+    keepBridgeLast();
   }
   void unfix(const std::vector<long>& points) {
     requireMutable("unfix");
@@ -577,7 +606,7 @@ class Simulation {
 
   // ---- queries ----
   py::dict energies() {
-    requireReadable("energies");
+    requireSettled("energies");
     py::dict d;
     d["kinetic"] = sim().kineticEnergy();
     d["gravity"] = sim().gravityEnergy();
@@ -585,7 +614,7 @@ class Simulation {
     return d;
   }
   py::array_t<double> forces() {
-    requireReadable("forces");
+    requireSettled("forces");
     const auto f = sim().totalForce();
     py::array_t<double> a({f.size() / 3, std::size_t(3)});
     std::copy(f.begin(), f.end(), a.mutable_data());
@@ -599,7 +628,7 @@ class Simulation {
     throw InvalidInput("field", "no force field labelled \"" + label + "\" (the scene has: " + known + ")");
   }
   py::tuple fieldEval(const std::string& label, const py::object& xObj, const py::object& vObj) {
-    requireReadable("eval");
+    requireSettled("eval");
     const std::size_t i = fieldIndex(label);
     const std::size_t n = slots();
     std::vector<double> x = xObj.is_none() ? std::vector<double>(sim().state().x().begin(), sim().state().x().end())
@@ -703,14 +732,13 @@ class Simulation {
         throw InvalidInput("record", "grasp name \"" + g + "\" cannot name CSV columns");
       if (std::find(grasps.begin(), grasps.end(), g) == grasps.end()) grasps.push_back(g);
     }
-    operate([&] {  // the scene's actions due at time 0, if they have not run yet
-      runner_->start();
-      return 0;
-    });
+    runner_->start();  // the scene's actions due at time 0, if they have not run yet
+    keepBridgeLast();
     writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(), grasps,
                                                    scene().contact.has_value(), obstacles);
     writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()},
                     runner_->currentStep() == runner_->numSteps());
+    raisePendingCallbackError();  // from the actions at time 0: the recording has started
   }
   py::object finishRecording() {
     requireMutable("finish_recording");
@@ -760,6 +788,19 @@ class Simulation {
     throw py::value_error("remove_topology_callback: not a callback of this simulation");
   }
 
+  /// Keeps the Python callbacks the topology's last observers (and the event log after them), so
+  /// that when a callback runs every table of the simulation has followed the event. Called after
+  /// whatever may subscribe new observers (actions that start grasps, rebuilt force fields).
+  void keepBridgeLast() {
+    auto& topo = sim().topology();
+    subscription_.reset();
+    subscription_ = topo.subscribe(*bridge_);
+    if (eventLog_) {
+      eventLogSubscription_.reset();
+      eventLogSubscription_ = topo.subscribe(*eventLog_);
+    }
+  }
+
   // ---- the garbage collector's view ----
   int traverse(visitproc visit, void* arg) {
     for (const auto& c : controllers_) Py_VISIT(c.ptr());
@@ -785,7 +826,9 @@ class Simulation {
   void deliver(Make&& make) {
     py::gil_scoped_acquire gil;
     Event ev = make();
+    eventKind_ = ev.kind;
     auto obj = py::cast(std::move(ev));
+    eventThread_ = std::this_thread::get_id();
     inEvent_ = true;
     for (const auto& f : std::vector<py::function>(eventCallbacks_)) {
       try {
@@ -805,6 +848,12 @@ class Simulation {
       if (py::hasattr(c, method)) c.attr(method)(self());
   }
   py::object self() { return py::cast(this, py::return_value_policy::reference); }
+  void warnPendingCallbackError() {
+    if (!pendingError_) return;
+    auto e = std::move(pendingError_);
+    const std::string message = std::string("a topology event callback raised too: ") + e->what();
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, message.c_str(), 2) != 0) throw py::error_already_set();
+  }
   void raisePendingCallbackError() {
     if (!pendingError_) return;
     auto e = std::move(pendingError_);
@@ -835,6 +884,8 @@ class Simulation {
   std::unique_ptr<py::error_already_set> pendingError_;
   std::atomic<bool> stepping_{false};
   bool inStepLoop_ = false, inEvent_ = false, editing_ = false;
+  std::thread::id eventThread_;
+  std::string eventKind_;
 };
 
 bool EventBridge::wanted() const { return sim_.hasEventCallbacks(); }
@@ -859,22 +910,32 @@ void EventBridge::onTransactionEnd(const topology::Topology&, const topology::Tr
 
 /// A handle on the state's layout at one moment: its arrays, or StaleViewError once the topology
 /// has changed since.
+/// The simulation a view or an edit refers to, through a weak reference (a view kept by a
+/// controller of its own simulation makes no cycle): StaleViewError once it is gone.
+Simulation& target(const py::weakref& ref, const char* what) {
+  py::object o = ref();
+  if (o.is_none()) throw StaleView(std::string(what) + ": its simulation has been deleted");
+  return o.cast<Simulation&>();
+}
+
 class StateView {
  public:
-  StateView(Simulation& s, py::object owner) : sim_(&s), owner_(std::move(owner)), layout_(s.layout()) {}
+  StateView(Simulation& s, const py::object& owner) : ref_(owner), layout_(s.layout()) {}
   void check(const char* what) const {
-    if (sim_->layout() != layout_)
+    if (sim().layout() != layout_)
       throw StaleView(std::string("StateView.") + what +
                       ": the topology has changed since this view was made (the state's slots may have moved, "
                       "grown or been renumbered): take a new view");
   }
-  bool valid() const { return sim_->layout() == layout_; }
-  Simulation& sim() const { return *sim_; }
+  bool valid() const {
+    py::object o = ref_();
+    return !o.is_none() && o.cast<Simulation&>().layout() == layout_;
+  }
+  Simulation& sim() const { return target(ref_, "StateView"); }
   std::uint64_t revision() const { return layout_; }
 
  private:
-  Simulation* sim_;
-  py::object owner_;  // keeps the simulation alive
+  py::weakref ref_;
   std::uint64_t layout_;
 };
 
@@ -883,9 +944,10 @@ class StateView {
 /// read-only. Arrays derived from them inside the block stay copies: nothing escapes to the state.
 class Editor {
  public:
-  Editor(Simulation& s, py::object owner) : sim_(&s), owner_(std::move(owner)) {}
+  explicit Editor(const py::object& owner) : ref_(owner) {}
   py::object enter() {
     if (open_ || used_) throw Usage("edit: a with-block of sim.edit() is entered once");
+    Simulation* sim_ = &target(ref_, "edit");
     sim_->beginEdit();
     open_ = used_ = true;
     revision_ = sim_->layout();
@@ -896,13 +958,25 @@ class Editor {
   bool exit(const py::object& type, const py::object&, const py::object&) {
     if (!open_) return false;  // not this edit's block
     open_ = false;
+    py::object owner = ref_();
+    if (owner.is_none()) return false;  // the simulation is gone: nothing to write into
+    Simulation* sim_ = &owner.cast<Simulation&>();
     sim_->endEdit();
-    for (py::object* a : {&x_, &v_}) a->attr("setflags")("write"_a = false);
+    for (py::object* a : {&x_, &v_})
+      if (py::isinstance<py::array>(*a)) a->attr("setflags")("write"_a = false);
     if (!type.is_none()) return false;  // the block raised: nothing of it is kept
     auto& st = sim_->sim().state();
     const auto& topo = sim_->sim().topology();
-    if (sim_->layout() != revision_ || st.numSlots() * 3 != std::size_t(x_.cast<py::array>().size()))
-      throw Usage("edit: the topology changed during the edit; nothing was written");
+    if (sim_->layout() != revision_) throw Usage("edit: the topology changed during the edit; nothing was written");
+    // The arrays must still be what the edit handed out: (slots, 3) float64, C order.
+    auto sound = [&](const py::object& a) {
+      if (!py::isinstance<py::array_t<double>>(a)) return false;
+      auto arr = a.cast<py::array>();
+      return arr.ndim() == 2 && std::size_t(arr.shape(0)) == st.numSlots() && arr.shape(1) == 3 &&
+             (arr.flags() & py::array::c_style) != 0;
+    };
+    if (!sound(x_) || !sound(v_))
+      throw Usage("edit: e.x or e.v was resized or replaced during the edit; nothing was written");
     const auto xs = x_.cast<py::array_t<double>>(), vs = v_.cast<py::array_t<double>>();
     for (const auto& [values, name] : {std::pair{xs.data(), "x"}, std::pair{vs.data(), "v"}}) {
       for (std::size_t i = 0; i < st.x().size(); ++i) {
@@ -926,8 +1000,7 @@ class Editor {
     std::copy(values.begin(), values.end(), a.mutable_data());
     return a;
   }
-  Simulation* sim_;
-  py::object owner_;
+  py::weakref ref_;
   bool open_ = false, used_ = false;
   std::uint64_t revision_ = 0;
   py::object x_ = py::none(), v_ = py::none();
@@ -982,20 +1055,27 @@ PYBIND11_MODULE(_cutsim, m) {
   m.add_object("SolverWarning", py::handle(gSolverWarning));
 
   py::register_exception_translator([](std::exception_ptr p) {
+    // Messages may quote bytes of a file that are not UTF-8: decoded with replacement characters.
+    auto set = [](PyObject* type, const char* what) {
+      PyObject* text = PyUnicode_DecodeUTF8(what, Py_ssize_t(std::strlen(what)), "replace");
+      if (!text) return;
+      PyErr_SetObject(type, text);
+      Py_DECREF(text);
+    };
     try {
       if (p) std::rethrow_exception(p);
     } catch (const TopologyError& e) {
-      PyErr_SetString(gTopologyError, e.what());
+      set(gTopologyError, e.what());
     } catch (const InvalidInput& e) {
-      PyErr_SetString(gInvalidInput, e.what());
+      set(gInvalidInput, e.what());
     } catch (const SolverError& e) {
-      PyErr_SetString(gSolverError, e.what());
+      set(gSolverError, e.what());
     } catch (const Error& e) {
-      PyErr_SetString(gError, e.what());
+      set(gError, e.what());
     } catch (const StaleView& e) {
-      PyErr_SetString(gStaleView, e.what());
+      set(gStaleView, e.what());
     } catch (const Usage& e) {
-      PyErr_SetString(gUsageError, e.what());
+      set(gUsageError, e.what());
     }
   });
 
@@ -1105,10 +1185,7 @@ PYBIND11_MODULE(_cutsim, m) {
              auto& s = self.cast<Simulation&>();
              return StateView(s, self);
            })
-      .def("edit", [](py::object self) {
-        auto& s = self.cast<Simulation&>();
-        return Editor(s, self);
-      });
+      .def("edit", [](py::object self) { return Editor(self); });
 
   py::class_<StateView>(m, "StateView",
                         "Read-only, zero-copy arrays of the state at one layout; StaleViewError once the topology "

@@ -14,6 +14,24 @@ namespace cutsim::core {
 
 using topology::geometry::dist2;
 
+namespace {
+/// Throws the failures of the actions of one step: the one, or every message of several (none
+/// is lost); an exception that is not a cutsim::Error first, as it is.
+void throwFailures(const std::vector<std::exception_ptr>& failures) {
+  if (failures.empty()) return;
+  if (failures.size() == 1) std::rethrow_exception(failures.front());
+  std::string all;
+  for (const auto& f : failures) {
+    try {
+      std::rethrow_exception(f);
+    } catch (const Error& e) {
+      all += (all.empty() ? "" : "\n") + std::string(e.what());
+    }
+  }
+  throw Error(all);
+}
+}  // namespace
+
 /// What the running actions see of the runner.
 class SceneRunner::Context final : public ActionContext {
  public:
@@ -159,29 +177,29 @@ StepStats SceneRunner::stepOnce() {
   if (!started_) start();
   lastStats_ = sim_->step(timeStep_);
   ++step_;
-  std::exception_ptr failure;
+  std::vector<std::exception_ptr> failures;
   for (auto it = running_.begin(); it != running_.end();) {
     context_->current = it->spec;
     try {
       it->action->afterStep(*context_);
       ++it;
     } catch (...) {
-      if (!failure) failure = std::current_exception();
+      failures.push_back(std::current_exception());
       it = running_.erase(it);  // a failed action does not go on
     }
   }
   try {
     runDueActions(time());
   } catch (...) {
-    if (!failure) failure = std::current_exception();
+    failures.push_back(std::current_exception());
   }
-  if (failure) std::rethrow_exception(failure);
+  throwFailures(failures);
   return lastStats_;
 }
 
 void SceneRunner::runDueActions(double t) {
   const double eps = 1e-9 * timeStep_;
-  std::exception_ptr failure;  // the first action that fails; the others due still start
+  std::vector<std::exception_ptr> failures;  // the actions that fail; the others due still start
   // The scene's timeline and the actions given while running, merged by start time (the scene's
   // first at equal times).
   while (true) {
@@ -200,10 +218,10 @@ void SceneRunner::runDueActions(double t) {
       running_.back().action->start(*context_);
     } catch (...) {
       running_.pop_back();  // an action that could not start does not go on
-      if (!failure) failure = std::current_exception();
+      failures.push_back(std::current_exception());
     }
   }
-  if (failure) std::rethrow_exception(failure);
+  throwFailures(failures);
 }
 
 }  // namespace cutsim::core

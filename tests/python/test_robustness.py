@@ -170,3 +170,114 @@ def test_other_threads_are_refused_while_it_steps():
     t.join()
     assert errors == [] and sim.step_count >= 60 and sim.validate() == []  # 61: a step() just after the loop
     assert refused > 0
+
+
+def test_forces_in_callbacks_wait_for_the_transaction_end(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    sim.set_parameters("StretchSprings", stiffness=900)  # a field rebuilt: subscribed anew
+    sim.remove(sphere=([0.5, 0.5, 0], 0.35))
+    seen = []
+
+    def reader(ev):
+        if ev.kind == "transaction_end":
+            seen.append((sim.energies()["StretchSprings"], np.array(sim.forces())))
+        else:
+            with pytest.raises(cutsim.UsageError, match="transaction_end"):
+                sim.forces()
+            assert sim.x.shape[0] >= 0  # the views may be read at any event
+
+    sim.on_topology_event(reader)
+    sim.compact()
+    sim.remove_topology_callback(reader)
+    energy, forces = seen[-1]
+    assert energy == pytest.approx(sim.energies()["StretchSprings"])
+    np.testing.assert_array_equal(forces, sim.forces())
+    assert sim.validate() == []
+
+
+def test_edit_arrays_resized_in_the_block(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    before = np.array(sim.v)
+    with pytest.raises(cutsim.UsageError, match="resized or replaced"):
+        with sim.edit() as e:
+            e.v.resize((1, 3), refcheck=False)
+    np.testing.assert_array_equal(sim.v, before)
+
+
+def test_views_kept_by_controllers_make_no_leak(small_scene):
+    class Keeper(cutsim.Controller):
+        def __init__(self, s):
+            self.view = s.view()
+            self.edit = s.edit()
+
+    sim = cutsim.Simulation(small_scene)
+    sim.add_controller(Keeper(sim))
+    sim.step(2)
+    view = sim.view()
+    ref = weakref.ref(sim)
+    del sim
+    gc.collect()
+    assert ref() is None
+    assert not view.valid
+    with pytest.raises(cutsim.StaleViewError, match="deleted"):
+        view.x
+
+
+def test_every_failing_action_of_a_step_is_reported(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    for name in ("a", "b"):
+        sim.act({"action": "release", "at": 0.01, "name": name})
+    with pytest.raises(cutsim.Error) as e:
+        sim.step(3)
+    message = str(e.value)
+    assert 'no grasp named "a"' in message and 'no grasp named "b"' in message, message
+    assert sim.step_count == 2
+    sim.step(3)  # and the run goes on
+    assert sim.step_count == 5
+
+
+def test_record_starts_even_when_a_callback_raises(small_scene, tmp_path):
+    small_scene["timeline"] = [{"at": 0, "action": "cut", "polyline": [[0, 0.5, 0], [0.5, 0.5, 0]]}]
+    sim = cutsim.Simulation(small_scene)
+    sim.on_topology_event(lambda ev: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        sim.record(tmp_path / "run")
+    assert (tmp_path / "run").is_dir()
+    assert sim.finish_recording() is not None
+
+
+def test_ids_are_integers(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    for bad in (1.99, True, "3", np.nan):
+        with pytest.raises(TypeError, match="integer"):
+            sim.tear(bad)
+        with pytest.raises(TypeError, match="integer"):
+            sim.grasp("g", points=[bad])
+    with pytest.raises(TypeError, match="integer"):
+        sim.tear(points=(1.9, 10.2))
+
+
+def test_odd_files_and_numbers(tmp_path, small_scene, monkeypatch):
+    import json
+    f = tmp_path / "bom.json"
+    f.write_bytes(b"\xef\xbb\xbf" + json.dumps(small_scene).encode())
+    assert cutsim.load(f).name == "small"
+    g = tmp_path / "latin1.json"
+    g.write_bytes(json.dumps(small_scene).replace('"small"', '"sm\xe9ll"').encode("latin-1"))
+    with pytest.raises(cutsim.InvalidInputError) as e:
+        cutsim.load(g)
+    assert str(e.value) and "latin1.json" in str(e.value)
+    small_scene["duration"] = 10 ** 400
+    with pytest.raises(cutsim.InvalidInputError, match="/duration: an integer of 401 digits"):
+        cutsim.Simulation(small_scene)
+    small_scene["duration"] = 0.1
+    sim = cutsim.Simulation(small_scene)
+    with pytest.raises(TypeError, match="initialised once"):
+        sim.__init__(small_scene)
+    # A relative output folder is the one of the time record() was called.
+    monkeypatch.chdir(tmp_path)
+    sim.record("relative")
+    monkeypatch.chdir("/")
+    sim.run()
+    sim.finish_recording()
+    assert len(list((tmp_path / "relative").glob("surface_*.vtp"))) == 3
