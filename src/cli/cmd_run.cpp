@@ -77,6 +77,9 @@ void runScene(const RunOptions& options) {
   for (const auto& o : scene.obstacles) obstacleNames.push_back(o.name);
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
                             scene.contact.has_value(), obstacleNames);
+  if (writer.replacedFiles() > 0)
+    std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from " << outDir.string()
+              << "\n";
   Progress progress(runner.numSteps(), !options.quiet);
 
   runner.start();

@@ -36,6 +36,11 @@ std::pair<double, double> distanceToSurface(const topology::MeshData& mesh, cons
   return {std::sqrt(best), edge};
 }
 
+/// Whether a cut changed the mesh (one along the border opens nothing: it is not counted).
+bool opened(const topology::IncisionResult& r) {
+  return !r.copies.empty() || !r.insertedPoints.empty() || r.repair.flips + r.repair.collapses + r.repair.relocations > 0;
+}
+
 class CutAction final : public TimelineAction {
  public:
   CutAction(CutParameters p, const ActionTiming& timing) : p_(std::move(p)), timing_(timing) {
@@ -92,7 +97,7 @@ class CutAction final : public TimelineAction {
       const topology::Index points = topo.pointCapacity(), triangles = topo.triangleCapacity();
       try {
         result = topo.cutPolyline(piece, options(c));
-        c.countCut();
+        if (opened(result)) c.countCut();
       } catch (const TopologyError& e) {
         if (topo.pointCapacity() == points && topo.triangleCapacity() == triangles) return;
         c.fail(std::string("the cut failed: ") + e.what());
@@ -115,7 +120,7 @@ class CutAction final : public TimelineAction {
   topology::IncisionResult cut(ActionContext& c, std::span<const Vec3> polyline) {
     try {
       topology::IncisionResult result = c.simulation().topology().cutPolyline(polyline, options(c));
-      c.countCut();
+      if (opened(result)) c.countCut();
       return result;
     } catch (const TopologyError& e) {
       c.fail(std::string("the cut failed: ") + e.what());

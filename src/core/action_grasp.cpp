@@ -72,6 +72,8 @@ std::string readName(const ParameterSource& s) {
   s.require("name");
   std::string name = s.string("name");
   if (name.empty()) s.fail("name", "must not be empty");
+  if (name.find_first_of(",\"\n\r") != std::string::npos || name.find('\0') != std::string::npos)
+    s.fail("name", "must not contain a comma, a quote or a line break (it names CSV columns)");
   return name;
 }
 

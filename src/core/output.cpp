@@ -1,6 +1,13 @@
 #include "cutsim/core/output.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 
 #include <array>
 #include <charconv>
@@ -268,6 +275,21 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
     throw Error("cannot create the output folder " + dir_.string() +
                 (ec ? ": " + ec.message() : std::string()));
   }
+  // One run at a time in a folder; what an earlier run left there goes, so that its frames and
+  // CSV cannot be mistaken for this run's.
+  const std::filesystem::path lock = dir_ / ".cutsim.lock";
+  lockFd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lockFd_ < 0) throw Error("cannot create " + lock.string() + ": " + std::strerror(errno));
+  if (::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(lockFd_);
+    lockFd_ = -1;
+    throw Error("another run is writing into the output folder " + dir_.string() +
+                " (give this one another --out folder)");
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
+    if (!entry.is_regular_file(ec) || !isRunOutput(entry.path().filename().string())) continue;
+    if (std::filesystem::remove(entry.path(), ec)) ++replaced_;
+  }
   if (settings_.csv) {
     // Written under a temporary name, renamed when the run finishes.
     csvTemp_ = dir_ / ".steps.csv.tmp";
@@ -277,7 +299,34 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
   }
 }
 
-OutputWriter::~OutputWriter() = default;
+OutputWriter::~OutputWriter() {
+  if (lockFd_ >= 0) ::close(lockFd_);  // releases the folder's lock
+}
+
+bool OutputWriter::isRunOutput(const std::string& name) {
+  auto ends = [&](const char* suffix) {
+    const std::size_t n = std::strlen(suffix);
+    return name.size() >= n && name.compare(name.size() - n, n, suffix) == 0;
+  };
+  auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
+  if (name == "steps.csv" || name == ".steps.csv.tmp") return true;
+  if (ends(".pvd")) return true;  // the collections, final or partial
+  if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
+  if (ends(".vtp"))
+    return starts("surface_") || starts("springs_") || starts("network_") || starts("obstacles_");
+  return starts("frame_") && ends(".obj");
+}
+
+bool OutputWriter::partialDue(std::size_t frames) {
+  // Rewritten after a frame when the count reaches the next eighth of itself (every frame while
+  // there are few): the collections lag by at most an eighth, and rewriting them costs a time
+  // linear in the frames, not quadratic.
+  if (frames <= 16 || frames >= nextPartial_) {
+    nextPartial_ = frames + std::max<std::size_t>(1, frames / 8);
+    return true;
+  }
+  return false;
+}
 
 std::string OutputWriter::csvHeader() const {
   std::string h = "time,kinetic_energy";
@@ -336,8 +385,9 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
     // While the run goes on the collections carry ".partial" in their names (ParaView can open
     // them to watch); finish() writes the final surface.pvd and springs.pvd. A run that stops
     // early leaves no collection that looks complete.
-    writeFileAtomically(dir_ / "surface.partial.pvd",
-                        [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+    const bool partial = partialDue(surfaceFrames_.size());
+    if (partial)
+      writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
     if (settings_.springs) {
       // Every field that draws: the first FastTriangularBendingSprings as "springs", the others
       // as "network_<label>".
@@ -354,7 +404,8 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
         const std::string name = frameName(series, index, ".vtp");
         writeFileAtomically(dir_ / name, [&](std::ostream& o) { writeNetworkVtp(o, sim, segments); });
         frames.emplace_back(r.time, name);
-        writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
+        if (partial)
+          writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
       }
     }
     const forcefields::Contact* c = sim.model().contact();
@@ -375,7 +426,8 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
         writeObstaclesVtp(o, c->obstacles(), r.time, 3 * std::max(extent, 1e-3));
       });
       obstacleFrames_.emplace_back(r.time, name);
-      writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+      if (partial)
+        writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
     }
   } else {
     surfaceFrames_.emplace_back(r.time, "");
@@ -387,6 +439,15 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
 }
 
 void OutputWriter::finish() {
+  // The CSV's data first: if the disk is full, the run stops here with its collections still
+  // marked partial, and nothing looks complete.
+  bool csvOk = true;
+  if (settings_.csv && csv_.is_open()) {
+    csv_.flush();
+    csvOk = bool(csv_);
+    csv_.close();
+    if (!csvOk) throw Error("cannot write " + csvTemp_.string());
+  }
   std::error_code removeError;
   if (settings_.vtk && !surfaceFrames_.empty()) {
     writeFileAtomically(dir_ / "surface.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
@@ -400,14 +461,18 @@ void OutputWriter::finish() {
     writeFileAtomically(dir_ / (series + ".pvd"), [&](std::ostream& o) { writePvd(o, frames); });
     std::filesystem::remove(dir_ / (series + ".partial.pvd"), removeError);
   }
-  if (!settings_.csv || !csv_.is_open()) return;
-  csv_.flush();
-  const bool ok = bool(csv_);
-  csv_.close();
-  if (!ok) throw Error("cannot write " + csvTemp_.string());
-  std::error_code ec;
-  std::filesystem::rename(csvTemp_, dir_ / "steps.csv", ec);
-  if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
+  if (settings_.csv && !csvTemp_.empty()) {
+    std::error_code ec;
+    std::filesystem::rename(csvTemp_, dir_ / "steps.csv", ec);
+    if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
+    csvTemp_.clear();
+  }
+  if (lockFd_ >= 0) {  // the run is complete: the folder is free, and holds only its outputs
+    std::error_code ignored;
+    std::filesystem::remove(dir_ / ".cutsim.lock", ignored);
+    ::close(lockFd_);
+    lockFd_ = -1;
+  }
 }
 
 void dumpFinal(const std::filesystem::path& dir, const Simulation& sim,

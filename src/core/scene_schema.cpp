@@ -76,7 +76,12 @@ ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string
                               registeredNames(registry) + ")");
   }
   checkComponentKeys(r, j, ptr, registry, *entry, {"label"});
-  if (const json* l = r.find(j, "label")) f.label = r.string(*l, ptr + "/label");
+  if (const json* l = r.find(j, "label")) {
+    f.label = r.string(*l, ptr + "/label");
+    if (f.label.empty()) r.fail(ptr + "/label", "must not be empty");
+    if (f.label.find_first_of(",\"\n\r") != std::string::npos || f.label.find('\0') != std::string::npos)
+      r.fail(ptr + "/label", "must not contain a comma, a quote or a line break (it names CSV columns and files)");
+  }
   f.parameters = entry->read(JsonParameterSource(r, j, ptr));
   return f;
 }
@@ -598,8 +603,13 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   if (const json* v = r.find(root, "gravity")) s.gravity = r.vec3(*v, "/gravity");
   if (const json* v = r.find(root, "forceFields")) {
     r.expectArray(*v, "/forceFields");
-    for (std::size_t i = 0; i < v->size(); ++i)
+    std::set<std::string> labels;
+    for (std::size_t i = 0; i < v->size(); ++i) {
       s.forceFields.push_back(parseForceField(r, (*v)[i], "/forceFields/" + Reader::idx(i)));
+      const std::string& label = s.forceFields.back().label;
+      if (!label.empty() && !labels.insert(label).second)
+        r.fail("/forceFields/" + Reader::idx(i) + "/label", "another force field has the label \"" + label + "\"");
+    }
   }
   if (const json* v = r.find(root, "contact")) parseContact(r, *v, "/contact", s);
   if (const json* v = r.find(root, "obstacles")) {

@@ -192,7 +192,7 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
     EXPECT_TRUE(std::filesystem::exists(dir / ("network_StretchSprings_" + std::string(name) + ".vtp")));
     EXPECT_TRUE(std::filesystem::exists(dir / ("frame_" + std::string(name) + ".obj")));
   }
-  // No temporary file is left behind.
+  // No temporary file is left behind (nor the folder's lock).
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
     EXPECT_NE(entry.path().filename().string().front(), '.') << entry.path();
   }
@@ -226,6 +226,76 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
   // The grasp pulls between 0.12 and 0.25: a non-zero reaction in between, zeros outside.
   EXPECT_EQ(rows[5].substr(rows[5].size() - 6), ",0,0,0");
   EXPECT_NE(rows[20].substr(rows[20].size() - 6), ",0,0,0");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Output, AnEarlierRunsFilesGoAndAUsersStay) {
+  const std::filesystem::path dir = freshDir("reuse");
+  for (const char* name : {"surface_000099.vtp", "springs_000099.vtp", "network_X_000003.vtp", "obstacles_000001.vtp",
+                           "frame_000004.obj", "steps.csv", "surface.pvd", "springs.partial.pvd",
+                           ".surface_000100.vtp.tmp", ".steps.csv.tmp", "notes.txt", "final.obj", "surface.vtp"})
+    std::ofstream(dir / name) << "old\n";
+  SmallRun run(0);
+  {
+    OutputWriter writer(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+    EXPECT_EQ(writer.replacedFiles(), 10u);
+    writer.record(run.runner->simulation(), {0, 0.0, {}}, true);
+    writer.finish();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "surface_000099.vtp"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "frame_000004.obj"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "notes.txt"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "final.obj"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "surface.vtp"));
+  EXPECT_EQ(readText(dir / "steps.csv").find("old"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Output, OneRunAtATimeInAFolder) {
+  const std::filesystem::path dir = freshDir("lock");
+  SmallRun run(0);
+  OutputWriter first(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+  try {
+    OutputWriter second(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+    FAIL() << "a second writer took the folder";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("another run is writing into the output folder"));
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / ".steps.csv.tmp"));  // the first run's, untouched
+  first.finish();
+  {
+    OutputWriter third(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+    third.finish();
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Output, PartialCollectionsLagByAnEighthAtMost) {
+  const std::filesystem::path dir = freshDir("partial");
+  SmallRun run(0);
+  OutputSettings every{};
+  every.every = 1;
+  every.springs = false;
+  OutputWriter writer(dir, every, run.scene.forceFieldLabels(), run.scene.graspNames());
+  SceneRunner& runner = *run.runner;
+  writer.record(runner.simulation(), {0, 0.0, {}}, false);
+  long rewrites = 0;
+  std::string last;
+  while (!runner.finished()) {
+    const StepStats stats = runner.advance();
+    writer.record(runner.simulation(), {runner.currentStep(), runner.time(), stats}, false);
+    const std::string partial = readText(dir / "surface.partial.pvd");
+    if (partial != last) ++rewrites;
+    last = partial;
+    std::size_t listed = 0;
+    for (std::size_t at = partial.find("<DataSet"); at != std::string::npos; at = partial.find("<DataSet", at + 1))
+      ++listed;
+    const std::size_t frames = writer.framesWritten();
+    EXPECT_GE(8 * listed, 7 * frames) << "after " << frames << " frames";
+  }
+  EXPECT_LT(rewrites, long(writer.framesWritten()));
+  writer.finish();
+  EXPECT_FALSE(std::filesystem::exists(dir / "surface.partial.pvd"));
   std::filesystem::remove_all(dir);
 }
 

@@ -192,3 +192,41 @@ TEST(Scripting, ConstraintsGivenWhileRunning) {
 
 }  // namespace
 }  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+TEST(Robustness, LabelsAndGraspNamesNameCsvColumns) {
+  auto error = [](const std::string& extra) { return parseError(scene(extra)); };
+  EXPECT_NE(error("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1, \"label\": \"a,b\"}]")
+                .find("/forceFields/0/label: must not contain a comma"),
+            std::string::npos);
+  EXPECT_NE(error("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1, \"label\": \"x\"},\n"
+                  "  {\"type\": \"FastTriangularBendingSprings\", \"label\": \"x\"}]")
+                .find("/forceFields/1/label: another force field has the label \"x\""),
+            std::string::npos);
+  EXPECT_NE(error("\"timeline\": [{\"at\": 0, \"action\": \"grasp\", \"name\": \"a\\nb\", \"points\": [0], "
+                  "\"path\": [[0, 0, 0, 0]]}]")
+                .find("/timeline/0/name: must not contain a comma"),
+            std::string::npos);
+  // Unlabelled fields of one type are numbered, as before.
+  const core::Scene s = core::parseScene(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1},\n"
+                                               "  {\"type\": \"StretchSprings\", \"stiffness\": 2}]"),
+                                         "inline.json", kSceneDir);
+  EXPECT_EQ(s.forceFieldLabels(), (std::vector<std::string>{"StretchSprings", "StretchSprings_2"}));
+}
+
+TEST(Robustness, ACutAlongTheBorderIsNotCounted) {
+  const core::Scene s = core::parseScene(
+      scene("\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0, 0], [1, 0, 0]]},\n"
+            "  {\"at\": 0.02, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.6, 0.5, 0]]}]"),
+      "inline.json", kSceneDir);
+  core::SceneRunner r(s);
+  r.advance();  // t = 0.01
+  EXPECT_EQ(r.cutsDone(), 0);  // along the border: nothing opened
+  r.advance();  // t = 0.02
+  EXPECT_EQ(r.cutsDone(), 1);
+}
+
+}  // namespace
+}  // namespace cutsim::test

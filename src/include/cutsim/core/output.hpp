@@ -59,7 +59,8 @@ struct StepRecord {
   StepStats stats;
 };
 
-/// The writer of a run's output folder.
+/// The writer of a run's output folder. It takes the folder for itself (a second run into the same
+/// folder at the same time is refused) and removes what an earlier run wrote there first.
 ///   surface.pvd, surface_NNNNNN.vtp   springs.pvd, springs_NNNNNN.vtp   frame_NNNNNN.obj
 ///   network_<label>.pvd, network_<label>_NNNNNN.vtp (every other field that draws)
 ///   steps.csv: time, kinetic_energy, potential_<label> per force field, gravity_energy,
@@ -93,11 +94,18 @@ class OutputWriter {
 
   const std::filesystem::path& dir() const { return dir_; }
   std::size_t framesWritten() const { return surfaceFrames_.size(); }
+  /// Files of an earlier run removed from the folder when this writer took it.
+  std::size_t replacedFiles() const { return replaced_; }
+  /// Whether a file name is one a run writes (frames, collections, the CSV and their temporary
+  /// files): what a new run into the same folder removes first.
+  static bool isRunOutput(const std::string& name);
   /// The CSV header line (without newline).
   std::string csvHeader() const;
 
  private:
   void writeFrame(Simulation& sim, const StepRecord& r);
+  /// Whether the partial collections are rewritten after the frames-th frame.
+  bool partialDue(std::size_t frames);
 
   std::filesystem::path dir_;
   OutputSettings settings_;
@@ -110,6 +118,9 @@ class OutputWriter {
   std::vector<std::pair<double, std::string>> surfaceFrames_;
   std::map<std::string, std::vector<std::pair<double, std::string>>> networkFrames_;  // by series
   long lastFrameStep_ = -1;
+  std::size_t nextPartial_ = 0;
+  int lockFd_ = -1;  // the folder's lock (flock on DIR/.cutsim.lock), held while the writer lives
+  std::size_t replaced_ = 0;
 };
 
 /// `--dump-final`: final_rest.obj and final.obj (the live points densely renumbered, rest and
