@@ -23,6 +23,7 @@ struct RunOptions {
   std::string out;
   std::string dumpFinal;
   bool quiet = false;
+  bool allowLong = false;
 };
 
 /// A progress bar on a terminal; plain lines every 10 % otherwise.
@@ -70,6 +71,25 @@ void runScene(const RunOptions& options) {
   const std::filesystem::path outDir = options.out.empty()
                                            ? std::filesystem::path("out") / scene.name
                                            : std::filesystem::path(options.out);
+
+  // What the run will make, checked before it starts: a scene that asks for days of work or
+  // millions of files says so now, not after.
+  const long steps = scene.numSteps();
+  const long frames = (scene.output.vtk || scene.output.obj) ? steps / scene.output.every + 2 : 0;
+  constexpr long kMaxSteps = 10'000'000, kMaxFrames = 100'000;
+  if (!options.allowLong && (steps > kMaxSteps || frames > kMaxFrames))
+    throw InvalidInput(options.scene, "the run would take " + std::to_string(steps) + " steps and write " +
+                                          std::to_string(frames) + " frames, more than the limits (10^7 steps, 10^5 "
+                                          "frames): raise output.every or the time step, or pass --allow-long");
+  if (!options.dumpFinal.empty()) {
+    std::error_code ec;
+    if (std::filesystem::exists(options.dumpFinal, ec) && !std::filesystem::is_directory(options.dumpFinal, ec))
+      throw InvalidInput("--dump-final", options.dumpFinal + " is a file, not a folder");
+  }
+  if (!options.quiet)
+    std::cerr << "running " << steps << " steps of " << scene.timeStep << " s"
+              << (frames ? ", " + std::to_string(frames - 1) + " frames at most" : std::string()) << ", into "
+              << outDir.string() << "\n";
 
   const auto start = std::chrono::steady_clock::now();
   core::SceneRunner runner(scene);
@@ -151,6 +171,8 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_option("--dump-final", options->dumpFinal,
                   "also write final_rest.obj, final.obj and final_forces.json in this folder");
   cmd->add_flag("--quiet", options->quiet, "no progress display (the summary is still printed)");
+  cmd->add_flag("--allow-long", options->allowLong,
+                "run a scene of more than 10^7 steps or 10^5 frames (refused otherwise, before it starts)");
   cmd->callback([options] { runScene(*options); });
 }
 

@@ -62,6 +62,11 @@ void parseGrid(const Reader& r, const json& j, const std::string& ptr, GridSpec&
     }
   }
   if (const json* o = r.find(j, "origin")) g.origin = r.vec3(*o, ptr + "/origin");
+  // The grid's points must be representable with room for the forces on them.
+  if (g.width > 1e100) r.fail(ptr + "/size/0", "must be at most 1e100");
+  if (g.height > 1e100) r.fail(ptr + "/size/1", "must be at most 1e100");
+  for (std::size_t k = 0; k < 3; ++k)
+    if (std::abs(g.origin[k]) > 1e100) r.fail(ptr + "/origin/" + std::to_string(k), "must be at most 1e100 in size");
 }
 
 ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string& ptr) {
@@ -423,6 +428,11 @@ void parseHeader(const Reader& r, const json& root, const std::string& sourceNam
     s.name = r.string(*v, "/name");
     if (s.name.empty() || s.name.find_first_of("/\\") != std::string::npos || s.name == "." || s.name == "..")
       r.fail("/name", "must be a plain file name (no slash)");
+    // It names the output folder: a name every file system takes.
+    if (s.name.size() > 200) r.fail("/name", "must be at most 200 bytes long (it names the output folder)");
+    for (unsigned char c : s.name)
+      if (c < 0x20 || c == 0x7f)
+        r.fail("/name", "must not contain control characters such as a line break (it names the output folder)");
   }
   if (const json* v = r.find(root, "description")) s.description = r.string(*v, "/description");
 }
@@ -638,6 +648,30 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   const topology::MeshData meshData = s.mesh();
   if (meshData.triangles.empty()) r.fail(meshPtr, "the mesh has no triangle");
   topology::checkManifold(meshData);
+  {
+    // The mass needs an area: representable (a total spread over an area beyond the range of
+    // doubles is no mass) and not zero. Computed scaled, so that nothing overflows on the way.
+    double area = 0;
+    bool tooLarge = false;
+    for (const auto& t : meshData.triangles) {
+      const auto u = topology::geometry::sub(meshData.points[t[1]], meshData.points[t[0]]);
+      const auto w = topology::geometry::sub(meshData.points[t[2]], meshData.points[t[0]]);
+      double scale = 0;
+      for (int k = 0; k < 3; ++k) scale = std::max({scale, std::abs(u[std::size_t(k)]), std::abs(w[std::size_t(k)])});
+      if (!(scale <= 1e150)) {
+        tooLarge = true;
+        break;
+      }
+      const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2], cz = u[0] * w[1] - u[1] * w[0];
+      area += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+      if (area > 1e300) tooLarge = true;
+    }
+    const std::string massPtr = s.massByTotal ? "/mass/total" : "/mass/density";
+    if (tooLarge) r.fail(meshPtr, "the mesh's area is beyond the range of doubles: no mass can be spread over it");
+    if (!(area > 0)) r.fail(massPtr, "the mesh has no area: it can carry no mass");
+    if (s.massByTotal ? !(s.totalMass / area > 0) || s.totalMass / area > 1e300 : s.density > 1e300 / area)
+      r.fail(massPtr, "the mass per area of this mesh is beyond the range of doubles");
+  }
   parseConstraintsAndTimeline(r, root, s);
   dryRun(r, s, meshData);
   if (s.contact) checkContactAtStart(r, s, meshData);

@@ -122,6 +122,32 @@ check "no output folder for bad scenes" [ ! -e "$tmp/bad" ]
 check "a missing scene file exits with 2" [ $? -eq 2 ]
 check "a missing scene file is named" grep -q "^$tmp/no_such_scene.json: " "$tmp/err_missing"
 
+# ---- what a run will make is checked before it starts ----
+python3 - "$scene" "$tmp/long.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["timeStep"] = 1e-4
+s["duration"] = 2000  # 2e7 steps
+s["timeline"] = []
+json.dump(s, open(sys.argv[2], "w"))
+PY
+"$CUTSIM" run "$tmp/long.json" --out "$tmp/long" >/dev/null 2>"$tmp/err_long"
+check "a run of 2e7 steps is refused with 2" [ $? -eq 2 ]
+check "it says why and what to do" grep -q "^$tmp/long.json: the run would take 20000000 steps and write .* --allow-long" "$tmp/err_long"
+check "no output folder for a refused run" [ ! -e "$tmp/long" ]
+touch "$tmp/a_file"
+"$CUTSIM" run "$scene" --out "$tmp/dumpfile" --dump-final "$tmp/a_file" >/dev/null 2>"$tmp/err_dump"
+check "--dump-final into a file is refused before the run" [ $? -eq 2 ]
+check "the file is named" grep -q "^--dump-final: $tmp/a_file is a file, not a folder" "$tmp/err_dump"
+check "nothing ran" [ ! -e "$tmp/dumpfile" ]
+# A re-run into a folder removes the earlier run's files, keeps the user's, and says so.
+mkdir -p "$tmp/rerun" && touch "$tmp/rerun/surface_000999.vtp" "$tmp/rerun/notes.txt"
+"$CUTSIM" run "$scene" --out "$tmp/rerun" >/dev/null 2>"$tmp/err_rerun"
+check "a re-run succeeds" [ $? -eq 0 ]
+check "the earlier run's frame is gone" [ ! -e "$tmp/rerun/surface_000999.vtp" ]
+check "the user's file stays" [ -e "$tmp/rerun/notes.txt" ]
+check "the re-run says so" grep -q "^note: removed 1 files of an earlier run" "$tmp/err_rerun"
+
 # ---- the demo scenes load (validation only: a run of each is too long for a test) ----
 # (tests/core/test_scene.cpp loads them; here: they are valid JSON files)
 for f in "$CUTSIM_DATA_DIR"/scenes/*.json; do

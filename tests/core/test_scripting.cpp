@@ -2,8 +2,11 @@
 // parameters given while a scene runs, steps past the duration, a changing time step, grasps moved
 // by a displacement, and state buffers that outlive a topology change.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <vector>
 
 #include "cutsim/core/scene.hpp"
@@ -226,6 +229,41 @@ TEST(Robustness, ACutAlongTheBorderIsNotCounted) {
   EXPECT_EQ(r.cutsDone(), 0);  // along the border: nothing opened
   r.advance();  // t = 0.02
   EXPECT_EQ(r.cutsDone(), 1);
+}
+
+}  // namespace
+}  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+TEST(Robustness, SceneValuesThatWouldFailWhileRunningFailFirst) {
+  auto error = [](const std::string& text) { return parseError(text); };
+  const std::string tail = "\"mass\": {\"total\": 1}, \"timeStep\": 0.01, \"duration\": 0.1}";
+  EXPECT_NE(error("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3, \"size\": [1e200, 1e200]}}, " + tail)
+                .find("/mesh/grid/size/0: must be at most 1e100"),
+            std::string::npos);
+  EXPECT_NE(error("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3, \"origin\": [0, 1e308, 0]}}, " + tail)
+                .find("/mesh/grid/origin/1: must be at most 1e100"),
+            std::string::npos);
+  EXPECT_NE(error("{\"name\": \"a\\nb\", \"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}}, " + tail)
+                .find("/name: must not contain control characters"),
+            std::string::npos);
+  EXPECT_NE(error("{\"name\": \"" + std::string(300, 'n') + "\", \"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}}, " + tail)
+                .find("/name: must be at most 200 bytes"),
+            std::string::npos);
+  // A mesh without area can carry no mass.
+  const auto dir = std::filesystem::temp_directory_path() / ("cutsim_flat_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "flat.obj") << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+  try {
+    core::parseScene("{\"mesh\": \"flat.obj\", \"mass\": {\"density\": 1}, \"timeStep\": 0.1, \"duration\": 1}", "flat.json",
+                     dir);
+    ADD_FAILURE() << "a mesh without area was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("/mass/density: the mesh has no area"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
