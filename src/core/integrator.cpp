@@ -113,6 +113,10 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
     stats.residual = rep.residual;
     if (!(rep.residual <= stats.worstResidual)) stats.worstResidual = rep.residual;
   };
+  // A residual that is not a number says that the system's values overflow the range of doubles:
+  // no policy can keep such a step (and it must not reach an output).
+  if (!std::isfinite(r.residual))
+    throw StepFailure{describe(*solver_, r) + ": the linear system's values overflow the range of doubles", false};
   record(r);
   if (r.converged && !r.indefinite) return;
   if (r.indefinite) stats.flags |= StepStats::Indefinite;

@@ -105,7 +105,8 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
   const std::size_t n = A.numSlots();
   if (b.size() != N || dv.size() != N)
     throw InvalidInput("linear system", "the right-hand side and the unknowns must have 3 entries per point slot");
-  const double bNorm = A.freeRhs(b, dv).norm();
+  // Norms scaled (stableNorm): entries up to the range of doubles do not overflow them.
+  const double bNorm = A.freeRhs(b, dv).stableNorm();
   if (settings_.warmStart && warm_.size() == N)
     for (std::size_t p = 0; p < n; ++p)
       if (!A.isConstrained(p)) dv.segment<3>(Eigen::Index(3 * p)) = warm_.segment<3>(Eigen::Index(3 * p));
@@ -123,7 +124,7 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
   Vec z = invDiag.cwiseProduct(r);
   Vec pdir = z;
   double rz = r.dot(z);
-  double rNorm = r.norm();
+  double rNorm = r.stableNorm();
   SolveReport report;
   const double stop = settings_.tolerance * std::max(bNorm, 1e-300);
   while (report.iterations < settings_.maxIterations && rNorm > stop) {
@@ -141,7 +142,7 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
     const double rzNew = r.dot(z);
     pdir = z + (rzNew / rz) * pdir;
     rz = rzNew;
-    rNorm = r.norm();
+    rNorm = r.stableNorm();
     ++report.iterations;
   }
   // Relative to the work the solve had; with none (b = 0 on the free points, nothing prescribed)

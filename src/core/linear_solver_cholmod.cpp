@@ -95,7 +95,7 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
     ++S.analyses;
   }
   S.cholmod.factorize(M);
-  const double bNorm = A.freeRhs(b, dv).norm();
+  const double bNorm = A.freeRhs(b, dv).stableNorm();
   if (S.cholmod.info() != Eigen::Success) {
     report.indefinite = true;
     report.converged = false;
@@ -107,7 +107,7 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
   A.apply(dv, check);
   Vec res = b - check;
   A.project(res);
-  report.residual = bNorm > 0 ? res.norm() / bNorm : 0.0;
+  report.residual = bNorm > 0 ? res.stableNorm() / bNorm : 0.0;
   if (S.system.approximate() && bNorm > 0) {
     // Contact pairs outside the kept pattern were lumped onto the diagonal (a matrix above the
     // system's): conjugate gradients on the true system, preconditioned by the factorisation,
@@ -130,7 +130,7 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
       const double alpha = rz / pAp;
       dv += alpha * p;
       res -= alpha * Ap;
-      report.residual = res.norm() / bNorm;
+      report.residual = res.stableNorm() / bNorm;
       ++report.iterations;
       z = precondition(res);
       const double rzNew = res.dot(z);

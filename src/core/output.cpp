@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 
 #include <array>
@@ -119,7 +120,12 @@ void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
          "      <CellData Scalars=\"strain\">\n"
          "        <DataArray type=\"Float64\" Name=\"strain\" format=\"ascii\">\n";
   for (topology::TriangleId t : n.triangles) {
-    out << formatNumber(maxPrincipalStrain(sim.topology(), x, t)) << '\n';
+    const double e = maxPrincipalStrain(sim.topology(), x, t);
+    if (!std::isfinite(e))
+      throw SolverError("at t = " + formatNumber(sim.time()) + " the strain of triangle " + std::to_string(t) +
+                        " is not finite: its deformation is beyond the range of doubles, the simulation has blown up (no "
+                        "frame is written; with an explicit integrator, try a smaller time step or an implicit solver)");
+    out << formatNumber(e) << '\n';
   }
   out << "        </DataArray>\n"
          "      </CellData>\n";
@@ -344,31 +350,39 @@ std::string OutputWriter::csvHeader() const {
 
 void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
   if (settings_.csv) {
+    // Every number is checked: no infinity or NaN reaches the CSV (the run stops, naming it).
+    auto num = [&](double v, const std::string& column) {
+      if (!std::isfinite(v))
+        throw SolverError("step " + std::to_string(r.step) + " (t = " + formatNumber(r.time) + "): " + column + " is " +
+                          formatNumber(v) + ", not a finite number: the run stops before it reaches steps.csv");
+      return formatNumber(v);
+    };
     std::ostringstream row;
-    row << formatNumber(r.time) << ',' << formatNumber(sim.kineticEnergy());
+    row << num(r.time, "time") << ',' << num(sim.kineticEnergy(), "kinetic_energy");
     for (std::size_t i = 0; i < sim.numForceFields(); ++i) {
-      row << ',' << formatNumber(sim.potentialEnergy(i));
+      row << ',' << num(sim.potentialEnergy(i), "potential_" + sim.forceFieldLabel(i));
     }
     const auto* bending = firstBending(sim);
-    row << ',' << formatNumber(sim.gravityEnergy()) << ',' << r.stats.iterations << ','
-        << formatNumber(r.stats.residual) << ',' << r.stats.flagText() << ',' << r.stats.newtonIterations
+    row << ',' << num(sim.gravityEnergy(), "gravity_energy") << ',' << r.stats.iterations << ','
+        << num(r.stats.residual, "solver_residual") << ',' << r.stats.flagText() << ',' << r.stats.newtonIterations
         << ',' << (bending ? bending->numActiveSprings() : 0)
         << ',' << sim.topology().numPoints() << ',' << sim.topology().numEdges() << ','
         << sim.topology().numTriangles();
     for (const std::string& g : grasps_) {
       const Grasp* grasp = sim.findGrasp(g);
       const Vec3 f = grasp ? grasp->reaction() : Vec3{0, 0, 0};
-      row << ',' << formatNumber(f[0]) << ',' << formatNumber(f[1]) << ',' << formatNumber(f[2]);
+      row << ',' << num(f[0], g + "_fx") << ',' << num(f[1], g + "_fy") << ',' << num(f[2], g + "_fz");
     }
     if (contact_) {
       const forcefields::Contact* c = sim.model().contact();
       forcefields::ContactMeasure m;
       if (c) m = c->lastStep();
       row << ',' << m.candidates << ',' << m.active << ',' << m.excluded << ',' << r.stats.clamped << ','
-          << r.stats.splits << ',' << formatNumber(m.selfNormal) << ',' << formatNumber(m.selfFriction);
+          << r.stats.splits << ',' << num(m.selfNormal, "self_normal_force") << ','
+          << num(m.selfFriction, "self_friction_force");
       for (std::size_t k = 0; k < obstacles_.size(); ++k)
-        row << ',' << formatNumber(k < m.obstacleNormal.size() ? m.obstacleNormal[k] : 0.0) << ','
-            << formatNumber(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0);
+        row << ',' << num(k < m.obstacleNormal.size() ? m.obstacleNormal[k] : 0.0, obstacles_[k] + "_normal_force")
+            << ',' << num(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0, obstacles_[k] + "_friction_force");
     }
     csv_ << row.str() << '\n';
   }

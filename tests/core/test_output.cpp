@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
@@ -296,6 +297,25 @@ TEST(Output, PartialCollectionsLagByAnEighthAtMost) {
   EXPECT_LT(rewrites, long(writer.framesWritten()));
   writer.finish();
   EXPECT_FALSE(std::filesystem::exists(dir / "surface.partial.pvd"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Output, NoInfinityReachesTheCsv) {
+  const std::filesystem::path dir = freshDir("finite");
+  SmallRun run(2);
+  OutputWriter writer(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+  StepStats stats;
+  stats.residual = std::numeric_limits<double>::infinity();
+  try {
+    writer.record(run.runner->simulation(), {2, 0.02, stats}, false);
+    FAIL() << "an infinite residual was written";
+  } catch (const SolverError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("step 2 (t = 0.02): solver_residual is inf, not a finite number"));
+  }
+  stats.residual = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(writer.record(run.runner->simulation(), {2, 0.02, stats}, false), SolverError);
+  // Nothing of the refused rows was written: the run stops without renaming the CSV.
+  EXPECT_FALSE(std::filesystem::exists(dir / "steps.csv"));
   std::filesystem::remove_all(dir);
 }
 

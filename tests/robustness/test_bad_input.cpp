@@ -278,11 +278,8 @@ TEST(FailedRun, ARunThatBlowsUpLeavesNoFinalCsv) {
   EXPECT_EQ(std::count(names.begin(), names.end(), ".steps.csv.tmp"), 1);
 }
 
-// BUG (reported in docs/robustness.md): the frames' .pvd collections are rewritten after every
-// frame, so a run that fails part-way leaves surface.pvd and springs.pvd under their final names,
-// well-formed and listing the frames written so far: the output looks complete although steps.csv
-// is missing. Enable when the collections are written only by OutputWriter::finish() (or under a
-// temporary name until then).
+// A run that fails part-way leaves its collections under their ".partial" names only: nothing
+// looks complete (OutputWriter::finish() writes the final ones, after the CSV's data).
 TEST(FailedRun, ARunThatBlowsUpLeavesNoPvdCollection) {
   NoFpTraps noTraps;
   TempDir tmp;
