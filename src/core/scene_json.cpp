@@ -98,10 +98,16 @@ class LineRecordingBuilder : public nlohmann::json_sax<json> {
     std::string message = e.what();
     // "[json.exception.parse_error.101] parse error at line 3, column 5: syntax error while
     // parsing value - invalid literal; last read: 'x'": keep what follows the position.
+    // Other errors ("[json.exception.out_of_range.406] number overflow parsing '1e999'") have no
+    // position: the bracketed tag goes.
     const std::size_t colon = message.find(": ");
     if (message.rfind("[json.exception.", 0) == 0 && colon != std::string::npos) {
       message = message.substr(colon + 2);
+    } else if (message.rfind("[json.exception.", 0) == 0 && message.find("] ") != std::string::npos) {
+      message = message.substr(message.find("] ") + 2);
     }
+    if (message.rfind("number overflow parsing", 0) == 0)
+      message += " (beyond the range of doubles, about 1.8e308)";
     throw InvalidInput(source_ + ":" + std::to_string(counter_.line), "invalid JSON: " + message);
   }
 

@@ -186,7 +186,7 @@ TEST(BadSceneInput, ANumberBeyondTheDoubleRangeIsRejected) {
   NoFpTraps noTraps;  // the JSON lexer's strtod raises the overflow flag on 1e999
   EXPECT_THAT(parseError("{\n\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}},\n\"timeStep\": 1e999, "
                          "\"duration\": 1}"),
-              StartsWith("inline.json:3: "));
+              StartsWith("inline.json:3: invalid JSON: number overflow parsing '1e999' (beyond the range of doubles"));
   EXPECT_THAT(parseError(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": "
                                "-1e999}]")),
               StartsWith("inline.json:6: "));
