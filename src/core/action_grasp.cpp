@@ -27,9 +27,21 @@ class GraspAction final : public TimelineAction {
     c.activeGrasps().insert(p_.name);
   }
   void start(ActionContext& c) override {
-    const std::vector<PointId> points = p_.selection.resolve(c.simulation().topology());
+    Simulation& sim = c.simulation();
+    const std::vector<PointId> points = p_.selection.resolve(sim.topology());
     if (points.empty()) c.fail("the grasp selects no live point");
-    c.simulation().addGrasp(p_.name, points, p_.path);
+    // A point is held by one constraint: a grasp cannot drag a fixed point, nor one another grasp
+    // holds (their reactions would be meaningless).
+    for (PointId p : points) {
+      if (sim.fixed().contains(p))
+        c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) +
+               " is fixed: a point is held by one constraint (select points that are not fixed)");
+      for (std::size_t g = 0; g < sim.numGrasps(); ++g)
+        if (sim.grasp(g).points().contains(p))
+          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) + " is held by the grasp \"" +
+                 sim.grasp(g).name() + "\": a point is held by one constraint");
+    }
+    sim.addGrasp(p_.name, points, p_.path);
   }
   std::string graspName() const override { return p_.name; }
 

@@ -18,7 +18,14 @@ class FixedConstraint final : public SceneConstraint {
     if (s_.resolve(c.topology()).empty()) c.fail(std::string(s_.key()), "selects no point of the mesh");
   }
   void apply(Simulation& sim) const override {
-    for (PointId p : s_.resolve(sim.topology())) sim.fixed().add(p);
+    const std::vector<PointId> points = s_.resolve(sim.topology());
+    // A point is held by one constraint: a grasped point cannot be fixed as well.
+    for (PointId p : points)
+      for (std::size_t g = 0; g < sim.numGrasps(); ++g)
+        if (sim.grasp(g).points().contains(p))
+          throw InvalidInput(std::string(s_.key()), "point " + std::to_string(p) + " is held by the grasp \"" +
+                                                        sim.grasp(g).name() + "\": a point is held by one constraint");
+    for (PointId p : points) sim.fixed().add(p);
   }
 
  private:

@@ -281,3 +281,18 @@ def test_odd_files_and_numbers(tmp_path, small_scene, monkeypatch):
     sim.run()
     sim.finish_recording()
     assert len(list((tmp_path / "relative").glob("surface_*.vtp"))) == 3
+
+
+def test_a_point_is_held_by_one_constraint(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    fixed = int(sim.fixed_points()[0])
+    with pytest.raises(cutsim.Error, match=f"point {fixed} is fixed: a point is held by one constraint"):
+        sim.grasp("g", points=[fixed])
+    sim.grasp("g", points=[40])
+    with pytest.raises(cutsim.Error, match='point 40 is held by the grasp "g"'):
+        sim.grasp("h", points=[40, 41])
+    with pytest.raises(cutsim.InvalidInputError, match='point 40 is held by the grasp "g"'):
+        sim.fix(points=[40])
+    sim.release("g")
+    sim.fix(points=[40])
+    assert 40 in sim.fixed_points()
