@@ -869,6 +869,23 @@ Contact::Contact(topology::Topology& topology, ContactParameters parameters, std
 
 Contact::~Contact() = default;
 
+void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double duration) {
+  if (k >= obstacles_.size()) throw InvalidInput("obstacle", "no obstacle " + std::to_string(k));
+  Obstacle& o = obstacles_[k];
+  const std::string where = "obstacle \"" + o.name + "\"";
+  if (!std::isfinite(now) || !(duration > 0) || !std::isfinite(duration))
+    throw InvalidInput(where, "a move needs a finite duration > 0 (an obstacle sweeps; it does not jump)");
+  for (double c : delta)
+    if (!std::isfinite(c)) throw InvalidInput(where, "non-finite displacement");
+  const Vec3 d0 = o.offsetAt(now);
+  std::vector<ObstacleKey> path;
+  for (const ObstacleKey& key : o.path)
+    if (key.time < now) path.push_back(key);
+  path.push_back({now, d0});
+  path.push_back({now + duration, {d0[0] + delta[0], d0[1] + delta[1], d0[2] + delta[2]}});
+  o.path = std::move(path);
+}
+
 const std::vector<double>& Contact::bounds() const { return impl_->bound; }
 
 void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt) {

@@ -598,6 +598,20 @@ class Simulation {
     if (!g) throw InvalidInput("move", "no grasp named \"" + name + "\" is active");
     g->moveBy(runner_->time(), readVec3(delta, "move: delta"), duration);
   }
+  void moveObstacle(const std::string& name, const py::handle& delta, double duration) {
+    requireMutable("move_obstacle");
+    forcefields::Contact* c = sim().model().contact();
+    if (!c) throw InvalidInput("move_obstacle", "the scene has no contact section (and so no obstacles)");
+    const auto& obstacles = c->obstacles();
+    for (std::size_t k = 0; k < obstacles.size(); ++k)
+      if (obstacles[k].name == name) {
+        c->moveObstacle(k, runner_->time(), readVec3(delta, "move_obstacle: delta"), duration);
+        return;
+      }
+    std::string known;
+    for (const auto& o : obstacles) known += (known.empty() ? "" : ", ") + o.name;
+    throw InvalidInput("move_obstacle", "no obstacle named \"" + name + "\" (the scene has: " + known + ")");
+  }
   void release(const std::string& name) {
     requireMutable("release");
     if (!sim().findGrasp(name)) throw InvalidInput("release", "no grasp named \"" + name + "\" is active");
@@ -1156,6 +1170,7 @@ PYBIND11_MODULE(_cutsim, m) {
       .def("unfix", &Simulation::unfix, "points"_a)
       .def("move", &Simulation::move, "name"_a, "delta"_a, "duration"_a = 0.0)
       .def("release", &Simulation::release, "name"_a)
+      .def("move_obstacle", &Simulation::moveObstacle, "name"_a, "delta"_a, "duration"_a)
       .def("energies", &Simulation::energies)
       .def("forces", &Simulation::forces)
       .def("_eval", &Simulation::fieldEval)

@@ -678,32 +678,38 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   return s;
 }
 
-ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName, double now) {
+namespace {
+/// One entry of a scene given on its own (an action, a force field, a constraint): its own JSON
+/// text named `sourceName`, read by `parse` with the scene's checks; failures name the source.
+template <class Spec, class Parse>
+Spec parseEntry(std::string_view text, const std::string& sourceName, Parse parse) {
   const JsonDocument doc = parseJsonWithLines(text, sourceName);
   const Reader r(sourceName, doc.lines);
-  ActionSpec a = parseAction(r, doc.root, "", std::numeric_limits<double>::infinity());
-  const double eps = 1e-9 * std::max(1.0, std::abs(now));
-  if (a.startTime() < now - eps)
-    r.fail(a.timing.interval ? "/from" : "/at",
-           "time " + Reader::text(a.startTime()) + " is before the current time " + Reader::text(now));
-  a.location.source = sourceName;
-  return a;
+  Spec spec = parse(r, doc.root);
+  spec.location.source = sourceName;
+  return spec;
+}
+}  // namespace
+
+ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName, double now) {
+  return parseEntry<ActionSpec>(text, sourceName, [&](const Reader& r, const json& root) {
+    ActionSpec a = parseAction(r, root, "", std::numeric_limits<double>::infinity());
+    const double eps = 1e-9 * std::max(1.0, std::abs(now));
+    if (a.startTime() < now - eps)
+      r.fail(a.timing.interval ? "/from" : "/at",
+             "time " + Reader::text(a.startTime()) + " is before the current time " + Reader::text(now));
+    return a;
+  });
 }
 
 ForceFieldSpec parseForceFieldEntry(std::string_view text, const std::string& sourceName) {
-  const JsonDocument doc = parseJsonWithLines(text, sourceName);
-  const Reader r(sourceName, doc.lines);
-  ForceFieldSpec f = parseForceField(r, doc.root, "");
-  f.location.source = sourceName;
-  return f;
+  return parseEntry<ForceFieldSpec>(text, sourceName,
+                                    [](const Reader& r, const json& root) { return parseForceField(r, root, ""); });
 }
 
 ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& sourceName) {
-  const JsonDocument doc = parseJsonWithLines(text, sourceName);
-  const Reader r(sourceName, doc.lines);
-  ConstraintSpec c = parseConstraint(r, doc.root, "");
-  c.location.source = sourceName;
-  return c;
+  return parseEntry<ConstraintSpec>(text, sourceName,
+                                    [](const Reader& r, const json& root) { return parseConstraint(r, root, ""); });
 }
 
 Scene loadScene(const std::filesystem::path& file) {

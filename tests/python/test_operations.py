@@ -162,3 +162,30 @@ def test_contact_figures(source_dir):
     assert small.contact() is None
     with pytest.raises(cutsim.InvalidInputError, match="no contact"):
         small.intersections()
+
+
+def test_move_an_obstacle(source_dir):
+    scene = {
+        "mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.4, 0.4], "origin": [-0.2, -0.2, 0.01]}},
+        "mass": {"total": 0.05}, "gravity": [0, 0, -9.81],
+        "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
+                        {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.001}],
+        "contact": {"thickness": 0.005, "stiffness": 0.5, "friction": 0.2},
+        "obstacles": [{"type": "plane", "name": "table", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+        "integrator": {"type": "implicit-euler", "rayleighMass": 1.0},
+        "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-6},
+        "timeStep": 0.005, "duration": 1,
+    }
+    sim = cutsim.Simulation(scene)
+    sim.run_until(0.2)
+    sim.move_obstacle("table", [0, 0, 0.05], duration=0.25)  # the table rises 5 cm
+    sim.run_until(0.6)
+    table = sim.contact()["obstacles"][0]
+    np.testing.assert_allclose(table["offset"], [0, 0, 0.05], atol=1e-12)
+    z = sim.x[sim.alive][:, 2]
+    assert z.min() > 0.05  # carried up, never through
+    assert sim.intersections() == []
+    with pytest.raises(cutsim.InvalidInputError, match="duration > 0"):
+        sim.move_obstacle("table", [0, 0, 1], duration=0)
+    with pytest.raises(cutsim.InvalidInputError, match='no obstacle named "chair"'):
+        sim.move_obstacle("chair", [0, 0, 1], duration=1)

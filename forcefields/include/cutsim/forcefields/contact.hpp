@@ -142,6 +142,10 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   const ContactParameters& parameters() const { return parameters_; }
   const std::vector<Obstacle>& obstacles() const { return obstacles_; }
+  /// From time `now` on, obstacle k moves by `delta` more over `duration` (> 0: it sweeps, and
+  /// the displacement bound sees what it sweeps), then holds; its path's keys after `now` are
+  /// dropped. Throws InvalidInput for a non-finite delta or a duration that is not > 0.
+  void moveObstacle(std::size_t k, double now, const Vec3& delta, double duration);
 
   /// Before each step of dt from time t0 at positions x and velocities v: the obstacles move to
   /// their poses at t0 + dt, the candidate pairs are found at x, the exclusions are updated, the
