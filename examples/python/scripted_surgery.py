@@ -77,14 +77,20 @@ class Scalpel(cutsim.Controller):
             return
         inside = [self.point_at(a) for a in self.arc if self.done < a < s]
         piece = np.array([self.tip, *inside, self.point_at(s)])
-        result = sim.cut(piece)
+        try:
+            result = sim.cut(piece)
+        except cutsim.TopologyError:
+            if s < self.length:
+                return  # nothing changed: the scalpel goes on, and cuts a longer piece next step
+            raise
         self.tip = sim.rest[result["path"][-1]]
         self.done = s
 
 
 class Forceps(cutsim.Controller):
-    """Grasps the flap's tip once the scalpel has gone round it, then lifts it up and back towards
-    the flap's uncut side (`lift` metres up over `duration` seconds, starting and ending smoothly)."""
+    """Grasps the flap's tip once the scalpel has gone round it (past the bottom of the U), then
+    lifts it up and back towards the flap's uncut side (`lift` metres up over `duration` seconds,
+    starting and ending smoothly)."""
 
     def __init__(self, scalpel, tip, lift, duration):
         self.scalpel, self.tip, self.lift, self.duration = scalpel, tip, lift, duration
@@ -158,7 +164,7 @@ def main():
         sim.add_controller(c)
 
     out = pathlib.Path(args.out)
-    sim.record(out)
+    sim.record(out, grasps=["forceps"])  # the CSV gets the forceps' force columns
     total = sim.num_steps
     for k in range(10):  # progress, a tenth at a time
         sim.run_until(duration * (k + 1) / 10)

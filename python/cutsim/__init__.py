@@ -143,14 +143,17 @@ class Simulation(_cutsim._Simulation):
     def remove(self, *, sphere=None, box=None, boundary="cut", min_angle=20.0):
         """Removes the surface inside a region of rest space: sphere=(center, radius) or
         box=(min, max); boundary "cut" cuts along the region's boundary, "centroid" removes whole
-        triangles (the timeline's "remove" action)."""
+        triangles (the timeline's "remove" action). Returns how many triangles fewer the surface
+        has; a region that holds no triangle raises InvalidInputError."""
         entry = {"action": "remove", "boundary": boundary, "minAngle": min_angle}
         if sphere is not None:
             center, radius = sphere
             entry["sphere"] = {"center": list(map(float, center)), "radius": float(radius)}
         if box is not None:
             entry["box"] = [list(map(float, box[0])), list(map(float, box[1]))]
+        before = self.num_triangles
         self.act(entry)
+        return before - self.num_triangles
 
     def grasp(self, name, *, points=None, box=None, near=None, path=None):
         """Grasps points (ids, a rest-space box, or the nearest point to each position) from now
@@ -161,8 +164,8 @@ class Simulation(_cutsim._Simulation):
 
     def record(self, dir, grasps=()):
         """Writes frames and steps.csv to dir, as `cutsim run --out dir` does, from now until
-        finish_recording(). The CSV has reaction-force columns for the scene's grasps and for the
-        names in `grasps` (grasps a script will start)."""
+        finish_recording(). The CSV has reaction-force columns for the scene's grasps, the grasps
+        active now and the names in `grasps` (grasps a script will start later)."""
         self._record(os.path.abspath(os.fspath(dir)), list(grasps))
 
     def fix(self, *, points=None, box=None, near=None):
@@ -186,6 +189,19 @@ class Simulation(_cutsim._Simulation):
             entry["at"] = self.time
         source = f"<action {entry.get('action', '?')}>"
         self._act(_json(entry, source), source)
+
+    # ---- callbacks ----
+    def add_controller(self, controller):
+        """Adds a controller: an object with on_step_begin(sim) and/or on_step_end(sim) (a
+        cutsim.Controller), or SofaPython3's onAnimateBeginEvent(event) / onAnimateEndEvent(event),
+        called with {"dt", "time", "sim"}."""
+        names = ("on_step_begin", "on_step_end", "onAnimateBeginEvent", "onAnimateEndEvent")
+        if isinstance(controller, Controller):
+            kind = type(controller)
+            if not any(getattr(kind, n, None) is not getattr(Controller, n, None) for n in names):
+                raise TypeError(f"add_controller: {kind.__name__} overrides none of {', '.join(names)} "
+                                "(a misspelt method name?)")
+        super().add_controller(controller)
 
     # ---- parameters ----
     def parameters(self, field):

@@ -516,6 +516,14 @@ class Simulation {
     for (auto t : topo.triangles()) rows.push_back(topo.triangleVertices(t));
     return rowArray(std::span<const topology::TriangleVertices>(rows));
   }
+  py::array_t<std::int64_t> triangleIds() {
+    requireReadable("triangle_ids");
+    return idArray(sim().topology().triangles());
+  }
+  py::array_t<std::int64_t> edgeIds() {
+    requireReadable("edge_ids");
+    return idArray(sim().topology().edges());
+  }
   py::array_t<std::int64_t> edges() {
     requireReadable("edges");
     const auto& topo = sim().topology();
@@ -562,7 +570,7 @@ class Simulation {
     });
   }
   void act(const std::string& text, const std::string& source) {
-    requireMutable("act");
+    requireMutable(source.c_str());
     auto spec = core::parseActionEntry(text, source, runner_->time());
     struct Last {
       Simulation& s;
@@ -588,7 +596,10 @@ class Simulation {
   void unfix(const std::vector<long>& points) {
     requireMutable("unfix");
     for (long p : points) {
-      if (p < 0 || p >= long(slots())) throw py::value_error("unfix: point " + std::to_string(p) + " does not exist");
+      if (p < 0 || p >= long(slots()) || !sim().fixed().contains(PointId(Index(p))))
+        throw InvalidInput("unfix", "point " + std::to_string(p) + " is not fixed");
+    }
+    for (long p : points) {
       sim().fixed().remove(PointId(Index(p)));
     }
   }
@@ -741,7 +752,9 @@ class Simulation {
     std::vector<std::string> obstacles;
     for (const auto& o : scene().obstacles) obstacles.push_back(o.name);
     std::vector<std::string> grasps = scene().graspNames();
-    for (const auto& g : extraGrasps) {
+    std::vector<std::string> more = extraGrasps;
+    for (std::size_t i = 0; i < sim().numGrasps(); ++i) more.push_back(sim().grasp(i).name());  // active now
+    for (const auto& g : more) {
       if (g.empty() || g.find_first_of(",\"\n\r") != std::string::npos)
         throw InvalidInput("record", "grasp name \"" + g + "\" cannot name CSV columns");
       if (std::find(grasps.begin(), grasps.end(), g) == grasps.end()) grasps.push_back(g);
@@ -770,8 +783,10 @@ class Simulation {
 
   // ---- callbacks ----
   void addController(py::object c) {
-    if (!py::hasattr(c, "on_step_begin") && !py::hasattr(c, "on_step_end"))
-      throw py::type_error("add_controller: the controller has neither on_step_begin nor on_step_end");
+    if (!py::hasattr(c, "on_step_begin") && !py::hasattr(c, "on_step_end") && !py::hasattr(c, "onAnimateBeginEvent") &&
+        !py::hasattr(c, "onAnimateEndEvent"))
+      throw py::type_error("add_controller: the controller has none of on_step_begin, on_step_end, "
+                           "onAnimateBeginEvent, onAnimateEndEvent");
     controllers_.push_back(std::move(c));
   }
   void removeController(const py::object& c) {
@@ -857,9 +872,18 @@ class Simulation {
   }
 
  private:
+  /// Calls each controller's on_step_begin(sim) / on_step_end(sim), or SofaPython3's
+  /// onAnimateBeginEvent(event) / onAnimateEndEvent(event) with an event dict (dt, time, sim).
   void callControllers(const char* method) {
-    for (const auto& c : std::vector<py::object>(controllers_))
-      if (py::hasattr(c, method)) c.attr(method)(self());
+    const bool begin = std::string(method) == "on_step_begin";
+    const char* sofa = begin ? "onAnimateBeginEvent" : "onAnimateEndEvent";
+    for (const auto& c : std::vector<py::object>(controllers_)) {
+      if (py::hasattr(c, sofa)) {
+        c.attr(sofa)(py::dict("dt"_a = runner_->timeStep(), "time"_a = runner_->time(), "sim"_a = self()));
+      } else if (py::hasattr(c, method)) {
+        c.attr(method)(self());
+      }
+    }
   }
   py::object self() { return py::cast(this, py::return_value_policy::reference); }
   void warnPendingCallbackError() {
@@ -1156,6 +1180,8 @@ PYBIND11_MODULE(_cutsim, m) {
       .def_property_readonly("revision", [](Simulation& s) { s.requireReadable("revision"); return s.layout(); })
       .def("triangles", &Simulation::triangles)
       .def("edges", &Simulation::edges)
+      .def("triangle_ids", &Simulation::triangleIds)
+      .def("edge_ids", &Simulation::edgeIds)
       .def_property_readonly("num_points", [](Simulation& s) { s.requireReadable("num_points"); return s.sim().topology().numPoints(); })
       .def_property_readonly("num_edges", [](Simulation& s) { s.requireReadable("num_edges"); return s.sim().topology().numEdges(); })
       .def_property_readonly("num_triangles", [](Simulation& s) { s.requireReadable("num_triangles"); return s.sim().topology().numTriangles(); })

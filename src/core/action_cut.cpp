@@ -100,7 +100,7 @@ class CutAction final : public TimelineAction {
         if (opened(result)) c.countCut();
       } catch (const TopologyError& e) {
         if (topo.pointCapacity() == points && topo.triangleCapacity() == triangles) return;
-        c.fail(std::string("the cut failed: ") + e.what());
+        c.failTopology(std::string("the cut failed: ") + e.what());
       }
     } else {
       result = cut(c, piece);
@@ -123,9 +123,9 @@ class CutAction final : public TimelineAction {
       if (opened(result)) c.countCut();
       return result;
     } catch (const TopologyError& e) {
-      c.fail(std::string("the cut failed: ") + e.what());
+      c.failTopology(std::string("the cut failed: ") + e.what());
     }
-    return {};  // not reached: fail() throws
+    return {};  // not reached: failTopology() throws
   }
   Vec3 pointAt(double s) const {
     const auto& p = p_.polyline;

@@ -28,8 +28,12 @@ class GraspAction final : public TimelineAction {
   }
   void start(ActionContext& c) override {
     Simulation& sim = c.simulation();
+    if (p_.selection.kind == PointSelection::Kind::Points)
+      for (PointId p : p_.selection.points)
+        if (p >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(p))
+          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) + " is not a point of the surface");
     const std::vector<PointId> points = p_.selection.resolve(sim.topology());
-    if (points.empty()) c.fail("the grasp selects no live point");
+    if (points.empty()) c.fail("grasp \"" + p_.name + "\" selects no point of the surface");
     // A point is held by one constraint: a grasp cannot drag a fixed point, nor one another grasp
     // holds (their reactions would be meaningless).
     for (PointId p : points) {

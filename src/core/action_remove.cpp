@@ -21,7 +21,15 @@ class RemoveAction final : public TimelineAction {
     }
   }
   void start(ActionContext& c) override {
-    removeIn(c.simulation().topology(), repairOptions(c.simulation(), p_.minAngle));
+    std::size_t removed = 0;
+    try {
+      removed = removeIn(c.simulation().topology(), repairOptions(c.simulation(), p_.minAngle));
+    } catch (const TopologyError& e) {
+      c.failTopology(std::string("the removal failed: ") + e.what());
+    }
+    if (removed == 0)
+      c.fail(p_.cutBoundary ? "the removal removes no triangle: no point of the surface lies inside the region"
+                            : "the removal removes no triangle: no triangle's rest centroid lies inside the region");
   }
 
  private:

@@ -42,8 +42,16 @@ class SceneRunner::Context final : public ActionContext {
   double meanRestEdge() const override { return r_.meanEdge_; }
   [[noreturn]] void fail(const std::string& message) const override {
     const SceneLocation& where = current->location;
-    throw Error(where.where(r_.scene_.file.string()) + ": " + (where.pointer.empty() ? "/" : where.pointer) +
-                ": at t = " + forcefields::describeNumber(r_.time()) + " " + message);
+    throw InvalidInput(where.where(r_.scene_.file.string()), located(message));
+  }
+  [[noreturn]] void failTopology(const std::string& message) const override {
+    const SceneLocation& where = current->location;
+    throw TopologyError(where.where(r_.scene_.file.string()) + ": " + located(message));
+  }
+  std::string located(const std::string& message) const {
+    const SceneLocation& where = current->location;
+    return (where.pointer.empty() ? "/" : where.pointer) + ": at t = " + forcefields::describeNumber(r_.time()) + " " +
+           message;
   }
   void countCut() override { ++r_.cutsDone_; }
   void countTorn(long edges) override { r_.tornEdges_ += edges; }

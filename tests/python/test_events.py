@@ -11,10 +11,8 @@ class Mirror:
 
     def __init__(self, sim):
         self.points = {int(p): np.array(sim.rest[p]) for p in np.flatnonzero(sim.alive)}
-        self.edges = {}
-        for e, (a, b) in zip(edge_ids(sim), sim.edges()):
-            self.edges[int(e)] = (int(a), int(b))
-        self.triangles = {int(t): tuple(map(int, v)) for t, v in zip(triangle_ids(sim), sim.triangles())}
+        self.edges = {int(e): (int(a), int(b)) for e, (a, b) in zip(sim.edge_ids(), sim.edges())}
+        self.triangles = {int(t): tuple(map(int, v)) for t, v in zip(sim.triangle_ids(), sim.triangles())}
         self.events = []
         self.transactions = []
         self.pending = dict(points_created=0, points_destroyed=0, edges_created=0, edges_destroyed=0,
@@ -78,18 +76,9 @@ class Mirror:
         rest = sim.rest
         for p, r in self.points.items():
             np.testing.assert_allclose(r, rest[p], rtol=0, atol=1e-12)
-        assert sorted(self.triangles.values()) == sorted(tuple(map(int, t)) for t in sim.triangles())
-        assert sorted(self.edges.values()) == sorted(tuple(map(int, e)) for e in sim.edges())
+        assert self.triangles == {int(t): tuple(map(int, v)) for t, v in zip(sim.triangle_ids(), sim.triangles())}
+        assert self.edges == {int(e): tuple(map(int, v)) for e, v in zip(sim.edge_ids(), sim.edges())}
         assert sim.validate() == []
-
-
-def edge_ids(sim):
-    return [sim.find_edge(int(a), int(b)) for a, b in sim.edges()]
-
-
-def triangle_ids(sim):
-    # Live triangles come in ascending id order; ids are dense at the start.
-    return list(range(sim.num_triangles))
 
 
 def test_mirror_follows_every_operation(small_scene):

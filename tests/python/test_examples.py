@@ -27,3 +27,16 @@ def test_tearing_study(tmp_path):
     rows = (tmp_path / "tearing_study.csv").read_text().splitlines()
     assert rows[0].startswith("criticalStrain,") and len(rows) == 4, r.stdout + r.stderr
     assert (tmp_path / "tearing_study.png").stat().st_size > 0
+
+
+def test_scripted_surgery_as_documented(tmp_path):
+    """The default run, with the figures docs/python.md quotes (within what another machine's
+    rounding may move)."""
+    import re
+    r = run("scripted_surgery.py", "--out", str(tmp_path))
+    m = re.search(r"incision\s+([\d.]+) of ([\d.]+) mm cut; the scalpel stopped at t = ([\d.]+) s", r.stdout)
+    assert m, r.stdout
+    cut, total, stopped = map(float, m.groups())
+    assert 0.7 < stopped < 0.85 and 55 < cut < 75 and abs(total - 102.8) < 0.1, r.stdout
+    assert float(re.search(r"smallest triangle angle ([\d.]+)", r.stdout).group(1)) >= 15
+    assert "forceps_fx" in (tmp_path / "steps.csv").read_text().splitlines()[0]

@@ -189,3 +189,46 @@ def test_move_an_obstacle(source_dir):
         sim.move_obstacle("table", [0, 0, 1], duration=0)
     with pytest.raises(cutsim.InvalidInputError, match='no obstacle named "chair"'):
         sim.move_obstacle("chair", [0, 0, 1], duration=1)
+
+
+def test_sofa_style_controllers_and_misspelt_ones(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    seen = []
+
+    class Sofa:
+        def onAnimateBeginEvent(self, event):
+            seen.append(("begin", event["time"], event["dt"], event["sim"] is sim))
+
+        def onAnimateEndEvent(self, event):
+            seen.append(("end", event["time"]))
+
+    sim.add_controller(Sofa())
+    sim.step(2)
+    assert seen == [("begin", 0.0, 0.005, True), ("end", 0.005), ("begin", 0.005, 0.005, True), ("end", 0.01)]
+
+    class Misspelt(cutsim.Controller):
+        def on_step_ende(self, s):
+            pass
+
+    with pytest.raises(TypeError, match="overrides none of"):
+        sim.add_controller(Misspelt())
+
+
+def test_operations_say_what_they_did_and_why_they_did_not(small_scene, tmp_path):
+    sim = cutsim.Simulation(small_scene)
+    assert sim.remove(box=([0.3, 0.3, -1], [0.6, 0.6, 1])) > 0
+    with pytest.raises(cutsim.InvalidInputError, match="removes no triangle"):
+        sim.remove(sphere=([5, 5, 0], 0.1))
+    with pytest.raises(cutsim.InvalidInputError, match="point 1000000 is not a point of the surface"):
+        sim.grasp("g", points=[10 ** 6])
+    with pytest.raises(cutsim.TopologyError, match="the cut failed"):
+        sim.act({"action": "cut", "polyline": [[5, 5, 0], [6, 5, 0]]})
+    with pytest.raises(cutsim.InvalidInputError, match="point 40 is not fixed"):
+        sim.unfix([40])
+    # A grasp active when the recording starts has its CSV columns.
+    sim.grasp("forceps", points=[10])
+    sim.record(tmp_path)
+    sim.step(2)
+    sim.finish_recording()
+    header = (tmp_path / "steps.csv").read_text().splitlines()[0]
+    assert header.endswith("forceps_fx,forceps_fy,forceps_fz")

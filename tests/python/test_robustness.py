@@ -131,6 +131,9 @@ def test_cycles_through_callbacks_are_collected(small_scene):
             def __init__(self, s):
                 self.s = s
 
+            def on_step_end(self, s):
+                pass
+
         sim.add_controller(Holder(sim))
         refs.append(weakref.ref(sim))
         del sim
@@ -209,6 +212,9 @@ def test_views_kept_by_controllers_make_no_leak(small_scene):
         def __init__(self, s):
             self.view = s.view()
             self.edit = s.edit()
+
+        def on_step_end(self, s):
+            self.view.valid
 
     sim = cutsim.Simulation(small_scene)
     sim.add_controller(Keeper(sim))

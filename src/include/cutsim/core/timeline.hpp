@@ -77,8 +77,11 @@ class ActionContext {
   virtual double time() const = 0;      ///< the current time
   virtual double timeStep() const = 0;  ///< the scene's
   virtual double meanRestEdge() const = 0;  ///< of the mesh the scene starts from
-  /// Ends the run with "FILE:LINE: /timeline/i: at t = T " + message.
+  /// Ends the run with InvalidInput "FILE:LINE: /timeline/i: at t = T " + message (the action
+  /// cannot be carried out as the scene gives it).
   [[noreturn]] virtual void fail(const std::string& message) const = 0;
+  /// The same as a TopologyError: the topology refused the action's operation (nothing changed).
+  [[noreturn]] virtual void failTopology(const std::string& message) const = 0;
   virtual void countCut() = 0;
   virtual void countTorn(long edges) = 0;
 };
