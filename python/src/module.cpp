@@ -81,15 +81,6 @@ py::array_t<double> viewOf(double* data, std::size_t rows, std::size_t cols,
   return a;
 }
 
-template <class T, std::size_t W>
-py::array_t<std::int64_t> indexArray(const std::vector<std::array<T, W>>& rows) {
-  py::array_t<std::int64_t> a({rows.size(), W});
-  auto r = a.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < rows.size(); ++i)
-    for (std::size_t c = 0; c < W; ++c) r(py::ssize_t(i), py::ssize_t(c)) = std::int64_t(rows[i][c]);
-  return a;
-}
-
 /// Index ids as int64 (kInvalidIndex as -1).
 template <class Id>
 py::array_t<std::int64_t> idArray(std::span<const Id> ids) {
@@ -842,7 +833,6 @@ class Simulation {
   }
 
   // ---- edits ----
-  bool editing() const { return editing_; }
   void beginEdit() {
     requireMutable("edit");
     editing_ = true;
