@@ -14,6 +14,7 @@
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/topology/errors.hpp"
+#include "cutsim/view/player.hpp"
 
 namespace cutsim::cli {
 namespace {
@@ -24,6 +25,8 @@ struct RunOptions {
   std::string dumpFinal;
   bool quiet = false;
   bool allowLong = false;
+  std::string html;  ///< also write the player page (cutsim view) here; "" none
+  bool htmlAuto = false;  ///< --html without a file: OUT/player.html
 };
 
 /// A progress bar on a terminal; plain lines every 10 % otherwise.
@@ -81,6 +84,9 @@ void runScene(const RunOptions& options) {
     throw InvalidInput(options.scene, "the run would take " + std::to_string(steps) + " steps and write " +
                                           std::to_string(frames) + " frames, more than the limits (10^7 steps, 10^5 "
                                           "frames): raise output.every or the time step, or pass --allow-long");
+  if ((options.htmlAuto || !options.html.empty()) && !scene.output.vtk)
+    throw InvalidInput("--html", "the scene writes no frames (its output has \"vtk\": false): the player has nothing to "
+                                 "show");
   if (!options.dumpFinal.empty()) {
     std::error_code ec;
     if (std::filesystem::exists(options.dumpFinal, ec) && !std::filesystem::is_directory(options.dumpFinal, ec))
@@ -100,6 +106,17 @@ void runScene(const RunOptions& options) {
   if (writer.replacedFiles() > 0)
     std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from " << outDir.string()
               << "\n";
+  // What the player (cutsim view) shows of the scene: its name, description and "up".
+  if (scene.output.vtk) {
+    nlohmann::ordered_json info;
+    info["scene"] = scene.name;
+    info["description"] = scene.description;
+    info["scene_file"] = options.scene;
+    info["gravity"] = scene.gravity;
+    info["time_step"] = scene.timeStep;
+    info["duration"] = scene.duration;
+    core::writeFileAtomically(outDir / "run.json", [&](std::ostream& o) { o << info.dump(2) << '\n'; });
+  }
   Progress progress(runner.numSteps(), !options.quiet);
 
   runner.start();
@@ -156,6 +173,12 @@ void runScene(const RunOptions& options) {
       std::cout << "final dump " << options.dumpFinal
                 << " (meshes only: the scene has no FastTriangularBendingSprings field)\n";
   }
+  if (options.htmlAuto || !options.html.empty()) {
+    const std::filesystem::path html = options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
+    const view::PlayerReport r = view::writePlayer(outDir, html);
+    std::cout << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun << " frames, "
+              << (r.bytes + 524288) / 1048576 << " MB; open it in a browser)\n";
+  }
   std::cout.flush();
   if (!std::cout) throw Error("cannot write to standard output");
 }
@@ -173,7 +196,19 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_flag("--quiet", options->quiet, "no progress display (the summary is still printed)");
   cmd->add_flag("--allow-long", options->allowLong,
                 "run a scene of more than 10^7 steps or 10^5 frames (refused otherwise, before it starts)");
-  cmd->callback([options] { runScene(*options); });
+  cmd->add_option("--html", options->html,
+                  "also write the run's player page (as cutsim view) to this file; --html alone: OUT/player.html")
+      ->expected(0, 1);
+  CLI::Option* html = cmd->get_option("--html");
+  cmd->callback([options, html] {
+    options->htmlAuto = html->count() > 0;
+    if (options->htmlAuto) {
+      // Checked before the run, not after it.
+      if (!options->html.empty() && std::filesystem::is_directory(options->html))
+        throw InvalidInput("--html", options->html + " is a folder, not a file");
+    }
+    runScene(*options);
+  });
 }
 
 }  // namespace cutsim::cli

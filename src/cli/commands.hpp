@@ -24,6 +24,9 @@ void registerRunCommand(CLI::App& app);
 /// their keys (src/cli/cmd_components.cpp).
 void registerComponentsCommand(CLI::App& app);
 
+/// `cutsim view RUN_DIR [-o FILE.html]`: the offline HTML player of a run (src/cli/cmd_view.cpp).
+void registerViewCommand(CLI::App& app);
+
 // Further commands are declared here.
 
 }  // namespace cutsim::cli

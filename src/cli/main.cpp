@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   cutsim::cli::registerEvalCommand(app);
   cutsim::cli::registerRunCommand(app);
   cutsim::cli::registerComponentsCommand(app);
+  cutsim::cli::registerViewCommand(app);
 
   try {
     app.parse(argc, argv);  // runs the chosen subcommand's callback

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <map>
 
 #include <array>
 #include <charconv>
@@ -115,6 +116,15 @@ void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
   out << "        </DataArray>\n"
          "        <DataArray type=\"Int64\" Name=\"slot\" format=\"ascii\">\n";
   for (PointId p : n.ids) out << p << '\n';
+  // 0 free, 1 fixed, 2 held by a grasp (a point is held by one constraint at most).
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int32\" Name=\"constraint\" format=\"ascii\">\n";
+  for (PointId p : n.ids) {
+    int held = sim.fixed().contains(p) ? 1 : 0;
+    for (std::size_t g = 0; g < sim.numGrasps() && held == 0; ++g)
+      if (sim.grasp(g).points().contains(p)) held = 2;
+    out << held << '\n';
+  }
   out << "        </DataArray>\n"
          "      </PointData>\n"
          "      <CellData Scalars=\"strain\">\n"
@@ -169,6 +179,81 @@ void writeNetworkVtp(std::ostream& out, const Simulation& sim,
   out << "        </DataArray>\n"
          "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
   for (std::size_t i = 0; i < lines.size(); ++i) out << 2 * (i + 1) << '\n';
+  out << "        </DataArray>\n"
+         "      </Lines>\n";
+  vtpFooter(out);
+}
+
+RestSegments restBorder(const topology::Topology& topo) {
+  RestSegments out;
+  for (topology::EdgeId e : topo.edges()) {
+    if (!topo.isBoundaryEdge(e)) continue;
+    const auto v = topo.edgeVertices(e);
+    out.push_back({topo.restPosition(v[0]), topo.restPosition(v[1])});
+  }
+  return out;
+}
+
+namespace {
+
+double distanceToSegment(const Vec3& p, const std::array<Vec3, 2>& s) {
+  Vec3 d{}, w{};
+  double dd = 0.0, t = 0.0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    d[k] = s[1][k] - s[0][k];
+    w[k] = p[k] - s[0][k];
+    dd += d[k] * d[k];
+    t += w[k] * d[k];
+  }
+  t = dd > 0.0 ? std::clamp(t / dd, 0.0, 1.0) : 0.0;
+  double r = 0.0;
+  for (std::size_t k = 0; k < 3; ++k) r += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+  return std::sqrt(r);
+}
+
+}  // namespace
+
+std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const RestSegments& original) {
+  // The tolerance: a millionth of the original border's extent.
+  double extent = 0.0;
+  for (const auto& s : original)
+    for (std::size_t k = 0; k < 3; ++k) extent = std::max({extent, std::abs(s[0][k]), std::abs(s[1][k])});
+  const double tolerance = 1e-6 * std::max(extent, 1e-300);
+  auto onOriginal = [&](const Vec3& p) {
+    for (const auto& s : original)
+      if (distanceToSegment(p, s) <= tolerance) return true;
+    return false;
+  };
+  std::vector<BorderEdge> border;
+  for (topology::EdgeId e : topo.edges()) {
+    if (!topo.isBoundaryEdge(e)) continue;
+    const auto v = topo.edgeVertices(e);
+    const Vec3 a = topo.restPosition(v[0]), b = topo.restPosition(v[1]);
+    const Vec3 mid{(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2};
+    // Opened during the run: an edge whose rest points or midpoint leave the first border.
+    border.push_back({v[0], v[1], !(onOriginal(a) && onOriginal(b) && onOriginal(mid))});
+  }
+  return border;
+}
+
+void writeBordersVtp(std::ostream& out, const Simulation& sim, const RestSegments& original) {
+  const Numbering n = numbering(sim);
+  const std::vector<BorderEdge> border = borderEdges(sim.topology(), original);
+  vtpHeader(out);
+  out << "    <Piece NumberOfPoints=\"" << n.ids.size() << "\" NumberOfVerts=\"0\" NumberOfLines=\""
+      << border.size() << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  out << "      <CellData Scalars=\"lip\">\n"
+         "        <DataArray type=\"Int32\" Name=\"lip\" format=\"ascii\">\n";
+  for (const BorderEdge& b : border) out << (b.lip ? 1 : 0) << '\n';
+  out << "        </DataArray>\n"
+         "      </CellData>\n";
+  pointsBlock(out, sim, n.ids);
+  out << "      <Lines>\n"
+         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (const BorderEdge& b : border) out << n.dense[b.a] << ' ' << n.dense[b.b] << '\n';
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (std::size_t i = 0; i < border.size(); ++i) out << 2 * (i + 1) << '\n';
   out << "        </DataArray>\n"
          "      </Lines>\n";
   vtpFooter(out);
@@ -319,7 +404,8 @@ bool OutputWriter::isRunOutput(const std::string& name) {
   if (ends(".pvd")) return true;  // the collections, final or partial
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
   if (ends(".vtp"))
-    return starts("surface_") || starts("springs_") || starts("network_") || starts("obstacles_");
+    return starts("surface_") || starts("borders_") || starts("springs_") || starts("network_") ||
+           starts("obstacles_");
   return starts("frame_") && ends(".obj");
 }
 
@@ -400,8 +486,14 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
     // them to watch); finish() writes the final surface.pvd and springs.pvd. A run that stops
     // early leaves no collection that looks complete.
     const bool partial = partialDue(surfaceFrames_.size());
-    if (partial)
+    const std::string borders = frameName("borders", index, ".vtp");
+    if (borderFrames_.empty()) originalBorder_ = restBorder(sim.topology());
+    writeFileAtomically(dir_ / borders, [&](std::ostream& o) { writeBordersVtp(o, sim, originalBorder_); });
+    borderFrames_.emplace_back(r.time, borders);
+    if (partial) {
       writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+      writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
+    }
     if (settings_.springs) {
       // Every field that draws: the first FastTriangularBendingSprings as "springs", the others
       // as "network_<label>".
@@ -466,6 +558,8 @@ void OutputWriter::finish() {
   if (settings_.vtk && !surfaceFrames_.empty()) {
     writeFileAtomically(dir_ / "surface.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
     std::filesystem::remove(dir_ / "surface.partial.pvd", removeError);
+    writeFileAtomically(dir_ / "borders.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
+    std::filesystem::remove(dir_ / "borders.partial.pvd", removeError);
   }
   if (!obstacleFrames_.empty()) {
     writeFileAtomically(dir_ / "obstacles.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });

@@ -7,8 +7,10 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -135,6 +137,81 @@ TEST(Output, SurfaceVtpParsesBack) {
   const std::vector<PointId> live = sim.topology().points();
   EXPECT_EQ(std::strtod(dataArray(xml, "position")[0].c_str(), nullptr),
             sim.state().x()[3 * live[0]]);
+}
+
+TEST(Output, BordersAreTheEdgesOfOneTriangleAndLipsTheOpenedOnes) {
+  // Before any action: the border is the unit square's outline, with no lip; after the cut from
+  // the side (t = 0.05) and the removal of a disc (t = 0.1): lips, all inside the square.
+  const RestSegments original = [] {
+    SmallRun run(0);
+    return restBorder(run.runner->simulation().topology());
+  }();
+  ASSERT_EQ(original.size(), 4u * 8u);  // the 9 x 9 grid's outline
+  for (long steps : {1L, 12L}) {
+    SmallRun run(steps);
+    const Simulation& sim = run.runner->simulation();
+    const topology::Topology& topo = sim.topology();
+    // Independent border: edges used by exactly one triangle.
+    std::map<std::pair<PointId, PointId>, int> uses;
+    for (topology::TriangleId t : topo.triangles()) {
+      const auto v = topo.triangleVertices(t);
+      for (int i = 0; i < 3; ++i) {
+        PointId a = v[std::size_t(i)], b = v[std::size_t((i + 1) % 3)];
+        ++uses[{std::min(a, b), std::max(a, b)}];
+      }
+    }
+    std::set<std::pair<PointId, PointId>> expected;
+    for (const auto& [e, n] : uses)
+      if (n == 1) expected.insert(e);
+    const std::vector<BorderEdge> border = borderEdges(topo, original);
+    std::set<std::pair<PointId, PointId>> got;
+    std::size_t lips = 0;
+    auto onSquare = [](const topology::Vec3& p) {
+      return std::abs(p[0]) < 1e-12 || std::abs(p[0] - 1) < 1e-12 || std::abs(p[1]) < 1e-12 ||
+             std::abs(p[1] - 1) < 1e-12;
+    };
+    for (const BorderEdge& b : border) {
+      got.insert({std::min(b.a, b.b), std::max(b.a, b.b)});
+      const topology::Vec3 p = topo.restPosition(b.a), q = topo.restPosition(b.b);
+      const topology::Vec3 mid{(p[0] + q[0]) / 2, (p[1] + q[1]) / 2, 0.0};
+      // On the outline: both ends on one side of the square (the midpoint with them).
+      const bool outline = onSquare(p) && onSquare(q) && onSquare(mid);
+      EXPECT_EQ(b.lip, !outline) << "edge " << b.a << "-" << b.b;
+      lips += b.lip;
+    }
+    EXPECT_EQ(got, expected);
+    if (steps == 1)
+      EXPECT_EQ(lips, 0u);
+    else
+      EXPECT_GE(lips, 8u);
+    std::ostringstream out;
+    writeBordersVtp(out, sim, original);
+    const std::string xml = out.str();
+    expectBalanced(xml);
+    EXPECT_EQ(attribute(xml, "NumberOfLines"), long(border.size()));
+    EXPECT_EQ(dataArray(xml, "lip").size(), border.size());
+  }
+}
+
+TEST(Output, SurfaceMarksFixedAndGraspedPoints) {
+  SmallRun run(14);  // the grasp "pin" started at t = 0.12
+  const Simulation& sim = run.runner->simulation();
+  std::ostringstream out;
+  writeSurfaceVtp(out, sim);
+  const auto held = dataArray(out.str(), "constraint");
+  const std::vector<PointId> live = sim.topology().points();
+  ASSERT_EQ(held.size(), live.size());
+  ASSERT_EQ(sim.numGrasps(), 1u);
+  std::size_t fixed = 0, grasped = 0;
+  for (std::size_t k = 0; k < live.size(); ++k) {
+    const int expected = sim.fixed().contains(live[k]) ? 1 : sim.grasp(0).points().contains(live[k]) ? 2 : 0;
+    EXPECT_EQ(std::stoi(held[k]), expected);
+    fixed += expected == 1;
+    grasped += expected == 2;
+  }
+  EXPECT_EQ(fixed, sim.fixed().size());
+  EXPECT_EQ(grasped, sim.grasp(0).points().size());
+  EXPECT_GT(grasped, 0u);
 }
 
 TEST(Output, SpringNetworkVtpHasOneLinePerSpring) {
