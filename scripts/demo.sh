@@ -9,10 +9,15 @@ scene="${1:-$root/data/scenes/hanging_cut.json}"
 "$root/scripts/build.sh" release cutsim
 name="$(basename "$scene" .json)"
 out="$root/out/$name"
-"$root/build/release/src/cutsim" run "$scene" --out "$out" --dump-final "$out/final"
-# Pictures without ParaView (Debian's python3 with matplotlib, installed by deps.sh).
+# The run, and its player: one HTML page that plays it back in any browser, offline.
+"$root/build/release/src/cutsim" run "$scene" --out "$out" --dump-final "$out/final" --html "$out/player.html"
+# Pictures without a browser (Debian's python3 with matplotlib, installed by deps.sh).
+pictures=""
 if /usr/bin/python3 -c 'import matplotlib, numpy' 2>/dev/null; then
-  /usr/bin/python3 "$root/scripts/render.py" "$out"
-  echo "pictures: $out/render_frames.png (the surface at four times) and $out/render_series.png"
+  /usr/bin/python3 "$root/scripts/render.py" "$out" >/dev/null
+  pictures="$out/render_frames.png (the surface at four times) and $out/render_series.png"
 fi
-echo "output written to $out (open $out/*.pvd in ParaView; per-step data in the CSV)"
+echo
+echo "watch the run: open $out/player.html in a browser (play, scrub, orbit; strain colours, cut lips, plots)"
+[ -n "$pictures" ] && echo "pictures:      $pictures"
+echo "ParaView:      $out/surface.pvd (and borders.pvd, springs.pvd); per-step data in $out/steps.csv"

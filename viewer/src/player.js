@@ -78,6 +78,45 @@ function el(tag, attrs = {}, ...children) {
   return e;
 }
 
+/// The unit axis along which points spread least: the eigenvector of the smallest eigenvalue of
+/// their covariance (cyclic Jacobi rotations on the 3 x 3 matrix).
+function leastSpreadAxis(points) {
+  const m = [0, 0, 0];
+  for (const p of points) { m[0] += p.x / points.length; m[1] += p.y / points.length; m[2] += p.z / points.length; }
+  const a = [[0, 0, 0], [0, 0, 0], [0, 0, 0]];
+  for (const p of points) {
+    const d = [p.x - m[0], p.y - m[1], p.z - m[2]];
+    for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) a[i][j] += d[i] * d[j];
+  }
+  const v = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
+  for (let sweep = 0; sweep < 50; sweep++) {
+    const off = Math.abs(a[0][1]) + Math.abs(a[0][2]) + Math.abs(a[1][2]);
+    if (off <= 1e-15 * (Math.abs(a[0][0]) + Math.abs(a[1][1]) + Math.abs(a[2][2]) + 1e-300)) break;
+    for (const [p, q] of [[0, 1], [0, 2], [1, 2]]) {
+      if (a[p][q] === 0) continue;
+      const theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
+      const t = Math.sign(theta || 1) / (Math.abs(theta) + Math.sqrt(theta * theta + 1));
+      const c = 1 / Math.sqrt(t * t + 1), s = t * c;
+      for (let k = 0; k < 3; k++) {  // A <- A J
+        const akp = a[k][p], akq = a[k][q];
+        a[k][p] = c * akp - s * akq; a[k][q] = s * akp + c * akq;
+      }
+      for (let k = 0; k < 3; k++) {  // A <- J^T A
+        const apk = a[p][k], aqk = a[q][k];
+        a[p][k] = c * apk - s * aqk; a[q][k] = s * apk + c * aqk;
+      }
+      for (let k = 0; k < 3; k++) {  // V <- V J
+        const vkp = v[k][p], vkq = v[k][q];
+        v[k][p] = c * vkp - s * vkq; v[k][q] = s * vkp + c * vkq;
+      }
+    }
+  }
+  let best = 0;
+  for (let i = 1; i < 3; i++) if (a[i][i] < a[best][best]) best = i;
+  const axis = new THREE.Vector3(v[0][best], v[1][best], v[2][best]);
+  return axis.lengthSq() > 0 ? axis.normalize() : new THREE.Vector3(0, 0, 1);
+}
+
 function fmt(v, digits = 4) {
   if (v === undefined || v === null || Number.isNaN(v)) return '-';
   if (v === 0) return '0';
@@ -106,6 +145,7 @@ class Player {
     this.speed = 1;
     this.show = { borders: true, springs: false, held: true, obstacles: true, wireframe: false };
     this.ranges = {};
+    this.hasSprings = this.frameList.some((f) => f.spring);
     this.buildDom();
     this.buildScene();
     this.buildPlots();
@@ -154,10 +194,10 @@ class Player {
       box.addEventListener('change', () => { this.show[key] = box.checked; this.applyVisibility(); this.render(); });
       toggles.append(el('label', { title }, box, ' ' + label));
     };
-    toggle('borders', 'borders and cut lips', 'outer border in black, the sides of cuts and tears in white');
-    toggle('springs', 'bending springs', 'one line between the two wing points of each bending spring');
-    toggle('held', 'fixed and grasped points', 'fixed points grey, grasped points orange');
-    toggle('obstacles', 'obstacles', 'the contact obstacles');
+    toggle('borders', 'borders and cut lips', 'the border the surface started with in grey, borders opened by cuts, tears and removals in magenta');
+    if (this.hasSprings) toggle('springs', 'bending springs', 'one line between the two wing points of each bending spring');
+    if (this.frameList.some((f) => f.held)) toggle('held', 'fixed and grasped points', 'fixed points white, grasped points orange');
+    if (this.frameList.some((f) => f.obstacleX)) toggle('obstacles', 'obstacles', 'the contact obstacles');
     toggle('wireframe', 'triangle edges', 'the mesh edges over the colours');
     const litBox = el('input', { type: 'checkbox', id: 'lit' });
     litBox.checked = true;
@@ -236,13 +276,15 @@ class Player {
       new THREE.LineBasicMaterial({ color: 0x000000, transparent: true, opacity: 0.35 }));
     scene.add(this.wire);
     this.heldGeometry = new THREE.BufferGeometry();
-    this.held = new THREE.Points(this.heldGeometry, new THREE.PointsMaterial({ size: 9, sizeAttenuation: false, vertexColors: true }));
+    this.held = new THREE.Points(this.heldGeometry, new THREE.PointsMaterial({ size: 6, sizeAttenuation: false, vertexColors: true }));
     scene.add(this.held);
     this.obstacleGeometry = new THREE.BufferGeometry();
     this.obstacles = new THREE.Mesh(this.obstacleGeometry, new THREE.MeshPhongMaterial({ color: 0x8b95a3,
       transparent: true, opacity: 0.45, side: THREE.DoubleSide, depthWrite: false }));
     scene.add(this.obstacles);
 
+    // Their geometries change with every frame: never culled by a bounding sphere of another frame.
+    for (const o of [this.borders, this.springs, this.wire, this.held, this.obstacles]) o.frustumCulled = false;
     this.raycaster = new THREE.Raycaster();
     const resize = () => {
       const w = this.viewEl.clientWidth, h = Math.max(1, this.viewEl.clientHeight);
@@ -334,35 +376,52 @@ class Player {
   }
 
   fitCamera() {
-    const box = new THREE.Box3();
-    const p = new THREE.Vector3();
+    // Points of every frame (a sample of each); the view frames all of them: playing never
+    // leaves the view, and nothing is wasted on the empty corners of their bounding box.
+    const samples = [];
     for (const f of this.frameList) {
       const x = this.array(Float32Array, f.x);
-      const step = Math.max(3, 3 * Math.floor(x.length / 3 / 500));
-      for (let i = 0; i + 2 < x.length; i += step) box.expandByPoint(p.set(x[i], x[i + 1], x[i + 2]));
-      if (x.length >= 3) box.expandByPoint(p.set(x[x.length - 3], x[x.length - 2], x[x.length - 1]));
+      const n = x.length / 3;
+      const step = Math.max(1, Math.floor(n / Math.max(50, 200000 / this.frameList.length)));
+      for (let p = 0; p < n; p += step) samples.push(new THREE.Vector3(x[3 * p], x[3 * p + 1], x[3 * p + 2]));
+      if (n) samples.push(new THREE.Vector3(x[3 * n - 3], x[3 * n - 2], x[3 * n - 1]));
     }
-    const center = box.getCenter(new THREE.Vector3());
+    const box = new THREE.Box3().setFromPoints(samples);
     const radius = Math.max(1e-6, box.getSize(new THREE.Vector3()).length() / 2);
-    // A three-quarter view from above the horizon, at the distance where the box of all frames
-    // just fits the view (each corner inside the frustum), with a margin.
+    // A three-quarter view from above the horizon.
     const up = this.up;
     const h1 = new THREE.Vector3(1, 0, 0);
     if (Math.abs(h1.dot(up)) > 0.9) h1.set(0, 1, 0);
     h1.sub(up.clone().multiplyScalar(h1.dot(up))).normalize();
     const h2 = new THREE.Vector3().crossVectors(up, h1).normalize();
-    const back = h1.clone().multiplyScalar(0.45).addScaledVector(h2, -0.8).addScaledVector(up, 0.5).normalize();
+    const threeQuarter = h1.clone().multiplyScalar(0.45).addScaledVector(h2, -0.8).addScaledVector(up, 0.5).normalize();
+    // Turned towards the surface's face: the normal of the plane nearest to all the points (the
+    // axis of their least spread), on the three-quarter view's side. A sheet is seen from above
+    // its face, not edge-on.
+    const normal = leastSpreadAxis(samples);
+    if (normal.dot(threeQuarter) < 0) normal.negate();
+    const back = normal.clone().addScaledVector(threeQuarter, 0.9).normalize();
+    if (Math.abs(back.dot(up)) > 0.97) back.addScaledVector(h2, -0.3).normalize();  // not straight down the up axis
     const right = new THREE.Vector3().crossVectors(up, back).normalize();
     const upView = new THREE.Vector3().crossVectors(back, right).normalize();
+    // The target: the middle of the points' extents across and up the view, and in depth.
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (const p of samples) {
+      const c = [p.dot(right), p.dot(upView), p.dot(back)];
+      for (let k = 0; k < 3; k++) { lo[k] = Math.min(lo[k], c[k]); hi[k] = Math.max(hi[k], c[k]); }
+    }
+    const mid = [0, 1, 2].map((k) => (lo[k] + hi[k]) / 2);
+    const center = right.clone().multiplyScalar(mid[0]).addScaledVector(upView, mid[1]).addScaledVector(back, mid[2]);
+    // The nearest camera distance at which every point is inside the frustum, with a margin.
     const tanV = Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
     const tanH = tanV * this.camera.aspect;
     let distance = 1e-6;
-    for (let i = 0; i < 8; i++) {
-      const c = new THREE.Vector3(i & 1 ? box.max.x : box.min.x, i & 2 ? box.max.y : box.min.y, i & 4 ? box.max.z : box.min.z).sub(center);
-      const depth = c.dot(back);  // towards the camera
-      distance = Math.max(distance, depth + Math.abs(c.dot(right)) / tanH, depth + Math.abs(c.dot(upView)) / tanV);
+    for (const p of samples) {
+      const depth = p.dot(back) - mid[2];
+      distance = Math.max(distance, depth + Math.abs(p.dot(right) - mid[0]) / tanH,
+        depth + Math.abs(p.dot(upView) - mid[1]) / tanV);
     }
-    distance *= 1.08;
+    distance *= 1.04;
     const dir = back;
     this.camera.position.copy(center).addScaledVector(dir, distance);
     this.camera.near = distance / 100;
@@ -535,8 +594,10 @@ class Player {
         (run.framesShown < run.framesInRun ? ` (run frame ${run.frameIndices[this.index] + 1} of ${run.framesInRun})` : ''),
       `${f.points} points, ${f.triangles} triangles`,
       `${f.borders} border edges, ${f.lipEdges} on cut or tear lips`,
-      `${f.springs} bending springs` + (f.fixed || f.grasped ? `, ${f.fixed} fixed, ${f.grasped} grasped points` : ''),
     ];
+    const held = f.fixed || f.grasped ? `${f.fixed} fixed, ${f.grasped} grasped points` : '';
+    const springs = this.hasSprings ? `${f.springs} bending springs` : '';
+    if (springs || held) lines.push([springs, held].filter(Boolean).join(', '));
     const row = f.row ?? -1;
     if (row >= 0) {
       const s = this.seriesData;
@@ -662,6 +723,7 @@ function main() {
       colorbarBox: () => { const r = player.colorbar.getBoundingClientRect(); return { x: r.left, y: r.top, width: r.width, height: r.height }; },
       play: () => player.play(),
       pause: () => player.pause(),
+      player,  // the internals (three.js scene, camera, controls), for scripts
     };
     document.title = `${meta.run.name} - cutsim`;
   } catch (e) {
