@@ -754,6 +754,7 @@ class Simulation {
     keepBridgeLast();
     writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(), grasps,
                                                    scene().contact.has_value(), obstacles);
+    if (scene().output.vtk) core::writeRunInfo(dir, scene());
     writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()},
                     runner_->currentStep() == runner_->numSteps());
     raisePendingCallbackError();  // from the actions at time 0: the recording has started

@@ -107,16 +107,7 @@ void runScene(const RunOptions& options) {
     std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from " << outDir.string()
               << "\n";
   // What the player (cutsim view) shows of the scene: its name, description and "up".
-  if (scene.output.vtk) {
-    nlohmann::ordered_json info;
-    info["scene"] = scene.name;
-    info["description"] = scene.description;
-    info["scene_file"] = options.scene;
-    info["gravity"] = scene.gravity;
-    info["time_step"] = scene.timeStep;
-    info["duration"] = scene.duration;
-    core::writeFileAtomically(outDir / "run.json", [&](std::ostream& o) { o << info.dump(2) << '\n'; });
-  }
+  if (scene.output.vtk) core::writeRunInfo(outDir, scene);
   Progress progress(runner.numSteps(), !options.quiet);
 
   runner.start();

@@ -33,7 +33,10 @@ std::string formatNumber(double v) {
 
 void writeFileAtomically(const std::filesystem::path& path,
                          const std::function<void(std::ostream&)>& write) {
-  const std::filesystem::path temp = path.parent_path() / ("." + path.filename().string() + ".tmp");
+  std::string name = ".";  // appended, not "." + ...: GCC 12 warns (-Wrestrict) on that falsely
+  name += path.filename().string();
+  name += ".tmp";
+  const std::filesystem::path temp = path.parent_path() / name;
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     if (!out) throw Error("cannot create " + temp.string());
@@ -311,6 +314,16 @@ void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacl
   vtpFooter(out);
 }
 
+void writeRunInfo(const std::filesystem::path& dir, const Scene& scene) {
+  nlohmann::ordered_json info;
+  info["scene"] = scene.name;
+  info["description"] = scene.description;
+  info["gravity"] = scene.gravity;
+  info["time_step"] = scene.timeStep;
+  info["duration"] = scene.duration;
+  writeFileAtomically(dir / "run.json", [&](std::ostream& o) { o << info.dump(2) << '\n'; });
+}
+
 void writeSurfaceObj(std::ostream& out, const Simulation& sim) {
   const Numbering n = numbering(sim);
   std::vector<Vec3> points;
@@ -400,7 +413,7 @@ bool OutputWriter::isRunOutput(const std::string& name) {
     return name.size() >= n && name.compare(name.size() - n, n, suffix) == 0;
   };
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
-  if (name == "steps.csv" || name == ".steps.csv.tmp") return true;
+  if (name == "steps.csv" || name == ".steps.csv.tmp" || name == "run.json") return true;
   if (ends(".pvd")) return true;  // the collections, final or partial
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
   if (ends(".vtp"))

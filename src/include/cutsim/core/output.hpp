@@ -63,6 +63,9 @@ void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string
 /// The obstacles' surfaces at time t (planes drawn as squares of side planeSize).
 void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles, double t,
                        double planeSize);
+/// `run.json` in a run's folder: the scene's name, description, gravity, time step and duration
+/// (what the player, cutsim view, shows of the scene, and its "up": against gravity).
+void writeRunInfo(const std::filesystem::path& dir, const Scene& scene);
 /// OBJ of the live surface at current positions, 17 significant digits.
 void writeSurfaceObj(std::ostream& out, const Simulation& sim);
 
