@@ -34,7 +34,7 @@ from ._cutsim import (  # noqa: F401  (the public names of the compiled part)
 __all__ = [
     "Controller", "Editor", "Error", "InvalidInputError", "Simulation", "SolverError",
     "SolverWarning", "StaleViewError", "StateView", "TopologyError", "TopologyEvent",
-    "UsageError", "load", "__version__",
+    "UsageError", "load", "write_player", "__version__",
 ]
 
 
@@ -292,3 +292,17 @@ def _selection(points, box, near):
 def load(path):
     """The Simulation of a scene file (JSON)."""
     return Simulation(path)
+
+
+def write_player(run_dir, output=None, max_mb=48, up="auto"):
+    """Writes the player of a run folder (as `cutsim view`): one offline HTML page that plays the
+    run back (docs/player.md). `run_dir` is a folder a run wrote (`cutsim run --out`, or
+    `Simulation.record`), finished or not (a partial run plays under a banner). Returns a dict:
+    `path` (the page, default RUN_DIR/player.html), `frames_in_run`, `frames_shown` (every k-th
+    frame and the last beyond `max_mb`), `bytes`, `partial`. Raises InvalidInputError for a folder
+    that is not a run or has no frames."""
+    run_dir = os.fspath(run_dir)
+    output = os.path.join(run_dir, "player.html") if output is None else os.fspath(output)
+    result = _cutsim._write_player(run_dir, output, float(max_mb), str(up))
+    result["path"] = os.fspath(result["path"])
+    return result

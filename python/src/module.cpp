@@ -30,6 +30,7 @@
 #include "cutsim/core/version.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/topology/errors.hpp"
+#include "cutsim/view/player.hpp"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -1107,6 +1108,29 @@ PYBIND11_MODULE(_cutsim, m) {
       set(gUsageError, e.what());
     }
   });
+
+  m.def(
+      "_write_player",
+      [](const std::filesystem::path& run, const std::filesystem::path& html, double maxMb, const std::string& up) {
+        if (!(maxMb >= 1.0 && maxMb <= 4096.0))
+          throw InvalidInput("max_mb", std::to_string(maxMb) + " is not a size between 1 and 4096 MB");
+        view::PlayerOptions options;
+        options.budgetBytes = std::size_t(maxMb * 1048576.0);
+        options.up = up;
+        view::PlayerReport r;
+        {
+          py::gil_scoped_release release;
+          r = view::writePlayer(run, html, options);
+        }
+        py::dict d;
+        d["path"] = html;
+        d["frames_in_run"] = r.framesInRun;
+        d["frames_shown"] = r.framesShown;
+        d["bytes"] = r.bytes;
+        d["partial"] = r.partial;
+        return d;
+      },
+      py::arg("run"), py::arg("html"), py::arg("max_mb"), py::arg("up"));
 
   py::class_<Event>(m, "TopologyEvent",
                     "One topology event, as the C++ observers get it (docs/topology-events.md). Arrays are "

@@ -2,6 +2,7 @@
 // writes the offline HTML player of a run (cutsim/view/player.hpp) and says where it is.
 #include <unistd.h>
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -46,8 +47,18 @@ void renderStill(const std::filesystem::path& html, long frame, const std::files
     throw Error("--png needs Chromium (Debian's package chromium), which is not installed; the page is written");
   const std::filesystem::path profile =
       std::filesystem::temp_directory_path() / ("cutsim-chromium-" + std::to_string(::getpid()));
-  const std::string url = "file://" + std::filesystem::absolute(html).string() + "#frame=" + std::to_string(frame) +
-                          "&still=1";
+  // A file URL: the path percent-encoded but for unreserved characters and '/'.
+  std::string url = "file://";
+  for (unsigned char c : std::filesystem::absolute(html).lexically_normal().string()) {
+    if (std::isalnum(c) || c == '/' || c == '-' || c == '_' || c == '.' || c == '~') {
+      url += char(c);
+    } else {
+      char hex[4];
+      std::snprintf(hex, sizeof hex, "%%%02X", c);
+      url += hex;
+    }
+  }
+  url += "#frame=" + std::to_string(frame) + "&still=1";
   const std::string command =
       browser + " --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-angle=swiftshader "
                 "--disable-background-networking --disable-component-update --no-first-run --disable-sync "
@@ -65,9 +76,12 @@ void renderStill(const std::filesystem::path& html, long frame, const std::files
 void view(const ViewOptions& o) {
   const std::filesystem::path dir(o.run);
   const std::filesystem::path html = o.out.empty() ? dir / "player.html" : std::filesystem::path(o.out);
-  if (!(o.maxMb >= 1.0 && o.maxMb <= 4096.0))
-    throw InvalidInput("--max-mb", std::to_string(o.maxMb) + " is not a size between 1 and 4096 MB");
+  if (!(o.maxMb >= 0.1 && o.maxMb <= 4096.0))
+    throw InvalidInput("--max-mb", std::to_string(o.maxMb) + " is not a size between 0.1 and 4096 MB");
   if (std::filesystem::is_directory(html)) throw InvalidInput("-o", html.string() + " is a folder, not a file");
+  const std::filesystem::path parent = std::filesystem::absolute(html).parent_path();
+  if (std::filesystem::is_directory(dir) && !std::filesystem::is_directory(parent))  // else: the run's error
+    throw InvalidInput("-o", html.string() + ": the folder " + parent.string() + " does not exist");
   view::PlayerOptions options;
   options.budgetBytes = std::size_t(o.maxMb * 1048576.0);
   options.up = o.up;
@@ -85,8 +99,8 @@ void view(const ViewOptions& o) {
               << double(r.bytes) / 1048576.0 << " MB" << (r.partial ? " (a partial run: the page says so)" : "")
               << "; open it in a browser (no network needed)\n";
     if (r.framesShown < r.framesInRun)
-      std::cerr << "note: every " << (r.framesInRun + r.framesShown - 2) / std::max<std::size_t>(1, r.framesShown - 1)
-                << "th frame kept to stay within " << o.maxMb << " MB (raise --max-mb to keep more)\n";
+      std::cerr << "note: one frame in " << r.stride << " kept, and the last, to stay within " << o.maxMb
+                << " MB (raise --max-mb to keep more)\n";
   }
   if (o.png >= 0) {
     if (std::size_t(o.png) >= r.framesShown)
@@ -108,9 +122,10 @@ void registerViewCommand(CLI::App& app) {
   cmd->add_option("run", options->run, "the run's folder (cutsim run --out DIR)")->required();
   cmd->add_option("-o,--output", options->out, "the page to write (default: RUN_DIR/player.html)");
   cmd->add_option("--max-mb", options->maxMb,
-                  "the page's size budget in MB (default 48): beyond it every k-th frame is kept, and the last");
+                  "the page's size budget in MB (default 48): beyond it one frame in k is kept, and the last");
   cmd->add_option("--up", options->up, "the view's up axis: x, y, z, -x, -y, -z or auto (against gravity; default)");
-  cmd->add_option("--png", options->png, "also render this frame of the page to a PNG (needs Chromium)");
+  cmd->add_option("--png", options->png,
+                  "also render this frame of the page (counted among the frames it keeps) to a PNG (needs Chromium)");
   cmd->add_option("--png-out", options->pngOut, "the PNG's path (default: beside the page, same name)");
   cmd->add_flag("--quiet", options->quiet, "print only the page's path");
   cmd->callback([options] { view(*options); });

@@ -187,12 +187,12 @@ void writeNetworkVtp(std::ostream& out, const Simulation& sim,
   vtpFooter(out);
 }
 
-RestSegments restBorder(const topology::Topology& topo) {
-  RestSegments out;
+OriginalBorder restBorder(const topology::Topology& topo) {
+  OriginalBorder out;
   for (topology::EdgeId e : topo.edges()) {
     if (!topo.isBoundaryEdge(e)) continue;
     const auto v = topo.edgeVertices(e);
-    out.push_back({topo.restPosition(v[0]), topo.restPosition(v[1])});
+    out.segments.push_back({topo.restPosition(v[0]), topo.restPosition(v[1])});
   }
   return out;
 }
@@ -216,14 +216,14 @@ double distanceToSegment(const Vec3& p, const std::array<Vec3, 2>& s) {
 
 }  // namespace
 
-std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const RestSegments& original) {
+std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const OriginalBorder& original) {
   // The tolerance: a millionth of the original border's extent.
   double extent = 0.0;
-  for (const auto& s : original)
+  for (const auto& s : original.segments)
     for (std::size_t k = 0; k < 3; ++k) extent = std::max({extent, std::abs(s[0][k]), std::abs(s[1][k])});
   const double tolerance = 1e-6 * std::max(extent, 1e-300);
   auto onOriginal = [&](const Vec3& p) {
-    for (const auto& s : original)
+    for (const auto& s : original.segments)
       if (distanceToSegment(p, s) <= tolerance) return true;
     return false;
   };
@@ -234,12 +234,18 @@ std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const RestSe
     const Vec3 a = topo.restPosition(v[0]), b = topo.restPosition(v[1]);
     const Vec3 mid{(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2};
     // Opened during the run: an edge whose rest points or midpoint leave the first border.
-    border.push_back({v[0], v[1], !(onOriginal(a) && onOriginal(b) && onOriginal(mid))});
+    std::array<double, 6> key{a[0], a[1], a[2], b[0], b[1], b[2]};
+    if (std::lexicographical_compare(key.begin() + 3, key.end(), key.begin(), key.begin() + 3))
+      key = {b[0], b[1], b[2], a[0], a[1], a[2]};
+    auto it = original.known.find(key);
+    if (it == original.known.end())
+      it = original.known.emplace(key, onOriginal(a) && onOriginal(b) && onOriginal(mid)).first;
+    border.push_back({v[0], v[1], !it->second});
   }
   return border;
 }
 
-void writeBordersVtp(std::ostream& out, const Simulation& sim, const RestSegments& original) {
+void writeBordersVtp(std::ostream& out, const Simulation& sim, const OriginalBorder& original) {
   const Numbering n = numbering(sim);
   const std::vector<BorderEdge> border = borderEdges(sim.topology(), original);
   vtpHeader(out);
@@ -414,6 +420,7 @@ bool OutputWriter::isRunOutput(const std::string& name) {
   };
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
   if (name == "steps.csv" || name == ".steps.csv.tmp" || name == "run.json") return true;
+  if (name == "player.html" || name == "player.png") return true;  // cutsim view's, of the earlier run
   if (ends(".pvd")) return true;  // the collections, final or partial
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
   if (ends(".vtp"))

@@ -71,8 +71,13 @@ void FramePacker::add(const Frame& f) {
     j["grasped"] = grasped;
     j["held"] = put("held", f.held);
   }
-  j["borders"] = f.lips.size();
-  j["lipEdges"] = std::count(f.lips.begin(), f.lips.end(), std::uint8_t(1));
+  if (f.hasBorders) {  // unknown otherwise (a run from before borders were written): null
+    j["borders"] = f.lips.size();
+    j["lipEdges"] = std::count(f.lips.begin(), f.lips.end(), std::uint8_t(1));
+  } else {
+    j["borders"] = nullptr;
+    j["lipEdges"] = nullptr;
+  }
   if (!f.borders.empty()) {
     j["border"] = put("border", f.borders);
     j["lip"] = put("lip", f.lips);
@@ -86,23 +91,52 @@ void FramePacker::add(const Frame& f) {
   meta_["frames"].push_back(std::move(j));
 }
 
-void FramePacker::setSeries(const Series& s) {
+void FramePacker::setSeries(const Series& s, std::size_t maxRows) {
+  // Each frame's row: the row at the frame's time (the CSV has one per step, the frames one per
+  // `every` steps); none when the CSV has no such row (a run stopped between the two).
+  const auto timeColumn = std::find(s.names.begin(), s.names.end(), "time");
+  std::vector<long> frameRows;
+  for (const json& f : meta_["frames"]) {
+    long row = -1;
+    if (timeColumn != s.names.end()) {
+      const std::vector<double>& times = s.columns[std::size_t(timeColumn - s.names.begin())];
+      const double t = f["t"].get<double>(), tolerance = 1e-12 * std::max(1.0, std::abs(t));
+      const auto it = std::lower_bound(times.begin(), times.end(), t - tolerance);
+      if (it != times.end() && std::abs(*it - t) <= tolerance) row = long(it - times.begin());
+    }
+    frameRows.push_back(row);
+  }
+  // Long runs: every k-th row, the last one and the frames' rows (the plots keep their shape;
+  // the page stays small).
+  const std::size_t rows = s.rows();
+  const std::size_t stride = rows > maxRows && maxRows > 0 ? (rows + maxRows - 1) / maxRows : 1;
+  std::vector<char> keep(rows, 0);
+  for (std::size_t r = 0; r < rows; r += stride) keep[r] = 1;
+  if (rows) keep[rows - 1] = 1;
+  for (long r : frameRows)
+    if (r >= 0) keep[std::size_t(r)] = 1;
+  std::vector<long> kept(rows, -1);  // row -> index among the kept rows
+  std::size_t count = 0;
+  for (std::size_t r = 0; r < rows; ++r)
+    if (keep[r]) kept[r] = long(count++);
   json series;
   series["names"] = s.names;
-  series["rows"] = s.rows();
+  series["rows"] = count;
+  series["rowsInRun"] = rows;
   json columns = json::array();
-  for (std::size_t c = 0; c < s.columns.size(); ++c) columns.push_back(put("series" + std::to_string(c), s.columns[c]));
+  for (std::size_t c = 0; c < s.columns.size(); ++c) {
+    std::vector<double> values;
+    values.reserve(count);
+    for (std::size_t r = 0; r < rows; ++r)
+      if (keep[r]) values.push_back(s.columns[c][r]);
+    columns.push_back(put("series" + std::to_string(c), values));
+  }
   series["columns"] = std::move(columns);
-  // Each frame's row: the row at the frame's time (the CSV has one per step, the frames one per
-  // `every` steps), -1 when the CSV has none (a run stopped between the two).
-  const auto timeColumn = std::find(s.names.begin(), s.names.end(), "time");
+  std::size_t i = 0;
   for (json& f : meta_["frames"]) {
-    f["row"] = -1;
-    if (timeColumn == s.names.end()) continue;
-    const std::vector<double>& times = s.columns[std::size_t(timeColumn - s.names.begin())];
-    const double t = f["t"].get<double>();
-    const auto it = std::lower_bound(times.begin(), times.end(), t - 1e-12 * std::max(1.0, std::abs(t)));
-    if (it != times.end() && std::abs(*it - t) <= 1e-12 * std::max(1.0, std::abs(t))) f["row"] = it - times.begin();
+    const long r = frameRows[i++];
+    f["row"] = r >= 0 ? kept[std::size_t(r)] : -1;
+    f["csvRow"] = r;  // the row in steps.csv (after its header)
   }
   meta_["series"] = std::move(series);
 }
@@ -159,6 +193,21 @@ std::string scriptSafe(std::string text) {
   return text;
 }
 
+/// JSON text inside a <script> element: every '<' as \u003c (valid JSON in strings, the only
+/// place it can be), so that no "</script>", "<!--" or "<script" of a description or a path
+/// can end the element or change how the page parses it.
+std::string jsonInHtml(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    if (c == '<')
+      out += "\\u003c";
+    else
+      out += c;
+  }
+  return out;
+}
+
 std::string htmlEscape(const std::string& s) {
   std::string out;
   for (char c : s) {
@@ -204,7 +253,7 @@ void writePlayerPage(std::ostream& out, const json& meta, const std::string& blo
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
          "<meta name=\"generator\" content=\"cutsim view\">\n"
       << "<title>" << htmlEscape(title) << " - cutsim</title>\n</head>\n<body>\n"
-      << "<script type=\"application/json\" id=\"cutsim-meta\">" << scriptSafe(meta.dump()) << "</script>\n"
+      << "<script type=\"application/json\" id=\"cutsim-meta\">" << jsonInHtml(meta.dump()) << "</script>\n"
       << "<script type=\"application/octet-stream\" id=\"cutsim-data\">" << base64(blob) << "</script>\n"
       << "<script>" << scriptSafe(std::string(playerScript())) << "</script>\n</body>\n</html>\n";
 }
@@ -227,35 +276,50 @@ PlayerReport writePlayer(const fs::path& runDir, const fs::path& html, const Pla
       (4.0 * double(last.x.size() + 3 * last.strain.size() + last.obstacleX.size()) +
        0.2 * (4.0 * double(last.triangles.size() + last.borders.size() + last.springs.size()) + last.lips.size() +
               last.held.size()));
-  const double fixedBytes = double(playerScript().size()) + 4.0 / 3.0 * 8.0 * double(series.rows() * series.names.size()) +
+  const double fixedBytes = double(playerScript().size()) +
+                            4.0 / 3.0 * 8.0 * double(std::min(series.rows(), kMaxSeriesRows) * series.names.size()) +
                             64.0 * double(run.surface.size()) + 65536.0;
-  const double budget = std::max(double(options.budgetBytes) - fixedBytes, 2.0 * perFrame);
-  const std::vector<std::size_t> chosen = chooseFrames(run.surface.size(), perFrame, std::size_t(budget));
-
-  FramePacker packer;
-  for (std::size_t k = 0; k < chosen.size(); ++k) {
-    packer.add(chosen[k] + 1 == run.surface.size() ? last : readFrame(run, chosen[k]));
-    if (options.progress) options.progress(k + 1, chosen.size());
+  double budget = std::max(double(options.budgetBytes) - fixedBytes, 2.0 * perFrame);
+  // The page, packed from the frames chosen by the estimate; packed again with fewer frames if
+  // it came out above the budget (the estimate is of a typical frame, not of each).
+  auto info = [&](const char* key) {
+    return run.info.contains(key) && run.info[key].is_string() ? run.info[key].get<std::string>() : std::string();
+  };
+  std::string name = info("scene");
+  if (name.empty()) name = fs::absolute(runDir).lexically_normal().filename().string();
+  if (name.empty()) name = "run";
+  std::vector<std::size_t> chosen;
+  std::string text;
+  for (int attempt = 0;; ++attempt) {
+    chosen = chooseFrames(run.surface.size(), perFrame, std::size_t(budget));
+    FramePacker packer;
+    for (std::size_t k = 0; k < chosen.size(); ++k) {
+      packer.add(chosen[k] + 1 == run.surface.size() ? last : readFrame(run, chosen[k]));
+      if (options.progress) options.progress(k + 1, chosen.size());
+    }
+    if (series.rows()) packer.setSeries(series);
+    json meta = packer.meta();
+    json runMeta;
+    runMeta["name"] = name;
+    runMeta["description"] = info("description");
+    runMeta["partial"] = run.partial;
+    runMeta["framesInRun"] = run.surface.size();
+    runMeta["framesShown"] = chosen.size();
+    runMeta["frameIndices"] = chosen;
+    runMeta["up"] = up;
+    runMeta["folder"] = runDir.string();
+    meta["run"] = std::move(runMeta);
+    if (!meta.contains("series")) meta["series"] = {{"names", json::array()}, {"rows", 0}, {"columns", json::array()}};
+    std::ostringstream page;
+    writePlayerPage(page, meta, packer.blob());
+    text = page.str();
+    // Over the budget with frames to spare: again, with the overshoot (and a tenth more) taken
+    // from the frames' share (a few times at most).
+    if (text.size() <= options.budgetBytes || chosen.size() <= 2 || attempt == 3) break;
+    budget = std::max(0.0, budget - 1.1 * double(text.size() - options.budgetBytes));
   }
-  if (series.rows()) packer.setSeries(series);
-  json meta = packer.meta();
-  json runMeta;
-  runMeta["name"] = run.info.value("scene", fs::absolute(runDir).lexically_normal().filename().string());
-  if (runMeta["name"].get<std::string>().empty()) runMeta["name"] = "run";
-  runMeta["description"] = run.info.value("description", std::string());
-  runMeta["partial"] = run.partial;
-  runMeta["framesInRun"] = run.surface.size();
-  runMeta["framesShown"] = chosen.size();
-  runMeta["frameIndices"] = chosen;
-  runMeta["up"] = up;
-  runMeta["folder"] = runDir.string();
-  meta["run"] = std::move(runMeta);
-  if (!meta.contains("series")) meta["series"] = {{"names", json::array()}, {"rows", 0}, {"columns", json::array()}};
-
-  std::ostringstream page;
-  writePlayerPage(page, meta, packer.blob());
-  const std::string text = page.str();
   report.framesShown = chosen.size();
+  report.stride = chosen.size() >= 2 ? chosen[1] - chosen[0] : 1;
   report.bytes = text.size();
   core::writeFileAtomically(html, [&](std::ostream& o) { o << text; });
   return report;

@@ -18,6 +18,9 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string readWhole(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))  // not a device or a folder that a forged name points to
+    throw InvalidInput(path.string(), fs::exists(path, ec) ? "not a regular file" : "is missing");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InvalidInput(path.string(), "cannot be read");
   std::ostringstream s;
@@ -67,19 +70,25 @@ std::vector<std::pair<double, std::string>> readPvd(const fs::path& path) {
 template <typename T>
 std::vector<T> numbers(const Xml& xml, const pugi::xml_node& array, std::size_t expected) {
   std::vector<T> out;
-  out.reserve(expected);
   const char* p = array.child_value();
   const char* end = p + std::strlen(p);
+  // Every value takes two characters at least: a count beyond that is not in this file (and is
+  // not reserved: a forged NumberOfPoints must not exhaust the memory).
+  if (expected > std::size_t(end - p) / 2 + 1)
+    throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() + " should hold " +
+                                          std::to_string(expected) + " values: more than its " +
+                                          std::to_string(end - p) + " characters can");
+  out.reserve(expected);
   while (true) {
     while (p < end && std::isspace(static_cast<unsigned char>(*p))) ++p;
     if (p >= end) break;
     if constexpr (std::is_floating_point_v<T>) {
       double v = 0.0;
       const auto r = std::from_chars(p, end, v);
-      if (r.ec != std::errc() || !std::isfinite(v))
+      if (r.ec != std::errc() || !std::isfinite(T(v)))
         throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() +
                                               ": \"" + std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) +
-                                              "\" is not a finite number");
+                                              "\" is not a finite number (in single precision)");
       out.push_back(T(v));
       p = r.ptr;
     } else {
@@ -120,6 +129,12 @@ Piece openPiece(const fs::path& path) {
   p.points = p.node.attribute("NumberOfPoints").as_ullong();
   p.polys = p.node.attribute("NumberOfPolys").as_ullong();
   p.lines = p.node.attribute("NumberOfLines").as_ullong();
+  // Counts no file of this size can hold (they would overflow the sizes computed from them).
+  const std::size_t limit = p.xml->text.size();
+  if (p.points > limit || p.polys > limit || p.lines > limit)
+    throw InvalidInput(p.xml->at(p.node), "the piece's counts (" + std::to_string(p.points) + " points, " +
+                                              std::to_string(p.polys) + " polys, " + std::to_string(p.lines) +
+                                              " lines) are more than the file can hold");
   return p;
 }
 
@@ -141,11 +156,16 @@ std::vector<std::uint32_t> cells(const Piece& p, const char* block, std::size_t 
   return c;
 }
 
-/// The frame of `series` at `index` when it has one at the same time as the surface's.
+/// The frame of `series` at the time of the surface's frame `index`, if it has one (found by
+/// time, not by position: a collection with a frame less is matched right for the others).
 std::optional<fs::path> companion(const RunFolder& run, const std::vector<std::pair<double, std::string>>& series,
                                   std::size_t index) {
-  if (index >= series.size() || series[index].first != run.surface[index].first) return std::nullopt;
-  return run.dir / series[index].second;
+  const double t = run.surface[index].first;
+  if (index < series.size() && series[index].first == t) return run.dir / series[index].second;
+  const auto it = std::lower_bound(series.begin(), series.end(), t,
+                                   [](const std::pair<double, std::string>& f, double time) { return f.first < time; });
+  if (it != series.end() && it->first == t) return run.dir / it->second;
+  return std::nullopt;
 }
 
 }  // namespace
@@ -214,7 +234,10 @@ Frame readFrame(const RunFolder& run, std::size_t index) {
     out = cells(p, "Lines", p.lines, 2);
     if (flags && p.lines) *flags = required<std::uint8_t>(p, p.node.child("CellData"), "lip", p.lines);
   };
-  if (auto b = companion(run, run.borders, index)) lines(*b, f.borders, &f.lips);
+  if (auto b = companion(run, run.borders, index)) {
+    lines(*b, f.borders, &f.lips);
+    f.hasBorders = true;
+  }
   if (auto s = companion(run, run.springs, index)) lines(*s, f.springs, nullptr);
   if (auto o = companion(run, run.obstacles, index)) {
     const Piece p = openPiece(*o);
@@ -237,7 +260,7 @@ Series readSeries(const fs::path& csv) {
     while (std::getline(h, name, ',')) header.push_back(name);
   }
   std::vector<std::vector<double>> columns(header.size());
-  std::vector<bool> numeric(header.size(), true);
+  std::vector<bool> numeric(header.size(), false);  // a number in one row at least
   std::size_t lineNo = 1;
   std::string cell;
   while (std::getline(in, line)) {
@@ -262,7 +285,7 @@ Series readSeries(const fs::path& csv) {
                          std::to_string(row.size()) + " columns, the header has " + std::to_string(header.size()));
     }
     for (std::size_t k = 0; k < row.size(); ++k) {
-      if (std::isnan(row[k])) numeric[k] = false;
+      if (!std::isnan(row[k])) numeric[k] = true;
       columns[k].push_back(row[k]);
     }
   }

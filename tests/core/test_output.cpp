@@ -142,11 +142,11 @@ TEST(Output, SurfaceVtpParsesBack) {
 TEST(Output, BordersAreTheEdgesOfOneTriangleAndLipsTheOpenedOnes) {
   // Before any action: the border is the unit square's outline, with no lip; after the cut from
   // the side (t = 0.05) and the removal of a disc (t = 0.1): lips, all inside the square.
-  const RestSegments original = [] {
+  const OriginalBorder original = [] {
     SmallRun run(0);
     return restBorder(run.runner->simulation().topology());
   }();
-  ASSERT_EQ(original.size(), 4u * 8u);  // the 9 x 9 grid's outline
+  ASSERT_EQ(original.segments.size(), 4u * 8u);  // the 9 x 9 grid's outline
   for (long steps : {1L, 12L}) {
     SmallRun run(steps);
     const Simulation& sim = run.runner->simulation();

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -102,6 +103,19 @@ std::string unbase64(const std::string& text) {
   return out;
 }
 
+/// The page's three <script> elements (meta, data, player), and no "<!--" that would make the
+/// HTML parser read on past a "</script>" (the script data escaped state).
+void expectThreeScripts(const std::string& page) {
+  std::string lower = page;
+  for (char& c : lower) c = char(std::tolower(static_cast<unsigned char>(c)));
+  std::size_t opens = 0, closes = 0;
+  for (std::size_t at = lower.find("<script"); at != std::string::npos; at = lower.find("<script", at + 1)) ++opens;
+  for (std::size_t at = lower.find("</script"); at != std::string::npos; at = lower.find("</script", at + 1)) ++closes;
+  EXPECT_EQ(opens, 3u);
+  EXPECT_EQ(closes, 3u);
+  EXPECT_EQ(lower.find("<!--"), std::string::npos);
+}
+
 template <typename T>
 std::vector<T> decode(const std::string& blob, const json& ref) {
   const std::size_t offset = ref.at(0).get<std::size_t>(), count = ref.at(1).get<std::size_t>();
@@ -125,6 +139,7 @@ Frame syntheticFrame(double t, std::size_t n, std::vector<std::uint32_t> triangl
   for (std::size_t k = 0; k < f.triangles.size() / 3; ++k) f.strain.push_back(0.01f * float(k) + shift);
   f.borders = {0, 1, 1, 2};
   f.lips = {0, 1};
+  f.hasBorders = true;
   f.springs = {0, 2};
   return f;
 }
@@ -209,6 +224,40 @@ TEST(PlayerPacker, ChosenFramesFitTheBudgetWithTheFirstAndTheLast) {
   }
 }
 
+TEST(PlayerPacker, LongSeriesKeepEveryKthRowTheLastAndTheFramesRows) {
+  Series s;
+  s.names = {"time", "kinetic_energy"};
+  s.columns.resize(2);
+  for (std::size_t r = 0; r <= 50000; ++r) {
+    s.columns[0].push_back(double(r) * 1e-4);
+    s.columns[1].push_back(std::sin(double(r)));
+  }
+  FramePacker packer;
+  const std::size_t frameRows[] = {0, 12345, 33333, 50000};
+  for (std::size_t r : frameRows) packer.add(syntheticFrame(double(r) * 1e-4, 3, {0, 1, 2}, 0.0f));
+  packer.setSeries(s, 1000);
+  const json& meta = packer.meta();
+  const std::size_t rows = meta["series"]["rows"].get<std::size_t>();
+  EXPECT_LE(rows, 1000u + 4u);
+  EXPECT_GE(rows, 900u);
+  EXPECT_EQ(meta["series"]["rowsInRun"].get<std::size_t>(), 50001u);
+  const auto time = decode<double>(packer.blob(), meta["series"]["columns"][0]);
+  const auto kinetic = decode<double>(packer.blob(), meta["series"]["columns"][1]);
+  ASSERT_EQ(time.size(), rows);
+  EXPECT_EQ(time.front(), 0.0);
+  EXPECT_EQ(time.back(), s.columns[0].back());
+  for (std::size_t i = 1; i < time.size(); ++i) ASSERT_LT(time[i - 1], time[i]);
+  for (std::size_t i = 0; i < time.size(); ++i) {
+    const std::size_t r = std::size_t(std::llround(time[i] / 1e-4));
+    ASSERT_EQ(kinetic[i], s.columns[1][r]) << "row " << r << " keeps its values together";
+  }
+  for (std::size_t k = 0; k < 4; ++k) {
+    const json& f = meta["frames"][k];
+    EXPECT_EQ(f["csvRow"].get<std::size_t>(), frameRows[k]);
+    EXPECT_EQ(time[f["row"].get<std::size_t>()], f["t"].get<double>());
+  }
+}
+
 TEST(PlayerRun, ReaderGivesBackWhatTheWriterWrote) {
   const fs::path dir = freshDir("reader");
   const std::vector<Recorded> recorded = runSmall(dir);
@@ -248,7 +297,12 @@ TEST(PlayerRun, PageEmbedsEveryFrameWithItsCsvRow) {
   const std::string page = readText(dir / "player.html");
   EXPECT_EQ(r.bytes, page.size());
   EXPECT_THAT(page, HasSubstr("<!DOCTYPE html>"));
-  EXPECT_EQ(page.find("http://"), page.find("http://www.w3.org"));  // nothing fetched: only SVG's namespace
+  // Nothing to fetch: the only addresses in the page are XML namespaces (SVG's, XHTML's).
+  for (const char* scheme : {"http://", "https://", "//cdn", "src=\"", "href=\""}) {
+    for (std::size_t at = page.find(scheme); at != std::string::npos; at = page.find(scheme, at + 1))
+      EXPECT_EQ(page.compare(at, 18, "http://www.w3.org/"), 0) << page.substr(at, 60);
+  }
+  expectThreeScripts(page);
   const json meta = json::parse(scriptText(page, "cutsim-meta"));
   const std::string blob = unbase64(scriptText(page, "cutsim-data"));
   ASSERT_EQ(meta["frames"].size(), recorded.size());
@@ -283,10 +337,15 @@ TEST(PlayerRun, ABudgetKeepsEveryKthFrameAndTheLast) {
   const PlayerReport r = writePlayer(dir, dir / "small.html", options);
   EXPECT_LT(r.framesShown, recorded.size());
   EXPECT_GE(r.framesShown, 2u);
+  EXPECT_LE(r.bytes, options.budgetBytes) << "the page is within its budget";
+  EXPECT_GE(r.stride, 2u);
   const json meta = json::parse(scriptText(readText(dir / "small.html"), "cutsim-meta"));
   EXPECT_EQ(meta["frames"].back()["t"].get<double>(), recorded.back().time);
   EXPECT_EQ(meta["frames"].front()["t"].get<double>(), 0.0);
   EXPECT_EQ(meta["run"]["framesShown"].get<std::size_t>(), r.framesShown);
+  const auto indices = meta["run"]["frameIndices"].get<std::vector<std::size_t>>();
+  ASSERT_EQ(indices.size(), r.framesShown);
+  for (std::size_t i = 1; i + 1 < indices.size(); ++i) EXPECT_EQ(indices[i] - indices[i - 1], r.stride);
   fs::remove_all(dir);
 }
 
@@ -306,13 +365,14 @@ TEST(PlayerRun, TextThatWouldCloseTheScriptIsEscaped) {
   FramePacker packer;
   packer.add(syntheticFrame(0.0, 3, {0, 1, 2}, 0.0f));
   json meta = packer.meta();
-  meta["run"] = {{"name", "a </script><b>"}, {"description", "</SCRIPT> and </script >"}};
+  meta["run"] = {{"name", "a </script><b>"}, {"description", "</SCRIPT> and </script > x <!--<script> y"}};
   std::ostringstream out;
   writePlayerPage(out, meta, packer.blob());
   const std::string page = out.str();
   const json back = json::parse(scriptText(page, "cutsim-meta"));
   EXPECT_EQ(back["run"]["name"], "a </script><b>");
-  EXPECT_EQ(back["run"]["description"], "</SCRIPT> and </script >");
+  EXPECT_EQ(back["run"]["description"], "</SCRIPT> and </script > x <!--<script> y");
+  expectThreeScripts(page);
   EXPECT_THAT(page, HasSubstr("<title>a &lt;/script&gt;&lt;b&gt; - cutsim</title>"));
 }
 

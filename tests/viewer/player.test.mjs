@@ -105,6 +105,8 @@ const distance = (a, b) => Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
 await check('the frames are the .pvd\'s, with the CSV\'s rows at their times', async () => {
   const { page, errors, requests } = await open(html);
   const frames = await page.evaluate(() => window.cutsimPlayer.frames());
+  const series = await page.evaluate(() => ({ time: window.cutsimPlayer.series('time'),
+    kinetic_energy: window.cutsimPlayer.series('kinetic_energy') }));
   assert.equal(frames.length, expected.length, 'every frame (the run is small)');
   frames.forEach((f, i) => {
     assert.equal(f.t, expected[i].t, `frame ${i}'s time`);
@@ -112,7 +114,10 @@ await check('the frames are the .pvd\'s, with the CSV\'s rows at their times', a
     assert.equal(f.points, expected[i].points, `frame ${i}'s points`);
     const row = rows.find((r) => r.time === f.t);
     assert.ok(row, `steps.csv has a row at t = ${f.t}`);
-    assert.equal(f.row, rows.indexOf(row), `frame ${i}'s CSV row`);
+    assert.equal(f.csvRow, rows.indexOf(row), `frame ${i}'s CSV row`);
+    const kinetic = series.kinetic_energy[f.row], time = series.time[f.row];
+    assert.equal(time, f.t, `the page's series at frame ${i}'s row`);
+    assert.equal(kinetic, row.kinetic_energy, `the page's kinetic energy at frame ${i}`);
     assert.equal(row.triangles, f.triangles, `the CSV's triangles at t = ${f.t}`);
   });
   const kinetic = await page.evaluate(() => window.cutsimPlayer.series('kinetic_energy'));
@@ -178,20 +183,36 @@ await check('the last frame: the surface covers the view and the most strained t
   await page.close();
 });
 
-await check('a size budget keeps every k-th frame and the last', async () => {
+await check('a size budget keeps one frame in k and the last', async () => {
+  // The scene with a frame every step (31 frames), and a budget 3% below its whole page.
+  const dense = JSON.parse(fs.readFileSync(scene, 'utf8'));
+  dense.output = { ...(dense.output || {}), every: 1 };
+  const denseScene = path.join(work, 'dense.json');
+  fs.writeFileSync(denseScene, JSON.stringify(dense));
+  const denseOut = path.join(work, 'dense');
+  execFileSync(cutsim, ['run', denseScene, '--out', denseOut, '--html', '--quiet'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  const whole = fs.statSync(path.join(denseOut, 'player.html')).size;
+  const budgetMb = (0.97 * whole) / 1048576;
   const small = path.join(work, 'small.html');
-  // The script alone is about 0.6 MB: 1 MB leaves room for a few frames only, not all of them
-  // when the run has many. The frames kept are the run's, at the run's times.
-  const r = spawnSync(cutsim, ['view', out, '-o', small, '--max-mb', '1'], { encoding: 'utf8' });
+  const r = spawnSync(cutsim, ['view', denseOut, '-o', small, '--max-mb', budgetMb.toFixed(4)], { encoding: 'utf8' });
   assert.equal(r.status, 0, r.stderr);
   assert.equal(r.stdout.trim(), small, 'prints the page\'s path');
+  assert.match(r.stderr, /one frame in \d+ kept/);
+  assert.ok(fs.statSync(small).size <= budgetMb * 1048576, 'the page is within the budget');
+  const all = pvdFrames(denseOut, 'surface.pvd');
   const { page } = await open(small);
   const frames = await page.evaluate(() => window.cutsimPlayer.frames());
   const meta = await page.evaluate(() => window.cutsimPlayer.meta.run);
-  assert.equal(meta.framesInRun, expected.length);
+  assert.equal(meta.framesInRun, all.length);
+  assert.ok(frames.length < all.length, `${frames.length} of ${all.length} frames kept`);
+  assert.ok(frames.length >= 2);
   assert.equal(frames.length, meta.frameIndices.length);
-  meta.frameIndices.forEach((k, i) => assert.equal(frames[i].t, expected[k].t));
-  assert.equal(meta.frameIndices.at(-1), expected.length - 1, 'the last frame is kept');
+  meta.frameIndices.forEach((k, i) => {
+    assert.equal(frames[i].t, all[k].t, `kept frame ${i} is the run's frame ${k}`);
+    assert.equal(frames[i].triangles, all[k].triangles);
+  });
+  assert.equal(meta.frameIndices[0], 0, 'the first frame is kept');
+  assert.equal(meta.frameIndices.at(-1), all.length - 1, 'the last frame is kept');
   await page.close();
 });
 

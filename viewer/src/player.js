@@ -322,7 +322,8 @@ class Player {
     if (counts.length) groups.push({ name: 'counts', columns: counts });
     this.plots = [];
     if (!time || groups.length === 0) {
-      this.plotsEl.append(el('div', { style: 'padding: 12px; color: #8a929c' }, 'no steps.csv in this run: no plots'));
+      const why = names.length === 0 ? 'no steps.csv in this run' : 'steps.csv has no time column or no series to plot';
+      this.plotsEl.append(el('div', { style: 'padding: 12px; color: #8a929c' }, `${why}: no plots`));
       return;
     }
     const defaults = [groups[0], groups.find((g) => g.name.startsWith('grasp')) || groups.find((g) => g.name.startsWith('contact')) ||
@@ -386,6 +387,7 @@ class Player {
       for (let p = 0; p < n; p += step) samples.push(new THREE.Vector3(x[3 * p], x[3 * p + 1], x[3 * p + 2]));
       if (n) samples.push(new THREE.Vector3(x[3 * n - 3], x[3 * n - 2], x[3 * n - 1]));
     }
+    if (samples.length === 0) samples.push(new THREE.Vector3(0, 0, 0), new THREE.Vector3(1, 1, 0));  // no point at all
     const box = new THREE.Box3().setFromPoints(samples);
     const radius = Math.max(1e-6, box.getSize(new THREE.Vector3()).length() / 2);
     // A three-quarter view from above the horizon.
@@ -593,7 +595,8 @@ class Player {
       `t = ${fmt(f.t, 6)} s    frame ${this.index + 1} of ${this.frameList.length}` +
         (run.framesShown < run.framesInRun ? ` (run frame ${run.frameIndices[this.index] + 1} of ${run.framesInRun})` : ''),
       `${f.points} points, ${f.triangles} triangles`,
-      `${f.borders} border edges, ${f.lipEdges} on cut or tear lips`,
+      f.borders === null || f.borders === undefined ? 'border edges: not in this run\'s frames'
+        : `${f.borders} border edges, ${f.lipEdges} opened by cuts, tears or removals`,
     ];
     const held = f.fixed || f.grasped ? `${f.fixed} fixed, ${f.grasped} grasped points` : '';
     const springs = this.hasSprings ? `${f.springs} bending springs` : '';
@@ -690,6 +693,7 @@ class Player {
   /// The k triangles of the current frame with the largest values of the shown field.
   hotTriangles(k) {
     const values = this.array(Float32Array, this.current()[this.field]);
+    if (!values) return [];
     const order = Array.from(values.keys()).sort((a, b) => values[b] - values[a]).slice(0, k);
     const [lo, hi] = this.range();
     return order.map((t) => ({ triangle: t, value: values[t], barPosition: (values[t] - lo) / (hi - lo), ...this.project(t) }));
@@ -709,7 +713,7 @@ function main() {
     window.cutsimPlayer = {
       ready: true,
       meta,
-      frames: () => meta.frames.map((f) => ({ t: f.t, points: f.points, triangles: f.triangles, row: f.row,
+      frames: () => meta.frames.map((f) => ({ t: f.t, points: f.points, triangles: f.triangles, row: f.row, csvRow: f.csvRow,
         borders: f.borders, lipEdges: f.lipEdges, springs: f.springs })),
       seek: (i) => player.seek(i),
       get frame() { return player.index; },

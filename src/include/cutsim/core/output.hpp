@@ -44,9 +44,13 @@ void writeNetworkVtp(std::ostream& out, const Simulation& sim,
 /// The same for segments already drawn.
 void writeNetworkVtp(std::ostream& out, const Simulation& sim,
                      std::span<const std::array<PointId, 2>> segments);
-/// Border segments in rest coordinates: the border a surface starts with.
-using RestSegments = std::vector<std::array<Vec3, 2>>;
-RestSegments restBorder(const topology::Topology& topo);
+/// The border a surface starts with, as segments in rest coordinates, and the answers given so
+/// far (an edge's rest endpoints: on it or not), so that each frame costs only its new edges.
+struct OriginalBorder {
+  std::vector<std::array<Vec3, 2>> segments;
+  mutable std::map<std::array<double, 6>, bool> known;
+};
+OriginalBorder restBorder(const topology::Topology& topo);
 /// A border edge of the surface; `lip` when it was opened during the run (a side of a cut, a
 /// tear or a removal): its rest points or midpoint are off the `original` border (within a
 /// millionth of its extent), which repairs that move points along the border leave alone.
@@ -54,10 +58,10 @@ struct BorderEdge {
   PointId a, b;
   bool lip;
 };
-std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const RestSegments& original);
+std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const OriginalBorder& original);
 /// The surface's border edges as lines (points numbered as in the surface), with the cell array
 /// `lip` (1 opened during the run, 0 the border of the first frame).
-void writeBordersVtp(std::ostream& out, const Simulation& sim, const RestSegments& original);
+void writeBordersVtp(std::ostream& out, const Simulation& sim, const OriginalBorder& original);
 /// A ParaView collection: (time, file name relative to the .pvd) per frame.
 void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames);
 /// The obstacles' surfaces at time t (planes drawn as squares of side planeSize).
@@ -131,7 +135,7 @@ class OutputWriter {
   std::vector<std::string> obstacles_;
   std::vector<std::pair<double, std::string>> obstacleFrames_;
   std::vector<std::pair<double, std::string>> borderFrames_;
-  RestSegments originalBorder_;  // the border of the first frame
+  OriginalBorder originalBorder_;  // the border of the first frame
   std::ofstream csv_;
   std::filesystem::path csvTemp_;
   std::vector<std::pair<double, std::string>> surfaceFrames_;

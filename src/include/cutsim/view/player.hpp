@@ -18,6 +18,9 @@
 
 namespace cutsim::view {
 
+/// The CSV rows a page holds at most (beyond: every k-th, and those at the frames' times).
+inline constexpr std::size_t kMaxSeriesRows = 20000;
+
 /// One frame of a run, as its files give it: points numbered densely as in the frame's surface.
 struct Frame {
   double time = 0.0;
@@ -27,6 +30,7 @@ struct Frame {
   std::vector<std::uint32_t> triangles; ///< 3 per triangle
   std::vector<float> strain;            ///< per triangle
   std::vector<std::uint8_t> held;       ///< per point: 0 free, 1 fixed, 2 grasped (may be empty)
+  bool hasBorders = false;              ///< the run has a border frame at this frame's time
   std::vector<std::uint32_t> borders;   ///< 2 per border edge
   std::vector<std::uint8_t> lips;       ///< per border edge: 1 a side of a cut or a tear
   std::vector<std::uint32_t> springs;   ///< 2 per bending spring
@@ -59,7 +63,8 @@ RunFolder scanRun(const std::filesystem::path& dir);
 /// index). Throws InvalidInput naming the file and line of what cannot be read.
 Frame readFrame(const RunFolder& run, std::size_t index);
 
-/// Reads steps.csv (during a run, its temporary file); non-numeric columns are left out.
+/// Reads steps.csv (during a run, its temporary file); columns without a number in any row (the
+/// solver's flags) are left out; a cell that is not a number reads as NaN.
 Series readSeries(const std::filesystem::path& csv);
 
 /// Packs frames into one blob of little-endian arrays (each at an 8-byte aligned offset) and the
@@ -68,7 +73,9 @@ Series readSeries(const std::filesystem::path& csv);
 class FramePacker {
  public:
   void add(const Frame& frame);
-  void setSeries(const Series& series);
+  /// The series, after the frames: at most about `maxRows` rows (every k-th, the last and the
+  /// frames' rows, each frame's "row" its index among them, "csvRow" its row in the CSV).
+  void setSeries(const Series& series, std::size_t maxRows = kMaxSeriesRows);
   /// {"frames": [{"t", "points", "triangles", "x": [offset, count], ...}], "series": {...}}
   const nlohmann::json& meta() const { return meta_; }
   const std::string& blob() const { return blob_; }
@@ -93,6 +100,7 @@ struct PlayerOptions {
 /// What `writePlayer` wrote.
 struct PlayerReport {
   std::size_t framesInRun = 0, framesShown = 0, bytes = 0;
+  std::size_t stride = 1;  ///< one frame of the run in `stride` kept (the last always)
   bool partial = false;
 };
 
