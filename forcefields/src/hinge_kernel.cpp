@@ -64,9 +64,13 @@ HingeWeights finish(const Vec3& pA, const Vec3& pB, const Vec3& pC, const Vec3& 
   const T a = hA, b = hB;
   const T perK = T(2) / T(3) * (a + b) / (a * a * b * b) * T(l);
   if (!(perK < T(1e300) && perK > T(1e-300))) return deactivated(HingeStatus::Unrepresentable);
-  // lambda = perK * k, checked in long double before it is formed in double.
+  // lambda = perK * k, checked in long double before it is formed in double. Up to 1e306: the
+  // spring's stiffness entries (lambda alpha_i alpha_j, |alpha| <= 10) stay below the double
+  // range, so a huge but representable stiffness (1e300 on a unit hinge: an energy of 1.7e299)
+  // is kept, not dropped; sums that overflow are caught where they are formed (non-finite energy,
+  // forces or residuals stop the evaluation or the step, naming it).
   const long double lambdaL = static_cast<long double>(perK) * static_cast<long double>(k);
-  if (k > 0.0 && !(lambdaL < 1e300L && lambdaL > 1e-300L)) {
+  if (k > 0.0 && !(lambdaL < 1e306L && lambdaL > 1e-300L)) {
     return deactivated(HingeStatus::Unrepresentable);
   }
 

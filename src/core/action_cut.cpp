@@ -10,6 +10,7 @@
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
+#include "cutsim/topology/triangle_grid.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -20,20 +21,6 @@ using topology::geometry::dist2;
 
 std::string vecText(const Vec3& p) {
   return "(" + describeNumber(p[0]) + ", " + describeNumber(p[1]) + ", " + describeNumber(p[2]) + ")";
-}
-
-/// Distance from p to the mesh and the longest edge of the nearest triangle.
-std::pair<double, double> distanceToSurface(const topology::MeshData& mesh, const Vec3& p) {
-  double best = std::numeric_limits<double>::infinity(), edge = 0;
-  for (const auto& t : mesh.triangles) {
-    const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]];
-    const double d = dist2(p, closestOnTriangle(p, a, b, c));
-    if (d < best) {
-      best = d;
-      edge = topology::geometry::longestEdge(a, b, c);
-    }
-  }
-  return {std::sqrt(best), edge};
 }
 
 /// Whether a cut changed the mesh (one along the border opens nothing: it is not counted).
@@ -50,8 +37,9 @@ class CutAction final : public TimelineAction {
   }
 
   void dryRun(DryRunContext& c) const override {
+    const topology::TriangleGrid grid(c.restMesh());
     for (std::size_t i = 0; i < p_.polyline.size(); ++i) {
-      const auto [d, edge] = distanceToSurface(c.restMesh(), p_.polyline[i]);
+      const auto [d, edge] = grid.nearest(p_.polyline[i]);
       if (d > 0.25 * edge)
         c.fail("polyline/" + std::to_string(i), "the cut misses the surface: point " + vecText(p_.polyline[i]) +
                                                     " is " + describeNumber(d) + " away from the rest surface");

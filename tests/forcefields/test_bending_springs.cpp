@@ -570,6 +570,42 @@ TEST(BendingKernel, DegenerateHingesAreDeactivated) {
   EXPECT_EQ(status(a, b, c, d, 1e300), HingeStatus::ShortWingDistance);
 }
 
+TEST(BendingSprings, AHugeStiffnessStaysActiveWhileItsEnergyFitsADouble) {
+  // A bending stiffness of 1e300 on a unit hinge: lambda about 1.3e300, an energy that fits a
+  // double. The spring stays active and the energy is 1e300 times that at k = 1 (the energy is
+  // linear in k); at 1e307 lambda leaves the range and the hinge is counted as unrepresentable.
+  MeshData m;
+  m.points = {{0, 0, 0}, {1, 0, 0}, {0.3, -1, 0}, {0.6, 1, 0.2}};
+  m.triangles = {{0, 1, 2}, {1, 0, 3}};
+  topology::Topology t(m);
+  std::vector<double> x;
+  for (const auto& p : m.points) x.insert(x.end(), p.begin(), p.end());
+  x[11] = 0.7;  // the wing D lifted: bent
+  auto evaluate = [&](double k, std::size_t* active, std::size_t* unrepresentable) {
+    BendingParameters params;
+    params.bendingStiffness = k;
+    FastTriangularBendingSprings f(t, params);
+    *active = f.numActiveSprings();
+    *unrepresentable = f.counters().unrepresentable;
+    std::vector<double> force(x.size(), 0.0), v(x.size(), 0.0);
+    f.addForce(x, v, force);
+    for (double fi : force) EXPECT_TRUE(std::isfinite(fi)) << "k = " << k;
+    return f.potentialEnergy(x);
+  };
+  std::size_t active = 0, unrepresentable = 0;
+  const double unit = evaluate(1.0, &active, &unrepresentable);
+  ASSERT_EQ(active, 1u);
+  ASSERT_GT(unit, 0.0);
+  const double huge = evaluate(1e300, &active, &unrepresentable);
+  EXPECT_EQ(active, 1u);
+  EXPECT_EQ(unrepresentable, 0u);
+  EXPECT_TRUE(std::isfinite(huge));
+  EXPECT_NEAR(huge / unit, 1e300, 1e-12 * 1e300);
+  evaluate(1e307, &active, &unrepresentable);
+  EXPECT_EQ(active, 0u);
+  EXPECT_EQ(unrepresentable, 1u);
+}
+
 TEST(BendingSprings, DegenerateHingesAreCounted) {
   // A strip of hinges: one healthy, one with coincident wings, one with a zero-height wing.
   MeshData m;
