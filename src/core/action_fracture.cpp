@@ -83,6 +83,7 @@ class FractureAction final : public TimelineAction {
   explicit FractureAction(FractureParameters p) : p_(p) {}
 
   void dryRun(DryRunContext&) const override {}
+  bool rehearsed() const override { return false; }  // at rest nothing tears
 
   void start(ActionContext& c) override {
     const double edge = c.meanRestEdge();

@@ -10,6 +10,7 @@ class TearingAction final : public TimelineAction {
  public:
   explicit TearingAction(TearingParameters p) : p_(p) {}
   void dryRun(DryRunContext&) const override {}
+  bool rehearsed() const override { return false; }  // at rest nothing tears
   void start(ActionContext&) override { on_ = true; }
   void afterStep(ActionContext& c) override {
     if (!on_) return;

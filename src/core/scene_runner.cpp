@@ -46,6 +46,8 @@ class SceneRunner::Context final : public ActionContext {
   }
   [[noreturn]] void failTopology(const std::string& message) const override {
     const SceneLocation& where = current->location;
+    // In the scene check's rehearsal, a refusal is the scene's error (exit code 2).
+    if (r_.rehearsal_) throw InvalidInput(where.where(r_.scene_.file.string()), located(message));
     throw TopologyError(where.where(r_.scene_.file.string()) + ": " + located(message));
   }
   std::string located(const std::string& message) const {
@@ -62,6 +64,24 @@ class SceneRunner::Context final : public ActionContext {
 };
 
 SceneRunner::SceneRunner(const Scene& scene) : scene_(scene), context_(std::make_unique<Context>(*this)) {
+  build(true);
+}
+
+SceneRunner::SceneRunner(const Scene& scene, Rehearsal)
+    : rehearsal_(true), scene_(scene), context_(std::make_unique<Context>(*this)) {
+  build(false);
+}
+
+void SceneRunner::rehearseTimeline(const Scene& scene) {
+  SceneRunner r(scene, Rehearsal{});
+  double end = 0.0;
+  for (const ActionSpec& a : scene.timeline) end = std::max(end, a.timing.interval ? a.timing.to : a.timing.at);
+  const long steps = std::min(r.numSteps_, long(std::ceil(end / r.timeStep_ - 1e-9)) + 1);
+  r.start();
+  while (r.step_ < steps) r.stepOnce();
+}
+
+void SceneRunner::build(bool physics) {
   const topology::MeshData mesh = scene_.mesh();
   auto topo = std::make_unique<topology::Topology>(mesh);
   const double density =
@@ -79,13 +99,13 @@ SceneRunner::SceneRunner(const Scene& scene) : scene_(scene), context_(std::make
   sim_ = std::make_unique<Simulation>(std::move(topo), density);
   sim_->setGravity(scene_.gravity);
   const std::vector<std::string> labels = scene_.forceFieldLabels();
-  for (std::size_t i = 0; i < scene_.forceFields.size(); ++i) {
+  for (std::size_t i = 0; physics && i < scene_.forceFields.size(); ++i) {
     const ForceFieldSpec& f = scene_.forceFields[i];
     const auto* entry = forcefields::ForceFieldRegistry::instance().find(f.type);
     if (!entry) throw InvalidInput(f.location.where(scene_.file.string()), "unknown force field type \"" + f.type + "\"");
     sim_->addForceField(entry->build(f.parameters, sim_->topology()), labels[i]);
   }
-  if (scene_.contact)
+  if (physics && scene_.contact)
     sim_->model().setContact(
         std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
         labels.back());
@@ -94,7 +114,7 @@ SceneRunner::SceneRunner(const Scene& scene) : scene_(scene), context_(std::make
     if (!entry) throw InvalidInput(c.location.where(scene_.file.string()), "unknown constraint type \"" + c.type + "\"");
     entry->build(c.parameters)->apply(*sim_);
   }
-  sim_->setIntegrator(makeIntegrator(scene_));
+  if (physics) sim_->setIntegrator(makeIntegrator(scene_));
   numSteps_ = scene_.numSteps();
   timeStep_ = scene_.timeStep;
 }
@@ -183,7 +203,10 @@ StepStats SceneRunner::advance() {
 
 StepStats SceneRunner::stepOnce() {
   if (!started_) start();
-  lastStats_ = sim_->step(timeStep_);
+  if (rehearsal_)
+    sim_->skipStep(timeStep_);  // the surface stays at rest
+  else
+    lastStats_ = sim_->step(timeStep_);
   ++step_;
   std::vector<std::exception_ptr> failures;
   for (auto it = running_.begin(); it != running_.end();) {
@@ -220,7 +243,9 @@ void SceneRunner::runDueActions(double t) {
         sceneDue && (!scheduledDue || scene_.timeline[nextAction_].startTime() <=
                                           scheduled_[nextScheduled_]->startTime());
     const ActionSpec& spec = fromScene ? scene_.timeline[nextAction_++] : *scheduled_[nextScheduled_++];
-    running_.push_back({&spec, spec.build()});
+    std::unique_ptr<TimelineAction> action = spec.build();
+    if (rehearsal_ && !action->rehearsed()) continue;
+    running_.push_back({&spec, std::move(action)});
     context_->current = &spec;
     try {
       running_.back().action->start(*context_);

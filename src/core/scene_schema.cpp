@@ -674,6 +674,21 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
   }
   parseConstraintsAndTimeline(r, root, s);
   dryRun(r, s, meshData);
+  // A progressive cut is checked above as one cut at its start; the run makes it piece by piece
+  // among the other actions, which may fail where the whole cut does not (a removal across its
+  // path, a path that doubles back): the timeline is rehearsed, the surface at rest.
+  const bool progressive = std::any_of(s.timeline.begin(), s.timeline.end(), [](const ActionSpec& a) {
+    return a.type == "cut" && a.timing.interval;
+  });
+  if (progressive) {
+    try {
+      SceneRunner::rehearseTimeline(s);
+    } catch (const TopologyError& e) {
+      throw InvalidInput(s.file.string(), std::string(e.what()) + " (the timeline played before the run, the surface at rest)");
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(e.where(), e.message() + " (the timeline played before the run, the surface at rest)");
+    }
+  }
   if (s.contact) checkContactAtStart(r, s, meshData);
   return s;
 }

@@ -219,6 +219,34 @@ TEST(Robustness, LabelsAndGraspNamesNameCsvColumns) {
   EXPECT_EQ(s.forceFieldLabels(), (std::vector<std::string>{"StretchSprings", "StretchSprings_2"}));
 }
 
+TEST(Robustness, AProgressiveCutIsCheckedPieceByPieceAmongTheOtherActions) {
+  // A scalpel along y = 0.52 over 0.1 s, and at t = 0.03 a removal of a disc on its path ahead:
+  // made whole at once (the per-action check), the cut passes; piece by piece, as the run makes
+  // it, it reaches the hole and leaves the surface. The scene check plays the timeline and fails
+  // there, naming the cut and the time, before anything runs.
+  const std::string text =
+      "{\"mesh\": {\"grid\": {\"nx\": 21, \"ny\": 21}}, \"mass\": {\"total\": 0.2}, \"timeStep\": 0.01,\n"
+      " \"duration\": 0.2, \"timeline\": [\n"
+      "  {\"from\": 0, \"to\": 0.1, \"action\": \"cut\", \"polyline\": [[0, 0.52, 0], [0.9, 0.52, 0]]},\n"
+      "  {\"at\": 0.03, \"action\": \"remove\", \"sphere\": {\"center\": [0.55, 0.52, 0], \"radius\": 0.12}}]}";
+  const std::string message = parseError(text);
+  EXPECT_NE(message.find("inline.json:3: /timeline/0: at t = 0.1 the cut failed"), std::string::npos) << message;
+  EXPECT_NE(message.find("the timeline played before the run"), std::string::npos) << message;
+  // The removal after the cut's end: both pass.
+  const std::string later =
+      "{\"mesh\": {\"grid\": {\"nx\": 21, \"ny\": 21}}, \"mass\": {\"total\": 0.2}, \"timeStep\": 0.01,\n"
+      " \"duration\": 0.2, \"timeline\": [\n"
+      "  {\"from\": 0, \"to\": 0.1, \"action\": \"cut\", \"polyline\": [[0, 0.52, 0], [0.9, 0.52, 0]]},\n"
+      "  {\"at\": 0.15, \"action\": \"remove\", \"sphere\": {\"center\": [0.55, 0.52, 0], \"radius\": 0.12}}]}";
+  EXPECT_EQ(parseError(later), "");
+  // And the run then makes what the rehearsal made.
+  const core::Scene s = core::parseScene(later, "inline.json", kSceneDir);
+  core::SceneRunner r(s);
+  r.start();
+  while (!r.finished()) r.advance();
+  EXPECT_GE(r.cutsDone(), 2);
+}
+
 TEST(Robustness, ACutAlongTheBorderIsNotCounted) {
   const core::Scene s = core::parseScene(
       scene("\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0, 0], [1, 0, 0]]},\n"

@@ -188,6 +188,13 @@ class SceneRunner {
 
   /// The first FastTriangularBendingSprings field, or null.
   const forcefields::FastTriangularBendingSprings* bendingField() const;
+  /// Plays the scene's timeline without the physics, up to its last action: the surface stays at
+  /// rest while the time advances step by step, and the actions run as they will in the run (a
+  /// progressive cut piece by piece, among the other actions at their times). Actions that act
+  /// on strains (tearing, fracture) are left out: at rest nothing tears. Throws what the run
+  /// would (InvalidInput, TopologyError, naming the action and the time). The scene check uses it
+  /// when the timeline has a progressive cut, which its per-action check makes whole at once.
+  static void rehearseTimeline(const Scene& scene);
   /// Builds the integrator (with its linear solver) a scene names.
   static std::unique_ptr<Integrator> makeIntegrator(const Scene& scene);
   /// Edges torn so far, cuts done so far (pieces of progressive cuts count one each).
@@ -201,7 +208,11 @@ class SceneRunner {
     std::unique_ptr<TimelineAction> action;
   };
   void runDueActions(double t);
+  struct Rehearsal {};
+  SceneRunner(const Scene& scene, Rehearsal);
+  void build(bool physics);
 
+  bool rehearsal_ = false;
   Scene scene_;
   std::unique_ptr<Simulation> sim_;
   std::unique_ptr<Context> context_;

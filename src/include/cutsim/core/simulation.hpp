@@ -75,6 +75,11 @@ class Simulation {
   /// more than the contact's splitAbove fraction of the points is redone as two half steps.
   StepStats step(double dt);
   double time() const { return time_; }
+  /// Advances the time by dt without moving anything (the scene check's rehearsal of a timeline).
+  void skipStep(double dt) {
+    time_ += dt;
+    ++steps_;
+  }
   long steps() const { return steps_; }
   const SolveSummary& solveSummary() const { return summary_; }
 

@@ -108,6 +108,9 @@ class TimelineAction {
   virtual void afterStep(ActionContext& /*c*/) {}
   /// The grasp it starts, for the CSV's columns ("" for other actions).
   virtual std::string graspName() const { return ""; }
+  /// Whether the scene check's rehearsal of the timeline (SceneRunner::rehearseTimeline, the
+  /// surface at rest) plays it: not the actions that act on strains.
+  virtual bool rehearsed() const { return true; }
 };
 using ActionRegistry = Registry<TimelineAction, const ActionTiming&>;
 
