@@ -168,7 +168,7 @@ void runScene(const RunOptions& options) {
     const std::filesystem::path html = options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
     const view::PlayerReport r = view::writePlayer(outDir, html);
     std::cout << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun << " frames, "
-              << (r.bytes + 524288) / 1048576 << " MB; open it in a browser)\n";
+              << view::describeSize(r.bytes) << "; open it in a browser)\n";
   }
   std::cout.flush();
   if (!std::cout) throw Error("cannot write to standard output");

@@ -96,7 +96,7 @@ void view(const ViewOptions& o) {
   std::cout << html.string() << "\n";
   if (!o.quiet) {
     std::cerr << "player of " << dir.string() << ": " << r.framesShown << " of " << r.framesInRun << " frames, "
-              << double(r.bytes) / 1048576.0 << " MB" << (r.partial ? " (a partial run: the page says so)" : "")
+              << view::describeSize(r.bytes) << (r.partial ? " (a partial run: the page says so)" : "")
               << "; open it in a browser (no network needed)\n";
     if (r.framesShown < r.framesInRun)
       std::cerr << "note: one frame in " << r.stride << " kept, and the last, to stay within " << o.maxMb

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -159,6 +160,12 @@ std::vector<std::size_t> chooseFrames(std::size_t count, double bytesPerFrame, s
     chosen.push_back(count - 1);
   }
   return chosen;
+}
+
+std::string describeSize(std::size_t bytes) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.1f MB", double(bytes) / 1048576.0);
+  return text;
 }
 
 std::string base64(const std::string& bytes) {

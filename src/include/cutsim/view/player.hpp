@@ -108,6 +108,9 @@ struct PlayerReport {
 /// `bytesPerFrame`: all of them, or every k-th from the first, always with the last.
 std::vector<std::size_t> chooseFrames(std::size_t count, double bytesPerFrame, std::size_t budget);
 
+/// A size for people: "3.3 MB" (MB of 2^20 bytes, as --max-mb counts them; one decimal).
+std::string describeSize(std::size_t bytes);
+
 /// Standard base64 (RFC 4648, with padding).
 std::string base64(const std::string& bytes);
 
