@@ -58,7 +58,7 @@ void renderStill(const std::filesystem::path& html, long frame, const std::files
       url += hex;
     }
   }
-  url += "#frame=" + std::to_string(frame) + "&still=1";
+  url += "#frame=" + std::to_string(frame);
   const std::string command =
       browser + " --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-angle=swiftshader "
                 "--disable-background-networking --disable-component-update --no-first-run --disable-sync "

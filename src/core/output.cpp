@@ -99,6 +99,33 @@ void pointsBlock(std::ostream& out, const Simulation& sim, const std::vector<Poi
          "      </Points>\n";
 }
 
+/// A PolyData file of lines between the live points (numbered as in the surface), with an
+/// optional integer cell array.
+void linesPiece(std::ostream& out, const Simulation& sim, const Numbering& n,
+                const std::vector<std::array<topology::Index, 2>>& lines, const char* cellArray,
+                const std::vector<int>& cellValues) {
+  vtpHeader(out);
+  out << "    <Piece NumberOfPoints=\"" << n.ids.size() << "\" NumberOfVerts=\"0\" NumberOfLines=\""
+      << lines.size() << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  if (cellArray) {
+    out << "      <CellData Scalars=\"" << cellArray << "\">\n"
+        << "        <DataArray type=\"Int32\" Name=\"" << cellArray << "\" format=\"ascii\">\n";
+    for (int v : cellValues) out << v << '\n';
+    out << "        </DataArray>\n"
+           "      </CellData>\n";
+  }
+  pointsBlock(out, sim, n.ids);
+  out << "      <Lines>\n"
+         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (const auto& l : lines) out << l[0] << ' ' << l[1] << '\n';
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (std::size_t i = 0; i < lines.size(); ++i) out << 2 * (i + 1) << '\n';
+  out << "        </DataArray>\n"
+         "      </Lines>\n";
+  vtpFooter(out);
+}
+
 }  // namespace
 
 void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
@@ -172,19 +199,7 @@ void writeNetworkVtp(std::ostream& out, const Simulation& sim,
     if (a == topology::kInvalidIndex || b == topology::kInvalidIndex) continue;
     lines.push_back({a, b});
   }
-  vtpHeader(out);
-  out << "    <Piece NumberOfPoints=\"" << n.ids.size() << "\" NumberOfVerts=\"0\" NumberOfLines=\""
-      << lines.size() << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
-  pointsBlock(out, sim, n.ids);
-  out << "      <Lines>\n"
-         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-  for (const auto& l : lines) out << l[0] << ' ' << l[1] << '\n';
-  out << "        </DataArray>\n"
-         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-  for (std::size_t i = 0; i < lines.size(); ++i) out << 2 * (i + 1) << '\n';
-  out << "        </DataArray>\n"
-         "      </Lines>\n";
-  vtpFooter(out);
+  linesPiece(out, sim, n, lines, nullptr, {});
 }
 
 OriginalBorder restBorder(const topology::Topology& topo) {
@@ -248,24 +263,13 @@ std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const Origin
 void writeBordersVtp(std::ostream& out, const Simulation& sim, const OriginalBorder& original) {
   const Numbering n = numbering(sim);
   const std::vector<BorderEdge> border = borderEdges(sim.topology(), original);
-  vtpHeader(out);
-  out << "    <Piece NumberOfPoints=\"" << n.ids.size() << "\" NumberOfVerts=\"0\" NumberOfLines=\""
-      << border.size() << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
-  out << "      <CellData Scalars=\"lip\">\n"
-         "        <DataArray type=\"Int32\" Name=\"lip\" format=\"ascii\">\n";
-  for (const BorderEdge& b : border) out << (b.lip ? 1 : 0) << '\n';
-  out << "        </DataArray>\n"
-         "      </CellData>\n";
-  pointsBlock(out, sim, n.ids);
-  out << "      <Lines>\n"
-         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-  for (const BorderEdge& b : border) out << n.dense[b.a] << ' ' << n.dense[b.b] << '\n';
-  out << "        </DataArray>\n"
-         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-  for (std::size_t i = 0; i < border.size(); ++i) out << 2 * (i + 1) << '\n';
-  out << "        </DataArray>\n"
-         "      </Lines>\n";
-  vtpFooter(out);
+  std::vector<std::array<topology::Index, 2>> lines;
+  std::vector<int> lip;
+  for (const BorderEdge& b : border) {
+    lines.push_back({n.dense[b.a], n.dense[b.b]});
+    lip.push_back(b.lip ? 1 : 0);
+  }
+  linesPiece(out, sim, n, lines, "lip", lip);
 }
 
 void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames) {

@@ -82,25 +82,22 @@ std::vector<T> numbers(const Xml& xml, const pugi::xml_node& array, std::size_t 
   while (true) {
     while (p < end && std::isspace(static_cast<unsigned char>(*p))) ++p;
     if (p >= end) break;
-    if constexpr (std::is_floating_point_v<T>) {
-      double v = 0.0;
-      const auto r = std::from_chars(p, end, v);
-      if (r.ec != std::errc() || !std::isfinite(T(v)))
-        throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() +
-                                              ": \"" + std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) +
-                                              "\" is not a finite number (in single precision)");
-      out.push_back(T(v));
-      p = r.ptr;
-    } else {
-      long long v = 0;
-      const auto r = std::from_chars(p, end, v);
-      if (r.ec != std::errc() || v < 0 || v > std::numeric_limits<std::uint32_t>::max())
-        throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() +
-                                              ": \"" + std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) +
-                                              "\" is not an index");
-      out.push_back(T(v));
-      p = r.ptr;
-    }
+    // Read as double or as a wide integer, then checked to fit T (a flag beyond a byte, an index
+    // beyond 32 bits, a value beyond single precision is an error, never wrapped or made infinite).
+    std::conditional_t<std::is_floating_point_v<T>, double, long long> v{};
+    const auto r = std::from_chars(p, end, v);
+    bool fits = r.ec == std::errc();
+    if constexpr (std::is_floating_point_v<T>)
+      fits = fits && std::isfinite(T(v));
+    else
+      fits = fits && v >= 0 && static_cast<unsigned long long>(v) <= std::numeric_limits<T>::max();
+    if (!fits)
+      throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() + ": \"" +
+                                            std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) + "\" is not " +
+                                            (std::is_floating_point_v<T> ? "a finite number (in single precision)"
+                                                                         : "an index or flag in range"));
+    out.push_back(T(v));
+    p = r.ptr;
   }
   if (out.size() != expected)
     throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() + " has " +

@@ -415,6 +415,21 @@ TEST(PlayerRun, BadFoldersAreNamedWithWhatIsWrong) {
   } catch (const InvalidInput& e) {
     EXPECT_THAT(e.what(), HasSubstr("surface_000000.vtp:6: DataArray position has 8 values, the piece needs 9"));
   }
+  // A flag beyond a byte is an error, not wrapped to another flag.
+  std::ofstream(dir / "surface_000000.vtp")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
+         "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n<PointData>\n"
+         "<DataArray type=\"Int32\" Name=\"constraint\" format=\"ascii\">0 1 257</DataArray>\n</PointData>\n<Points>\n"
+         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" format=\"ascii\">\n"
+         "0 0 0 1 0 0 0 1 0\n</DataArray>\n</Points>\n<Polys>\n"
+         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2</DataArray>\n</Polys>\n"
+         "</Piece>\n</PolyData>\n</VTKFile>\n";
+  try {
+    readFrame(scanRun(dir), 0);
+    ADD_FAILURE() << "a flag of 257 was read";
+  } catch (const InvalidInput& e) {
+    EXPECT_THAT(e.what(), HasSubstr("surface_000000.vtp:6: DataArray constraint: \"257\" is not an index or flag in range"));
+  }
   fs::remove_all(dir);
 }
 

@@ -152,7 +152,6 @@ class Player {
     this.computeRanges();
     this.fitCamera();
     const hash = new URLSearchParams(location.hash.slice(1));
-    if (hash.has('still')) document.body.classList.add('still');
     if (hash.has('field') && FIELDS[hash.get('field')]) this.setField(hash.get('field'));
     const start = hash.has('frame') ? Number(hash.get('frame')) : 0;
     this.seek(Number.isFinite(start) ? start : 0);
@@ -388,8 +387,6 @@ class Player {
       if (n) samples.push(new THREE.Vector3(x[3 * n - 3], x[3 * n - 2], x[3 * n - 1]));
     }
     if (samples.length === 0) samples.push(new THREE.Vector3(0, 0, 0), new THREE.Vector3(1, 1, 0));  // no point at all
-    const box = new THREE.Box3().setFromPoints(samples);
-    const radius = Math.max(1e-6, box.getSize(new THREE.Vector3()).length() / 2);
     // A three-quarter view from above the horizon.
     const up = this.up;
     const h1 = new THREE.Vector3(1, 0, 0);
@@ -424,16 +421,14 @@ class Player {
         depth + Math.abs(p.dot(upView) - mid[1]) / tanV);
     }
     distance *= 1.04;
-    const dir = back;
-    this.camera.position.copy(center).addScaledVector(dir, distance);
+    this.camera.position.copy(center).addScaledVector(back, distance);
     this.camera.near = distance / 100;
     this.camera.far = distance * 100;
     this.camera.updateProjectionMatrix();
     this.controls.target.copy(center);
     this.controls.update();
-    this.light.position.copy(center).addScaledVector(dir, distance).addScaledVector(up, distance);
+    this.light.position.copy(center).addScaledVector(back, distance).addScaledVector(up, distance);
     this.light.target.position.copy(center);
-    this.radius = radius;
   }
 
   // ---------------------------------------------------------------------------------------------
