@@ -43,11 +43,32 @@ struct Pair {
   std::array<std::uint32_t, 4> id{};  ///< point ids (surface) or vertex indices (obstacle mesh)
   std::uint8_t surface = 0;         ///< bit i: id[i] is a surface point
   bool excluded = false;
+  /// VT, VO and OV: what of the triangle the point meets: 3 the triangle (id[1..3]), 2 one of
+  /// its edges (id[1..2]), 1 one of its corners (id[1]); unused ids are kInvalidIndex. The
+  /// penalty's pairs are the closest features (each met once); the displacement bound checks
+  /// whole triangles.
+  std::uint8_t shape = 3;
+  /// How many ids are in use.
+  int points() const {
+    switch (kind) {
+      case Kind::VT:
+      case Kind::VO:
+      case Kind::OV: return 1 + shape;
+      case Kind::EE:
+      case Kind::EO: return 4;
+      default: return 4;
+    }
+  }
   // Frozen at the step's start:
   double s0 = 0.0, lambda = 0.0, mu = 0.0;
   V3 n0 = V3::UnitZ();
   std::array<double, 4> w0{};
-  Eigen::Matrix3d frictionJacobian = Eigen::Matrix3d::Zero();  ///< dF/du at the step's start
+  /// dF/du at the step's start, as fa (I - n0 n0^T) + fb ft ft^T (see frictionForce).
+  double fa = 0.0, fb = 0.0;
+  V3 ft = V3::Zero();
+  Eigen::Matrix3d frictionMatrix() const {
+    return fa * (Eigen::Matrix3d::Identity() - n0 * n0.transpose()) + fb * ft * ft.transpose();
+  }
 };
 
 /// The penalty law: E(s) = k/3 (d - s)^3 / s for d / 100 < s < d, zero beyond d with its first
@@ -95,18 +116,26 @@ struct Eval {
 };
 
 
-/// Friction force on the pair's relative velocity u (tangential to n0), and its derivative.
-V3 frictionForce(const Pair& p, double eps, const V3& u, Eigen::Matrix3d* dFdu) {
-  const Eigen::Matrix3d T = Eigen::Matrix3d::Identity() - p.n0 * p.n0.transpose();
-  const V3 ut = T * u;
+/// Friction force on the pair's relative velocity u (tangential to n0); with `keep`, its
+/// derivative dF/du = fa (I - n0 n0^T) + fb ft ft^T goes into the pair.
+V3 frictionForce(const Pair& p, double eps, const V3& u, Pair* keep = nullptr) {
+  const V3 ut = u - p.n0 * p.n0.dot(u);
   const double l = ut.norm();
   const double c = p.mu * p.lambda;
   if (l <= eps) {
-    if (dFdu) *dFdu = -(c / eps) * T;
+    if (keep) {
+      keep->fa = -(c / eps);
+      keep->fb = 0.0;
+      keep->ft = V3::Zero();
+    }
     return -(c / eps) * ut;
   }
   const V3 t = ut / l;
-  if (dFdu) *dFdu = -(c / l) * (T - t * t.transpose());
+  if (keep) {
+    keep->fa = -(c / l);
+    keep->fb = c / l;
+    keep->ft = t;
+  }
   return -c * t;
 }
 
@@ -126,6 +155,8 @@ struct Contact::Impl {
   std::vector<std::array<std::uint32_t, 3>> triV;
   std::vector<std::array<std::uint32_t, 3>> triE;  // edge i opposite vertex i
   std::vector<std::int32_t> pointOwner, edgeOwner;  // index into tris, -1: none
+  std::vector<std::array<std::int32_t, 2>> edgeTris;  // the (at most two) triangles of an edge
+  std::vector<std::int32_t> starStart, star;         // the triangles around a point (CSR)
   std::vector<Box> boxes;
   Bvh bvh;
 
@@ -136,6 +167,7 @@ struct Contact::Impl {
     std::vector<std::array<int, 2>> edges;
     std::vector<std::array<int, 3>> triEdges;
     std::vector<int> vertexOwner, edgeOwner;
+    std::vector<std::vector<int>> edgeTris, vertexTris;  // (a soup may be non-manifold)
     std::vector<Box> boxes;
     Bvh bvh;
   };
@@ -145,6 +177,7 @@ struct Contact::Impl {
 
   // ---- the step's pairs ----
   std::vector<Pair> pairs;
+  std::vector<Pair> nearPairs;  // the displacement bound's (kept to reuse its storage)
   // Margins: a triangle's is the largest of its corners'; a pair of triangles is examined when
   // their boxes, each inflated by its margin, overlap, and a primitive pair is kept within the
   // sum of the margins (analytic obstacles: within the point's margin). At the step's start a
@@ -155,12 +188,16 @@ struct Contact::Impl {
   // motion, and `shift` (that motion's size) is added for the obstacles, which stay put.
   double shift = 0.0;
   std::vector<double> bound;  // per point slot: gamma times the smallest distance, kInf: none
+  std::vector<V3> anchor;     // per point slot: the frame its displacement is bounded in
+  bool reframedAny = false;   // the last limit() gave a point an obstacle's frame
 
   // ---- exclusions after topology changes ----
   /// Excluded pairs by their points (exclusionKey): neighbours in the material within d.
   std::set<std::array<std::uint32_t, 5>> excluded;
-  /// Neighbours in the material that have separated beyond d once: contact as any other pair.
-  std::set<std::array<std::uint32_t, 5>> released;
+  /// Points of neighbours in the material that have separated beyond d once (each pair of a
+  /// point of one primitive and a point of the other, lower id first): a pair all of whose
+  /// pairs of points are released is a pair as any other.
+  std::set<std::pair<std::uint32_t, std::uint32_t>> released;
   std::vector<double> lastX;                        // positions of the last beginStep (validate)
 
   Impl(topology::Topology& t, const ContactParameters& p, std::vector<Obstacle>& o)
@@ -186,7 +223,8 @@ struct Contact::Impl {
   /// paths).
   V3 relativeVelocity(const Pair& p, std::span<const double> v) const {
     V3 u = V3::Zero();
-    for (int i = 0; i < 4; ++i) {
+    const int count = p.kind == Kind::PO || p.kind == Kind::FO ? 3 : p.points();
+    for (int i = 0; i < count; ++i) {
       if ((p.surface >> i) & 1) u += p.w0[std::size_t(i)] * surfacePoint(v, p.id[std::size_t(i)]);
       else if (p.kind != Kind::PO && p.kind != Kind::FO) u += p.w0[std::size_t(i)] * velocity[std::size_t(p.obstacle)];
     }
@@ -244,14 +282,27 @@ struct Contact::Impl {
   }
 
   /// Distance, normal and weights of a pair at x.
-  Eval evaluate(const Pair& p, std::span<const double> x) const {
+  /// With `sided`, a pair of a point and a triangle or of two edges whose closest points have
+  /// crossed (their direction turned against the pair's normal at the step's start) gets a
+  /// negative distance along that normal: the penalty goes on pushing them back to their side,
+  /// also when a moving obstacle has gone past a point within one step.
+  Eval evaluate(const Pair& p, std::span<const double> x, bool sided = false) const {
+    Eval e = evaluateUnsided(p, x);
+    if (sided && p.kind != Kind::PO && p.kind != Kind::FO && e.n.dot(p.n0) < 0) {
+      e.s = -e.s;
+      e.n = -e.n;
+    }
+    return e;
+  }
+  Eval evaluateUnsided(const Pair& p, std::span<const double> x) const {
+    std::array<V3, 4> q{V3::Zero(), V3::Zero(), V3::Zero(), V3::Zero()};
     if (p.kind == Kind::PO || p.kind == Kind::FO) {
-      std::array<V3, 4> q{V3::Zero(), V3::Zero(), V3::Zero(), V3::Zero()};
       for (int i = 0; i < 3; ++i)
         if ((p.surface >> i) & 1) q[std::size_t(i)] = surfacePoint(x, p.id[std::size_t(i)]);
       return evaluatePoints(p, q);
     }
-    return evaluatePoints(p, {pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3)});
+    for (int i = 0; i < p.points(); ++i) q[std::size_t(i)] = pointOf(p, x, i);
+    return evaluatePoints(p, q);
   }
 
   /// The same from the pair's points.
@@ -270,6 +321,21 @@ struct Contact::Impl {
       case Kind::VT:
       case Kind::VO:
       case Kind::OV: {
+        if (p.shape == 2) {
+          const double t = closestSegmentSegment(q[0], q[0], q[1], q[2])[1];
+          const V3 d = q[0] - (q[1] + t * (q[2] - q[1]));
+          e.s = d.norm();
+          e.n = e.s > 1e-300 ? V3(d / e.s) : p.n0;
+          e.w = {1, -(1 - t), -t, 0};
+          return e;
+        }
+        if (p.shape == 1) {
+          const V3 d = q[0] - q[1];
+          e.s = d.norm();
+          e.n = e.s > 1e-300 ? V3(d / e.s) : p.n0;
+          e.w = {1, -1, 0, 0};
+          return e;
+        }
         const auto bw = closestOnTriangle(q[0], q[1], q[2], q[3]);
         const V3 d = q[0] - (bw[0] * q[1] + bw[1] * q[2] + bw[2] * q[3]);
         e.s = d.norm();
@@ -356,49 +422,55 @@ struct Contact::Impl {
   }
 
   /// Additive continuous collision detection (Li, Kaufman and Jiang 2021) of something whose
-  /// distance at time t in [0, 1] is dist(t) and changes by at most lp per unit of t: true when
-  /// the distance provably stays above a tenth of its start over the whole step.
+  /// distance at time t in [0, 1] is dist(t) and changes by at most lp per unit of t: the part
+  /// [0, t] of the step over which the distance provably stays above a tenth of its start (1:
+  /// the whole step).
   template <class Dist>
-  static bool staysApart(const Dist& dist, double lp) {
+  static double safeFraction(const Dist& dist, double lp) {
     const double d0 = dist(0.0);
-    if (!(d0 > 0)) return false;
-    if (!(lp > 0)) return true;
+    if (!(d0 > 0)) return 0.0;
+    if (!(lp > 0)) return 1.0;
     const double floor = 0.1 * d0;
     double t = 0.0, d = d0;
-    // A pair that needs many small advances moves far relative to its distance: the bound
-    // (gamma times the distance) is what it gets.
-    for (int i = 0; i < 8; ++i) {
-      t += 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
-      if (t >= 1.0) return true;
-      d = dist(t);
-      if (!(d > floor)) return false;
+    // A pair that separates advances by growing steps: 32 advances prove separation from a
+    // distance many times smaller than the motion. One that approaches gets the part of the
+    // step it provably has.
+    for (int i = 0; i < 32; ++i) {
+      const double next = t + 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
+      if (next >= 1.0) return 1.0;
+      d = dist(next);
+      if (!(d > floor)) return t;
+      t = next;
     }
-    return false;
+    return t;
   }
 
   /// Whether a pair moving linearly by the displacements dx (scaled per point) provably stays
   /// apart over the step.
-  bool pairStaysApart(const Pair& p, std::span<const double> x0, const std::vector<V3>& dx) const {
-    if (p.kind == Kind::PO || p.kind == Kind::FO) return true;  // (bounded per triangle)
+  double pairSafeFraction(const Pair& p, std::span<const double> x0, const std::vector<V3>& dx) const {
+    if (p.kind == Kind::PO || p.kind == Kind::FO) return 1.0;  // (bounded per triangle)
     std::array<V3, 4> q0, d;
+    q0.fill(V3::Zero());
+    d.fill(V3::Zero());
     V3 mean = V3::Zero();
-    for (int i = 0; i < 4; ++i) {
+    const int count = p.points();
+    for (int i = 0; i < count; ++i) {
       q0[std::size_t(i)] = pointOf(p, x0, i);
       d[std::size_t(i)] = (p.surface >> i) & 1 ? dx[p.id[std::size_t(i)]] : move[std::size_t(p.obstacle)];
-      mean += 0.25 * d[std::size_t(i)];
+      mean += d[std::size_t(i)] / double(count);
     }
-    // The two primitives' points: [0, split) and [split, 4).
+    // The two primitives' points: [0, split) and [split, count).
     const int split = (p.kind == Kind::EE || p.kind == Kind::EO) ? 2 : 1;
     double a = 0, b = 0;
-    for (int i = 0; i < 4; ++i) {
+    for (int i = 0; i < count; ++i) {
       const double m = (d[std::size_t(i)] - mean).norm();
       (i < split ? a : b) = std::max(i < split ? a : b, m);
     }
-    return staysApart(
+    return safeFraction(
         [&](double t) {
           std::array<V3, 4> q;
           for (int i = 0; i < 4; ++i) q[std::size_t(i)] = q0[std::size_t(i)] + t * d[std::size_t(i)];
-          return evaluatePoints(p, q).s;
+          return evaluatePoints(p, q).s;  // (unused points stay at zero)
         },
         a + b);
   }
@@ -411,6 +483,25 @@ struct Contact::Impl {
   std::vector<Eval> evals;
   std::vector<char> within;  // per pair: evaluated and closer than d
   std::vector<std::uint32_t> busy;  // pairs within d or with friction (the ones that act)
+  // The same, packed for the products of the solves: the penalty's Gauss-Newton stiffness
+  // -h (sum_i w_i n)(sum_j w_j n)^T, and friction's dF/du.
+  struct Penalty {
+    std::array<std::uint32_t, 4> id;
+    std::uint8_t surface;
+    double h;
+    std::array<double, 4> w;
+    V3 n;
+  };
+  struct Friction {
+    std::array<std::uint32_t, 4> id;
+    std::uint8_t surface;
+    std::array<double, 4> w;
+    V3 n0;
+    double fa, fb;
+    V3 ft;
+  };
+  std::vector<Penalty> penalties;
+  std::vector<Friction> frictions;
   std::vector<double> evalX;
   bool evalValid = false;
 
@@ -435,12 +526,22 @@ struct Contact::Impl {
         for (int k = 0; k < 4; ++k)
           if ((p.surface >> k) & 1) m = std::max(m, moved[p.id[std::size_t(k)]]);
       if (p.s0 - 2 * m >= d) continue;
-      evals[i] = evaluate(p, x);
+      evals[i] = evaluate(p, x, true);
       within[i] = evals[i].s < d;
     }
     busy.clear();
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      if (!pairs[i].excluded && (within[i] || (pairs[i].lambda > 0 && pairs[i].mu > 0))) busy.push_back(std::uint32_t(i));
+    penalties.clear();
+    frictions.clear();
+    const Law law{P.thickness, P.stiffness};
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const Pair& p = pairs[i];
+      if (p.excluded) continue;
+      const bool rubs = p.lambda > 0 && p.mu > 0;
+      if (!within[i] && !rubs) continue;
+      busy.push_back(std::uint32_t(i));
+      if (within[i]) penalties.push_back({p.id, p.surface, law.curvature(evals[i].s), evals[i].w, evals[i].n});
+      if (rubs) frictions.push_back({p.id, p.surface, p.w0, p.n0, p.fa, p.fb, p.ft});
+    }
     evalX.assign(x.begin(), x.end());
     evalValid = true;
   }
@@ -463,6 +564,21 @@ struct Contact::Impl {
         if (pointOwner[Index(v[std::size_t(k)])] < 0) pointOwner[Index(v[std::size_t(k)])] = std::int32_t(i);
         if (edgeOwner[Index(e[std::size_t(k)])] < 0) edgeOwner[Index(e[std::size_t(k)])] = std::int32_t(i);
       }
+    }
+    edgeTris.assign(topo.edgeCapacity(), {-1, -1});
+    starStart.assign(topo.pointCapacity() + 1, 0);
+    for (std::size_t i = 0; i < tris.size(); ++i)
+      for (int k = 0; k < 3; ++k) {
+        auto& et = edgeTris[triE[i][std::size_t(k)]];
+        (et[0] < 0 ? et[0] : et[1]) = std::int32_t(i);
+        ++starStart[triV[i][std::size_t(k)] + 1];
+      }
+    for (std::size_t p = 0; p + 1 < starStart.size(); ++p) starStart[p + 1] += starStart[p];
+    star.assign(std::size_t(starStart.back()), -1);
+    {
+      std::vector<std::int32_t> fill(starStart.begin(), starStart.end() - 1);
+      for (std::size_t i = 0; i < tris.size(); ++i)
+        for (int k = 0; k < 3; ++k) star[std::size_t(fill[triV[i][std::size_t(k)]]++)] = std::int32_t(i);
     }
     built = true;
     revision = topo.revision();
@@ -515,6 +631,13 @@ struct Contact::Impl {
           if (m.vertexOwner[std::size_t(T[t][std::size_t(c)])] < 0) m.vertexOwner[std::size_t(T[t][std::size_t(c)])] = int(t);
         }
       }
+      m.edgeTris.assign(m.edges.size(), {});
+      m.vertexTris.assign(m.vertices.size(), {});
+      for (std::size_t t = 0; t < T.size(); ++t)
+        for (int c = 0; c < 3; ++c) {
+          m.edgeTris[std::size_t(m.triEdges[t][std::size_t(c)])].push_back(int(t));
+          m.vertexTris[std::size_t(T[t][std::size_t(c)])].push_back(int(t));
+        }
     }
   }
 
@@ -538,54 +661,167 @@ struct Contact::Impl {
   }
 
   /// Keeps the pair if it is closer than r at x, with its distance, normal and weights there.
-  void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out) const {
-    const Eval e = evaluate(p, x);
+  /// With `features` (the penalty's pairs), a point and a triangle (t: the triangle's index in
+  /// its surface or obstacle mesh) become a pair of the point and the triangle's closest
+  /// feature, kept once for that feature (see toFeature), and two edges are kept only when their
+  /// closest points are inside both (else they are a point's pair).
+  void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
+                  int t = -1) const {
+    if (features && p.kind == Kind::EE) {
+      // The same classification whichever way the search met the two edges.
+      const auto a = std::minmax(p.id[0], p.id[1]), b = std::minmax(p.id[2], p.id[3]);
+      if (b < a) p.id = {p.id[2], p.id[3], p.id[0], p.id[1]};
+    }
+    Eval e = evaluate(p, x);
     if (!(e.s < r)) return;
+    if (features) {
+      if (p.kind == Kind::EE || p.kind == Kind::EO) {
+        const double a = e.w[1], b = -e.w[3];
+        if (!(a > 0 && a < 1 && b > 0 && b < 1)) return;
+      } else if (p.kind == Kind::VT || p.kind == Kind::VO || p.kind == Kind::OV) {
+        if (!toFeature(p, e, x, t)) return;
+        if (p.shape != 3) e = evaluate(p, x);
+      }
+    }
     p.s0 = e.s;
     p.n0 = e.n;
     p.w0 = e.w;
     out.push_back(p);
   }
 
+  /// The point of a point-triangle pair (e: the pair evaluated at x; t: the triangle's index)
+  /// meets the triangle's interior, one of its edges or one of its corners. An edge or corner
+  /// becomes the pair's feature (shape 2 or 1) when it is the closest feature of every triangle
+  /// around it (the point is in its Voronoi region: no triangle beside it is nearer), and is
+  /// kept only from its owner triangle, so that every feature the point meets counts once,
+  /// whichever triangles the search pairs the point with. Returns false to drop the pair.
+  bool toFeature(Pair& p, const Eval& e, std::span<const double> x, int t) const {
+    int on[3], m = 0;
+    for (int c = 0; c < 3; ++c)
+      if (e.w[std::size_t(c + 1)] != 0.0) on[m++] = c;
+    if (m == 3 || m == 0) return true;
+    const bool obstacleSide = p.kind == Kind::VO;  // the triangle is an obstacle's
+    const MeshObstacle* mesh = obstacleSide ? &meshes[std::size_t(p.obstacle)] : nullptr;
+    const V3 q = pointOf(p, x, 0);
+    const double d2 = e.s * e.s;
+    // The squared distance from q to triangle u of the same side.
+    auto dist2 = [&](int u) {
+      std::array<V3, 3> c;
+      for (int k = 0; k < 3; ++k)
+        c[std::size_t(k)] = obstacleSide ? obstaclePoint(p.obstacle, std::uint32_t(mesh->triangles[std::size_t(u)][std::size_t(k)]))
+                                         : surfacePoint(x, triV[std::size_t(u)][std::size_t(k)]);
+      const auto bw = closestOnTriangle(q, c[0], c[1], c[2]);
+      return (q - (bw[0] * c[0] + bw[1] * c[1] + bw[2] * c[2])).squaredNorm();
+    };
+    // A triangle that holds the pair's own point (a self pair's neighbours) is not its contact.
+    auto holdsPoint = [&](int u) { return p.kind == Kind::VT && shares(triV[std::size_t(u)], p.id[0]); };
+    auto nearer = [&](int u) { return u != t && !holdsPoint(u) && dist2(u) < d2 * (1 - 1e-9) - 1e-300; };
+    const std::uint32_t inv = kInvalidIndex;
+    if (m == 2) {
+      const int opposite = 3 - on[0] - on[1];
+      const std::uint32_t a = p.id[std::size_t(on[0] + 1)], b = p.id[std::size_t(on[1] + 1)];
+      if (obstacleSide) {
+        const int edge = mesh->triEdges[std::size_t(t)][std::size_t(opposite)];
+        if (mesh->edgeOwner[std::size_t(edge)] != t) return false;
+        for (int u : mesh->edgeTris[std::size_t(edge)])
+          if (nearer(u)) return false;
+      } else {
+        const std::uint32_t edge = triE[std::size_t(t)][std::size_t(opposite)];
+        if (edgeOwner[edge] != t) return false;
+        for (std::int32_t u : edgeTris[edge])
+          if (u >= 0 && (holdsPoint(u) || nearer(u))) return false;  // (a triangle's own corner and edge: no pair)
+      }
+      p.id = {p.id[0], a, b, inv};
+      p.shape = 2;
+    } else {
+      const std::uint32_t c = p.id[std::size_t(on[0] + 1)];
+      // Two points: the pair is kept once (from the lower id for self pairs, from the surface's
+      // point for obstacles), and when each is the other's closest feature.
+      if (p.kind == Kind::OV || (p.kind == Kind::VT && c < p.id[0])) return false;
+      const V3 qc = obstacleSide ? obstaclePoint(p.obstacle, c) : surfacePoint(x, c);
+      for (std::int32_t k = starStart[p.id[0]]; k < starStart[p.id[0] + 1]; ++k) {
+        const auto& U = triV[std::size_t(star[std::size_t(k)])];
+        if (!obstacleSide && shares(U, c)) continue;
+        const auto bw = closestOnTriangle(qc, surfacePoint(x, U[0]), surfacePoint(x, U[1]), surfacePoint(x, U[2]));
+        const V3 f = bw[0] * surfacePoint(x, U[0]) + bw[1] * surfacePoint(x, U[1]) + bw[2] * surfacePoint(x, U[2]);
+        if ((qc - f).squaredNorm() < d2 * (1 - 1e-9) - 1e-300) return false;
+      }
+      if (obstacleSide) {
+        if (mesh->vertexOwner[c] != t) return false;
+        for (int u : mesh->vertexTris[c])
+          if (nearer(u)) return false;
+      } else {
+        if (pointOwner[c] != t) return false;
+        for (std::int32_t k = starStart[c]; k < starStart[c + 1]; ++k)
+          if (holdsPoint(star[std::size_t(k)]) || nearer(star[std::size_t(k)])) return false;  // (neighbours: no pair)
+      }
+      p.id = {p.id[0], c, inv, inv};
+      p.shape = 1;
+    }
+    const std::uint8_t sides = p.kind == Kind::VO ? 0b0001 : p.kind == Kind::OV ? 0b0000 : 0b0001;
+    p.surface = std::uint8_t(sides | (p.kind == Kind::VO ? 0 : (p.shape == 2 ? 0b0110 : 0b0010)));
+    return true;
+  }
+
   /// Every self pair of triangles i, j (as the BVH or the brute force gives them): the VT and EE
   /// pairs that the two triangles own, within r at x.
-  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
+  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features) const {
     const double r = triMargin[std::size_t(i)] + triMargin[std::size_t(j)];
     const auto& A = triV[std::size_t(i)];
     const auto& B = triV[std::size_t(j)];
-    auto vt = [&](std::uint32_t v, int t) {
+    // The triangles' own boxes, grown by r: a primitive outside the other's cannot be within r
+    // (a cheap test before the closest points).
+    Box ba, bb;
+    for (int k = 0; k < 3; ++k) {
+      ba.add(surfacePoint(x, A[std::size_t(k)]));
+      bb.add(surfacePoint(x, B[std::size_t(k)]));
+    }
+    ba.inflate(r);
+    bb.inflate(r);
+    if (!ba.overlaps(bb)) return;
+    auto vt = [&](std::uint32_t v, int t, const Box& box) {
       const auto& T = triV[std::size_t(t)];
-      if (!shares(T, v)) keepIfNear(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111}, x, r, out);
+      if (!shares(T, v) && box.contains(surfacePoint(x, v)))
+        keepIfNear(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111}, x, r, out, features, t);
     };
     for (int k = 0; k < 3; ++k) {
-      if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j);
-      if (pointOwner[B[std::size_t(k)]] == j) vt(B[std::size_t(k)], i);
+      if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j, bb);
+      if (pointOwner[B[std::size_t(k)]] == j) vt(B[std::size_t(k)], i, ba);
     }
     for (int a = 0; a < 3; ++a) {
       const std::uint32_t ea = triE[std::size_t(i)][std::size_t(a)];
       if (edgeOwner[ea] != i) continue;
       const std::uint32_t a0 = A[std::size_t((a + 1) % 3)], a1 = A[std::size_t((a + 2) % 3)];
+      Box sa;
+      sa.add(surfacePoint(x, a0));
+      sa.add(surfacePoint(x, a1));
+      sa.inflate(r);
+      if (!sa.overlaps(bb)) continue;
       for (int b = 0; b < 3; ++b) {
         const std::uint32_t eb = triE[std::size_t(j)][std::size_t(b)];
         if (edgeOwner[eb] != j) continue;
         const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
         if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
-        keepIfNear(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111}, x, r, out);
+        Box sb;
+        sb.add(surfacePoint(x, b0));
+        sb.add(surfacePoint(x, b1));
+        if (!sa.overlaps(sb)) continue;
+        keepIfNear(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111}, x, r, out, features);
       }
     }
   }
 
-  void meshTrianglePair(int k, int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
+  void meshTrianglePair(int k, int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features) const {
     const double r = triMargin[std::size_t(i)] + obstacleMargin[std::size_t(k)];
     const MeshObstacle& m = meshes[std::size_t(k)];
     const auto& A = triV[std::size_t(i)];
     const auto& T = m.triangles[std::size_t(j)];
-    auto keep = [&](const Pair& p) { keepIfNear(p, x, r, out); };
+    auto keep = [&](const Pair& p, int t) { keepIfNear(p, x, r, out, features, t); };
     for (int c = 0; c < 3; ++c) {
       if (pointOwner[A[std::size_t(c)]] == i)
-        keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001});
+        keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001}, j);
       if (m.vertexOwner[std::size_t(T[std::size_t(c)])] == j)
-        keep(Pair{Kind::OV, k, {std::uint32_t(T[std::size_t(c)]), A[0], A[1], A[2]}, 0b1110});
+        keep(Pair{Kind::OV, k, {std::uint32_t(T[std::size_t(c)]), A[0], A[1], A[2]}, 0b1110}, i);
     }
     for (int a = 0; a < 3; ++a) {
       if (edgeOwner[triE[std::size_t(i)][std::size_t(a)]] != i) continue;
@@ -593,23 +829,24 @@ struct Contact::Impl {
       for (int b = 0; b < 3; ++b) {
         const int eb = m.triEdges[std::size_t(j)][std::size_t(b)];
         if (m.edgeOwner[std::size_t(eb)] != j) continue;
-        keep(Pair{Kind::EO, k, {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]), std::uint32_t(m.edges[std::size_t(eb)][1])}, 0b0011});
+        keep(Pair{Kind::EO, k, {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]), std::uint32_t(m.edges[std::size_t(eb)][1])}, 0b0011}, -1);
       }
     }
   }
 
-  /// All pairs within their margins at x (prepare() first).
-  void collect(std::span<const double> x, std::vector<Pair>& out) {
+  /// All pairs within their margins at x (prepare() first): with `features`, the penalty's
+  /// (closest features, each once), else every pair of primitives (the displacement bound's).
+  void collect(std::span<const double> x, std::vector<Pair>& out, bool features) {
     out.clear();
     if (P.selfContact)
-      bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out); });
+      bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out, features); });
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) {
         MeshObstacle& m = meshes[k];
         obstacleBoxes(int(k), m.boxes);
         if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
         else m.bvh.refit(m.boxes);
-        bvh.crossPairs(m.bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out); });
+        bvh.crossPairs(m.bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
       } else if (O[k].shape == Obstacle::Shape::Sphere || O[k].shape == Obstacle::Shape::Capsule) {
         // Each triangle's closest feature (its interior, an edge, a corner), each feature once.
         std::set<std::array<std::uint32_t, 3>> seen;
@@ -694,6 +931,46 @@ struct Contact::Impl {
     return {std::uint32_t(p.kind), id[0], id[1], id[2], id[3]};
   }
 
+  /// The self pair of an exclusion key.
+  static Pair fromKey(const std::array<std::uint32_t, 5>& key) {
+    Pair p{Kind(key[0]), -1, {key[1], key[2], key[3], key[4]}, 0};
+    int used = 0;
+    for (int i = 0; i < 4; ++i)
+      if (p.id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) ++used;
+    if (p.kind == Kind::VT) p.shape = std::uint8_t(used - 1);
+    p.surface = std::uint8_t((1 << used) - 1);
+    return p;
+  }
+  /// Calls f(a, b) for every pair of a point of one primitive and a point of the other.
+  template <class F>
+  static void crossPoints(const Pair& p, F&& f) {
+    const int split = p.kind == Kind::EE ? 2 : 1, count = p.points();
+    for (int i = 0; i < split; ++i)
+      for (int j = split; j < count; ++j)
+        f(std::minmax(p.id[std::size_t(i)], p.id[std::size_t(j)]));
+  }
+  /// Whether a self pair is within d in the rest configuration (neighbours in the material).
+  bool restNeighbours(const Pair& p) const {
+    std::array<V3, 4> rest;
+    rest.fill(V3::Zero());
+    for (int i = 0; i < p.points(); ++i) {
+      const Vec3 r = topo.restPosition(PointId(p.id[std::size_t(i)]));
+      rest[std::size_t(i)] = V3(r[0], r[1], r[2]);
+    }
+    return evaluatePoints(p, rest).s <= P.thickness;
+  }
+  bool isReleased(const Pair& p) const {
+    if (released.empty()) return false;
+    bool all = true;
+    crossPoints(p, [&](const std::pair<std::uint32_t, std::uint32_t>& ab) { all = all && released.count(ab); });
+    return all;
+  }
+  /// A self pair at distance s0 that has no penalty, no friction and no bound: neighbours in the
+  /// material within d, not yet separated beyond d.
+  bool excludedPair(const Pair& p) const {
+    return p.obstacle < 0 && p.s0 <= P.thickness && restNeighbours(p) && !isReleased(p);
+  }
+
   /// Distance of a triangle to a plane, a sphere or a capsule (boxes and meshes meet the
   /// surface through their triangles): 0 if they intersect, -1 if a corner is inside, infinity if
   /// it is surely farther than `within`.
@@ -725,25 +1002,35 @@ struct Contact::Impl {
   /// near an analytic obstacle) is checked by additive CCD along the proposed displacements;
   /// the points of a pair that cannot be proven to stay apart are bounded by gamma times the
   /// pair's distance at the step's start (then it provably does: gamma < 1/2), which shortens
-  /// their displacements, and the checks run again until nothing changes. Returns the scale of
-  /// each point's displacement (1: unchanged) in `scale`.
-  /// One pass over a set of near pairs: starts from the given scales (and `bound`), returns
-  /// whether it shortened any displacement. With `plain`, every pair is bounded without CCD.
+  /// their displacements, and the checks run again until nothing changes.
+  ///
+  /// A point's displacement is anchor + scale (disp - anchor): the anchor is zero, or the
+  /// motion over the step of a moving obstacle that the point cannot be proven to clear. Then
+  /// the point is bounded in the obstacle's frame: it goes with the obstacle, give or take gamma
+  /// times the distance, so that a kinematic obstacle pushes it however slowly the penalty
+  /// would; the points of a self pair that holds such a point take its anchor too.
+  ///
+  /// One pass over a set of near pairs: starts from the given scales and anchors (and
+  /// `bound`), returns whether it changed any displacement. With `plain`, every pair is bounded
+  /// without CCD.
   bool limit(std::span<const double> x, const std::vector<Pair>& near, const std::vector<V3>& disp,
              std::span<const char> locked, double gamma, std::vector<double>& scale, bool plain) {
     bool any = false;
+    reframedAny = false;
     struct TriangleItem {
       int k;
       std::size_t t;
       double D;
     };
+    auto at = [&](std::size_t p) -> V3 { return anchor[p] + scale[p] * (disp[p] - anchor[p]); };
     std::vector<TriangleItem> items;
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) continue;
+      const V3& m = move[k];
       for (std::size_t t = 0; t < tris.size(); ++t) {
         const auto& T = triV[t];
-        const double reach = std::max({scale[T[0]] * disp[T[0]].norm(), scale[T[1]] * disp[T[1]].norm(),
-                                       scale[T[2]] * disp[T[2]].norm()});
+        // How far the triangle's points travel relative to the obstacle.
+        const double reach = std::max({(at(T[0]) - m).norm(), (at(T[1]) - m).norm(), (at(T[2]) - m).norm()});
         if (!(reach > 0)) continue;
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
         const double D = triangleObstacleDistance(int(k), tv, reach);
@@ -757,25 +1044,43 @@ struct Contact::Impl {
       if (p.kind == Kind::PO || p.kind == Kind::FO || !(p.s0 > 0)) continue;  // (at zero distance: as above)
       // Excluded pairs (new after a cut) have no penalty but are kept apart like the others; at
       // zero distance (the lips themselves) they cannot be, and are left to separate.
-      if (p.obstacle < 0 && !excluded.empty() && excluded.count(exclusionKey(p))) continue;
+      if (excludedPair(p)) continue;
       pairsToCheck.push_back(&p);
     }
     std::vector<V3> dx(disp.size());
-    for (std::size_t p = 0; p < disp.size(); ++p) dx[p] = scale[p] * disp[p];
-    // Points shortened in the last round (the pairs that hold one are checked again).
+    for (std::size_t p = 0; p < disp.size(); ++p) dx[p] = at(p);
+    // Points changed in the last round (the pairs that hold one are checked again).
     std::vector<char> moved(disp.size(), 1), movedNext(disp.size(), 0);
     auto touched = [&](const Pair& p) {
       for (int i = 0; i < 4; ++i)
         if (((p.surface >> i) & 1) && moved[p.id[std::size_t(i)]]) return true;
       return false;
     };
-    // Every point of the pair already moves less than gamma times its distance: it stays apart.
+    // The frame a pair is bounded in: its obstacle's motion, else its points' common anchor.
+    auto frameOf = [&](const Pair& p, bool& common) {
+      common = true;
+      if (p.obstacle >= 0) return move[std::size_t(p.obstacle)];
+      V3 a = V3::Zero();
+      bool first = true;
+      for (int i = 0; i < 4; ++i) {
+        if (!((p.surface >> i) & 1)) continue;
+        const V3& b = anchor[p.id[std::size_t(i)]];
+        if (first) a = b;
+        else if (b != a) common = false;
+        first = false;
+      }
+      return a;
+    };
+    // Every point of the pair already moves less than gamma times its distance in the pair's
+    // frame: it stays apart.
     auto withinBound = [&](const Pair& p) {
+      bool common = true;
+      const V3 f = frameOf(p, common);
+      if (!common) return false;
       const double b = gamma * p.s0;
       for (int i = 0; i < 4; ++i)
-        if (((p.surface >> i) & 1) && dx[p.id[std::size_t(i)]].squaredNorm() > b * b) return false;
-      return p.kind != Kind::VO && p.kind != Kind::OV && p.kind != Kind::EO ? true
-                                                                              : move[std::size_t(p.obstacle)].squaredNorm() == 0.0;
+        if (((p.surface >> i) & 1) && (dx[p.id[std::size_t(i)]] - f).squaredNorm() > b * b) return false;
+      return true;
     };
     // A pair's bound on its free points: gamma times its distance, less what its prescribed
     // points (a grasp) travel, which cannot be shortened.
@@ -787,48 +1092,72 @@ struct Contact::Impl {
       }
       return gamma * std::max(p.s0 - lockedMove, 0.0);
     };
-    auto restrict = [&](std::uint32_t p, double b, bool& changed) {
+    // Bounds point p by b in the frame f (a point keeps the first moving frame it is given).
+    auto restrict = [&](std::uint32_t p, double b, const V3& f, bool& changed) {
       if (p < locked.size() && locked[p]) return;  // prescribed: it pushes, like a moving obstacle
-      if (!(b < bound[p])) return;
-      bound[p] = b;
-      const double l = disp[p].norm();
-      if (l * scale[p] > b) {
-        scale[p] = b / l;
-        dx[p] = scale[p] * disp[p];
+      bool reframed = false;
+      if (f != anchor[p] && anchor[p] == V3::Zero()) {
+        anchor[p] = f;
+        reframed = true;
+        reframedAny = true;
+      }
+      if (!(b < bound[p]) && !reframed) return;
+      bound[p] = std::min(bound[p], b);
+      const double l = (disp[p] - anchor[p]).norm();
+      const double s = l > bound[p] ? bound[p] / l : 1.0;
+      if (reframed || s < scale[p]) {
+        scale[p] = reframed ? s : std::min(scale[p], s);
+        dx[p] = at(p);
         changed = true;
         movedNext[p] = 1;
       }
     };
-    for (int round = 0; round < 8; ++round) {
+    // (The plain bound is repeated until it holds: a point that takes an obstacle's frame
+    // changes what its earlier pairs see.)
+    for (int round = 0; round < (plain ? 1000 : 8); ++round) {
       bool changed = false;
       for (const Pair* p : pairsToCheck) {
         if (round > 0 && !touched(*p)) continue;  // nothing of it changed since its last check
-        if (!plain && (withinBound(*p) || pairStaysApart(*p, x, dx))) continue;
+        const double safe = plain ? 0.0 : withinBound(*p) ? 1.0 : pairSafeFraction(*p, x, dx);
+        if (safe >= 1.0) continue;
+        bool common = true;
+        const V3 f = frameOf(*p, common);
+        V3 frame = f;
+        if (!common)  // a self pair with a point that goes with an obstacle: all its points do
+          for (int i = 0; i < 4; ++i)
+            if (((p->surface >> i) & 1) && anchor[p->id[std::size_t(i)]] != V3::Zero()) frame = anchor[p->id[std::size_t(i)]];
+        // Each point keeps the part of its motion the pair provably has (or gamma times the
+        // distance, which suffices alone).
+        const double b = pairBound(*p);
         for (int i = 0; i < 4; ++i)
-          if ((p->surface >> i) & 1) restrict(p->id[std::size_t(i)], pairBound(*p), changed);
+          if ((p->surface >> i) & 1) {
+            const std::uint32_t q = p->id[std::size_t(i)];
+            restrict(q, std::max(b, safe * (dx[q] - frame).norm()), frame, changed);
+          }
       }
       for (const TriangleItem& it : items) {
         const auto& T = triV[it.t];
         if (round > 0 && !moved[T[0]] && !moved[T[1]] && !moved[T[2]]) continue;
+        const V3& m = move[std::size_t(it.k)];
         if (!plain) {
           const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-          const V3& m = move[std::size_t(it.k)];
           const double lp = std::max({(dx[T[0]] - m).norm(), (dx[T[1]] - m).norm(), (dx[T[2]] - m).norm()});
-          const bool apart = staysApart(
+          const double safe = safeFraction(
               [&](double t) {
                 // Relative to the obstacle, which moves by `move` over the step.
-                const V3& m = move[std::size_t(it.k)];
                 const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m), c0[2] + t * (dx[T[2]] - m)};
                 const double D = triangleObstacleDistance(it.k, c, kInf);
                 return D < 0 ? 0.0 : D;
               },
               lp);
-          if (apart) continue;
+          if (safe >= 1.0) continue;
+          for (std::uint32_t p : T) restrict(p, std::max(gamma * it.D, safe * (dx[p] - m).norm()), m, changed);
+          continue;
         }
-        for (std::uint32_t p : T) restrict(p, gamma * it.D, changed);
+        for (std::uint32_t p : T) restrict(p, gamma * it.D, m, changed);
       }
       any = any || changed;
-      if (!changed || plain) break;
+      if (!changed) break;
       std::swap(moved, movedNext);
       std::fill(movedNext.begin(), movedNext.end(), 0);
     }
@@ -924,8 +1253,18 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
     const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
     I.obstacleMargin[k] = I.shift + (V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])).norm();
   }
+  // The pairs are found with the obstacles where they start the step (which side of them each
+  // point is on), then measured where they end it (the penalty's pose), on that side.
+  const std::vector<V3> endOffset = I.offset;
+  I.offset = I.startOffset;
   I.prepare(x);
-  I.collect(x, I.pairs);
+  I.collect(x, I.pairs, true);
+  I.offset = endOffset;
+  for (Pair& p : I.pairs)
+    if (p.obstacle >= 0 && I.move[std::size_t(p.obstacle)] != V3::Zero()) {
+      const Eval e = I.evaluate(p, x, true);
+      p.s0 = e.s;
+    }
   I.lastX.assign(x.begin(), x.end());
   I.evalValid = false;
 
@@ -934,29 +1273,22 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   // zero, the small triangles a repair leaves next to a cut) has no penalty, no friction and no
   // bound (the lips of a cut may slide along each other) until its distance first exceeds d;
   // then it is a pair like any other.
+  // The pairs excluded at the last step that are now farther apart than d release their points
+  // for good (whichever features the search pairs them by now: a point sliding along a lip
+  // meets a corner, then an edge, then a triangle).
+  for (const auto& key : I.excluded) {
+    const Pair p = Impl::fromKey(key);
+    bool alive = true;
+    for (int i = 0; i < p.points(); ++i) alive = alive && I.topo.isPointAlive(PointId(p.id[std::size_t(i)]));
+    if (alive && I.evaluate(p, x).s > P.thickness)
+      Impl::crossPoints(p, [&](const std::pair<std::uint32_t, std::uint32_t>& ab) { I.released.insert(ab); });
+  }
   std::set<std::array<std::uint32_t, 5>> stillClose;
   for (Pair& p : I.pairs) {
-    if (p.obstacle >= 0 || p.s0 > P.thickness) continue;
-    const auto key = Impl::exclusionKey(p);
-    if (I.excluded.count(key)) {
-      p.excluded = true;
-      stillClose.insert(key);
-      continue;
-    }
-    std::array<V3, 4> rest;
-    for (int i = 0; i < 4; ++i) {
-      const Vec3 r = I.topo.restPosition(PointId(p.id[std::size_t(i)]));
-      rest[std::size_t(i)] = V3(r[0], r[1], r[2]);
-    }
-    if (I.evaluatePoints(p, rest).s <= P.thickness && !I.released.count(key)) {
-      p.excluded = true;
-      stillClose.insert(key);
-    }
+    if (!I.excludedPair(p)) continue;
+    p.excluded = true;
+    stillClose.insert(Impl::exclusionKey(p));
   }
-  // An excluded pair farther than d (or gone) ends its exclusion; neighbours in the material are
-  // released for good.
-  for (const auto& key : I.excluded)
-    if (!stillClose.count(key)) I.released.insert(key);
   I.excluded = std::move(stillClose);
 
   // Frozen normal forces and friction coefficients.
@@ -965,7 +1297,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
     p.lambda = law.force(p.s0);
     p.mu = p.obstacle < 0 ? P.friction : obstacles_[std::size_t(p.obstacle)].friction;
     if (p.lambda > 0 && p.mu > 0 && !p.excluded)
-      frictionForce(p, P.stickVelocity, I.relativeVelocity(p, v), &p.frictionJacobian);
+      frictionForce(p, P.stickVelocity, I.relativeVelocity(p, v), &p);
   }
 }
 
@@ -982,6 +1314,8 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
       disp[p] = V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
   std::vector<double> scale(n, 1.0);
   I.bound.assign(n, kInf);
+  I.anchor.assign(n, V3::Zero());
+  auto dxOf = [&](std::size_t p) -> V3 { return I.anchor[p] + scale[p] * (disp[p] - I.anchor[p]); };
   // No point travels more than two mean rest edges in a step (a solve that proposes more is far
   // from the motion it linearised; the step splits): this also keeps the search below local.
   const double travel = 2.0 * I.meanEdge;
@@ -1011,27 +1345,31 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     if (!last)
       for (std::size_t p = 0; p < n; ++p)
         if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) {
-          mean += scale[p] * disp[p];
+          mean += dxOf(p);
           ++live;
         }
     if (live > 0) mean /= live;
     I.pointMargin.assign(n, 0.0);
-    for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (scale[p] * disp[p] - mean).norm();
+    for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (dxOf(p) - mean).norm();
     I.shift = mean.norm();
     I.obstacleMargin.assign(obstacles_.size(), I.shift);
     for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] += I.move[k].norm();
     I.prepare(x0);
-    std::vector<Pair> near;
-    I.collect(x0, near);
+    std::vector<Pair>& near = I.nearPairs;
+    I.collect(x0, near, false);
     if (!I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale, last)) break;
+    // A point that took an obstacle's frame in the last resort may move farther than the margins
+    // it was searched with: search again (a point takes a frame once, so this ends).
+    if (last && I.reframedAny) --pass;
   }
   I.offset = endOffset;
   std::size_t clamped = 0;
   for (std::size_t p = 0; p < n; ++p) {
-    if (!(scale[p] < 1.0)) continue;
+    const V3 dx = dxOf(p);
+    if (dx == disp[p]) continue;
     for (int c = 0; c < 3; ++c) {
-      x1[3 * p + std::size_t(c)] = x0[3 * p + std::size_t(c)] + scale[p] * disp[p][c];
-      v1[3 * p + std::size_t(c)] = scale[p] * disp[p][c] / dt;
+      x1[3 * p + std::size_t(c)] = x0[3 * p + std::size_t(c)] + dx[c];
+      v1[3 * p + std::size_t(c)] = dx[c] / dt;
     }
     ++clamped;
   }
@@ -1057,7 +1395,7 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v, std
           for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += mag * e.w[std::size_t(i)] * e.n[c];
     }
     if (p.lambda > 0 && p.mu > 0) {
-      const V3 ff = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v), nullptr);
+      const V3 ff = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v));
       for (int i = 0; i < 4; ++i)
         if ((p.surface >> i) & 1)
           for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * ff[c];
@@ -1068,33 +1406,27 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v, std
 void Contact::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df, double kFactor,
                         double bFactor) const {
   Impl& I = *impl_;
-  const Law law{parameters_.thickness, parameters_.stiffness};
   I.evaluateAt(x);
-  for (const std::uint32_t pi : I.busy) {
-    const Pair& p = I.pairs[pi];
-    if (kFactor != 0.0) {
-      const Eval& e = I.evals[pi];
-      if (I.within[pi]) {
-        const double h = law.curvature(e.s);
-        double proj = 0.0;  // n . (sum w_i dx_i)
-        for (int i = 0; i < 4; ++i)
-          if ((p.surface >> i) & 1) proj += e.w[std::size_t(i)] * e.n.dot(I.surfacePoint(dx, p.id[std::size_t(i)]));
-        for (int i = 0; i < 4; ++i)
-          if ((p.surface >> i) & 1)
-            for (int c = 0; c < 3; ++c)
-              df[3 * p.id[std::size_t(i)] + std::size_t(c)] -= kFactor * h * proj * e.w[std::size_t(i)] * e.n[c];
-      }
-    }
-    if (bFactor != 0.0 && p.lambda > 0 && p.mu > 0) {
-      V3 du = V3::Zero();
+  auto at = [&](std::uint32_t p) { return Eigen::Map<const V3>(dx.data() + 3 * std::size_t(p)); };
+  auto to = [&](std::uint32_t p) { return Eigen::Map<V3>(df.data() + 3 * std::size_t(p)); };
+  if (kFactor != 0.0)
+    for (const Impl::Penalty& c : I.penalties) {
+      V3 u = V3::Zero();
       for (int i = 0; i < 4; ++i)
-        if ((p.surface >> i) & 1) du += p.w0[std::size_t(i)] * I.surfacePoint(dx, p.id[std::size_t(i)]);
-      const V3 g = bFactor * (p.frictionJacobian * du);
+        if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
+      const V3 g = (kFactor * c.h * c.n.dot(u)) * c.n;
       for (int i = 0; i < 4; ++i)
-        if ((p.surface >> i) & 1)
-          for (int c = 0; c < 3; ++c) df[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * g[c];
+        if ((c.surface >> i) & 1) to(c.id[std::size_t(i)]) -= c.w[std::size_t(i)] * g;
     }
-  }
+  if (bFactor != 0.0)
+    for (const Impl::Friction& c : I.frictions) {
+      V3 u = V3::Zero();
+      for (int i = 0; i < 4; ++i)
+        if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
+      const V3 g = bFactor * (c.fa * (u - c.n0 * c.n0.dot(u)) + c.fb * c.ft * c.ft.dot(u));
+      for (int i = 0; i < 4; ++i)
+        if ((c.surface >> i) & 1) to(c.id[std::size_t(i)]) += c.w[std::size_t(i)] * g;
+    }
 }
 
 double Contact::potentialEnergy(std::span<const double> x) const {
@@ -1154,7 +1486,7 @@ void Contact::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m, 
   const Impl& I = *impl_;
   for (const Pair& p : I.pairs) {
     if (p.excluded || !(p.lambda > 0 && p.mu > 0)) continue;
-    addPairBlocks(p, p.w0, bFactor * p.frictionJacobian, m);
+    addPairBlocks(p, p.w0, bFactor * p.frictionMatrix(), m);
   }
 }
 
@@ -1178,7 +1510,7 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
       ++m.active;
       fn = law.force(e.s);
     }
-    if (p.lambda > 0 && p.mu > 0) ft = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v), nullptr).norm();
+    if (p.lambda > 0 && p.mu > 0) ft = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v)).norm();
     if (p.obstacle < 0) {
       m.selfNormal += fn;
       m.selfFriction += ft;
@@ -1201,7 +1533,7 @@ std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, dou
   I.surfaceBoxes(x, I.boxes);
   I.bvh.refit(I.boxes);
   std::vector<Pair> found;
-  I.collect(x, found);
+  I.collect(x, found, false);
   I.pairs.clear();
   I.evalValid = false;
   std::sort(found.begin(), found.end(), [](const Pair& a, const Pair& b) { return a.s0 < b.s0; });
@@ -1291,21 +1623,32 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
 
 void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
   Impl& I = *impl_;
+  // Unused ids (a pair of a point and an edge or a corner) stay unused.
+  bool gone = false;
   auto map = [&](std::uint32_t p) {
-    return p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
+    if (p == std::uint32_t(kInvalidIndex)) return p;
+    const std::uint32_t q = p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
+    if (q == std::uint32_t(kInvalidIndex)) gone = true;
+    return q;
   };
   // Pairs by their points: renumbered, and dropped when a point is gone.
   auto remap = [&](std::set<std::array<std::uint32_t, 5>>& keys) {
     std::set<std::array<std::uint32_t, 5>> out;
     for (const auto& key : keys) {
+      gone = false;
       Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
-      if (std::find(p.id.begin(), p.id.end(), std::uint32_t(kInvalidIndex)) == p.id.end())
-        out.insert(Impl::exclusionKey(p));
+      if (!gone) out.insert(Impl::exclusionKey(p));
     }
     keys = std::move(out);
   };
   remap(I.excluded);
-  remap(I.released);
+  std::set<std::pair<std::uint32_t, std::uint32_t>> released;
+  for (const auto& [a, b] : I.released) {
+    gone = false;
+    const std::uint32_t na = map(a), nb = map(b);
+    if (!gone) released.insert(std::minmax(na, nb));
+  }
+  I.released = std::move(released);
 }
 
 void Contact::onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) {
@@ -1352,9 +1695,9 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
   std::vector<Pair> brute;
   for (std::size_t i = 0; i < I.tris.size(); ++i)
     for (std::size_t j = i + 1; j < I.tris.size(); ++j)
-      if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute);
+      if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute, true);
   std::vector<Pair> fast;
-  I.bvh.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast); });
+  I.bvh.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast, true); });
   const auto a = keys(brute), b = keys(fast);
   if (a != b || brute.size() != fast.size()) {
     std::ostringstream s;

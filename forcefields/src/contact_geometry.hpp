@@ -166,6 +166,9 @@ struct Box {
            lo.z() <= b.hi.z() && b.lo.z() <= hi.z();
   }
   V3 center() const { return 0.5 * (lo + hi); }
+  bool contains(const V3& p) const {
+    return lo.x() <= p.x() && p.x() <= hi.x() && lo.y() <= p.y() && p.y() <= hi.y() && lo.z() <= p.z() && p.z() <= hi.z();
+  }
   bool contains(const Box& b) const {
     return (lo.array() <= b.lo.array()).all() && (hi.array() >= b.hi.array()).all();
   }
