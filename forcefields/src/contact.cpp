@@ -178,6 +178,7 @@ struct Contact::Impl {
   // ---- the step's pairs ----
   std::vector<Pair> pairs;
   std::vector<Pair> nearPairs;  // the displacement bound's (kept to reuse its storage)
+  std::vector<V3> sweptMotion;  // the displacements it searched with
   // Margins: a triangle's is the largest of its corners'; a pair of triangles is examined when
   // their boxes, each inflated by its margin, overlap, and a primitive pair is kept within the
   // sum of the margins (analytic obstacles: within the point's margin). At the step's start a
@@ -765,20 +766,86 @@ struct Contact::Impl {
 
   /// Every self pair of triangles i, j (as the BVH or the brute force gives them): the VT and EE
   /// pairs that the two triangles own, within r at x.
-  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features) const {
-    const double r = triMargin[std::size_t(i)] + triMargin[std::size_t(j)];
+  // ---- the displacement bound's search ----
+  /// The points' displacements over the step (null: the search by margins). Then a pair is
+  /// kept when its distance is less than how far its points move relative to each other
+  /// (reachOf), and boxes are swept along the displacements.
+  const std::vector<V3>* sweep = nullptr;
+  V3 motionOf(const Pair& p, int i) const {
+    return (p.surface >> i) & 1 ? (*sweep)[p.id[std::size_t(i)]] : move[std::size_t(p.obstacle)];
+  }
+  /// How much the distance of a pair can change over the step (as pairSafeFraction bounds it).
+  double reachOf(const Pair& p) const {
+    const int count = p.points(), split = (p.kind == Kind::EE || p.kind == Kind::EO) ? 2 : 1;
+    V3 mean = V3::Zero();
+    for (int i = 0; i < count; ++i) mean += motionOf(p, i) / double(count);
+    double a = 0, b = 0;
+    for (int i = 0; i < count; ++i) (i < split ? a : b) = std::max(i < split ? a : b, (motionOf(p, i) - mean).norm());
+    return a + b;
+  }
+  /// The box a point sweeps.
+  Box sweptPoint(std::span<const double> x, std::uint32_t v) const {
+    Box b;
+    const V3 q = surfacePoint(x, v);
+    b.add(q);
+    b.add(q + (*sweep)[v]);
+    return b;
+  }
+  /// The triangles' swept boxes (the BVH's) for the displacements dx.
+  void prepareSwept(std::span<const double> x, const std::vector<V3>& dx) {
+    const bool rebuild = !bvhBuilt;
+    bvhBuilt = true;
+    tightBoxes(x, tight);
+    boxes.resize(tris.size());
+    const double eps = 1e-9 * std::max(meanEdge, 1e-300);
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      Box b = tight.tri[i];
+      for (int k = 0; k < 3; ++k) b.add(surfacePoint(x, triV[i][std::size_t(k)]) + dx[triV[i][std::size_t(k)]]);
+      b.inflate(eps);
+      boxes[i] = b;
+    }
+    if (rebuild || bvh.size() != boxes.size()) bvh.build(boxes);
+    else bvh.refit(boxes);
+  }
+
+  /// The boxes of the triangles and of the edges at x (not grown): cheap tests before the
+  /// closest points.
+  struct Tight {
+    std::vector<Box> tri, edge;  // by index in tris, by edge id
+  };
+  void tightBoxes(std::span<const double> x, Tight& out) const {
+    out.tri.resize(tris.size());
+    out.edge.resize(edgeOwner.size());
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      const auto& T = triV[i];
+      const V3 a = surfacePoint(x, T[0]), b = surfacePoint(x, T[1]), c = surfacePoint(x, T[2]);
+      Box& t = out.tri[i];
+      t.lo = a.cwiseMin(b).cwiseMin(c);
+      t.hi = a.cwiseMax(b).cwiseMax(c);
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t e = triE[i][std::size_t(k)];
+        if (edgeOwner[e] != std::int32_t(i)) continue;
+        const V3 p = surfacePoint(x, T[std::size_t((k + 1) % 3)]), q = surfacePoint(x, T[std::size_t((k + 2) % 3)]);
+        out.edge[e].lo = p.cwiseMin(q);
+        out.edge[e].hi = p.cwiseMax(q);
+      }
+    }
+  }
+  Tight tight;  // at the x of the last prepare()
+
+  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features,
+                        const Tight& boxesAtX) const {
     const auto& A = triV[std::size_t(i)];
     const auto& B = triV[std::size_t(j)];
-    // The triangles' own boxes, grown by r: a primitive outside the other's cannot be within r
-    // (a cheap test before the closest points).
-    Box ba, bb;
-    for (int k = 0; k < 3; ++k) {
-      ba.add(surfacePoint(x, A[std::size_t(k)]));
-      bb.add(surfacePoint(x, B[std::size_t(k)]));
+    if (sweep) {
+      sweptTrianglePair(i, j, x, out);
+      return;
     }
+    const double r = triMargin[std::size_t(i)] + triMargin[std::size_t(j)];
+    // The triangles' own boxes, grown by r: a primitive outside the other's cannot be within r.
+    Box ba = boxesAtX.tri[std::size_t(i)], bb = boxesAtX.tri[std::size_t(j)];
     ba.inflate(r);
     bb.inflate(r);
-    if (!ba.overlaps(bb)) return;
     auto vt = [&](std::uint32_t v, int t, const Box& box) {
       const auto& T = triV[std::size_t(t)];
       if (!shares(T, v) && box.contains(surfacePoint(x, v)))
@@ -792,9 +859,7 @@ struct Contact::Impl {
       const std::uint32_t ea = triE[std::size_t(i)][std::size_t(a)];
       if (edgeOwner[ea] != i) continue;
       const std::uint32_t a0 = A[std::size_t((a + 1) % 3)], a1 = A[std::size_t((a + 2) % 3)];
-      Box sa;
-      sa.add(surfacePoint(x, a0));
-      sa.add(surfacePoint(x, a1));
+      Box sa = boxesAtX.edge[ea];
       sa.inflate(r);
       if (!sa.overlaps(bb)) continue;
       for (int b = 0; b < 3; ++b) {
@@ -802,11 +867,42 @@ struct Contact::Impl {
         if (edgeOwner[eb] != j) continue;
         const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
         if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
-        Box sb;
-        sb.add(surfacePoint(x, b0));
-        sb.add(surfacePoint(x, b1));
-        if (!sa.overlaps(sb)) continue;
+        if (!sa.overlaps(boxesAtX.edge[eb])) continue;
         keepIfNear(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111}, x, r, out, features);
+      }
+    }
+  }
+
+  /// The displacement bound's pairs of two triangles whose swept boxes overlap: every
+  /// point-triangle and edge-edge pair whose points' swept boxes overlap and whose distance
+  /// is less than its reach.
+  void sweptTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
+    const auto& A = triV[std::size_t(i)];
+    const auto& B = triV[std::size_t(j)];
+    const Box& ba = boxes[std::size_t(i)];
+    const Box& bb = boxes[std::size_t(j)];
+    auto keep = [&](const Pair& p) { keepIfNear(p, x, reachOf(p), out); };
+    auto vt = [&](std::uint32_t v, int t, const Box& box) {
+      const auto& T = triV[std::size_t(t)];
+      if (!shares(T, v) && box.overlaps(sweptPoint(x, v))) keep(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111});
+    };
+    for (int k = 0; k < 3; ++k) {
+      if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j, bb);
+      if (pointOwner[B[std::size_t(k)]] == j) vt(B[std::size_t(k)], i, ba);
+    }
+    for (int a = 0; a < 3; ++a) {
+      if (edgeOwner[triE[std::size_t(i)][std::size_t(a)]] != i) continue;
+      const std::uint32_t a0 = A[std::size_t((a + 1) % 3)], a1 = A[std::size_t((a + 2) % 3)];
+      Box sa = sweptPoint(x, a0);
+      sa.add(sweptPoint(x, a1));
+      if (!sa.overlaps(bb)) continue;
+      for (int b = 0; b < 3; ++b) {
+        if (edgeOwner[triE[std::size_t(j)][std::size_t(b)]] != j) continue;
+        const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
+        if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
+        Box sb = sweptPoint(x, b0);
+        sb.add(sweptPoint(x, b1));
+        if (sa.overlaps(sb)) keep(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111});
       }
     }
   }
@@ -816,7 +912,7 @@ struct Contact::Impl {
     const MeshObstacle& m = meshes[std::size_t(k)];
     const auto& A = triV[std::size_t(i)];
     const auto& T = m.triangles[std::size_t(j)];
-    auto keep = [&](const Pair& p, int t) { keepIfNear(p, x, r, out, features, t); };
+    auto keep = [&](const Pair& p, int t) { keepIfNear(p, x, sweep ? reachOf(p) : r, out, features, t); };
     for (int c = 0; c < 3; ++c) {
       if (pointOwner[A[std::size_t(c)]] == i)
         keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001}, j);
@@ -839,7 +935,7 @@ struct Contact::Impl {
   void collect(std::span<const double> x, std::vector<Pair>& out, bool features) {
     out.clear();
     if (P.selfContact)
-      bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out, features); });
+      bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out, features, tight); });
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) {
         MeshObstacle& m = meshes[k];
@@ -912,6 +1008,7 @@ struct Contact::Impl {
     }
     const bool rebuild = !bvhBuilt;
     bvhBuilt = true;
+    tightBoxes(x, tight);
     surfaceBoxes(x, boxes);
     if (rebuild || bvh.size() != boxes.size()) bvh.build(boxes);
     else bvh.refit(boxes);
@@ -1243,11 +1340,11 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
       ++live;
     }
   if (live > 0) mean /= live;
-  I.pointMargin.assign(n, 0.75 * P.thickness);
+  I.pointMargin.assign(n, 0.5 * P.thickness);
   for (std::size_t p = 0; p < n && p < v.size() / 3; ++p)
     if (I.pointOwner.size() > p && I.pointOwner[p] >= 0)
       I.pointMargin[p] += 4 * (V3(v[3 * p], v[3 * p + 1], v[3 * p + 2]) - mean).norm() * dt;
-  I.shift = 0.25 * P.thickness + 4 * mean.norm() * dt;
+  I.shift = 0.5 * P.thickness + 4 * mean.norm() * dt;
   I.obstacleMargin.assign(obstacles_.size(), 0.0);
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
     const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
@@ -1352,11 +1449,19 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     I.pointMargin.assign(n, 0.0);
     for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (dxOf(p) - mean).norm();
     I.shift = mean.norm();
-    I.obstacleMargin.assign(obstacles_.size(), I.shift);
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] += I.move[k].norm();
-    I.prepare(x0);
+    // The search: boxes swept along the displacements (obstacle meshes grown by their motion),
+    // pairs within their reach.
+    std::vector<V3>& dx = I.sweptMotion;
+    dx.resize(n);
+    for (std::size_t p = 0; p < n; ++p) dx[p] = dxOf(p);
+    I.obstacleMargin.assign(obstacles_.size(), 0.0);
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge;
+    I.prepare(x0);  // (the triangle margins, for the analytic obstacles)
+    I.prepareSwept(x0, dx);
     std::vector<Pair>& near = I.nearPairs;
+    I.sweep = &dx;
     I.collect(x0, near, false);
+    I.sweep = nullptr;
     if (!I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale, last)) break;
     // A point that took an obstacle's frame in the last resort may move farther than the margins
     // it was searched with: search again (a point takes a frame once, so this ends).
@@ -1692,12 +1797,14 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
     }
     return out;
   };
+  Impl::Tight tight;
+  I.tightBoxes(I.lastX, tight);
   std::vector<Pair> brute;
   for (std::size_t i = 0; i < I.tris.size(); ++i)
     for (std::size_t j = i + 1; j < I.tris.size(); ++j)
-      if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute, true);
+      if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute, true, tight);
   std::vector<Pair> fast;
-  I.bvh.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast, true); });
+  I.bvh.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast, true, tight); });
   const auto a = keys(brute), b = keys(fast);
   if (a != b || brute.size() != fast.size()) {
     std::ostringstream s;
