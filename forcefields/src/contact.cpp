@@ -48,6 +48,10 @@ struct Pair {
   /// penalty's pairs are the closest features (each met once); the displacement bound checks
   /// whole triangles.
   std::uint8_t shape = 3;
+  /// The search's record (for the cache): VT, VO, OV: the triangle's index (in the surface or
+  /// the obstacle mesh); `margins`: the surface triangles whose margins the search added.
+  std::int32_t tri = -1;
+  std::array<std::int32_t, 2> margins{-1, -1};
   /// How many ids are in use.
   int points() const {
     switch (kind) {
@@ -179,6 +183,8 @@ struct Contact::Impl {
   std::vector<Pair> pairs;
   std::vector<Pair> nearPairs;  // the displacement bound's (kept to reuse its storage)
   std::vector<V3> sweptMotion;  // the displacements it searched with
+  std::vector<char> fastPoint;  // per point slot: moved too far for the cache
+  std::vector<double> moveLength;  // per point slot: its displacement's length
   // Margins: a triangle's is the largest of its corners'; a pair of triangles is examined when
   // their boxes, each inflated by its margin, overlap, and a primitive pair is kept within the
   // sum of the margins (analytic obstacles: within the point's margin). At the step's start a
@@ -848,8 +854,12 @@ struct Contact::Impl {
     bb.inflate(r);
     auto vt = [&](std::uint32_t v, int t, const Box& box) {
       const auto& T = triV[std::size_t(t)];
-      if (!shares(T, v) && box.contains(surfacePoint(x, v)))
-        keepIfNear(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111}, x, r, out, features, t);
+      if (!shares(T, v) && box.contains(surfacePoint(x, v))) {
+        Pair p{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111};
+        p.tri = t;
+        p.margins = {i, j};
+        keepIfNear(p, x, r, out, features, t);
+      }
     };
     for (int k = 0; k < 3; ++k) {
       if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j, bb);
@@ -868,7 +878,9 @@ struct Contact::Impl {
         const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
         if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
         if (!sa.overlaps(boxesAtX.edge[eb])) continue;
-        keepIfNear(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111}, x, r, out, features);
+        Pair p{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111};
+        p.margins = {i, j};
+        keepIfNear(p, x, r, out, features);
       }
     }
   }
@@ -912,7 +924,11 @@ struct Contact::Impl {
     const MeshObstacle& m = meshes[std::size_t(k)];
     const auto& A = triV[std::size_t(i)];
     const auto& T = m.triangles[std::size_t(j)];
-    auto keep = [&](const Pair& p, int t) { keepIfNear(p, x, sweep ? reachOf(p) : r, out, features, t); };
+    auto keep = [&](Pair p, int t) {
+      p.tri = t;
+      p.margins = {i, -1};
+      keepIfNear(p, x, sweep ? reachOf(p) : r, out, features, t);
+    };
     for (int c = 0; c < 3; ++c) {
       if (pointOwner[A[std::size_t(c)]] == i)
         keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001}, j);
@@ -934,15 +950,52 @@ struct Contact::Impl {
   /// (closest features, each once), else every pair of primitives (the displacement bound's).
   void collect(std::span<const double> x, std::vector<Pair>& out, bool features) {
     out.clear();
+    searchPairs(x, out, features);
+    analyticPairs(x, out);
+  }
+  /// The self and obstacle-mesh pairs (by the BVHs).
+  void searchPairs(std::span<const double> x, std::vector<Pair>& out, bool features) {
     if (P.selfContact)
       bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out, features, tight); });
     for (std::size_t k = 0; k < O.size(); ++k) {
+      if (!meshLike(k)) continue;
+      MeshObstacle& m = meshes[k];
+      obstacleBoxes(int(k), m.boxes);
+      if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
+      else m.bvh.refit(m.boxes);
+      bvh.crossPairs(m.bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
+    }
+  }
+  /// The displacement bound's pairs that hold a fast point (prepareSwept first): each triangle
+  /// with a fast corner against the triangles and obstacle triangles its swept box meets.
+  void searchAround(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
+    auto hasFast = [&](std::size_t t) { return fast[triV[t][0]] || fast[triV[t][1]] || fast[triV[t][2]]; };
+    for (std::size_t k = 0; k < O.size(); ++k) {
+      if (!meshLike(k)) continue;
+      MeshObstacle& m = meshes[k];
+      obstacleBoxes(int(k), m.boxes);
+      if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
+      else m.bvh.refit(m.boxes);
+    }
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+      if (!hasFast(i)) continue;
+      if (P.selfContact)
+        bvh.query(boxes[i], [&](int j) {
+          // Each pair of triangles once: from the lower index when both hold a fast point.
+          if (std::size_t(j) == i || (hasFast(std::size_t(j)) && std::size_t(j) < i)) return;
+          sweptTrianglePair(int(i), j, x, out);
+        });
+      for (std::size_t k = 0; k < O.size(); ++k)
+        if (meshLike(k))
+          meshes[k].bvh.query(boxes[i], [&](int j) { meshTrianglePair(int(k), int(i), j, x, out, false); });
+    }
+  }
+
+  /// The pairs with planes, spheres and capsules.
+  void analyticPairs(std::span<const double> x, std::vector<Pair>& out) {
+    for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) {
-        MeshObstacle& m = meshes[k];
-        obstacleBoxes(int(k), m.boxes);
-        if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
-        else m.bvh.refit(m.boxes);
-        bvh.crossPairs(m.bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
+        continue;
       } else if (O[k].shape == Obstacle::Shape::Sphere || O[k].shape == Obstacle::Shape::Capsule) {
         // Each triangle's closest feature (its interior, an edge, a corner), each feature once.
         std::set<std::array<std::uint32_t, 3>> seen;
@@ -992,6 +1045,102 @@ struct Contact::Impl {
     }
   }
 
+  // ---- the search's cache (a Verlet list) ----
+  // Every self and obstacle-mesh pair of primitives within cacheR at cacheX (each with its
+  // distance then in s0). A pair not in it was at least cacheR apart, and is still at least
+  // cacheR - 2 m apart (m: the farthest any point has moved since; an obstacle pair: cacheR -
+  // m - the obstacle's own motion), so while that exceeds what a search asks for, the cache
+  // holds every pair the search would find.
+  struct Cached {
+    Kind kind;
+    std::uint8_t surface;
+    std::int32_t obstacle, tri;
+    std::array<std::uint32_t, 4> id;
+    std::array<std::int32_t, 2> margins;
+    double s;  // the distance when the cache was built
+    Pair pair() const {
+      Pair p{kind, obstacle, id, surface};
+      p.tri = tri;
+      p.margins = margins;
+      return p;
+    }
+  };
+  std::vector<Cached> cache;
+  std::vector<double> cacheX;
+  std::vector<V3> cacheOffset;
+  std::uint64_t cacheRevision = 0;
+  double cacheR = 0.0;
+  bool cacheBuilt = false;
+  std::vector<double> sinceCache;  // per point slot: how far it moved since the cache's x
+  std::vector<double> obstacleSinceCache;
+  std::size_t cacheUses = 0, cacheBuilds = 0;
+
+  /// Whether the cache holds every self pair within rSelf and every pair with obstacle mesh k
+  /// within rObstacle[k] at x (the obstacles at `offset`); fills sinceCache.
+  bool cacheCovers(std::span<const double> x, double rSelf, const std::vector<double>& rObstacle) {
+    if (!(P.searchSlack > 0) || !cacheBuilt || cacheRevision != topo.revision() || cacheX.size() != x.size())
+      return false;
+    const std::size_t n = x.size() / 3;
+    sinceCache.assign(n, 0.0);
+    double m = 0.0;
+    for (std::size_t p = 0; p < n; ++p)
+      if (p < pointOwner.size() && pointOwner[p] >= 0) {
+        sinceCache[p] = (surfacePoint(x, std::uint32_t(p)) - surfacePoint(cacheX, std::uint32_t(p))).norm();
+        m = std::max(m, sinceCache[p]);
+      }
+    if (!(m < kInf)) return false;
+    if (P.selfContact && !(cacheR - 2 * m >= rSelf)) return false;
+    obstacleSinceCache.assign(O.size(), 0.0);
+    for (std::size_t k = 0; k < O.size(); ++k) {
+      if (!meshLike(k)) continue;
+      obstacleSinceCache[k] = (offset[k] - cacheOffset[k]).norm();
+      if (!(cacheR - m - obstacleSinceCache[k] >= rObstacle[k])) return false;
+    }
+    return true;
+  }
+  /// Searches every self and obstacle-mesh pair within r at x into the cache.
+  void buildCache(std::span<const double> x, double r) {
+    const std::vector<double> savedPoint = pointMargin, savedObstacle = obstacleMargin;
+    const double savedShift = shift;
+    pointMargin.assign(x.size() / 3, 0.5 * r);
+    obstacleMargin.assign(O.size(), 0.5 * r);
+    shift = 0.0;
+    prepare(x);
+    cache.clear();
+    std::vector<Pair>& found = nearPairs;
+    found.clear();
+    searchPairs(x, found, false);
+    cache.reserve(found.size());
+    for (const Pair& p : found) cache.push_back({p.kind, p.surface, p.obstacle, p.tri, p.id, p.margins, p.s0});
+    found.clear();
+    pointMargin = savedPoint;
+    obstacleMargin = savedObstacle;
+    shift = savedShift;
+    triangleMargins();
+    cacheX.assign(x.begin(), x.end());
+    cacheOffset = offset;
+    cacheRevision = topo.revision();
+    cacheR = r;
+    cacheBuilt = true;
+    ++cacheBuilds;
+  }
+  /// How far a cached pair's distance may have shrunk since the cache was built.
+  double cachedShrink(const Cached& c) const {
+    // (the cache holds whole primitives: four points each)
+    const int split = (c.kind == Kind::EE || c.kind == Kind::EO) ? 2 : 1;
+    double a = 0, b = 0;
+    for (int i = 0; i < 4; ++i) {
+      const double m = (c.surface >> i) & 1 ? sinceCache[c.id[std::size_t(i)]] : obstacleSinceCache[std::size_t(c.obstacle)];
+      (i < split ? a : b) = std::max(i < split ? a : b, m);
+    }
+    return a + b;
+  }
+  /// The search's margin for a cached pair (what selfTrianglePair or meshTrianglePair used).
+  double searchMargin(const Cached& c) const {
+    const double a = triMargin[std::size_t(c.margins[0])];
+    return c.obstacle < 0 ? a + triMargin[std::size_t(c.margins[1])] : a + obstacleMargin[std::size_t(c.obstacle)];
+  }
+
   /// Brings the tables up to date (a topology change rebuilds them).
   void updateTables() {
     if (!built || revision != topo.revision()) {
@@ -1001,11 +1150,14 @@ struct Contact::Impl {
   }
 
   /// Triangle margins from the point margins, then the boxes and the BVH at x.
-  void prepare(std::span<const double> x) {
+  void triangleMargins() {
     triMargin.resize(tris.size());
     for (std::size_t i = 0; i < tris.size(); ++i) {
       triMargin[i] = std::max({pointMargin[triV[i][0]], pointMargin[triV[i][1]], pointMargin[triV[i][2]]});
     }
+  }
+  void prepare(std::span<const double> x) {
+    triangleMargins();
     const bool rebuild = !bvhBuilt;
     bvhBuilt = true;
     tightBoxes(x, tight);
@@ -1313,6 +1465,8 @@ void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double 
 }
 
 const std::vector<double>& Contact::bounds() const { return impl_->bound; }
+std::size_t Contact::searches() const { return impl_->cacheBuilds; }
+std::size_t Contact::searchesReused() const { return impl_->cacheUses; }
 
 void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt) {
   Impl& I = *impl_;
@@ -1354,8 +1508,33 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   // point is on), then measured where they end it (the penalty's pose), on that side.
   const std::vector<V3> endOffset = I.offset;
   I.offset = I.startOffset;
-  I.prepare(x);
-  I.collect(x, I.pairs, true);
+  if (P.searchSlack > 0) {
+    // From the cache, searched again when the points or the obstacles have moved too far.
+    I.triangleMargins();
+    double widest = 0.0;
+    for (std::size_t p = 0; p < n; ++p)
+      if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) widest = std::max(widest, I.pointMargin[p]);
+    const double rSelf = 2 * widest;
+    std::vector<double> rObstacle(obstacles_.size(), 0.0);
+    double r = rSelf;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) r = std::max(r, rObstacle[k] = widest + I.obstacleMargin[k]);
+    if (!I.cacheCovers(x, rSelf, rObstacle)) {
+      I.buildCache(x, r + P.searchSlack * P.thickness);
+      I.cacheCovers(x, rSelf, rObstacle);
+    } else {
+      ++I.cacheUses;
+    }
+    I.pairs.clear();
+    for (const Impl::Cached& c : I.cache) {
+      const double within = I.searchMargin(c);
+      if (c.s - I.cachedShrink(c) >= within) continue;  // (it cannot be within its margin)
+      I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri);
+    }
+    I.analyticPairs(x, I.pairs);
+  } else {
+    I.prepare(x);
+    I.collect(x, I.pairs, true);
+  }
   I.offset = endOffset;
   for (Pair& p : I.pairs)
     if (p.obstacle >= 0 && I.move[std::size_t(p.obstacle)] != V3::Zero()) {
@@ -1456,11 +1635,65 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     for (std::size_t p = 0; p < n; ++p) dx[p] = dxOf(p);
     I.obstacleMargin.assign(obstacles_.size(), 0.0);
     for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge;
-    I.prepare(x0);  // (the triangle margins, for the analytic obstacles)
-    I.prepareSwept(x0, dx);
+    I.triangleMargins();
     std::vector<Pair>& near = I.nearPairs;
+    near.clear();
     I.sweep = &dx;
-    I.collect(x0, near, false);
+    // From the search's cache when it holds every pair within reach (a pair's distance changes
+    // by at most 4 times the largest displacement), else by swept boxes.
+    // A point is slow when it has moved less than a quarter of the cache's reach since the
+    // cache was built, displacement (doubled) included: a pair of slow points that the cache
+    // does not hold was at least cacheR apart then, and cannot meet now. The pairs that hold a
+    // fast point are searched by swept boxes, from the fast points' triangles.
+    std::vector<double> none(obstacles_.size(), 0.0);
+    std::vector<char>& fast = I.fastPoint;
+    fast.assign(n, 1);
+    bool cached = I.cacheCovers(x0, 0.0, none);
+    std::size_t fastCount = 0;
+    if (cached) {
+      for (std::size_t p = 0; p < n; ++p) {
+        fast[p] = !(I.sinceCache[p] + 2 * dx[p].norm() < 0.25 * I.cacheR);
+        fastCount += fast[p] && I.pointOwner.size() > p && I.pointOwner[p] >= 0;
+      }
+      for (std::size_t k = 0; k < obstacles_.size(); ++k)
+        if (I.meshLike(k) && !(I.obstacleSinceCache[k] + 2 * I.move[k].norm() < 0.25 * I.cacheR)) cached = false;
+      if (10 * fastCount > n) cached = false;  // (then one search is cheaper)
+    }
+    if (cached) {
+      // (a pair's reach is at most twice its points' largest displacement, doubled)
+      std::vector<double>& moves = I.moveLength;
+      moves.assign(n, 0.0);
+      for (std::size_t p = 0; p < n; ++p) moves[p] = dx[p].norm();
+      std::vector<double> obstacleMoves(obstacles_.size());
+      for (std::size_t k = 0; k < obstacles_.size(); ++k) obstacleMoves[k] = I.move[k].norm();
+      for (const Impl::Cached& c : I.cache) {
+        bool slow = true;
+        double largestMove = 0.0;
+        for (int i = 0; i < 4; ++i) {
+          if ((c.surface >> i) & 1) {
+            const std::uint32_t q = c.id[std::size_t(i)];
+            slow = slow && !fast[q];
+            largestMove = std::max(largestMove, moves[q]);
+          } else if (c.obstacle >= 0) {
+            largestMove = std::max(largestMove, obstacleMoves[std::size_t(c.obstacle)]);
+          }
+        }
+        if (!slow) continue;  // (found by the search below)
+        const double lower = c.s - I.cachedShrink(c);
+        if (lower >= 4 * largestMove) continue;
+        const Pair p = c.pair();
+        const double reach = I.reachOf(p);
+        if (lower >= reach) continue;
+        I.keepIfNear(p, x0, reach, near);
+      }
+      if (fastCount > 0) {
+        I.prepareSwept(x0, dx);
+        I.searchAround(x0, fast, near);
+      }
+    } else {
+      I.prepareSwept(x0, dx);
+      I.searchPairs(x0, near, false);
+    }
     I.sweep = nullptr;
     if (!I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale, last)) break;
     // A point that took an obstacle's frame in the last resort may move farther than the margins
@@ -1779,7 +2012,12 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
   }
   std::vector<Box> boxes;
   I.surfaceBoxes(I.lastX, boxes);
-  I.bvh.check(boxes, problems);
+  // The hierarchy against the boxes it was last given (the search's, swept or grown by the
+  // cache's margins), then refitted to the step's margins at the step's start.
+  I.bvh.check(I.boxes, problems);
+  Bvh refitted = I.bvh;
+  refitted.refit(boxes);
+  refitted.check(boxes, problems);
   // The BVH's pairs against every pair of triangles (small meshes).
   if (I.tris.size() > 3000 || !parameters_.selfContact) return;
   auto keys = [](const std::vector<Pair>& ps) {
@@ -1804,7 +2042,7 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
     for (std::size_t j = i + 1; j < I.tris.size(); ++j)
       if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute, true, tight);
   std::vector<Pair> fast;
-  I.bvh.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast, true, tight); });
+  refitted.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast, true, tight); });
   const auto a = keys(brute), b = keys(fast);
   if (a != b || brute.size() != fast.size()) {
     std::ostringstream s;

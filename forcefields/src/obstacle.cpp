@@ -20,6 +20,7 @@ void ContactParameters::validate() const {
   if (!(splitAbove >= 0 && splitAbove <= 1))
     throw InvalidInput("splitAbove", "must be in [0, 1], got " + describeNumber(splitAbove));
   if (maxSplits < 0 || maxSplits > 20) throw InvalidInput("maxSplits", "must be in [0, 20]");
+  requireFiniteNonNegative("searchSlack", searchSlack);
 }
 
 Vec3 Obstacle::offsetAt(double t) const {

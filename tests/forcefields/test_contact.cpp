@@ -213,7 +213,7 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
 TEST(Contact, PairsEqualABruteForceOverEveryPrimitivePair) {
   // Two sets of pairs, each against every pair of primitives with CGAL's distances:
   // - the displacement bound's (closePairs): every point-triangle and edge-edge pair within
-  //   1.5 d;
+  //   d;
   // - the penalty's (the step's candidates): each point with the closest feature of the surface
   //   near it, once: a triangle's interior; an edge, when it is the closest feature of each
   //   triangle beside it; a corner, when it is the closest feature of each triangle around it
@@ -223,10 +223,10 @@ TEST(Contact, PairsEqualABruteForceOverEveryPrimitivePair) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   for (unsigned seed = 1; seed <= 3; ++seed) {
     Crumpled c = crumpled(seed, 11);
-    const double d = 0.04, within = 1.5 * d;
+    const double d = 0.06, within = d;
     Contact contact(*c.topo, params(d), {});
     std::vector<double> v(c.x.size(), 0.0);
-    contact.beginStep(c.x, v, 0.0, 1e-3);  // at rest: every margin is 0.75 d, pairs are kept within 1.5 d
+    contact.beginStep(c.x, v, 0.0, 1e-3);  // at rest: every margin is d / 2, pairs are kept within d
     auto P = [&](PointId p) { return K::Point_3(c.x[3 * p], c.x[3 * p + 1], c.x[3 * p + 2]); };
     auto dist = [](const auto& a, const auto& b) { return std::sqrt(CGAL::to_double(CGAL::squared_distance(a, b))); };
     const auto tris = c.topo->triangles();
@@ -302,6 +302,50 @@ TEST(Contact, PairsEqualABruteForceOverEveryPrimitivePair) {
     const auto report = c.topo->validate();
     EXPECT_TRUE(report.ok()) << report.summary();
   }
+}
+
+TEST(Contact, TheSearchCacheGivesTheSamePairsAsASearch) {
+  // A crumpled sheet jittered, then its folded layer brought down onto the other:
+  // the penalty's pairs, forces and stiffness from the cache equal a fresh search's at every
+  // step, and the cache is both reused and rebuilt along the way.
+  Crumpled c = crumpled(4, 11);
+  const double d = 0.04;
+  ContactParameters cached = params(d, 1e3, 0.3), fresh = cached;
+  fresh.searchSlack = 0.0;
+  Contact a(*c.topo, cached, {}), b(*c.topo, fresh, {});
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n;
+  std::vector<double> x = c.x, v(x.size(), 0.0);
+  for (double& q : v) q = 0.05 * n(rng);
+  for (int step = 0; step < 40; ++step) {
+    a.beginStep(x, v, 0.0, 1e-3);
+    b.beginStep(x, v, 0.0, 1e-3);
+    const ContactMeasure ma = a.measure(x, v), mb = b.measure(x, v);
+    ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
+    ASSERT_EQ(ma.active, mb.active) << "step " << step;
+    EXPECT_GT(mb.active, 0u);
+    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0), db(x.size(), 0.0);
+    a.addForce(x, v, fa);
+    b.addForce(x, v, fb);
+    for (double& q : dx) q = n(rng);
+    a.addDForce(x, dx, da, 1.0, 1.0);
+    b.addDForce(x, dx, db, 1.0, 1.0);
+    double scale = 0.0, worst = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      scale = std::max({scale, std::abs(fb[i]), std::abs(db[i])});
+      worst = std::max({worst, std::abs(fa[i] - fb[i]), std::abs(da[i] - db[i])});
+    }
+    EXPECT_LE(worst, 1e-12 * scale) << "step " << step;
+    // Jitter, then the folded layer coming down onto the other 1.5 mm a step (past the slack:
+    // the cache is searched again).
+    for (double& q : x) q += 2e-4 * n(rng);
+    if (step >= 20)
+      for (PointId p : c.topo->points())
+        if (c.topo->restPosition(p)[0] > 0.56) x[3 * p + 2] -= 1.5e-3;
+  }
+  EXPECT_GT(a.searchesReused(), 10u);
+  EXPECT_GT(a.searches(), 3u);
+  EXPECT_EQ(b.searchesReused(), 0u);
 }
 
 TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {

@@ -81,6 +81,10 @@ struct ContactParameters {
   /// (in [0, 1]), at most maxSplits times in a row (>= 0).
   double splitAbove = 0.01;
   int maxSplits = 4;
+  /// The search keeps the pairs of primitives within (1 + searchSlack) d of the widest margin
+  /// and reuses them while no point has moved far enough to bring another pair within reach
+  /// (a Verlet list): resting contact is not searched anew at every step. 0: search every time.
+  double searchSlack = 0.25;
   /// Throws InvalidInput (where = the parameter's name) for a value out of range.
   void validate() const;
 };
@@ -162,6 +166,9 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// measure() at the end of a step (the simulation calls it after committing the step; the
   /// CSV reports it, also for a step after which a cut changed the mesh).
   void recordStep(std::span<const double> x, std::span<const double> v) { last_ = measure(x, v); }
+  /// How many times the pairs were searched, and how many steps reused the search's cache.
+  std::size_t searches() const;
+  std::size_t searchesReused() const;
   const ContactMeasure& lastStep() const { return last_; }
 
   /// Pairs (surface-surface and surface-obstacle) closer than `within` at x, ignoring the
