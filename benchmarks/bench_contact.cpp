@@ -12,7 +12,8 @@
 //          solve proposes displacements of several edges, and the step splits).
 // Each iteration restores the same state and takes one step, so every iteration does the same
 // work: contact's cost (detection at the step's start, the penalty and friction in the solve,
-// the displacement bound after it) is the difference of the two figures.
+// the displacement bound after it) is the difference of the two figures. The search's cache is
+// then reused after the first iteration; the *_searched_every_step variants turn it off.
 //
 //   cutsim_bench_contact --benchmark_min_time=2
 #include <benchmark/benchmark.h>
@@ -88,7 +89,7 @@ std::array<double, 3> placed(Shape shape, double X, double Y) {
   return {X, Y, Z};
 }
 
-Setup make(Shape shape, bool contact) {
+Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.searchSlack) {
   const bool fold = shape == Shape::Fold;
   cutsim::core::GridSpec g;
   g.nx = g.ny = kSide;
@@ -125,6 +126,7 @@ Setup make(Shape shape, bool contact) {
     c.thickness = kThickness;
     c.stiffness = 0.5;
     c.friction = 0.3;
+    c.searchSlack = searchSlack;
     std::vector<Obstacle> obstacles;
     if (!fold) {
       Obstacle ball;
@@ -152,8 +154,8 @@ Setup make(Shape shape, bool contact) {
   return s;
 }
 
-void BM_ContactStep(benchmark::State& state, Shape shape, bool contact) {
-  Setup s = make(shape, contact);
+void BM_ContactStep(benchmark::State& state, Shape shape, bool contact, double searchSlack = ContactParameters{}.searchSlack) {
+  Setup s = make(shape, contact, searchSlack);
   long clamped = 0, active = 0;
   for (auto _ : state) {
     std::copy(s.x.begin(), s.x.end(), s.sim->state().x().begin());
@@ -174,6 +176,9 @@ BENCHMARK_CAPTURE(BM_ContactStep, drape_without_contact, Shape::Drape, false)->U
 BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, fold_without_contact, Shape::Fold, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact, Shape::Fold, true)->Unit(benchmark::kMillisecond);
+// The same without the search's cache (searched at every step, as a cloth that keeps moving is).
+BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact_searched_every_step, Shape::Drape, true, 0.0)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact_searched_every_step, Shape::Fold, true, 0.0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, cliff_without_contact, Shape::Cliff, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, cliff_with_contact, Shape::Cliff, true)->Unit(benchmark::kMillisecond)->Iterations(1);
 

@@ -289,13 +289,14 @@ struct Contact::Impl {
   }
 
   /// Distance, normal and weights of a pair at x.
-  /// With `sided`, a pair of a point and a triangle or of two edges whose closest points have
-  /// crossed (their direction turned against the pair's normal at the step's start) gets a
-  /// negative distance along that normal: the penalty goes on pushing them back to their side,
-  /// also when a moving obstacle has gone past a point within one step.
+  /// With `sided`, an obstacle-mesh pair whose closest points have crossed (their direction
+  /// turned against the pair's normal at the step's start) gets a negative distance along that
+  /// normal: the penalty goes on pushing the point back to its side, also when a moving obstacle
+  /// has gone past it within one step. (Self pairs stay unsigned: a point going round the border
+  /// of a flap turns its direction without crossing anything.)
   Eval evaluate(const Pair& p, std::span<const double> x, bool sided = false) const {
     Eval e = evaluateUnsided(p, x);
-    if (sided && p.kind != Kind::PO && p.kind != Kind::FO && e.n.dot(p.n0) < 0) {
+    if (sided && p.obstacle >= 0 && p.kind != Kind::PO && p.kind != Kind::FO && e.n.dot(p.n0) < 0) {
       e.s = -e.s;
       e.n = -e.n;
     }
@@ -1074,6 +1075,10 @@ struct Contact::Impl {
   std::vector<double> sinceCache;  // per point slot: how far it moved since the cache's x
   std::vector<double> obstacleSinceCache;
   std::size_t cacheUses = 0, cacheBuilds = 0;
+  // A cache that was never reused before the points moved out of it cost more than the search
+  // it replaced: then the next steps search plainly, for twice as many steps each time (up to
+  // 64), before a cache is tried again.
+  std::size_t usesSinceBuild = 0, plainSteps = 0, backoff = 1, plainSearches = 0;
 
   /// Whether the cache holds every self pair within rSelf and every pair with obstacle mesh k
   /// within rObstacle[k] at x (the obstacles at `offset`); fills sinceCache.
@@ -1465,7 +1470,7 @@ void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double 
 }
 
 const std::vector<double>& Contact::bounds() const { return impl_->bound; }
-std::size_t Contact::searches() const { return impl_->cacheBuilds; }
+std::size_t Contact::searches() const { return impl_->cacheBuilds + impl_->plainSearches; }
 std::size_t Contact::searchesReused() const { return impl_->cacheUses; }
 
 void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt) {
@@ -1508,7 +1513,10 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   // point is on), then measured where they end it (the penalty's pose), on that side.
   const std::vector<V3> endOffset = I.offset;
   I.offset = I.startOffset;
-  if (P.searchSlack > 0) {
+  bool fromCache = false;
+  if (P.searchSlack > 0 && I.plainSteps > 0) {
+    --I.plainSteps;
+  } else if (P.searchSlack > 0) {
     // From the cache, searched again when the points or the obstacles have moved too far.
     I.triangleMargins();
     double widest = 0.0;
@@ -1518,12 +1526,24 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
     std::vector<double> rObstacle(obstacles_.size(), 0.0);
     double r = rSelf;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) r = std::max(r, rObstacle[k] = widest + I.obstacleMargin[k]);
-    if (!I.cacheCovers(x, rSelf, rObstacle)) {
+    fromCache = true;
+    if (I.cacheCovers(x, rSelf, rObstacle)) {
+      ++I.cacheUses;
+      ++I.usesSinceBuild;
+    } else if (I.cacheBuilt && I.usesSinceBuild == 0 && I.cacheRevision == I.topo.revision()) {
+      // The last cache was never reused: search plainly for a while.
+      I.plainSteps = I.backoff;
+      I.backoff = std::min<std::size_t>(2 * I.backoff, 64);
+      I.cacheBuilt = false;
+      fromCache = false;
+    } else {
+      if (I.usesSinceBuild > 0) I.backoff = 1;
       I.buildCache(x, r + P.searchSlack * P.thickness);
       I.cacheCovers(x, rSelf, rObstacle);
-    } else {
-      ++I.cacheUses;
+      I.usesSinceBuild = 0;
     }
+  }
+  if (fromCache) {
     I.pairs.clear();
     for (const Impl::Cached& c : I.cache) {
       const double within = I.searchMargin(c);
@@ -1534,6 +1554,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   } else {
     I.prepare(x);
     I.collect(x, I.pairs, true);
+    ++I.plainSearches;
   }
   I.offset = endOffset;
   for (Pair& p : I.pairs)
