@@ -1514,14 +1514,16 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   const std::vector<V3> endOffset = I.offset;
   I.offset = I.startOffset;
   bool fromCache = false;
+  double widest = 0.0;
+  for (std::size_t p = 0; p < n; ++p)
+    if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) widest = std::max(widest, I.pointMargin[p]);
   if (P.searchSlack > 0 && I.plainSteps > 0) {
     --I.plainSteps;
-  } else if (P.searchSlack > 0) {
-    // From the cache, searched again when the points or the obstacles have moved too far.
+  } else if (P.searchSlack > 0 && widest <= 1.5 * P.thickness) {
+    // From the cache, searched again when the points or the obstacles have moved too far. (The
+    // cache is searched with the widest margin for every point: when some point moves fast, a
+    // plain search, with each point's own margin, is used instead.)
     I.triangleMargins();
-    double widest = 0.0;
-    for (std::size_t p = 0; p < n; ++p)
-      if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) widest = std::max(widest, I.pointMargin[p]);
     const double rSelf = 2 * widest;
     std::vector<double> rObstacle(obstacles_.size(), 0.0);
     double r = rSelf;
