@@ -778,12 +778,19 @@ struct Contact::Impl {
   /// kept when its distance is less than how far its points move relative to each other
   /// (reachOf), and boxes are swept along the displacements.
   const std::vector<V3>* sweep = nullptr;
+  bool absoluteReach = false;  // the last resort's reach (see reachOf)
   V3 motionOf(const Pair& p, int i) const {
     return (p.surface >> i) & 1 ? (*sweep)[p.id[std::size_t(i)]] : move[std::size_t(p.obstacle)];
   }
   /// How much the distance of a pair can change over the step (as pairSafeFraction bounds it).
   double reachOf(const Pair& p) const {
     const int count = p.points(), split = (p.kind == Kind::EE || p.kind == Kind::EO) ? 2 : 1;
+    if (absoluteReach) {
+      // Each primitive's largest displacement: shortening displacements keeps it valid.
+      double a = 0, b = 0;
+      for (int i = 0; i < count; ++i) (i < split ? a : b) = std::max(i < split ? a : b, motionOf(p, i).norm());
+      return a + b;
+    }
     V3 mean = V3::Zero();
     for (int i = 0; i < count; ++i) mean += motionOf(p, i) / double(count);
     double a = 0, b = 0;
@@ -1002,7 +1009,7 @@ struct Contact::Impl {
         std::set<std::array<std::uint32_t, 3>> seen;
         for (std::size_t t = 0; t < tris.size(); ++t) {
           const auto& T = triV[t];
-          const double within = triMargin[t] + shift;
+          const double within = triMargin[t] + obstacleMargin[k];  // (the obstacle's motion included)
           V3 g;
           const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
           const double smin = std::min({sdf(int(k), q[0], g), sdf(int(k), q[1], g), sdf(int(k), q[2], g)});
@@ -1034,7 +1041,7 @@ struct Contact::Impl {
           if (pointOwner[p] < 0) continue;
           V3 g;
           const double s = sdf(int(k), surfacePoint(x, p), g);
-          if (s < pointMargin[p] + shift) {
+          if (s < pointMargin[p] + obstacleMargin[k]) {
             Pair pr{Kind::PO, std::int32_t(k), {p, 0, 0, 0}, 0b0001};
             pr.s0 = s;
             pr.n0 = g;
@@ -1203,6 +1210,42 @@ struct Contact::Impl {
       for (int j = split; j < count; ++j)
         f(std::minmax(p.id[std::size_t(i)], p.id[std::size_t(j)]));
   }
+  /// The closest features of a self pair of whole primitives (its weights at the search): a
+  /// point and a triangle's interior, edge or corner; two edges, an edge and a point, or two
+  /// points. (The bound skips a pair whose closest features are excluded neighbours.)
+  static Pair closestFeature(const Pair& p) {
+    Pair f = p;
+    const std::uint32_t inv = kInvalidIndex;
+    if (p.kind == Kind::VT) {
+      std::array<std::uint32_t, 3> on{inv, inv, inv};
+      int m = 0;
+      for (int c = 0; c < 3; ++c)
+        if (std::abs(p.w0[std::size_t(c + 1)]) > 1e-9) on[std::size_t(m++)] = p.id[std::size_t(c + 1)];
+      if (m == 0 || m == 3) return f;
+      f.id = {p.id[0], on[0], on[1], inv};
+      f.shape = std::uint8_t(m);
+      f.surface = std::uint8_t((1 << (m + 1)) - 1);
+      return f;
+    }
+    if (p.kind != Kind::EE) return f;
+    // An end of an edge stands for the edge.
+    auto side = [&](std::uint32_t a, std::uint32_t b, double t, std::array<std::uint32_t, 2>& out) {
+      if (t <= 1e-9) out = {a, inv};
+      else if (t >= 1 - 1e-9) out = {b, inv};
+      else out = {a, b};
+      return out[1] == inv ? 1 : 2;
+    };
+    std::array<std::uint32_t, 2> A, B;
+    const int na = side(p.id[0], p.id[1], p.w0[1], A), nb = side(p.id[2], p.id[3], -p.w0[3], B);
+    if (na == 2 && nb == 2) return f;
+    if (na == 1) f.id = {A[0], B[0], B[1], inv};
+    else f.id = {B[0], A[0], A[1], inv};
+    f.kind = Kind::VT;
+    f.shape = std::uint8_t(na == 1 ? nb : na);
+    f.surface = std::uint8_t((1 << (f.shape + 1)) - 1);
+    return f;
+  }
+
   /// Whether a self pair is within d in the rest configuration (neighbours in the material).
   bool restNeighbours(const Pair& p) const {
     std::array<V3, 4> rest;
@@ -1298,7 +1341,7 @@ struct Contact::Impl {
       if (p.kind == Kind::PO || p.kind == Kind::FO || !(p.s0 > 0)) continue;  // (at zero distance: as above)
       // Excluded pairs (new after a cut) have no penalty but are kept apart like the others; at
       // zero distance (the lips themselves) they cannot be, and are left to separate.
-      if (excludedPair(p)) continue;
+      if (p.obstacle < 0 && p.s0 <= P.thickness && excludedPair(closestFeature(p))) continue;
       pairsToCheck.push_back(&p);
     }
     std::vector<V3> dx(disp.size());
@@ -1338,11 +1381,11 @@ struct Contact::Impl {
     };
     // A pair's bound on its free points: gamma times its distance, less what its prescribed
     // points (a grasp) travel, which cannot be shortened.
-    auto pairBound = [&](const Pair& p) {
+    auto pairBound = [&](const Pair& p, const V3& frame) {
       double lockedMove = 0.0;
       for (int i = 0; i < 4; ++i) {
         const std::uint32_t q = p.id[std::size_t(i)];
-        if (((p.surface >> i) & 1) && q < locked.size() && locked[q]) lockedMove = std::max(lockedMove, dx[q].norm());
+        if (((p.surface >> i) & 1) && q < locked.size() && locked[q]) lockedMove = std::max(lockedMove, (dx[q] - frame).norm());
       }
       return gamma * std::max(p.s0 - lockedMove, 0.0);
     };
@@ -1382,7 +1425,7 @@ struct Contact::Impl {
             if (((p->surface >> i) & 1) && anchor[p->id[std::size_t(i)]] != V3::Zero()) frame = anchor[p->id[std::size_t(i)]];
         // Each point keeps the part of its motion the pair provably has (or gamma times the
         // distance, which suffices alone).
-        const double b = pairBound(*p);
+        const double b = pairBound(*p, frame);
         for (int i = 0; i < 4; ++i)
           if ((p->surface >> i) & 1) {
             const std::uint32_t q = p->id[std::size_t(i)];
@@ -1637,6 +1680,7 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
   // displacements until a pass changes nothing. The last resort takes absolute margins (which
   // shortening keeps valid) and bounds every pair they find.
   const int passes = 5;
+  int lastRepeats = 0;
   for (int pass = 0; pass <= passes; ++pass) {
     const bool last = pass == passes;
     V3 mean = V3::Zero();
@@ -1662,6 +1706,7 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     std::vector<Pair>& near = I.nearPairs;
     near.clear();
     I.sweep = &dx;
+    I.absoluteReach = last;
     // From the search's cache when it holds every pair within reach (a pair's distance changes
     // by at most 4 times the largest displacement), else by swept boxes.
     // A point is slow when it has moved less than a quarter of the cache's reach since the
@@ -1718,10 +1763,12 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
       I.searchPairs(x0, near, false);
     }
     I.sweep = nullptr;
+    I.absoluteReach = false;
     if (!I.limit(x0, near, disp, constrained, parameters_.displacementFraction, scale, last)) break;
-    // A point that took an obstacle's frame in the last resort may move farther than the margins
-    // it was searched with: search again (a point takes a frame once, so this ends).
-    if (last && I.reframedAny) --pass;
+    // The last resort searches again until it changes nothing: a point that took an obstacle's
+    // frame may move farther than it was searched with, and a shortened motion changes the
+    // displacement a frame's point ends with.
+    if (last && ++lastRepeats < 100) --pass;
   }
   I.offset = endOffset;
   std::size_t clamped = 0;
