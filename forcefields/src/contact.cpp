@@ -967,24 +967,23 @@ struct Contact::Impl {
       bvh.selfPairs([&](int i, int j) { selfTrianglePair(i, j, x, out, features, tight); });
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (!meshLike(k)) continue;
-      MeshObstacle& m = meshes[k];
-      obstacleBoxes(int(k), m.boxes);
-      if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
-      else m.bvh.refit(m.boxes);
-      bvh.crossPairs(m.bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
+      refitObstacle(k);
+      bvh.crossPairs(meshes[k].bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
     }
+  }
+  /// Obstacle mesh k's boxes (grown by its margin) and hierarchy, at its current pose.
+  void refitObstacle(std::size_t k) {
+    MeshObstacle& m = meshes[k];
+    obstacleBoxes(int(k), m.boxes);
+    if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
+    else m.bvh.refit(m.boxes);
   }
   /// The displacement bound's pairs that hold a fast point (prepareSwept first): each triangle
   /// with a fast corner against the triangles and obstacle triangles its swept box meets.
   void searchAround(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
     auto hasFast = [&](std::size_t t) { return fast[triV[t][0]] || fast[triV[t][1]] || fast[triV[t][2]]; };
-    for (std::size_t k = 0; k < O.size(); ++k) {
-      if (!meshLike(k)) continue;
-      MeshObstacle& m = meshes[k];
-      obstacleBoxes(int(k), m.boxes);
-      if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
-      else m.bvh.refit(m.boxes);
-    }
+    for (std::size_t k = 0; k < O.size(); ++k)
+      if (meshLike(k)) refitObstacle(k);
     for (std::size_t i = 0; i < tris.size(); ++i) {
       if (!hasFast(i)) continue;
       if (P.selfContact)
