@@ -185,15 +185,11 @@ struct Contact::Impl {
   std::vector<V3> sweptMotion;  // the displacements it searched with
   std::vector<char> fastPoint;  // per point slot: moved too far for the cache
   std::vector<double> moveLength;  // per point slot: its displacement's length
-  // Margins: a triangle's is the largest of its corners'; a pair of triangles is examined when
-  // their boxes, each inflated by its margin, overlap, and a primitive pair is kept within the
-  // sum of the margins (analytic obstacles: within the point's margin). At the step's start a
-  // point's margin is 0.75 d (the penalty's pairs); after the solve it is the point's proposed
-  // displacement, so that a pair not kept cannot meet during the step.
+  // The penalty's search by margins: a triangle's is the largest of its corners'; a pair of
+  // triangles is examined when their boxes, each inflated by its margin, overlap, and a
+  // primitive pair is kept within the sum of the margins (an obstacle's margin for its side).
+  // (The displacement bound searches by swept boxes and reach instead: `sweep`.)
   std::vector<double> pointMargin, triMargin, obstacleMargin;
-  // Self pairs move relative to each other: margins are taken relative to the surface's mean
-  // motion, and `shift` (that motion's size) is added for the obstacles, which stay put.
-  double shift = 0.0;
   std::vector<double> bound;  // per point slot: gamma times the smallest distance, kInf: none
   std::vector<V3> anchor;     // per point slot: the frame its displacement is bounded in
   bool reframedAny = false;   // the last limit() gave a point an obstacle's frame
@@ -490,7 +486,6 @@ struct Contact::Impl {
   // most 2) and is not evaluated.
   std::vector<Eval> evals;
   std::vector<char> within;  // per pair: evaluated and closer than d
-  std::vector<std::uint32_t> busy;  // pairs within d or with friction (the ones that act)
   // The same, packed for the products of the solves: the penalty's Gauss-Newton stiffness
   // -h (sum_i w_i n)(sum_j w_j n)^T, and friction's dF/du.
   struct Penalty {
@@ -537,7 +532,6 @@ struct Contact::Impl {
       evals[i] = evaluate(p, x, true);
       within[i] = evals[i].s < d;
     }
-    busy.clear();
     penalties.clear();
     frictions.clear();
     const Law law{P.thickness, P.stiffness};
@@ -546,7 +540,6 @@ struct Contact::Impl {
       if (p.excluded) continue;
       const bool rubs = p.lambda > 0 && p.mu > 0;
       if (!within[i] && !rubs) continue;
-      busy.push_back(std::uint32_t(i));
       if (within[i]) penalties.push_back({p.id, p.surface, law.curvature(evals[i].s), evals[i].w, evals[i].n});
       if (rubs) frictions.push_back({p.id, p.surface, p.w0, p.n0, p.fa, p.fb, p.ft});
     }
@@ -928,14 +921,14 @@ struct Contact::Impl {
   }
 
   void meshTrianglePair(int k, int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features) const {
-    const double r = triMargin[std::size_t(i)] + obstacleMargin[std::size_t(k)];
     const MeshObstacle& m = meshes[std::size_t(k)];
     const auto& A = triV[std::size_t(i)];
     const auto& T = m.triangles[std::size_t(j)];
     auto keep = [&](Pair p, int t) {
       p.tri = t;
       p.margins = {i, -1};
-      keepIfNear(p, x, sweep ? reachOf(p) : r, out, features, t);
+      const double r = sweep ? reachOf(p) : triMargin[std::size_t(i)] + obstacleMargin[std::size_t(k)];
+      keepIfNear(p, x, r, out, features, t);
     };
     for (int c = 0; c < 3; ++c) {
       if (pointOwner[A[std::size_t(c)]] == i)
@@ -978,6 +971,33 @@ struct Contact::Impl {
     if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
     else m.bvh.refit(m.boxes);
   }
+  /// The displacement bound's pairs among slow points (sweep set), from the cache: those whose
+  /// distance (at most what it was, less its points' motion since) is below their reach.
+  void nearFromCache(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
+    // (a pair's reach is at most twice its points' largest displacement, doubled)
+    moveLength.resize(sweep->size());
+    for (std::size_t p = 0; p < sweep->size(); ++p) moveLength[p] = (*sweep)[p].norm();
+    for (const Cached& c : cache) {
+      bool slow = true;
+      double largestMove = 0.0;
+      for (int i = 0; i < 4; ++i) {
+        if ((c.surface >> i) & 1) {
+          const std::uint32_t q = c.id[std::size_t(i)];
+          slow = slow && !fast[q];
+          largestMove = std::max(largestMove, moveLength[q]);
+        } else if (c.obstacle >= 0) {
+          largestMove = std::max(largestMove, move[std::size_t(c.obstacle)].norm());
+        }
+      }
+      if (!slow) continue;  // (found around the fast points)
+      const double lower = c.s - cachedShrink(c);
+      if (lower >= 4 * largestMove) continue;
+      const Pair p = c.pair();
+      const double reach = reachOf(p);
+      if (lower < reach) keepIfNear(p, x, reach, out);
+    }
+  }
+
   /// The displacement bound's pairs that hold a fast point (prepareSwept first): each triangle
   /// with a fast corner against the triangles and obstacle triangles its swept box meets.
   void searchAround(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
@@ -1112,10 +1132,8 @@ struct Contact::Impl {
   /// Searches every self and obstacle-mesh pair within r at x into the cache.
   void buildCache(std::span<const double> x, double r) {
     const std::vector<double> savedPoint = pointMargin, savedObstacle = obstacleMargin;
-    const double savedShift = shift;
     pointMargin.assign(x.size() / 3, 0.5 * r);
     obstacleMargin.assign(O.size(), 0.5 * r);
-    shift = 0.0;
     prepare(x);
     cache.clear();
     std::vector<Pair>& found = nearPairs;
@@ -1126,7 +1144,6 @@ struct Contact::Impl {
     found.clear();
     pointMargin = savedPoint;
     obstacleMargin = savedObstacle;
-    shift = savedShift;
     triangleMargins();
     cacheX.assign(x.begin(), x.end());
     cacheOffset = offset;
@@ -1545,11 +1562,11 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   for (std::size_t p = 0; p < n && p < v.size() / 3; ++p)
     if (I.pointOwner.size() > p && I.pointOwner[p] >= 0)
       I.pointMargin[p] += 4 * (V3(v[3 * p], v[3 * p + 1], v[3 * p + 2]) - mean).norm() * dt;
-  I.shift = 0.5 * P.thickness + 4 * mean.norm() * dt;
+  const double shift = 0.5 * P.thickness + 4 * mean.norm() * dt;  // (the obstacles stay put)
   I.obstacleMargin.assign(obstacles_.size(), 0.0);
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
     const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
-    I.obstacleMargin[k] = I.shift + (V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])).norm();
+    I.obstacleMargin[k] = shift + (V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])).norm();
   }
   // The pairs are found with the obstacles where they start the step (which side of them each
   // point is on), then measured where they end it (the penalty's pose), on that side.
@@ -1672,28 +1689,15 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
   // them where they end it).
   const std::vector<V3> endOffset = I.offset;
   I.offset = I.startOffset;
-  // Two primitives cannot meet when they are farther apart than their largest displacements
-  // relative to any common translation (the mean one here); the obstacles (taken at the step's
-  // end) do not move, so their margin is the mean displacement's size. Shortening a displacement
-  // changes the mean and the relative ones: the pairs are found again for the shortened
-  // displacements until a pass changes nothing. The last resort takes absolute margins (which
-  // shortening keeps valid) and bounds every pair they find.
+  // Two primitives cannot meet when they are farther apart than how far their points move
+  // relative to each other (reachOf). Shortening a displacement changes the relative motions:
+  // the pairs are found again for the shortened displacements until a pass changes nothing. The
+  // last resort takes each primitive's whole displacement as its reach (which shortening keeps
+  // valid), bounds every pair it finds, and repeats until it changes nothing.
   const int passes = 5;
   int lastRepeats = 0;
   for (int pass = 0; pass <= passes; ++pass) {
     const bool last = pass == passes;
-    V3 mean = V3::Zero();
-    double live = 0;
-    if (!last)
-      for (std::size_t p = 0; p < n; ++p)
-        if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) {
-          mean += dxOf(p);
-          ++live;
-        }
-    if (live > 0) mean /= live;
-    I.pointMargin.assign(n, 0.0);
-    for (std::size_t p = 0; p < n; ++p) I.pointMargin[p] = (dxOf(p) - mean).norm();
-    I.shift = mean.norm();
     // The search: boxes swept along the displacements (obstacle meshes grown by their motion),
     // pairs within their reach.
     std::vector<V3>& dx = I.sweptMotion;
@@ -1701,7 +1705,6 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     for (std::size_t p = 0; p < n; ++p) dx[p] = dxOf(p);
     I.obstacleMargin.assign(obstacles_.size(), 0.0);
     for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge;
-    I.triangleMargins();
     std::vector<Pair>& near = I.nearPairs;
     near.clear();
     I.sweep = &dx;
@@ -1727,32 +1730,7 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
       if (10 * fastCount > n) cached = false;  // (then one search is cheaper)
     }
     if (cached) {
-      // (a pair's reach is at most twice its points' largest displacement, doubled)
-      std::vector<double>& moves = I.moveLength;
-      moves.assign(n, 0.0);
-      for (std::size_t p = 0; p < n; ++p) moves[p] = dx[p].norm();
-      std::vector<double> obstacleMoves(obstacles_.size());
-      for (std::size_t k = 0; k < obstacles_.size(); ++k) obstacleMoves[k] = I.move[k].norm();
-      for (const Impl::Cached& c : I.cache) {
-        bool slow = true;
-        double largestMove = 0.0;
-        for (int i = 0; i < 4; ++i) {
-          if ((c.surface >> i) & 1) {
-            const std::uint32_t q = c.id[std::size_t(i)];
-            slow = slow && !fast[q];
-            largestMove = std::max(largestMove, moves[q]);
-          } else if (c.obstacle >= 0) {
-            largestMove = std::max(largestMove, obstacleMoves[std::size_t(c.obstacle)]);
-          }
-        }
-        if (!slow) continue;  // (found by the search below)
-        const double lower = c.s - I.cachedShrink(c);
-        if (lower >= 4 * largestMove) continue;
-        const Pair p = c.pair();
-        const double reach = I.reachOf(p);
-        if (lower >= reach) continue;
-        I.keepIfNear(p, x0, reach, near);
-      }
+      I.nearFromCache(x0, fast, near);
       if (fastCount > 0) {
         I.prepareSwept(x0, dx);
         I.searchAround(x0, fast, near);
@@ -1932,13 +1910,10 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
 std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, double within, std::size_t limit) const {
   Impl& I = *impl_;
   I.updateTables();
-  I.pointMargin.assign(x.size() / 3, within);
-  I.shift = 0.0;
+  // (every kind of pair within the sum of two margins: within)
+  I.pointMargin.assign(x.size() / 3, 0.5 * within);
   I.obstacleMargin.assign(obstacles_.size(), 0.5 * within);
   I.prepare(x);
-  for (double& m : I.triMargin) m = 0.5 * within;
-  I.surfaceBoxes(x, I.boxes);
-  I.bvh.refit(I.boxes);
   std::vector<Pair> found;
   I.collect(x, found, false);
   I.pairs.clear();
@@ -1974,7 +1949,6 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
   Impl& I = *impl_;
   I.updateTables();
   I.pointMargin.assign(x.size() / 3, 0.0);
-  I.shift = 0.0;
   I.obstacleMargin.assign(obstacles_.size(), 0.0);
   I.prepare(x);
   std::vector<ContactProximity> out;
