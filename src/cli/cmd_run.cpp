@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
+#include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/view/player.hpp"
 
@@ -27,7 +28,14 @@ struct RunOptions {
   bool allowLong = false;
   std::string html;  ///< also write the player page (cutsim view) here; "" none
   bool htmlAuto = false;  ///< --html without a file: OUT/player.html
+  long steps = 0;         ///< a SOFA scene's number of steps (0: 100)
 };
+
+bool isSofaScene(const std::string& file) {
+  std::string ext = std::filesystem::path(file).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".scn";
+}
 
 /// A progress bar on a terminal; plain lines every 10 % otherwise.
 class Progress {
@@ -70,7 +78,16 @@ std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceFiel
 }
 
 void runScene(const RunOptions& options) {
-  const core::Scene scene = core::loadScene(options.scene);
+  if (options.steps != 0 && !isSofaScene(options.scene))
+    throw InvalidInput("--steps", "is for SOFA scenes (.scn); a JSON scene gives its duration");
+  const core::Scene scene = [&] {
+    if (!isSofaScene(options.scene)) return core::loadScene(options.scene);
+    core::SofaImportOptions o;
+    if (options.steps > 0) o.steps = options.steps;
+    const core::SofaSceneImport imported = core::importSofaScene(options.scene, o);
+    for (const std::string& n : imported.notes) std::cerr << n << "\n";
+    return core::sceneFromSofa(imported);
+  }();
   const std::filesystem::path outDir = options.out.empty()
                                            ? std::filesystem::path("out") / scene.name
                                            : std::filesystem::path(options.out);
@@ -179,8 +196,10 @@ void runScene(const RunOptions& options) {
 void registerRunCommand(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "run", "Load a scene (JSON), check it, run it and write its frames and per-step CSV");
-  cmd->add_option("scene", options->scene, "the scene file (.json)")->required();
+      "run", "Load a scene (JSON, or SOFA's .scn), check it, run it and write its frames and per-step CSV");
+  cmd->add_option("scene", options->scene, "the scene file (.json, or a SOFA scene .scn)")->required();
+  cmd->add_option("--steps", options->steps, "a SOFA scene's number of steps (default 100)")
+      ->check(CLI::Range(1L, 1000000000L));
   cmd->add_option("--out", options->out, "output folder (default: out/<scene name>)");
   cmd->add_option("--dump-final", options->dumpFinal,
                   "also write final_rest.obj, final.obj and final_forces.json in this folder");

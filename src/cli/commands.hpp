@@ -27,6 +27,14 @@ void registerComponentsCommand(CLI::App& app);
 /// `cutsim view RUN_DIR [-o FILE.html]`: the offline HTML player of a run (src/cli/cmd_view.cpp).
 void registerViewCommand(CLI::App& app);
 
+/// `cutsim import SCENE.scn -o SCENE.json [--steps N]`: a SOFA scene as a JSON scene
+/// (src/cli/cmd_import.cpp).
+void registerImportCommand(CLI::App& app);
+
+/// `cutsim regress LIST [--refs DIR] [--write]`: SOFA's regression tests of state
+/// (src/cli/cmd_regress.cpp).
+void registerRegressCommand(CLI::App& app);
+
 // Further commands are declared here.
 
 }  // namespace cutsim::cli

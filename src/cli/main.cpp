@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   cutsim::cli::registerRunCommand(app);
   cutsim::cli::registerComponentsCommand(app);
   cutsim::cli::registerViewCommand(app);
+  cutsim::cli::registerImportCommand(app);
+  cutsim::cli::registerRegressCommand(app);
 
   try {
     app.parse(argc, argv);  // runs the chosen subcommand's callback

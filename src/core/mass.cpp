@@ -28,15 +28,27 @@ double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass
   return totalMass / area;
 }
 
-LumpedMass::LumpedMass(topology::Topology& t, double density)
-    : density_(density), mass_(t, "mass per point"), triangleArea_(t, "mass: triangle rest areas") {
-  forcefields::requireFinitePositive("mass.density", density);
+LumpedMass::LumpedMass(topology::Topology& t, double density) : LumpedMass(t, MassLaw::areaDensity(density)) {}
+
+LumpedMass::LumpedMass(topology::Topology& t, MassLaw law)
+    : law_(law),
+      density_(law.kind == MassLaw::Kind::AreaDensity ? law.value : 0.0),
+      mass_(t, "mass per point"),
+      triangleArea_(t, "mass: triangle rest areas") {
+  forcefields::requireFinitePositive(law.kind == MassLaw::Kind::AreaDensity ? "mass.density" : "mass.perPoint", law.value);
   for (auto f : t.triangles()) {
     double a = triangleArea(t, f);
     triangleArea_[f] = a;
     for (auto p : t.triangleVertices(f)) mass_[p] += density_ * a / 3.0;
   }
+  if (law.kind == MassLaw::Kind::PerPoint)
+    for (auto p : t.points()) mass_[p] = law.value;
   subscription_ = t.subscribe(*this);
+}
+
+void LumpedMass::onPointsCreated(const topology::Topology&, const topology::PointsCreated& e) {
+  if (law_.kind != MassLaw::Kind::PerPoint) return;
+  for (auto p : e.points) mass_[p] = law_.value;
 }
 
 double LumpedMass::total() const {
@@ -67,6 +79,8 @@ void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>&
   std::vector<double> expected(t.pointCapacity(), 0.0);
   for (auto f : t.triangles())
     for (auto p : t.triangleVertices(f)) expected[p] += density_ * triangleArea(t, f) / 3.0;
+  if (law_.kind == MassLaw::Kind::PerPoint)
+    for (auto p : t.points()) expected[p] = law_.value;
   if (mass_.numSlots() != expected.size()) {
     problems.push_back("mass table size differs from the point capacity");
     return;

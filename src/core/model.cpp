@@ -15,10 +15,12 @@ void requireFinite(std::span<const double> a, const char* what, const std::strin
 }
 
 Model::Model(std::unique_ptr<topology::Topology> topology, double density)
-    : topology_(std::move(topology)) {
+    : Model(std::move(topology), MassLaw::areaDensity(density)) {}
+
+Model::Model(std::unique_ptr<topology::Topology> topology, MassLaw mass) : topology_(std::move(topology)) {
   if (!topology_) throw InvalidInput("mesh", "no topology");
   state_ = std::make_unique<MechanicalState>(*topology_);
-  if (density > 0) mass_ = std::make_unique<LumpedMass>(*topology_, density);
+  if (mass.value > 0) mass_ = std::make_unique<LumpedMass>(*topology_, mass);
   fixed_ = std::make_unique<PointSet>(*topology_, "fixed");
 }
 

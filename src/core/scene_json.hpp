@@ -35,6 +35,10 @@ struct JsonDocument {
 /// Parses the text (nested at most 64 deep, no duplicate keys); InvalidInput "SOURCE:LINE: ..."
 /// for malformed text.
 JsonDocument parseJsonWithLines(std::string_view text, const std::string& source);
+/// The scene a parsed document describes (parseScene's checks); messages name `sourceName` and
+/// the document's lines.
+Scene parseSceneDocument(const JsonDocument& doc, const std::string& sourceName,
+                         const std::filesystem::path& baseDir);
 
 
 class Reader {

@@ -84,8 +84,7 @@ void SceneRunner::rehearseTimeline(const Scene& scene) {
 void SceneRunner::build(bool physics) {
   const topology::MeshData mesh = scene_.mesh();
   auto topo = std::make_unique<topology::Topology>(mesh);
-  const double density =
-      scene_.massByTotal ? LumpedMass::densityForTotal(*topo, scene_.totalMass) : scene_.density;
+  const MassLaw mass = scene_.massLaw(*topo);
   // Mean rest edge length: the smallest piece a progressive cut makes is half of it.
   double edgeSum = 0;
   std::size_t edgeCount = 0;
@@ -96,7 +95,7 @@ void SceneRunner::build(bool physics) {
   }
   meanEdge_ = edgeCount ? edgeSum / double(edgeCount) : 0.0;
 
-  sim_ = std::make_unique<Simulation>(std::move(topo), density);
+  sim_ = std::make_unique<Simulation>(std::move(topo), mass);
   sim_->setGravity(scene_.gravity);
   const std::vector<std::string> labels = scene_.forceFieldLabels();
   for (std::size_t i = 0; physics && i < scene_.forceFields.size(); ++i) {

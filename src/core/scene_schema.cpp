@@ -15,6 +15,7 @@
 #include "cutsim/topology/geometry.hpp"
 #include "scene_internal.hpp"
 #include "scene_json.hpp"
+#include "cutsim/core/sofa_scene.hpp"
 
 namespace cutsim::core {
 
@@ -331,9 +332,40 @@ long Scene::numSteps() const {
   return long(std::ceil(n));
 }
 
+bool MeshTransform::identity() const {
+  return scale == Vec3{1, 1, 1} && rotation == Vec3{0, 0, 0} && translation == Vec3{0, 0, 0};
+}
+
+Vec3 MeshTransform::apply(const Vec3& p) const {
+  Vec3 q{p[0] * scale[0], p[1] * scale[1], p[2] * scale[2]};
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  for (int axis = 0; axis < 3; ++axis) {  // x, then y, then z
+    const double a = rotation[std::size_t(axis)] * kDegree;
+    if (a == 0) continue;
+    const double c = std::cos(a), s = std::sin(a);
+    const std::size_t i = std::size_t((axis + 1) % 3), j = std::size_t((axis + 2) % 3);
+    const double u = c * q[i] - s * q[j], w = s * q[i] + c * q[j];
+    q[i] = u;
+    q[j] = w;
+  }
+  return {q[0] + translation[0], q[1] + translation[1], q[2] + translation[2]};
+}
+
 topology::MeshData Scene::mesh() const {
-  if (grid) return makeGrid(*grid);
-  return topology::readMesh(*meshFile);
+  topology::MeshData m = grid ? makeGrid(*grid) : topology::readMesh(*meshFile);
+  if (!meshTransform.identity())
+    for (Vec3& p : m.points) p = meshTransform.apply(p);
+  return m;
+}
+
+MassLaw Scene::massLaw(const topology::Topology& t) const {
+  if (massUniform) {
+    if (perPointMass > 0) return MassLaw::perPoint(perPointMass);
+    const std::size_t n = t.numPoints();
+    if (n == 0) throw InvalidInput("mass.total", "the mesh has no point to carry a mass");
+    return MassLaw::perPoint(totalMass / double(n));
+  }
+  return MassLaw::areaDensity(massByTotal ? LumpedMass::densityForTotal(t, totalMass) : density);
 }
 
 std::vector<std::string> Scene::forceFieldLabels() const {
@@ -377,10 +409,22 @@ std::string parseMesh(const Reader& r, const json& root, const std::filesystem::
   if (mesh.is_string()) {
     meshFile = &mesh;
   } else if (mesh.is_object()) {
-    r.checkKeys(mesh, meshPtr, {"file", "grid"});
+    r.checkKeys(mesh, meshPtr, {"file", "grid", "scale", "rotation", "translation"});
     const json* file = r.find(mesh, "file");
     const json* grid = r.find(mesh, "grid");
     if ((file != nullptr) == (grid != nullptr)) r.fail(meshPtr, "give exactly one of \"file\" or \"grid\"");
+    if (const json* v = r.find(mesh, "scale")) {
+      if (v->is_number()) {
+        const double k = r.positive(*v, meshPtr + "/scale");
+        s.meshTransform.scale = {k, k, k};
+      } else {
+        s.meshTransform.scale = r.vec3(*v, meshPtr + "/scale");
+        for (int k = 0; k < 3; ++k)
+          if (!(s.meshTransform.scale[std::size_t(k)] > 0)) r.fail(meshPtr + "/scale/" + Reader::idx(std::size_t(k)), "must be > 0");
+      }
+    }
+    if (const json* v = r.find(mesh, "rotation")) s.meshTransform.rotation = r.vec3(*v, meshPtr + "/rotation");
+    if (const json* v = r.find(mesh, "translation")) s.meshTransform.translation = r.vec3(*v, meshPtr + "/translation");
     if (file) {
       meshFile = file;
       meshPtr += "/file";
@@ -403,20 +447,34 @@ std::string parseMesh(const Reader& r, const json& root, const std::filesystem::
   return meshPtr;
 }
 
-/// "mass": {"density"} or {"total"}.
+/// "mass": {"density"}, {"total"}, {"total", "lumping": "uniform"} or {"perPoint"}.
 void parseMass(const Reader& r, const json& root, Scene& s) {
   const std::string ptr = "/mass";
   const json& m = r.require(root, "", "mass");
   r.expectObject(m, ptr);
-  r.checkKeys(m, ptr, {"density", "total"});
+  r.checkKeys(m, ptr, {"density", "total", "perPoint", "lumping"});
   const json* d = r.find(m, "density");
   const json* t = r.find(m, "total");
-  if ((d != nullptr) == (t != nullptr)) r.fail(ptr, "give exactly one of \"density\" or \"total\"");
+  const json* p = r.find(m, "perPoint");
+  if ((d != nullptr) + (t != nullptr) + (p != nullptr) != 1)
+    r.fail(ptr, "give exactly one of \"density\", \"total\" or \"perPoint\"");
+  if (const json* l = r.find(m, "lumping")) {
+    const std::string lumping = r.string(*l, ptr + "/lumping");
+    if (lumping != "area" && lumping != "uniform")
+      r.fail(ptr + "/lumping", "unknown value \"" + lumping + "\" (area: by triangle areas; uniform: the same mass on every point)");
+    s.massUniform = lumping == "uniform";
+  }
+  if (p) s.massUniform = true;
   if (d) {
+    if (s.massUniform) r.fail(ptr + "/density", "a density is spread by area: it does not go with \"lumping\": \"uniform\"");
     s.density = r.positive(*d, ptr + "/density");
-  } else {
+  } else if (t) {
     s.massByTotal = true;
     s.totalMass = r.positive(*t, ptr + "/total");
+  } else {
+    if (const json* l = r.find(m, "lumping"); l && !s.massUniform)
+      r.fail(ptr + "/lumping", "a mass per point is uniform: it does not go with \"lumping\": \"area\"");
+    s.perPointMass = r.positive(*p, ptr + "/perPoint");
   }
 }
 
@@ -598,16 +656,24 @@ void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshDa
 
 Scene parseScene(std::string_view text, const std::string& sourceName,
                  const std::filesystem::path& baseDir) {
-  const JsonDocument doc = parseJsonWithLines(text, sourceName);
+  return detail::parseSceneDocument(parseJsonWithLines(text, sourceName), sourceName, baseDir);
+}
+
+Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sourceName,
+                                 const std::filesystem::path& baseDir) {
   const Reader r(sourceName, doc.lines);
   const json& root = doc.root;
   r.expectObject(root, "");
   r.checkKeys(root, "",
               {"name", "description", "mesh", "mass", "gravity", "forceFields", "constraints",
                "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline",
-               "contact", "obstacles"});
+               "contact", "obstacles", "ignored"});
   Scene s;
   parseHeader(r, root, sourceName, s);
+  if (const json* v = r.find(root, "ignored")) {  // what an import left out: text, for the reader
+    r.expectArray(*v, "/ignored");
+    for (std::size_t i = 0; i < v->size(); ++i) r.string((*v)[i], "/ignored/" + Reader::idx(i));
+  }
   const std::string meshPtr = parseMesh(r, root, baseDir, s);
   parseMass(r, root, s);
   if (const json* v = r.find(root, "gravity")) s.gravity = r.vec3(*v, "/gravity");
@@ -666,10 +732,11 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
       area += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
       if (area > 1e300) tooLarge = true;
     }
-    const std::string massPtr = s.massByTotal ? "/mass/total" : "/mass/density";
+    const std::string massPtr = s.massByTotal ? "/mass/total" : s.perPointMass > 0 ? "/mass/perPoint" : "/mass/density";
     if (tooLarge) r.fail(meshPtr, "the mesh's area is beyond the range of doubles: no mass can be spread over it");
     if (!(area > 0)) r.fail(massPtr, "the mesh has no area: it can carry no mass");
-    if (s.massByTotal ? !(s.totalMass / area > 0) || s.totalMass / area > 1e300 : s.density > 1e300 / area)
+    if (!s.massUniform &&
+        (s.massByTotal ? !(s.totalMass / area > 0) || s.totalMass / area > 1e300 : s.density > 1e300 / area))
       r.fail(massPtr, "the mass per area of this mesh is beyond the range of doubles");
   }
   parseConstraintsAndTimeline(r, root, s);
@@ -728,6 +795,11 @@ ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& so
 }
 
 Scene loadScene(const std::filesystem::path& file) {
+  {
+    std::string ext = file.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (ext == ".scn") return sceneFromSofa(importSofaScene(file));
+  }
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec)) throw InvalidInput(file.string(), "is a folder, not a scene file");
   std::ifstream in(file, std::ios::binary);

@@ -11,7 +11,10 @@
 namespace cutsim::core {
 
 Simulation::Simulation(std::unique_ptr<topology::Topology> topology, double density)
-    : model_(std::make_unique<Model>(std::move(topology), density)) {
+    : Simulation(std::move(topology), MassLaw::areaDensity(density)) {}
+
+Simulation::Simulation(std::unique_ptr<topology::Topology> topology, MassLaw mass)
+    : model_(std::make_unique<Model>(std::move(topology), mass)) {
   setSolver(SolverSettings{});
 }
 

@@ -229,3 +229,75 @@ TEST(LinearSolvers, SettingsOutOfRangeAreRejected) {
 
 }  // namespace
 }  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+using core::SofaCGSettings;
+using core::SofaConjugateGradient;
+using core::SolveReport;
+
+/// The textbook CG, SOFA's loop written out plainly on the dense free block (zero initial guess,
+/// no preconditioner, at most `cap` updates): the brute-force twin of SofaConjugateGradient.
+Eigen::VectorXd textbookCG(const SystemOperator& A, const Eigen::VectorXd& b, int cap) {
+  const Eigen::MatrixXd M = dense(A);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(A.size()), r = b;
+  A.project(r);
+  Eigen::VectorXd p = r;
+  double rho = r.dot(r);
+  for (int k = 0; k < cap; ++k) {
+    Eigen::VectorXd q = M * p;
+    A.project(q);
+    const double alpha = rho / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    const double next = r.dot(r);
+    p = r + (next / rho) * p;
+    rho = next;
+  }
+  return x;
+}
+
+TEST(SofaCG, TakesSofasStepsAndStopsAtItsCap) {
+  System s;
+  const SystemOperator A = s.op(0.05);
+  const Problem p = problem(A);
+  for (int cap : {1, 3, 12}) {
+    SofaConjugateGradient cg(SofaCGSettings{cap, 1e-14, 0.0, false});
+    VectorXd dv = VectorXd::Zero(A.size());
+    const SolveReport r = cg.solve(A, p.b, dv);
+    EXPECT_EQ(r.iterations, cap);
+    EXPECT_FALSE(r.converged);  // capped above its tolerance: reported
+    EXPECT_EQ(cg.lastStop(), "iterations");
+    const VectorXd twin = textbookCG(A, p.b, cap);
+    EXPECT_LT((dv - twin).norm(), 1e-10 * twin.norm()) << cap;
+  }
+}
+
+TEST(SofaCG, ConvergesToTheDenseSolveAndStopsOnItsTolerance) {
+  System s;
+  const SystemOperator A = s.op();
+  const Problem p = problem(A);
+  const VectorXd prescribedZero = VectorXd::Zero(A.size());
+  const VectorXd expected = bruteForce(A, p.b, prescribedZero);
+  SofaConjugateGradient cg(SofaCGSettings{5000, 1e-12, 0.0, false});
+  VectorXd warmup = VectorXd::Zero(A.size());
+  cg.solve(A, p.b, warmup);  // the first solve of all never stops on its first iteration
+  VectorXd dv = VectorXd::Zero(A.size());
+  const SolveReport r = cg.solve(A, p.b, dv);
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(cg.lastStop(), "tolerance");
+  EXPECT_LE(r.residual, 1e-12);
+  EXPECT_LT((dv - expected).norm(), 1e-9 * expected.norm());
+  // SOFA's threshold: an absolute bound on p^T A p, tested before the update.
+  SofaConjugateGradient th(SofaCGSettings{5000, 1e-14, 1e300, false});
+  VectorXd a = VectorXd::Zero(A.size()), b2 = VectorXd::Zero(A.size());
+  th.solve(A, p.b, a);  // first solve: the first iteration is exempt
+  EXPECT_EQ(th.solve(A, p.b, b2).iterations, 0);
+  EXPECT_EQ(th.lastStop(), "threshold");
+  EXPECT_THROW(SofaConjugateGradient(SofaCGSettings{0, 1e-5, 1e-5, false}), InvalidInput);
+  EXPECT_THROW(SofaConjugateGradient(SofaCGSettings{10, 1e-5, -1, false}), InvalidInput);
+}
+
+}  // namespace
+}  // namespace cutsim::test

@@ -49,10 +49,10 @@ void runsAndFalls(const std::string& text) {
 TEST(Registry, HasEveryForceFieldIntegratorAndLinearSolverOfTheProject) {
   EXPECT_EQ(forcefields::ForceFieldRegistry::instance().names(),
             (std::vector<std::string>{"DihedralBending", "FastTriangularBendingSprings", "StretchSprings",
-                                      "TriangularFEM"}));
+                                      "TriangularFEM", "TriangularFEMForceFieldOptim"}));
   EXPECT_EQ(core::IntegratorRegistry::instance().names(),
             (std::vector<std::string>{"bdf2", "explicit-euler", "implicit-euler", "newton"}));
-  EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod"}));
+  EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod", "sofa-cg"}));
   EXPECT_EQ(core::ActionRegistry::instance().names(),
             (std::vector<std::string>{"cut", "fracture", "grasp", "release", "remove", "tearing"}));
   EXPECT_EQ(core::ConstraintRegistry::instance().names(), (std::vector<std::string>{"fixed"}));
@@ -150,19 +150,19 @@ TEST(Registry, BadComponentsNameTheAlternatives) {
   const std::vector<BadCase> cases = {
       {"{\"type\": \"Magnet\"}", "", "inline.json:6: /forceFields/0/type: ",
        "unknown force field type \"Magnet\" (registered: DihedralBending, FastTriangularBendingSprings, "
-       "StretchSprings, TriangularFEM)"},
+       "StretchSprings, TriangularFEM, TriangularFEMForceFieldOptim)"},
       {"{\"type\": \"FastTriangularBendingSprings\", \"youngModulus\": 3}", "",
        "inline.json:6: /forceFields/0/youngModulus: ",
-       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to TriangularFEM); expected one of: "
+       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to TriangularFEM, TriangularFEMForceFieldOptim); expected one of: "
        "type, label, bendingStiffness"},
       {"{\"type\": \"TriangularFEM\", \"poissonRatio\": 0.5}", "", "inline.json:6: /forceFields/0/poissonRatio: ",
        "0.5"},
       {ok, "\"integrator\": {\"type\": \"rk4\"}", "inline.json:7: /integrator/type: ",
        "unknown integrator type \"rk4\" (registered: bdf2, explicit-euler, implicit-euler, newton)"},
       {ok, "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"pardiso\"}",
-       "inline.json:7: /linearSolver/type: ", "unknown linear solver type \"pardiso\" (registered: cg, cholmod)"},
+       "inline.json:7: /linearSolver/type: ", "unknown linear solver type \"pardiso\" (registered: cg, cholmod, sofa-cg)"},
       {ok, "\"integrator\": {\"type\": \"implicit-euler\", \"iterations\": 20}", "inline.json:7: /integrator/iterations: ",
-       "unknown key \"iterations\" for implicit-euler (it belongs to the linear solver cg); expected one of: type, rayleighMass"},
+       "unknown key \"iterations\" for implicit-euler (it belongs to the linear solver cg, the linear solver sofa-cg); expected one of: type, rayleighMass"},
       {ok, "\"integrator\": {\"type\": \"explicit-euler\"}, \"linearSolver\": {\"type\": \"cg\"}",
        "inline.json:7: /linearSolver: ",
        "the integrator \"explicit-euler\" uses no linear solver (the integrators that do: bdf2, implicit-euler, "

@@ -1,4 +1,4 @@
-// Reading and writing triangle meshes: Wavefront OBJ and OFF (see mesh_io.hpp).
+// Reading and writing triangle meshes: Wavefront OBJ, OFF, Gmsh (see mesh_io.hpp).
 //
 // Both readers work line by line on string views and parse numbers with std::from_chars, so they
 // do not depend on the locale and never raise floating-point exceptions (a "nan" or "inf" token is
@@ -411,6 +411,137 @@ MeshData readOff(std::istream& in, const std::string& sourceName) {
   return mesh;
 }
 
+// ---- Gmsh (.msh) ----
+//
+// ASCII formats 1 ($NOD ... $ENDNOD, $ELM ... $ENDELM) and 2 ($MeshFormat 2.x 0 8, $Nodes,
+// $Elements). Nodes are numbered by the file's own ids, which may start anywhere and have gaps:
+// the mesh's points are the nodes in the order of the file, ids mapped to 0-based indices (SOFA's
+// MeshGmshLoader does the same). Elements of type 2 (3-node triangles) are the triangles; points
+// (15) and lines (1) are a mesh's border markers and are skipped; any other type (quads, volumes,
+// second-order elements) is an error, since the surface would lose part of itself.
+
+MeshData readGmsh(std::istream& in, const std::string& sourceName) {
+  LineReader reader(in, sourceName);
+  MeshData mesh;
+  mesh.source = sourceName;
+  std::string_view line;
+  std::vector<std::string_view> tokens;
+  const auto nextRecord = [&]() {
+    while (reader.next(line)) {
+      tokens = tokenize(line);
+      if (!tokens.empty()) return true;
+    }
+    return false;
+  };
+  const auto count = [&](const char* what) {
+    if (!nextRecord()) throw InvalidInput(reader.where(), std::string("truncated file: expected the number of ") + what);
+    const auto n = parseInteger(tokens[0]);
+    if (tokens.size() != 1 || !n || *n < 0) reader.fail(std::string("malformed number of ") + what + " " + inQuotes(line));
+    if (static_cast<unsigned long long>(*n) > kInvalidIndex) reader.fail(std::string("too many ") + what);
+    return static_cast<std::size_t>(*n);
+  };
+  const auto expectEnd = [&](std::string_view end) {
+    if (!nextRecord()) throw InvalidInput(reader.where(), "truncated file: expected " + std::string(end));
+    if (tokens[0] != end) reader.fail("expected " + std::string(end) + ", found " + inQuotes(tokens[0]));
+  };
+  constexpr std::size_t kReserveCap = std::size_t{1} << 20;
+  std::vector<std::pair<long long, std::size_t>> ids;  // (file id, index), sorted after the nodes
+  int version = 0;
+  bool haveNodes = false, haveElements = false;
+  while (nextRecord()) {
+    const std::string_view section = tokens[0];
+    if (section == "$MeshFormat") {
+      if (!nextRecord() || tokens.size() < 3) throw InvalidInput(reader.where(), "malformed $MeshFormat: expected 'version file-type data-size'");
+      const auto v = parseDouble(tokens[0]);
+      if (!v || *v < 2 || *v >= 3)
+        reader.fail("Gmsh format version " + inQuotes(tokens[0]) + " is not supported (versions 1 and 2 are)");
+      if (tokens[1] != "0") reader.fail("binary Gmsh files are not supported (file-type " + inQuotes(tokens[1]) + "); save as ASCII");
+      version = 2;
+      expectEnd("$EndMeshFormat");
+    } else if (section == "$NOD" || section == "$Nodes") {
+      if (haveNodes) reader.fail("a second node section");
+      if (section == "$NOD") version = 1;
+      else if (version != 2) reader.fail("$Nodes without a $MeshFormat section before it");
+      haveNodes = true;
+      const std::size_t n = count("nodes");
+      mesh.points.reserve(std::min(n, kReserveCap));
+      mesh.pointLines.reserve(std::min(n, kReserveCap));
+      ids.reserve(std::min(n, kReserveCap));
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!nextRecord())
+          throw InvalidInput(reader.where(), "truncated file: expected " + std::to_string(n) + " nodes, found " + std::to_string(i));
+        if (tokens.size() != 4) reader.fail("node record has " + std::to_string(tokens.size()) + " numbers; expected 'id x y z'");
+        const auto id = parseInteger(tokens[0]);
+        if (!id) reader.fail("malformed node id " + inQuotes(tokens[0]));
+        ids.push_back({*id, mesh.points.size()});
+        mesh.points.push_back(parsePoint(reader, tokens, 1));
+        mesh.pointLines.push_back(reader.lineNumber());
+      }
+      expectEnd(version == 1 ? "$ENDNOD" : "$EndNodes");
+      std::sort(ids.begin(), ids.end());
+      for (std::size_t i = 1; i < ids.size(); ++i)
+        if (ids[i].first == ids[i - 1].first)
+          throw InvalidInput(reader.whereAt(mesh.pointLines[ids[i].second]), "node id " + std::to_string(ids[i].first) + " is given twice");
+    } else if (section == "$ELM" || section == "$Elements") {
+      if (!haveNodes) reader.fail("elements before the nodes");
+      if (haveElements) reader.fail("a second element section");
+      haveElements = true;
+      const std::size_t n = count("elements");
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!nextRecord())
+          throw InvalidInput(reader.where(), "truncated file: expected " + std::to_string(n) + " elements, found " + std::to_string(i));
+        // v1: id type physical elementary nodes n1 .. ; v2: id type ntags tag.. n1 ..
+        std::vector<long long> v;
+        for (auto t : tokens) {
+          const auto x = parseInteger(t);
+          if (!x) reader.fail("malformed number " + inQuotes(t) + " in an element record");
+          v.push_back(*x);
+        }
+        if (v.size() < 3) reader.fail("element record too short");
+        const long long type = v[1];
+        std::size_t first = 0, nodes = 0;
+        if (version == 1) {
+          if (v.size() < 5) reader.fail("element record too short; expected 'id type physical elementary nodes n1 ...'");
+          first = 5;
+          nodes = static_cast<std::size_t>(std::max(0LL, v[4]));
+        } else {
+          first = 3 + static_cast<std::size_t>(std::max(0LL, v[2]));
+          nodes = v.size() > first ? v.size() - first : 0;
+        }
+        if (v.size() != first + nodes) reader.fail("element record lists " + std::to_string(v.size() > first ? v.size() - first : 0) + " nodes where its header announces " + std::to_string(nodes));
+        if (type == 15 || type == 1) continue;  // points and lines: border markers
+        if (type != 2)
+          reader.fail("element type " + std::to_string(type) + " is not supported (a surface mesh has triangles, type 2; lines and points are skipped)");
+        if (nodes != 3) reader.fail("a triangle (type 2) with " + std::to_string(nodes) + " nodes");
+        TriangleVertices t{};
+        std::array<long long, 3> shown{};
+        for (std::size_t k = 0; k < 3; ++k) {
+          shown[k] = v[first + k];
+          auto it = std::lower_bound(ids.begin(), ids.end(), std::pair<long long, std::size_t>{shown[k], 0});
+          if (it == ids.end() || it->first != shown[k]) reader.fail("node id " + std::to_string(shown[k]) + " is not among the file's nodes");
+          t[k] = static_cast<PointId>(it->second);
+        }
+        checkDistinct(reader, t, shown);
+        mesh.triangles.push_back(t);
+        mesh.triangleLines.push_back(reader.lineNumber());
+      }
+      expectEnd(version == 1 ? "$ENDELM" : "$EndElements");
+    } else if (section.starts_with("$")) {
+      // Another section ($PhysicalNames, $NodeData, ...): skipped up to its end marker.
+      const std::string end = "$End" + std::string(section.substr(1));
+      bool closed = false;
+      while (nextRecord())
+        if (tokens[0] == end) { closed = true; break; }
+      if (!closed) throw InvalidInput(reader.where(), "truncated file: section " + inQuotes(section) + " has no " + end);
+    } else {
+      reader.fail("unexpected " + inQuotes(section) + " outside a section; expected $NOD, $ELM, $MeshFormat, $Nodes or $Elements");
+    }
+  }
+  requireVertices(mesh);
+  if (!haveElements) throw InvalidInput(sourceName, "no element section ($ELM or $Elements)");
+  return mesh;
+}
+
 // ---- by file name ----
 
 MeshData readMesh(const std::filesystem::path& path) {
@@ -431,9 +562,10 @@ MeshData readMesh(const std::filesystem::path& path) {
   }
   if (ext == ".obj") return readObj(in, name);
   if (ext == ".off") return readOff(in, name);
-  if (ext.empty()) throw InvalidInput(name, "no file extension; expected .obj or .off");
+  if (ext == ".msh") return readGmsh(in, name);
+  if (ext.empty()) throw InvalidInput(name, "no file extension; expected .obj, .off or .msh");
   throw InvalidInput(name,
-                     "unknown mesh file extension " + inQuotes(ext) + "; expected .obj or .off");
+                     "unknown mesh file extension " + inQuotes(ext) + "; expected .obj, .off or .msh");
 }
 
 // ---- writing ----

@@ -70,6 +70,14 @@ Topology::Topology(const MeshData& data) : impl_(std::make_unique<Impl>()) {
                         std::to_string(m.number_of_faces()) + " of " +
                         std::to_string(data.triangles.size()) + " triangles");
   }
+  // Each triangle starts at its first vertex as given (CGAL's add_face starts it at the last):
+  // triangleVertices gives back the file's order, which formulations that are not invariant
+  // under a rotation of the vertices (SOFA's TriangularFEMForceFieldOptim: a frame along the
+  // first edge) need.
+  for (const auto& t : data.triangles) {
+    const HI h = m.halfedge(VI(t[0]), VI(t[1]));
+    if (h != Mesh::null_halfedge() && m.face(h) != Mesh::null_face()) m.set_halfedge(m.face(h), h);
+  }
 }
 
 namespace {

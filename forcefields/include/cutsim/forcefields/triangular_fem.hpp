@@ -176,11 +176,13 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   static FemRecord elementFromMesh(const topology::Topology& topology, TriangleId t,
                                    const TriangularFEMParameters& parameters);
 
+ protected:
+  void checkSize(std::span<const double> a, const char* name, const char* what) const;
+
  private:
   void addExactKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const;
   void setTriangle(TriangleId t, const FemRecord& r);
   void clearTriangle(TriangleId t);
-  void checkSize(std::span<const double> a, const char* name, const char* what) const;
 
   const topology::Topology* topology_;
   TriangularFEMParameters params_;

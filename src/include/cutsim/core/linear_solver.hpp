@@ -113,6 +113,39 @@ class ConjugateGradient final : public LinearSolver {
   Eigen::VectorXd warm_;
 };
 
+/// SOFA's CGLinearSolver, step for step, for scenes that must give what SOFA gives: no
+/// preconditioner, a zero initial guess on the free points (warmStart: the previous solve's),
+/// at most `iterations` products A p; it stops when |r| <= tolerance |b| (tested before each
+/// product, from the second iteration on) or when |p^T A p| <= threshold (an absolute test, before
+/// the update) or p^T A p = 0. As in SOFA the very first solve tests neither on its first
+/// iteration. A stop above the tolerance (the cap, the threshold) is reported (converged false),
+/// never failed here; a negative p^T A p is followed as SOFA follows it, and reported (indefinite).
+struct SofaCGSettings {
+  int maxIterations = 25;   ///< SOFA's `iterations`, >= 1
+  double tolerance = 1e-5;  ///< SOFA's `tolerance`, > 0
+  double threshold = 1e-5;  ///< SOFA's `threshold`, >= 0
+  bool warmStart = false;   ///< SOFA's `warmStart`
+  void validate() const;
+};
+
+class SofaConjugateGradient final : public LinearSolver {
+ public:
+  explicit SofaConjugateGradient(SofaCGSettings settings = {});
+  std::string_view name() const override { return "sofa-cg"; }
+  bool direct() const override { return false; }
+  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  const SofaCGSettings& settings() const { return settings_; }
+  /// How the last solve ended: "tolerance", "threshold", "iterations" (the cap), "zero-denominator",
+  /// "zero-rhs".
+  std::string_view lastStop() const { return lastStop_; }
+
+ private:
+  SofaCGSettings settings_;
+  Eigen::VectorXd warm_;
+  long solves_ = 0;
+  std::string_view lastStop_ = "";
+};
+
 /// Supernodal Cholesky (CHOLMOD) of A assembled in place in a kept pattern: the pattern and its
 /// symbolic analysis are redone only when A.revision() or the fields change. Points are numbered
 /// by METIS nested dissection of the point graph; while the pattern changes every few steps (a

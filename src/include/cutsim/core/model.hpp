@@ -44,6 +44,8 @@ class Model {
  public:
   /// Takes the topology; creates the state (x = rest, v = 0) and, if density > 0, the mass.
   Model(std::unique_ptr<topology::Topology> topology, double density);
+  /// The same with the mass by either law (a value <= 0: no mass).
+  Model(std::unique_ptr<topology::Topology> topology, MassLaw mass);
   ~Model();
   Model(const Model&) = delete;
   Model& operator=(const Model&) = delete;

@@ -51,6 +51,17 @@ struct GridSpec {
 };
 topology::MeshData makeGrid(const GridSpec& grid);
 
+/// A placement of the mesh as read: each point scaled (per axis), then rotated (Euler angles in
+/// degrees: about x, then y, then z, fixed axes: R = Rz Ry Rx, as SOFA's MechanicalObject
+/// `rotation`), then translated. The identity by default.
+struct MeshTransform {
+  Vec3 scale{1, 1, 1};
+  Vec3 rotation{0, 0, 0};  ///< degrees
+  Vec3 translation{0, 0, 0};
+  bool identity() const;
+  Vec3 apply(const Vec3& p) const;
+};
+
 /// A force field of the scene: its registered type and the parameters its entry read.
 struct ForceFieldSpec {
   std::string type;   ///< a name of forcefields::ForceFieldRegistry
@@ -98,8 +109,12 @@ struct Scene {
   std::string description;
   std::optional<std::filesystem::path> meshFile;  ///< resolved against the scene's folder
   std::optional<GridSpec> grid;
+  MeshTransform meshTransform;
   bool massByTotal = false;
-  double density = 0.0, totalMass = 0.0;
+  /// "lumping": "uniform": every point carries the same mass (a total spread equally, or
+  /// perPointMass): SOFA's UniformMass. Else by area (SOFA's DiagonalMass).
+  bool massUniform = false;
+  double density = 0.0, totalMass = 0.0, perPointMass = 0.0;
   Vec3 gravity{0, 0, 0};
   std::vector<ForceFieldSpec> forceFields;
   std::vector<ConstraintSpec> constraints;
@@ -116,8 +131,10 @@ struct Scene {
 
   /// Number of steps: duration / timeStep rounded up (within 1e-9 of a whole number: rounded).
   long numSteps() const;
-  /// The mesh the scene starts from (read or generated).
+  /// The mesh the scene starts from (read or generated, then placed by meshTransform).
   topology::MeshData mesh() const;
+  /// The mass law for the mesh the scene starts from.
+  MassLaw massLaw(const topology::Topology& mesh) const;
   /// Labels of the force fields as the simulation gets them (unique: "Type", "Type_2", ...),
   /// the contact field's last ("contact") when the scene has contact.
   std::vector<std::string> forceFieldLabels() const;
@@ -131,6 +148,8 @@ struct Scene {
 Scene parseScene(std::string_view text, const std::string& sourceName,
                  const std::filesystem::path& baseDir);
 /// Reads and parses the file (a missing or unreadable file: InvalidInput "PATH: ...").
+/// Reads and parses the file: a JSON scene, or a SOFA scene (.scn, read by sofa_scene.hpp's reader
+/// and checked as its JSON translation is). A missing or unreadable file: InvalidInput "PATH: ...".
 Scene loadScene(const std::filesystem::path& file);
 
 /// One timeline entry given while a simulation runs (the "action" key and the action's keys, with

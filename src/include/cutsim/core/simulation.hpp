@@ -26,6 +26,8 @@ class Simulation {
   /// Takes the topology; creates the state (x = rest, v = 0) and, if density > 0, the mass.
   /// The integrator is implicit Euler with CG until one is set.
   Simulation(std::unique_ptr<topology::Topology> topology, double density);
+  /// The same with the mass by either law (mass.hpp).
+  Simulation(std::unique_ptr<topology::Topology> topology, MassLaw mass);
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;

@@ -1,5 +1,5 @@
 #pragma once
-// Reading and writing triangle meshes: Wavefront OBJ and OFF.
+// Reading and writing triangle meshes: Wavefront OBJ, OFF and Gmsh's ASCII .msh (versions 1, 2).
 #include <cstddef>
 #include <filesystem>
 #include <iosfwd>
@@ -21,13 +21,16 @@ struct MeshData {
 };
 
 /// Reads OBJ (v and f records; f may use v/vt/vn forms and OBJ's relative negative indices; other
-/// records are ignored) or OFF, chosen by the file's extension (.obj, .off; case-insensitive).
+/// records are ignored), OFF or Gmsh (ASCII versions 1 and 2: nodes in file order, their ids mapped
+/// to 0-based indices; triangles kept, points and lines skipped, other elements an error), chosen
+/// by the file's extension (.obj, .off, .msh; case-insensitive).
 /// Throws InvalidInput with where() = "PATH:LINE" for a malformed record, an out-of-range index,
 /// a face that is not a triangle, a repeated vertex in a face, a NaN or infinite coordinate;
 /// where() = "PATH" for a missing or unreadable file or an unknown extension.
 MeshData readMesh(const std::filesystem::path& path);
 MeshData readObj(std::istream& in, const std::string& sourceName);
 MeshData readOff(std::istream& in, const std::string& sourceName);
+MeshData readGmsh(std::istream& in, const std::string& sourceName);
 
 /// Checks that the soup describes a manifold surface: no edge with three or more triangles, no two
 /// triangles using an edge in the same direction (inconsistent orientation), no vertex whose
