@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 
 #include "cutsim/forcefields/registry.hpp"
 #include "cutsim/topology/errors.hpp"
@@ -11,65 +12,101 @@
 namespace cutsim::forcefields {
 namespace {
 
-using V3 = Eigen::Vector3d;
+// The arithmetic below is SOFA's, operation for operation and in its order (this file is compiled
+// without contraction of multiply-adds, -ffp-contract=off, as SOFA's x86-64 builds are): a scene
+// whose result depends on every rounding (docs/sofa.md) then gives SOFA's numbers.
 
-V3 point(const double* x, std::uint32_t p) { return V3(x[3 * p], x[3 * p + 1], x[3 * p + 2]); }
-void scatter(double* f, std::uint32_t p, const V3& v) {
-  f[3 * p] += v[0];
-  f[3 * p + 1] += v[1];
-  f[3 * p + 2] += v[2];
+struct V {
+  double x, y, z;
+};
+inline V load(const double* a, std::uint32_t p) { return {a[3 * p], a[3 * p + 1], a[3 * p + 2]}; }
+inline V sub(const V& a, const V& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline V mul(const V& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline V add(const V& a, const V& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline double dot(const V& a, const V& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline V cross(const V& a, const V& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+/// SOFA's Vec::normalize: divided by its norm when the norm exceeds epsilon.
+inline bool normalize(V& a) {
+  const double n = std::sqrt(dot(a, a));
+  if (!(n > std::numeric_limits<double>::epsilon())) return false;
+  a.x /= n;
+  a.y /= n;
+  a.z /= n;
+  return true;
+}
+inline void addTo(double* f, std::uint32_t p, const V& v) {
+  f[3 * p] += v.x;
+  f[3 * p + 1] += v.y;
+  f[3 * p + 2] += v.z;
+}
+inline void subFrom(double* f, std::uint32_t p, const V& v) {
+  f[3 * p] -= v.x;
+  f[3 * p + 1] -= v.y;
+  f[3 * p + 2] -= v.z;
 }
 
-/// The rest shape's (bx, cx, cy) from the element's shape gradients
-/// g = (1/bx, -cx/(bx cy), 0, 1/cy) (TriangularFEM::elementFromMesh).
-struct RestShape {
-  double bx, cx, cy, ss;  // ss = 1 / (4A) = 0.5 / (bx cy)
-  explicit RestShape(const FemTriangle& e)
-      : bx(1.0 / e.g[0]), cx(-e.g[1] / (e.g[0] * e.g[3])), cy(1.0 / e.g[3]), ss(0.5 / (bx * cy)) {}
-};
-
-/// The current frame: f0 along ab, f1 in the plane towards c. False when the triangle is
-/// (nearly) flat at x: it has no frame, and gives no force.
-bool frame(const double* x, const FemTriangle& e, V3& f0, V3& f1, V3& ab, V3& ac) {
-  const V3 a = point(x, e.v[0]);
-  ab = point(x, e.v[1]) - a;
-  ac = point(x, e.v[2]) - a;
-  const V3 n = ab.cross(ac);
-  const V3 y = n.cross(ab);
-  const double lab = ab.norm(), ly = y.norm();
-  if (!(lab > 0) || !(ly > 1e-14 * lab * lab * lab)) return false;
-  f0 = ab / lab;
-  f1 = y / ly;
-  return true;
+/// SOFA's computeTriangleRotation: f0 along ab, f1 = (ab x ac) x ab; false when either has no
+/// direction (a flat triangle: no frame, no force; SOFA would divide by zero).
+bool frameOf(const V& ab, const V& ac, V& f0, V& f1) {
+  f0 = ab;
+  const V n = cross(ab, ac);
+  f1 = cross(n, ab);
+  return normalize(f0) && normalize(f1);
 }
 
 }  // namespace
 
+TriangularFEMOptim::RestFrame TriangularFEMOptim::restFrame(const FemTriangle& e) const {
+  // SOFA's initTriangleInfo, on the rest positions (scaled by restScale when it is not 1).
+  RestFrame r{};
+  const auto pa = topo_->restPosition(topology::PointId(e.v[0]));
+  const auto pb = topo_->restPosition(topology::PointId(e.v[1]));
+  const auto pc = topo_->restPosition(topology::PointId(e.v[2]));
+  const V a{pa[0], pa[1], pa[2]};
+  V ab = sub(V{pb[0], pb[1], pb[2]}, a), ac = sub(V{pc[0], pc[1], pc[2]}, a);
+  if (restScale_ != 1.0) {
+    ab = mul(ab, restScale_);
+    ac = mul(ac, restScale_);
+  }
+  V f0, f1;
+  frameOf(ab, ac, f0, f1);
+  r.bx = dot(f0, ab);
+  r.cx = dot(f0, ac);
+  r.cy = dot(f1, ac);
+  r.ss = 0.5 / (r.bx * r.cy);
+  return r;
+}
+
 TriangularFEMOptim::TriangularFEMOptim(topology::Topology& topology, TriangularFEMParameters parameters)
-    : TriangularFEM(topology, parameters) {
+    : TriangularFEM(topology, parameters), topo_(&topology), restScale_(parameters.restScale) {
   if (parameters.exactHessian)
     throw InvalidInput("exactHessian", "TriangularFEMForceFieldOptim has no exact stiffness (SOFA's K holds the frame)");
-  const double E = parameters.youngModulus * parameters.thickness, nu = parameters.poissonRatio;
+  // SOFA's computeMuGamma, with the thickness folded into E (SOFA's element has none: h = 1).
+  const double E = parameters.thickness == 1.0 ? parameters.youngModulus : parameters.youngModulus * parameters.thickness;
+  const double nu = parameters.poissonRatio;
   muPrime_ = E / (1 + nu);
-  gamma_ = E * nu / (1 - nu * nu);
+  gamma_ = (E * nu) / (1 - nu * nu);
 }
 
 void TriangularFEMOptim::addForce(std::span<const double> x, std::span<const double>, std::span<double> f) const {
   checkSize(x, "x", "addForce");
   checkSize(f, "f", "addForce");
   for (const FemTriangle& e : elements()) {
-    V3 f0, f1, ab, ac;
-    if (!frame(x.data(), e, f0, f1, ab, ac)) continue;
-    const RestShape r(e);
-    const double dbx = r.bx - f0.dot(ab), dcx = r.cx - f0.dot(ac), dcy = r.cy - f1.dot(ac);
+    const RestFrame r = restFrame(e);
+    const V a = load(x.data(), e.v[0]);
+    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
+    V f0, f1;
+    if (!frameOf(ab, ac, f0, f1)) continue;
+    const double dbx = r.bx - dot(f0, ab), dcx = r.cx - dot(f0, ac), dcy = r.cy - dot(f1, ac);
     const double e0 = r.cy * dbx, e1 = r.bx * dcy, e2 = r.bx * dcx - r.cx * dbx;
     const double gxy = gamma_ * (e0 + e1);
     const double s0 = (muPrime_ * e0 + gxy) * r.ss, s1 = (muPrime_ * e1 + gxy) * r.ss, s2 = (0.5 * muPrime_ * e2) * r.ss;
-    const V3 fb = f0 * (r.cy * s0 - r.cx * s2) + f1 * (r.cy * s2 - r.cx * s1);
-    const V3 fc = f0 * (r.bx * s2) + f1 * (r.bx * s1);
-    scatter(f.data(), e.v[0], -fb - fc);
-    scatter(f.data(), e.v[1], fb);
-    scatter(f.data(), e.v[2], fc);
+    const V fb = add(mul(f0, r.cy * s0 - r.cx * s2), mul(f1, r.cy * s2 - r.cx * s1));
+    const V fc = add(mul(f0, r.bx * s2), mul(f1, r.bx * s1));
+    const V fa = sub(mul(fb, -1.0), fc);
+    addTo(f.data(), e.v[0], fa);
+    addTo(f.data(), e.v[1], fb);
+    addTo(f.data(), e.v[2], fc);
   }
 }
 
@@ -80,21 +117,24 @@ void TriangularFEMOptim::addDForce(std::span<const double> x, std::span<const do
   checkSize(df, "df", "addDForce");
   if (kFactor == 0.0) return;
   for (const FemTriangle& e : elements()) {
-    V3 f0, f1, ab, ac;
-    if (!frame(x.data(), e, f0, f1, ab, ac)) continue;
-    const RestShape r(e);
-    const V3 da = point(dx.data(), e.v[0]);
-    const V3 dab = point(dx.data(), e.v[1]) - da, dac = point(dx.data(), e.v[2]) - da;
-    const double dbx = f0.dot(dab), dby = f1.dot(dab), dcx = f0.dot(dac), dcy = f1.dot(dac);
+    const RestFrame r = restFrame(e);
+    const V a = load(x.data(), e.v[0]);
+    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
+    V f0, f1;
+    if (!frameOf(ab, ac, f0, f1)) continue;
+    const V da = load(dx.data(), e.v[0]);
+    const V dab = sub(load(dx.data(), e.v[1]), da), dac = sub(load(dx.data(), e.v[2]), da);
+    const double dbx = dot(f0, dab), dby = dot(f1, dab), dcx = dot(f0, dac), dcy = dot(f1, dac);
     const double e0 = r.cy * dbx, e1 = r.bx * dcy - r.cx * dby, e2 = r.bx * dcx - r.cx * dbx + r.cy * dby;
     const double gxy = gamma_ * (e0 + e1);
     const double k = r.ss * kFactor;
     const double s0 = (muPrime_ * e0 + gxy) * k, s1 = (muPrime_ * e1 + gxy) * k, s2 = (0.5 * muPrime_ * e2) * k;
-    const V3 fb = f0 * (r.cy * s0 - r.cx * s2) + f1 * (r.cy * s2 - r.cx * s1);
-    const V3 fc = f0 * (r.bx * s2) + f1 * (r.bx * s1);
-    scatter(df.data(), e.v[0], fb + fc);
-    scatter(df.data(), e.v[1], -fb);
-    scatter(df.data(), e.v[2], -fc);
+    const V fb = add(mul(f0, r.cy * s0 - r.cx * s2), mul(f1, r.cy * s2 - r.cx * s1));
+    const V fc = add(mul(f0, r.bx * s2), mul(f1, r.bx * s1));
+    const V fa = sub(mul(fb, -1.0), fc);
+    subFrom(df.data(), e.v[0], fa);  // SOFA: df -= dfa, dfb, dfc (its kFactor carries the sign)
+    subFrom(df.data(), e.v[1], fb);
+    subFrom(df.data(), e.v[2], fc);
   }
 }
 
@@ -102,10 +142,12 @@ double TriangularFEMOptim::potentialEnergy(std::span<const double> x) const {
   checkSize(x, "x", "potentialEnergy");
   double energy = 0.0;
   for (const FemTriangle& e : elements()) {
-    V3 f0, f1, ab, ac;
-    if (!frame(x.data(), e, f0, f1, ab, ac)) continue;
-    const RestShape r(e);
-    const double dbx = r.bx - f0.dot(ab), dcx = r.cx - f0.dot(ac), dcy = r.cy - f1.dot(ac);
+    const RestFrame r = restFrame(e);
+    const V a = load(x.data(), e.v[0]);
+    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
+    V f0, f1;
+    if (!frameOf(ab, ac, f0, f1)) continue;
+    const double dbx = r.bx - dot(f0, ab), dcx = r.cx - dot(f0, ac), dcy = r.cy - dot(f1, ac);
     const double e0 = r.cy * dbx, e1 = r.bx * dcy, e2 = r.bx * dcx - r.cx * dbx;
     const double gxy = gamma_ * (e0 + e1);
     energy += 0.5 * r.ss * (e0 * (muPrime_ * e0 + gxy) + e1 * (muPrime_ * e1 + gxy) + 0.5 * muPrime_ * e2 * e2);
@@ -119,24 +161,25 @@ void TriangularFEMOptim::addKToMatrix(std::span<const double> x, MatrixAccumulat
   using Mat36 = Eigen::Matrix<double, 3, 6>;
   for (const FemTriangle& e : elements()) {
     const std::array<PointId, 3> v{PointId(e.v[0]), PointId(e.v[1]), PointId(e.v[2])};
-    V3 f0, f1, ab, ac;
-    if (!frame(x.data(), e, f0, f1, ab, ac)) {  // the pattern stays: zero blocks
+    const V a = load(x.data(), e.v[0]);
+    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
+    V f0, f1;
+    if (!frameOf(ab, ac, f0, f1)) {  // the pattern stays: zero blocks
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) m.addBlock(v[std::size_t(i)], v[std::size_t(j)], Eigen::Matrix3d::Zero());
       continue;
     }
-    const RestShape r(e);
+    const RestFrame r = restFrame(e);
     // The 2D strain-displacement matrix over (a, b, c) (times 2A) and the material matrix.
     Mat36 B;
-    B << -r.cy, 0, r.cy, 0, 0, 0,                            //
-        0, r.cx - r.bx, 0, -r.cx, 0, r.bx,                   //
-        r.cx - r.bx, -r.cy, -r.cx, r.cy, r.bx, 0;            //
+    B << -r.cy, 0, r.cy, 0, 0, 0,                   //
+        0, r.cx - r.bx, 0, -r.cx, 0, r.bx,          //
+        r.cx - r.bx, -r.cy, -r.cx, r.cy, r.bx, 0;   //
     Eigen::Matrix3d D;
     D << muPrime_ + gamma_, gamma_, 0, gamma_, muPrime_ + gamma_, 0, 0, 0, 0.5 * muPrime_;
     const Eigen::Matrix<double, 6, 6> K = (-kFactor * r.ss) * (B.transpose() * D * B);
     Mat23 F;
-    F.row(0) = f0.transpose();
-    F.row(1) = f1.transpose();
+    F << f0.x, f0.y, f0.z, f1.x, f1.y, f1.z;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
         m.addBlock(v[std::size_t(i)], v[std::size_t(j)], F.transpose() * K.block<2, 2>(2 * i, 2 * j) * F);

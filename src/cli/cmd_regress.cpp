@@ -56,9 +56,9 @@ void regress(const RegressOptions& options) {
     char line[512];
     std::snprintf(line, sizeof line,
                   "%s: %s  legacy %.3e (threshold %.1e), positions-only %.3e, largest point difference %.3g "
-                  "(point %zu at T = %g), %zu frames",
+                  "(point %zu at T = %g; %.3g with the run printed to the reference's 6 digits), %zu frames",
                   e.scene.string().c_str(), pass ? "pass" : "FAIL", c.legacy, e.epsilon, c.positions, c.largestDistance,
-                  c.worstPoint, c.worstTime, c.frames);
+                  c.worstPoint, c.worstTime, c.largestPrintedDifference, c.frames);
     std::cout << line << "\n";
   }
   std::cout.flush();

@@ -216,6 +216,11 @@ void parseStepping(const Reader& r, const json& root, Scene& s) {
   if (linear) {
     s.linearSolver = parseComponent(r, *linear, "/linearSolver", LinearSolverRegistry::instance(),
                                     "linear solver", "", integratorsWithKey);
+    if (s.integrator.type == "sofa-euler" && s.linearSolver->type != "sofa-cg")
+      r.fail("/linearSolver/type", "the integrator \"sofa-euler\" solves with \"sofa-cg\" (SOFA's CGLinearSolver), not \"" +
+                                       s.linearSolver->type + "\"");
+  } else if (s.integrator.type == "sofa-euler") {
+    s.linearSolver = ComponentSpec{"sofa-cg", SofaCGSettings{}, s.integrator.location};
   } else if (usesSolver) {
     s.linearSolver = ComponentSpec{"cg", CGSettings{}, s.integrator.location};
   } else {

@@ -171,6 +171,8 @@ RegressionComparison compareWithReference(const std::vector<StateFrame>& referen
     };
     c.legacy += meanAbs(ref.x, mine->x) / points;
     if (!ref.v.empty() && ref.v.size() == mine->v.size()) c.legacy += meanAbs(ref.v, mine->v) / points;
+    for (std::size_t i = 0; i < ref.x.size(); ++i)
+      c.largestPrintedDifference = std::max(c.largestPrintedDifference, std::abs(ref.x[i] - printed(mine->x[i])));
     double norm2 = 0;
     for (std::size_t p = 0; 3 * p < ref.x.size(); ++p) {
       double d2 = 0;

@@ -235,6 +235,7 @@ class Importer {
   ojson massJson_, integratorJson_, linearSolverJson_;
   ojson forceFields_ = ojson::array(), constraints_ = ojson::array(), ignored_ = ojson::array();
   std::vector<std::size_t> forceFieldLines_, constraintLines_;
+  std::size_t massAt_ = 0;
   std::size_t rootLine_ = 0;
   double dt_ = 0.01;
   Vec3 gravity_{0, -9.81, 0};
@@ -466,12 +467,11 @@ void Importer::component(SofaComponent& c) {
     if (odeSolver_) fail(c, "", "a second ODE solver (the first at line " + std::to_string(odeSolver_->line) + "): cutsim steps one");
     odeSolver_ = &c;
     integratorJson_ = ojson::object();
-    integratorJson_["type"] = "implicit-euler";
+    integratorJson_["type"] = "sofa-euler";
     integratorJson_["rayleighMass"] = number(c, "rayleighMass", 0.0);
     integratorJson_["rayleighStiffness"] = number(c, "rayleighStiffness", 0.0);
     if (integratorJson_["rayleighMass"].get<double>() < 0 || integratorJson_["rayleighStiffness"].get<double>() < 0)
       fail(c, "", "negative Rayleigh damping is not supported");
-    integratorJson_["onSolveFailure"] = "warn";  // SOFA keeps what its solver gives: flagged, not replaced
     requireFalse(c, "firstOrder", "integrates the second-order system (firstOrder=0)");
     requireFalse(c, "trapezoidalScheme", "has backward Euler's scheme (trapezoidalScheme=0)");
     requireFalse(c, "solveConstraint", "has no Lagrangian constraints");
@@ -534,6 +534,7 @@ void Importer::component(SofaComponent& c) {
   if (t == "UniformMass" || t == "DiagonalMass") {
     if (mass_) fail(c, "", "a second mass (the first at line " + std::to_string(mass_->line) + ")");
     mass_ = &c;
+    massAt_ = forceFields_.size();  // SOFA sums the components in the node's order
     checkTemplate(c);
     massJson_ = ojson::object();
     requireNumber(c, "rayleighMass", 0.0, "has Rayleigh damping on the ODE solver only");
@@ -742,6 +743,7 @@ void Importer::finish() {
   for (std::size_t i = 0; i < forceFieldLines_.size(); ++i) setLine("/forceFields/" + std::to_string(i), forceFieldLines_[i]);
   s["constraints"] = constraints_;
   for (std::size_t i = 0; i < constraintLines_.size(); ++i) setLine("/constraints/" + std::to_string(i), constraintLines_[i]);
+  if (massAt_ > 0) integratorJson_["massAt"] = massAt_;
   s["integrator"] = integratorJson_;
   setLine("/integrator", odeSolver_->line);
   s["linearSolver"] = linearSolverJson_;

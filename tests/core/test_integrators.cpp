@@ -55,6 +55,10 @@ std::vector<Config> allConfigs() {
        [](ImplicitSettings s) {
          return std::make_unique<NewtonImplicitEuler>(s, NewtonSettings{}, std::make_unique<CholmodSolver>());
        }},
+      {"sofa_euler",
+       [](ImplicitSettings s) {
+         return core::makeSofaEuler(s.rayleighMass, s.rayleighStiffness, 0, core::SofaCGSettings{5000, 1e-14, 0.0, false});
+       }},
   };
 }
 

@@ -22,6 +22,10 @@
 // elastic energy of the strain in that frame, h/(8A) strain.D.strain, whose gradient with the
 // frame held is the force; stiffnessIsExact() is false and there is no exact K. At a rest shape
 // moved rigidly the force is zero and K equals TriangularFEM's (tests/forcefields/).
+//
+// The arithmetic is SOFA's, operation for operation (the rest data computed as SOFA computes it,
+// the frame by SOFA's normalize, the same order of products and sums, compiled without fused
+// multiply-adds): a chaotic scene then follows SOFA's rounding (docs/sofa.md).
 #include "cutsim/forcefields/triangular_fem.hpp"
 
 namespace cutsim::forcefields {
@@ -43,6 +47,14 @@ class TriangularFEMOptim final : public TriangularFEM {
   bool setExactStiffness(bool exact) override { return !exact; }
 
  private:
+  /// SOFA's rest data of an element (its initTriangleInfo), from the rest positions.
+  struct RestFrame {
+    double bx, cx, cy, ss;  // ss = 0.5 / (bx cy) = 1 / (4A)
+  };
+  RestFrame restFrame(const FemTriangle& e) const;
+
+  const topology::Topology* topo_;
+  double restScale_;
   double muPrime_ = 0.0, gamma_ = 0.0;  // SOFA's mu' = E / (1 + nu), gamma = E nu / (1 - nu^2)
 };
 

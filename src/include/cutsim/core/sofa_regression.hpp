@@ -10,7 +10,8 @@
 //   the list's epsilon;
 // - the newer, positions-only metric (its Python runner): the Euclidean norm of the difference of
 //   X divided by 3N, summed over the frames;
-// - the largest distance between a point's position and the reference's, with its point and time.
+// - the largest distance between a point's position and the reference's, with its point and time,
+//   and the largest difference of a coordinate printed as the reference prints it.
 //
 // A run writes its frames at the start of a step (SOFA's WriteState on AnimateBeginEvent): at
 // T = 0 and, with "dump only the last step", at T = dt (steps - 1): the state after steps - 1
@@ -55,6 +56,9 @@ struct RegressionComparison {
   double legacy = 0.0;          ///< SOFA's C++ metric (X and V)
   double positions = 0.0;       ///< SOFA's Python metric (X only)
   double largestDistance = 0.0; ///< max over frames and points of |x - x_ref|
+  /// max over frames and coordinates of |x_ref - x| with x printed to the reference's 6 digits
+  /// (0: the run gives the reference's numbers to every printed digit)
+  double largestPrintedDifference = 0.0;
   std::size_t worstPoint = 0;
   double worstTime = 0.0;
   std::size_t frames = 0;       ///< frames compared
