@@ -137,6 +137,13 @@ void StretchSprings::checkSize(std::span<const double> a, const char* name,
   }
 }
 
+double StretchSprings::springWeight(const StretchSpring& s) const {
+  if (!params_.perRestLength) return 1.0;
+  // SOFA's MeshSpringForceField: stiffness and damping divided by the mesh's rest length.
+  const double l = s.restLength / params_.restScale;
+  return l > std::numeric_limits<double>::epsilon() ? 1.0 / l : 1.0;
+}
+
 void StretchSprings::addForce(std::span<const double> x, std::span<const double> v,
                               std::span<double> f) const {
   checkSize(x, "x", "addForce");
@@ -152,11 +159,12 @@ void StretchSprings::addForce(std::span<const double> x, std::span<const double>
   for (const StretchSpring s : table_.entries()) {
     double u[3], l;
     if (!direction(xp, s.a, s.b, u, l)) continue;
-    double intensity = -ks * (l - s.restLength);
+    const double w = springWeight(s);
+    double intensity = -(ks * w) * (l - s.restLength);
     if (damped) {
       const double* va = vp + 3 * static_cast<std::size_t>(s.a);
       const double* vb = vp + 3 * static_cast<std::size_t>(s.b);
-      intensity -= kd * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
+      intensity -= (kd * w) * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
     }
     double* fa = fp + 3 * static_cast<std::size_t>(s.a);
     double* fb = fp + 3 * static_cast<std::size_t>(s.b);
@@ -189,8 +197,9 @@ void StretchSprings::addDForce(std::span<const double> x, std::span<const double
     const double uw = L.u[0] * w[0] + L.u[1] * w[1] + L.u[2] * w[2];
     // g = (kFactor K_jj + bFactor B_jj) w = -k (a w + (1 - a) (u.w) u) - b (u.w) u. A spring
     // without direction has u = 0 and a = 0: no contribution.
-    const double cu = -(k * (1.0 - L.a) + b) * uw;
-    const double cw = -k * L.a;
+    const double sw = springWeight(s);
+    const double cu = -(k * sw * (1.0 - L.a) + b * sw) * uw;
+    const double cw = -k * sw * L.a;
     double* fa = dfp + 3 * static_cast<std::size_t>(s.a);
     double* fb = dfp + 3 * static_cast<std::size_t>(s.b);
     for (int c = 0; c < 3; ++c) {
@@ -235,7 +244,7 @@ double StretchSprings::potentialEnergy(std::span<const double> x) const {
     const double* xb = xp + 3 * static_cast<std::size_t>(s.b);
     const double d0 = xb[0] - xa[0], d1 = xb[1] - xa[1], d2 = xb[2] - xa[2];
     const double stretch = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - s.restLength;
-    e += stretch * stretch;
+    e += springWeight(s) * stretch * stretch;
   }
   return 0.5 * params_.stiffness * e;
 }
@@ -249,7 +258,7 @@ void StretchSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& 
     double u[3], l;
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
     if (direction(x.data(), s.a, s.b, u, l)) {
-      block = stiffnessBlock(u, tangentFactor(s.restLength, l, stable), k);
+      block = stiffnessBlock(u, tangentFactor(s.restLength, l, stable), k * springWeight(s));
     }
     m.addBlock(s.a, s.a, block);
     m.addBlock(s.b, s.b, block);
@@ -268,7 +277,7 @@ void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& 
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
     if (direction(x.data(), s.a, s.b, u, l)) {
       const Eigen::Vector3d uv(u[0], u[1], u[2]);
-      block = (-b * uv) * uv.transpose();
+      block = (-b * springWeight(s) * uv) * uv.transpose();
     }
     m.addBlock(s.a, s.a, block);
     m.addBlock(s.b, s.b, block);
@@ -391,6 +400,7 @@ const bool registered = ForceFieldRegistry::instance().add({
     "one linear spring per edge (SOFA's MeshSpringForceField)",
     {{"stiffness", "ks per spring, >= 0 (required)"},
      {"damping", "kd per spring, >= 0 (default 0)"},
+     {"perRestLength", "stiffness and damping divided by each spring's rest length, as SOFA's MeshSpringForceField (default false)"},
      {"stableJacobian", "clamp compressed springs' K to keep it semi-definite (default true)"},
      {"restScale", "> 0, multiplies every rest length (prestrain: < 1 puts a held sheet under "
                    "tension, strain 1/restScale - 1) (default 1)"}},
@@ -400,6 +410,7 @@ const bool registered = ForceFieldRegistry::instance().add({
       s.require("stiffness");
       p.stiffness = s.nonNegative("stiffness", p.stiffness);
       p.damping = s.nonNegative("damping", p.damping);
+      p.perRestLength = s.boolean("perRestLength", p.perRestLength);
       p.stableJacobian = s.boolean("stableJacobian", p.stableJacobian);
       p.restScale = s.positive("restScale", p.restScale);
       s.check([&] { p.validate(); });

@@ -48,8 +48,11 @@ void parseGrid(const Reader& r, const json& j, const std::string& ptr, GridSpec&
       g.alternating = true;
     } else if (v == "oneway") {
       g.alternating = false;
+    } else if (v == "downward") {  // SOFA's GridMeshCreator pattern 3: every cell along (i+1,j)-(i,j+1)
+      g.alternating = false;
+      g.downward = true;
     } else {
-      r.fail(ptr + "/diagonals", "unknown value \"" + v + "\" (alternating, oneway)");
+      r.fail(ptr + "/diagonals", "unknown value \"" + v + "\" (alternating, oneway, downward)");
     }
   }
   if (const json* p = r.find(j, "plane")) {
@@ -317,7 +320,10 @@ topology::MeshData makeGrid(const GridSpec& g) {
   for (int j = 0; j + 1 < g.ny; ++j) {
     for (int i = 0; i + 1 < g.nx; ++i) {
       const PointId a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
-      if (!g.alternating || (i + j) % 2 == 0) {
+      if (g.downward) {
+        m.triangles.push_back({a, b, d});
+        m.triangles.push_back({b, c, d});
+      } else if (!g.alternating || (i + j) % 2 == 0) {
         m.triangles.push_back({a, b, c});
         m.triangles.push_back({a, c, d});
       } else {

@@ -94,6 +94,10 @@ bool isVisualOrGui(std::string_view type) {
 
 bool isMapping(std::string_view type) { return endsWith(type, "Mapping"); }
 
+bool isLoader(std::string_view type) {
+  return type == "MeshOBJLoader" || type == "MeshGmshLoader" || type == "MeshOffLoader" || type == "GridMeshCreator";
+}
+
 /// Attributes that change only what SOFA draws or prints: read silently.
 bool isDisplayAttribute(std::string_view a) {
   static const std::set<std::string_view> names = {
@@ -209,6 +213,20 @@ class Importer {
   void loader(SofaComponent& c);
   void meshFrom(SofaComponent& c, bool topologyContainer);
   void finish();
+  /// A fixed constraint per box (6 numbers each; each axis' bounds ordered, as SOFA orders them).
+  void addBoxes(SofaComponent& c, const std::vector<double>& n) {
+    if (n.empty() || n.size() % 6 != 0)
+      fail(c, "box", "expected 6 numbers per box (xmin ymin zmin xmax ymax zmax), got " + std::to_string(n.size()));
+    for (std::size_t k = 0; k + 5 < n.size(); k += 6) {
+      ojson lo = ojson::array(), hi = ojson::array();
+      for (int a = 0; a < 3; ++a) {
+        lo.push_back(std::min(n[k + std::size_t(a)], n[k + 3 + std::size_t(a)]));
+        hi.push_back(std::max(n[k + std::size_t(a)], n[k + 3 + std::size_t(a)]));
+      }
+      constraints_.push_back({{"type", "fixed"}, {"box", {lo, hi}}});
+      constraintLines_.push_back(c.line);
+    }
+  }
   std::string resolveMeshFile(SofaComponent& c, const std::string& name);
   void setLine(const std::string& pointer, std::size_t line) { out_.lines[pointer] = line; }
 
@@ -220,6 +238,7 @@ class Importer {
   SofaSceneImport out_;
 
   struct Loader {
+    std::optional<GridSpec> grid;  ///< GridMeshCreator's grid, or:
     std::filesystem::path file;
     MeshTransform transform;
     std::size_t line = 0;
@@ -378,15 +397,39 @@ std::string Importer::resolveMeshFile(SofaComponent& c, const std::string& name)
 
 void Importer::loader(SofaComponent& c) {
   checkTemplate(c);
+  Loader l;
+  l.line = c.line;
+  if (c.type == "GridMeshCreator") {
+    // SOFA's procedural grid: resolution nx ny over the unit square, z = 0; trianglePattern 1
+    // alternate, 2 upward (SOFA's default), 3 downward; 0 (quads) is not a triangle mesh.
+    GridSpec g;
+    g.nx = g.ny = 2;
+    if (const auto r = value(c, "resolution")) {
+      const auto n = numbers(c, "resolution", *r);
+      if (n.size() != 2 || n[0] < 2 || n[1] < 2 || n[0] != std::floor(n[0]) || n[1] != std::floor(n[1]) || n[0] > 1e5 || n[1] > 1e5)
+        fail(c, "resolution", "expected two whole numbers >= 2 (vertices along x and y), got " + inQuotes(*r));
+      g.nx = int(n[0]);
+      g.ny = int(n[1]);
+    }
+    const double pattern = number(c, "trianglePattern", 2);
+    if (pattern == 1) g.alternating = true;
+    else if (pattern == 2) g.alternating = false;
+    else if (pattern == 3) {
+      g.alternating = false;
+      g.downward = true;
+    } else
+      fail(c, "trianglePattern", "trianglePattern " + inQuotes(std::to_string(int(pattern))) +
+                                     " is not supported (1 alternate, 2 upward, 3 downward; 0 makes quads)");
+    l.grid = g;
+  } else {
   const auto f = attr(c, "filename");
   if (!f) {
     if (c.xml.attribute("position") || c.xml.attribute("triangles"))
       fail(c, "position", "a loader given its points and triangles inline is not supported: give a mesh file");
     fail(c, "filename", "missing attribute \"filename\"");
   }
-  Loader l;
-  l.line = c.line;
   l.file = resolveMeshFile(c, *f);
+  }
   if (const auto s = value(c, "scale")) {
     const double k = number(c, "scale", 1);
     l.transform.scale = {k, k, k};
@@ -439,7 +482,7 @@ void Importer::meshFrom(SofaComponent& c, bool topologyContainer) {
 
 void Importer::component(SofaComponent& c) {
   const std::string& t = c.type;
-  if (t == "MeshOBJLoader" || t == "MeshGmshLoader" || t == "MeshOffLoader") return loader(c);
+  if (isLoader(t)) return loader(c);
   if (isVisualOrGui(t)) {
     for (const auto& a : c.xml.attributes()) c.read.insert(a.name());
     ignored_.push_back(t + " " + inQuotes(c.name) + " (line " + std::to_string(c.line) + "): drawing or GUI only");
@@ -577,8 +620,8 @@ void Importer::component(SofaComponent& c) {
     const auto method = value(c, "method");
     if (method && *method != "large")
       fail(c, "method", "method " + inQuotes(*method) + " is not supported (cutsim has SOFA's \"large\" method)");
-    f["youngModulus"] = number(c, "youngModulus", t == "TriangularFEMForceField" ? 1000 : 5000);
-    f["poissonRatio"] = number(c, "poissonRatio", t == "TriangularFEMForceField" ? 0.3 : 0.45);
+    f["youngModulus"] = number(c, "youngModulus", 5000);  // SOFA's defaults (BaseLinearElasticityFEMForceField)
+    f["poissonRatio"] = number(c, "poissonRatio", 0.45);
     if (value(c, "restScale")) f["restScale"] = number(c, "restScale", 1);
     requireNumber(c, "rayleighStiffness", 0.0, "has Rayleigh damping on the ODE solver only");
     attr(c, "damping");  // SOFA reads it and never uses it
@@ -593,6 +636,51 @@ void Importer::component(SofaComponent& c) {
     forceFields_.push_back(f);
     forceFieldLines_.push_back(c.line);
     return;
+  }
+  if (t == "BoxConstraint") {
+    checkTemplate(c);
+    const auto b = value(c, "box");
+    if (!b) fail(c, "box", "missing attribute \"box\"");
+    addBoxes(c, numbers(c, "box", *b));
+    return;
+  }
+  if (t == "MeshSpringForceField") {
+    checkTemplate(c);
+    // Every edge of a triangle mesh is a line and a triangle's edge: one stiffness, one damping.
+    auto agreed = [&](std::initializer_list<const char*> names, const char* what) {
+      std::optional<double> v;
+      for (const char* a : names) {
+        const auto s = value(c, a);
+        if (!s) continue;
+        const double d = number(c, a, 0);
+        if (d == 0 && std::string(a) != "stiffness" && std::string(a) != "damping") continue;
+        if (v && *v != d) fail(c, a, std::string("the mesh's edges get one ") + what + ": " + a + " differs from the other " + what + " given");
+        v = d;
+      }
+      return v.value_or(0.0);
+    };
+    const double ks = agreed({"stiffness", "linesStiffness", "trianglesStiffness"}, "stiffness");
+    const double kd = agreed({"damping", "linesDamping", "trianglesDamping"}, "damping");
+    for (const char* a : {"quadsStiffness", "quadsDamping", "tetrahedraStiffness", "tetrahedraDamping", "tetrasStiffness", "tetrasDamping",
+                          "cubesStiffness", "cubesDamping"})
+      requireNumber(c, a, 0.0, "simulates triangle meshes (no quads, tetrahedra or cubes)");
+    requireFalse(c, "noCompression", "has springs that push as they pull");
+    if (c.xml.attribute("localRange")) fail(c, "localRange", "localRange is not supported");
+    if (ks < 0 || kd < 0) fail(c, "", "stiffness and damping must be >= 0");
+    ojson f = ojson::object();
+    f["type"] = "StretchSprings";
+    f["label"] = c.name;
+    f["stiffness"] = ks;
+    f["damping"] = kd;
+    f["perRestLength"] = true;    // SOFA: stiffness / L0 per spring
+    f["stableJacobian"] = false;  // SOFA's K is the spring's whole Jacobian
+    forceFields_.push_back(f);
+    forceFieldLines_.push_back(c.line);
+    return;
+  }
+  if (t == "TriangularBendingSprings" || t == "QuadularBendingSprings" || t == "TriangleFEMForceField") {
+    const std::string instead = t == "TriangleFEMForceField" ? "TriangularFEMForceFieldOptim (method large)" : "FastTriangularBendingSprings";
+    fail(c, "", t + " is not supported: cutsim has no formulation of its own that gives SOFA's numbers for it; use " + instead);
   }
   if (t == "FastTriangularBendingSprings") {
     checkTemplate(c);
@@ -637,16 +725,7 @@ void Importer::component(SofaComponent& c) {
       SofaComponent* box = nullptr;
       std::string why;
       box = findComponent(c.node, boxName, why);
-      const auto n = numbers(*box, "box", *value(*box, "box"));
-      for (std::size_t k = 0; k + 5 < n.size(); k += 6) {
-        ojson lo = ojson::array(), hi = ojson::array();
-        for (int a = 0; a < 3; ++a) {  // SOFA orders each axis' bounds
-          lo.push_back(std::min(n[k + std::size_t(a)], n[k + 3 + std::size_t(a)]));
-          hi.push_back(std::max(n[k + std::size_t(a)], n[k + 3 + std::size_t(a)]));
-        }
-        constraints_.push_back({{"type", "fixed"}, {"box", {lo, hi}}});
-        constraintLines_.push_back(c.line);
-      }
+      addBoxes(c, numbers(*box, "box", *value(*box, "box")));
       return;
     }
     ojson points = ojson::array();
@@ -664,17 +743,18 @@ void Importer::component(SofaComponent& c) {
   }
   fail(c, "", "component " + inQuotes(t) +
                   " is not supported (cutsim reads: DefaultAnimationLoop, EulerImplicitSolver, CGLinearSolver, MeshOBJLoader, "
-                  "MeshGmshLoader, MeshOffLoader, MeshTopology, TriangleSetTopologyContainer, MechanicalObject, BoxROI, "
-                  "FixedProjectiveConstraint, FixedConstraint, UniformMass, DiagonalMass, TriangularFEMForceFieldOptim, "
-                  "TriangularFEMForceField, FastTriangularBendingSprings; drawing and GUI components are ignored)");
+                  "MeshGmshLoader, MeshOffLoader, GridMeshCreator, MeshTopology, TriangleSetTopologyContainer, MechanicalObject, "
+                  "BoxROI, FixedProjectiveConstraint, FixedConstraint, BoxConstraint, UniformMass, DiagonalMass, "
+                  "TriangularFEMForceFieldOptim, TriangularFEMForceField, FastTriangularBendingSprings, MeshSpringForceField; "
+                  "drawing and GUI components are ignored)");
 }
 
 void Importer::translate(SofaNode& n) {
   // Loaders first (other components link to them), then the rest in file order, then the nodes.
   for (auto& c : n.components)
-    if (c->type == "MeshOBJLoader" || c->type == "MeshGmshLoader" || c->type == "MeshOffLoader") component(*c);
+    if (isLoader(c->type)) component(*c);
   for (auto& c : n.components)
-    if (!(c->type == "MeshOBJLoader" || c->type == "MeshGmshLoader" || c->type == "MeshOffLoader")) component(*c);
+    if (!isLoader(c->type)) component(*c);
   for (auto& c : n.components)
     for (const auto& a : c->xml.attributes()) {
       const std::string name = a.name();
@@ -723,8 +803,14 @@ void Importer::finish() {
   const std::filesystem::path jsonDir = options_.jsonDir.empty() ? file_.parent_path() : options_.jsonDir;
   out_.jsonDir = jsonDir;
   std::error_code ec;
-  std::filesystem::path rel = std::filesystem::absolute(l.file, ec).lexically_relative(std::filesystem::absolute(jsonDir.empty() ? "." : jsonDir, ec));
-  mesh["file"] = (rel.empty() ? std::filesystem::absolute(l.file, ec) : rel).generic_string();
+  if (l.grid) {
+    ojson grid = {{"nx", l.grid->nx}, {"ny", l.grid->ny}, {"size", {1.0, 1.0}}};
+    grid["diagonals"] = l.grid->alternating ? "alternating" : l.grid->downward ? "downward" : "oneway";
+    mesh["grid"] = grid;
+  } else {
+    std::filesystem::path rel = std::filesystem::absolute(l.file, ec).lexically_relative(std::filesystem::absolute(jsonDir.empty() ? "." : jsonDir, ec));
+    mesh["file"] = (rel.empty() ? std::filesystem::absolute(l.file, ec) : rel).generic_string();
+  }
   if (tr.scale != Vec3{1, 1, 1}) {
     if (tr.scale[0] == tr.scale[1] && tr.scale[1] == tr.scale[2]) mesh["scale"] = tr.scale[0];
     else mesh["scale"] = {tr.scale[0], tr.scale[1], tr.scale[2]};

@@ -97,7 +97,7 @@ TEST(Registry, EveryForceFieldTakesEachOfItsKeys) {
       std::string value = "0.2";
       if (key.name == "areaWeights") value = "\"signed\"";
       if (key.name == "stableJacobian") value = "false";
-      if (key.name == "exactHessian") value = "false";
+      if (key.name == "exactHessian" || key.name == "perRestLength") value = "false";
       const std::string field = "{\"type\": \"" + type + "\", \"" + key.name + "\": " + value +
                                 (key.name == "stiffness" ? "" : requiredKeys(type)) + "}";
       EXPECT_EQ(parseError(sceneWith(field, "")), "");

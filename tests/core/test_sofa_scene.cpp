@@ -187,6 +187,56 @@ TEST(SofaScene, AUniformMassGivesNewPointsTheSameMass) {
   EXPECT_THROW(LumpedMass(t, MassLaw::perPoint(-1)), InvalidInput);
 }
 
+TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
+  const std::string text =
+      "<Node name=\"root\" dt=\"0.01\" gravity=\"0 0 -9.81\">\n"                       // 1
+      "  <EulerImplicitSolver/>\n"                                                           // 2
+      "  <CGLinearSolver iterations=\"100\" tolerance=\"1e-9\" threshold=\"1e-20\"/>\n"  // 3
+      "  <GridMeshCreator name=\"grid\" resolution=\"5 4\" trianglePattern=\"3\" scale=\"2\"/>\n"  // 4
+      "  <MeshTopology src=\"@grid\"/>\n"                                                   // 5
+      "  <MechanicalObject src=\"@grid\"/>\n"                                               // 6
+      "  <DiagonalMass massDensity=\"0.5\"/>\n"                                             // 7
+      "  <BoxConstraint box=\"2.1 -0.1 -0.1 -0.1 0.1 0.1\"/>\n"                             // 8: reversed x bounds
+      "  <MeshSpringForceField stiffness=\"30\" damping=\"0.5\"/>\n"                     // 9
+      "</Node>\n";
+  const SofaSceneImport s = importSofaScene(writeScene("tier2.scn", text));
+  const auto& j = s.scene;
+  EXPECT_EQ(j["mesh"]["grid"]["nx"], 5);
+  EXPECT_EQ(j["mesh"]["grid"]["diagonals"], "downward");
+  EXPECT_EQ(j["mesh"]["scale"], 2.0);
+  EXPECT_EQ(j["constraints"][0]["box"][0][0], -0.1);  // ordered as SOFA orders them
+  EXPECT_EQ(j["forceFields"][0]["type"], "StretchSprings");
+  EXPECT_EQ(j["forceFields"][0]["perRestLength"], true);
+  EXPECT_FALSE(j["integrator"].contains("massAt"));  // the mass before the springs
+  const Scene scene = sceneFromSofa(s);
+  const topology::MeshData m = scene.mesh();
+  ASSERT_EQ(m.points.size(), 20u);
+  // SOFA's GridMeshCreator: (x / (nx - 1), y / (ny - 1), 0), then the loader's scale; pattern 3:
+  // (x,y) (x+1,y) (x,y+1) and (x+1,y) (x+1,y+1) (x,y+1).
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 5; ++x) {
+      EXPECT_NEAR(m.points[std::size_t(5 * y + x)][0], 2 * (x * (1.0 / 4)), 1e-15);
+      EXPECT_NEAR(m.points[std::size_t(5 * y + x)][1], 2 * (y * (1.0 / 3)), 1e-15);
+    }
+  EXPECT_EQ(m.triangles[0], (topology::TriangleVertices{0, 1, 5}));
+  EXPECT_EQ(m.triangles[1], (topology::TriangleVertices{1, 6, 5}));
+  SceneRunner r(scene);
+  EXPECT_EQ(r.simulation().fixed().size(), 5u);  // the row y = 0, x in [0, 2]
+  r.start();
+  for (int k = 0; k < 5; ++k) r.advance();
+  EXPECT_LT(r.simulation().state().x()[3 * 19 + 2], 0.0);  // the free corner falls
+  // Unsupported tier-2 components say what to use instead; quads are refused.
+  std::string bad = text;
+  bad.replace(bad.find("<MeshSpringForceField"), 21, "<TriangularBendingSprings");
+  EXPECT_THAT(importError(bad), AllOf(HasSubstr("bad.scn:9:"), HasSubstr("use FastTriangularBendingSprings")));
+  bad = text;
+  bad.replace(bad.find("trianglePattern=\"3\""), 19, "trianglePattern=\"0\"");
+  EXPECT_THAT(importError(bad), AllOf(HasSubstr(":4:"), HasSubstr("0 makes quads")));
+  bad = text;
+  bad.replace(bad.find("damping=\"0.5\""), 13, "damping=\"0.5\" trianglesStiffness=\"7\"");
+  EXPECT_THAT(importError(bad), HasSubstr("one stiffness"));
+}
+
 // ---- meshes ----
 
 TEST(SofaScene, GmshFilesOfVersionsOneAndTwoAreRead) {

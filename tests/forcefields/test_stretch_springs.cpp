@@ -219,6 +219,51 @@ TEST(StretchSprings, ForceIsMinusEnergyGradient) {
   }
 }
 
+TEST(StretchSprings, PerRestLengthIsSofasMeshSpringForceField) {
+  // perRestLength: each spring ks / L0 and kd / L0, L0 its mesh rest length (SOFA's
+  // MeshSpringForceField), against the spring law written out per spring; the derivatives as for
+  // the uniform springs.
+  for (const auto& [name, mesh] : test::smallMeshes()) {
+    SCOPED_TRACE(name);
+    StretchParameters p;
+    p.stiffness = 23.0;
+    p.damping = 0.7;
+    p.stableJacobian = false;
+    p.perRestLength = true;
+    Model m = makeModel(mesh, p);
+    const std::vector<double> x = test::perturbed(m.rest, 0.3, 5);
+    const std::vector<double> v = test::randomVector(x.size(), 1.0, 6);
+    std::vector<double> f(x.size(), 0.0), twin(x.size(), 0.0);
+    m.ff->addForce(x, v, f);
+    for (topology::EdgeId e : m.topo->edges()) {
+      const auto ends = m.topo->edgeVertices(e);
+      const std::size_t a = 3 * std::size_t(ends[0]), b = 3 * std::size_t(ends[1]);
+      double d[3], dv[3], L0 = 0, l = 0;
+      for (int k = 0; k < 3; ++k) {
+        d[k] = x[b + std::size_t(k)] - x[a + std::size_t(k)];
+        dv[k] = v[b + std::size_t(k)] - v[a + std::size_t(k)];
+        const double r = m.rest[b + std::size_t(k)] - m.rest[a + std::size_t(k)];
+        L0 += r * r;
+        l += d[k] * d[k];
+      }
+      L0 = std::sqrt(L0);
+      l = std::sqrt(l);
+      double uv = 0;
+      for (int k = 0; k < 3; ++k) uv += dv[k] * d[k] / l;
+      const double intensity = -(p.stiffness / L0) * (l - L0) - (p.damping / L0) * uv;
+      for (int k = 0; k < 3; ++k) {
+        twin[b + std::size_t(k)] += intensity * d[k] / l;
+        twin[a + std::size_t(k)] -= intensity * d[k] / l;
+      }
+    }
+    EXPECT_LE(test::relativeError(f, twin), 1e-12);
+    EXPECT_LE(test::forceVsEnergyError(*m.ff, x, 1e-5), 1e-7);
+    const std::vector<double> dx = test::randomVector(x.size(), 1.0, 7);
+    EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-5), 1e-7);
+    EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-5), 1e-7);
+  }
+}
+
 TEST(StretchSprings, ExactJacobianMatchesFiniteDifferences) {
   // stableJacobian = false: dForce and the assembled K are d(force)/dx everywhere, stretched and
   // compressed springs alike, with and without a prestrain.

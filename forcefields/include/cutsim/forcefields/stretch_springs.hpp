@@ -45,6 +45,9 @@ struct StretchParameters {
   /// s: finite, > 0. Every rest length is s times the mesh's (prestrain: s < 1 stretches a sheet
   /// held at its mesh positions by 1/s - 1).
   double restScale = 1.0;
+  /// Each spring's stiffness and damping divided by its mesh rest length (N/m becomes N): SOFA's
+  /// MeshSpringForceField, whose springs are stiffness / L0.
+  bool perRestLength = false;
 
   /// Throws cutsim::InvalidInput with where() = the parameter's name for a value out of range
   /// (negative; restScale: not > 0), NaN or infinite.
@@ -143,6 +146,7 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
                                                      const StretchParameters& parameters);
 
  private:
+  double springWeight(const StretchSpring& s) const;
   void checkSize(std::span<const double> a, const char* name, const char* what) const;
 
   const topology::Topology* topology_;

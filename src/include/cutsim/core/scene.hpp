@@ -48,6 +48,8 @@ struct GridSpec {
   /// "xz": vertex (i, j) at origin + (u, 0, v), triangles facing -y (a curtain in front of +y).
   bool planeXZ = false;
   topology::Vec3 origin{0, 0, 0};
+  /// With alternating false: every cell split along (i+1,j)-(i,j+1) ("downward") instead.
+  bool downward = false;
 };
 topology::MeshData makeGrid(const GridSpec& grid);
 
