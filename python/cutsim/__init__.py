@@ -93,7 +93,7 @@ class Controller:
 class Simulation(_cutsim._Simulation):
     """A running scene.
 
-    Simulation(path) loads a scene file; Simulation(dict, base_dir=...) builds one from a dict
+    Simulation(path) loads a scene file (JSON, or SOFA's .scn: docs/sofa.md); Simulation(dict, base_dir=...) builds one from a dict
     with the keys of a scene file (relative mesh paths resolved against base_dir, by default the
     current folder). Bad scenes raise InvalidInputError("SOURCE:LINE: /json/pointer: message").
     """
@@ -109,8 +109,11 @@ class Simulation(_cutsim._Simulation):
             if base_dir is not None:
                 raise TypeError("base_dir is for scenes given as dicts (a file's paths are relative to it)")
             super().__init__(os.fspath(scene), "", "")
-            with open(scene, encoding="utf-8-sig") as f:  # read and checked by the line above
-                self._fields = json.load(f).get("forceFields", [])
+            if os.fspath(scene).lower().endswith(".scn"):  # SOFA's scene: its JSON translation
+                self._fields = json.loads(_cutsim._sofa_scene_json(os.fspath(scene))).get("forceFields", [])
+            else:
+                with open(scene, encoding="utf-8-sig") as f:  # read and checked by the line above
+                    self._fields = json.load(f).get("forceFields", [])
         else:
             raise TypeError(f"Simulation: expected a scene file path or a dict, got {type(scene).__name__}")
 
@@ -290,7 +293,7 @@ def _selection(points, box, near):
 
 
 def load(path):
-    """The Simulation of a scene file (JSON)."""
+    """The Simulation of a scene file (JSON, or SOFA's .scn)."""
     return Simulation(path)
 
 

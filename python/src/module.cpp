@@ -26,6 +26,7 @@
 
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
+#include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/core/version.hpp"
 #include "cutsim/forcefields/contact.hpp"
@@ -1108,6 +1109,9 @@ PYBIND11_MODULE(_cutsim, m) {
       set(gUsageError, e.what());
     }
   });
+
+  // A SOFA scene's translation into a JSON scene (docs/sofa.md), as text.
+  m.def("_sofa_scene_json", [](const std::filesystem::path& scn) { return core::importSofaScene(scn).scene.dump(); }, "path"_a);
 
   m.def(
       "_write_player",
