@@ -1,5 +1,6 @@
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
+#include "cutsim/forcefields/registry.hpp"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -492,9 +493,19 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
 }  // namespace cutsim::forcefields
 
 // ---- the component's registration (scenes, and every other front end) ----
-#include "cutsim/forcefields/registry.hpp"
 
 namespace cutsim::forcefields {
+TriangularFEMParameters readTriangularFEMParameters(const ParameterSource& s, bool withExactHessian) {
+  TriangularFEMParameters p;
+  p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
+  p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
+  p.thickness = s.nonNegative("thickness", p.thickness);
+  p.restScale = s.positive("restScale", p.restScale);
+  if (withExactHessian) p.exactHessian = s.boolean("exactHessian", p.exactHessian);
+  s.check([&] { p.validate(); });
+  return p;
+}
+
 namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "TriangularFEM",
@@ -506,16 +517,7 @@ const bool registered = ForceFieldRegistry::instance().add({
                    "tension, strain 1/restScale - 1) (default 1)"},
      {"exactHessian", "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
     {},
-    [](const ParameterSource& s) -> std::any {
-      TriangularFEMParameters p;
-      p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
-      p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
-      p.thickness = s.nonNegative("thickness", p.thickness);
-      p.restScale = s.positive("restScale", p.restScale);
-      p.exactHessian = s.boolean("exactHessian", p.exactHessian);
-      s.check([&] { p.validate(); });
-      return p;
-    },
+    [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, true); },
     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
       return std::make_unique<TriangularFEM>(t, std::any_cast<const TriangularFEMParameters&>(p));
     }});

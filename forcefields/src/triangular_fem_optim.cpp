@@ -54,6 +54,27 @@ bool frameOf(const V& ab, const V& ac, V& f0, V& f1) {
   return normalize(f0) && normalize(f1);
 }
 
+/// The element at x: its edges from a and its frame (SOFA's addForce prologue).
+struct Current {
+  V ab, ac, f0, f1;
+};
+bool current(const double* x, const FemTriangle& e, Current& c) {
+  const V a = load(x, e.v[0]);
+  c.ab = sub(load(x, e.v[1]), a);
+  c.ac = sub(load(x, e.v[2]), a);
+  return frameOf(c.ab, c.ac, c.f0, c.f1);
+}
+
+/// SOFA's strain (times 2A) of the displacement rest minus current, in the current frame.
+struct Strain {
+  double e0, e1, e2;
+};
+template <class Rest>
+Strain strainOf(const Rest& r, const Current& c) {
+  const double dbx = r.bx - dot(c.f0, c.ab), dcx = r.cx - dot(c.f0, c.ac), dcy = r.cy - dot(c.f1, c.ac);
+  return {r.cy * dbx, r.bx * dcy, r.bx * dcx - r.cx * dbx};
+}
+
 }  // namespace
 
 TriangularFEMOptim::RestFrame TriangularFEMOptim::restFrame(const FemTriangle& e) const {
@@ -92,17 +113,14 @@ void TriangularFEMOptim::addForce(std::span<const double> x, std::span<const dou
   checkSize(x, "x", "addForce");
   checkSize(f, "f", "addForce");
   for (const FemTriangle& e : elements()) {
+    Current c;
+    if (!current(x.data(), e, c)) continue;
     const RestFrame r = restFrame(e);
-    const V a = load(x.data(), e.v[0]);
-    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
-    V f0, f1;
-    if (!frameOf(ab, ac, f0, f1)) continue;
-    const double dbx = r.bx - dot(f0, ab), dcx = r.cx - dot(f0, ac), dcy = r.cy - dot(f1, ac);
-    const double e0 = r.cy * dbx, e1 = r.bx * dcy, e2 = r.bx * dcx - r.cx * dbx;
+    const auto [e0, e1, e2] = strainOf(r, c);
     const double gxy = gamma_ * (e0 + e1);
     const double s0 = (muPrime_ * e0 + gxy) * r.ss, s1 = (muPrime_ * e1 + gxy) * r.ss, s2 = (0.5 * muPrime_ * e2) * r.ss;
-    const V fb = add(mul(f0, r.cy * s0 - r.cx * s2), mul(f1, r.cy * s2 - r.cx * s1));
-    const V fc = add(mul(f0, r.bx * s2), mul(f1, r.bx * s1));
+    const V fb = add(mul(c.f0, r.cy * s0 - r.cx * s2), mul(c.f1, r.cy * s2 - r.cx * s1));
+    const V fc = add(mul(c.f0, r.bx * s2), mul(c.f1, r.bx * s1));
     const V fa = sub(mul(fb, -1.0), fc);
     addTo(f.data(), e.v[0], fa);
     addTo(f.data(), e.v[1], fb);
@@ -117,11 +135,10 @@ void TriangularFEMOptim::addDForce(std::span<const double> x, std::span<const do
   checkSize(df, "df", "addDForce");
   if (kFactor == 0.0) return;
   for (const FemTriangle& e : elements()) {
+    Current c;
+    if (!current(x.data(), e, c)) continue;
     const RestFrame r = restFrame(e);
-    const V a = load(x.data(), e.v[0]);
-    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
-    V f0, f1;
-    if (!frameOf(ab, ac, f0, f1)) continue;
+    const V &f0 = c.f0, &f1 = c.f1;
     const V da = load(dx.data(), e.v[0]);
     const V dab = sub(load(dx.data(), e.v[1]), da), dac = sub(load(dx.data(), e.v[2]), da);
     const double dbx = dot(f0, dab), dby = dot(f1, dab), dcx = dot(f0, dac), dcy = dot(f1, dac);
@@ -142,13 +159,10 @@ double TriangularFEMOptim::potentialEnergy(std::span<const double> x) const {
   checkSize(x, "x", "potentialEnergy");
   double energy = 0.0;
   for (const FemTriangle& e : elements()) {
+    Current c;
+    if (!current(x.data(), e, c)) continue;
     const RestFrame r = restFrame(e);
-    const V a = load(x.data(), e.v[0]);
-    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
-    V f0, f1;
-    if (!frameOf(ab, ac, f0, f1)) continue;
-    const double dbx = r.bx - dot(f0, ab), dcx = r.cx - dot(f0, ac), dcy = r.cy - dot(f1, ac);
-    const double e0 = r.cy * dbx, e1 = r.bx * dcy, e2 = r.bx * dcx - r.cx * dbx;
+    const auto [e0, e1, e2] = strainOf(r, c);
     const double gxy = gamma_ * (e0 + e1);
     energy += 0.5 * r.ss * (e0 * (muPrime_ * e0 + gxy) + e1 * (muPrime_ * e1 + gxy) + 0.5 * muPrime_ * e2 * e2);
   }
@@ -161,10 +175,8 @@ void TriangularFEMOptim::addKToMatrix(std::span<const double> x, MatrixAccumulat
   using Mat36 = Eigen::Matrix<double, 3, 6>;
   for (const FemTriangle& e : elements()) {
     const std::array<PointId, 3> v{PointId(e.v[0]), PointId(e.v[1]), PointId(e.v[2])};
-    const V a = load(x.data(), e.v[0]);
-    const V ab = sub(load(x.data(), e.v[1]), a), ac = sub(load(x.data(), e.v[2]), a);
-    V f0, f1;
-    if (!frameOf(ab, ac, f0, f1)) {  // the pattern stays: zero blocks
+    Current c;
+    if (!current(x.data(), e, c)) {  // the pattern stays: zero blocks
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) m.addBlock(v[std::size_t(i)], v[std::size_t(j)], Eigen::Matrix3d::Zero());
       continue;
@@ -179,7 +191,7 @@ void TriangularFEMOptim::addKToMatrix(std::span<const double> x, MatrixAccumulat
     D << muPrime_ + gamma_, gamma_, 0, gamma_, muPrime_ + gamma_, 0, 0, 0, 0.5 * muPrime_;
     const Eigen::Matrix<double, 6, 6> K = (-kFactor * r.ss) * (B.transpose() * D * B);
     Mat23 F;
-    F << f0.x, f0.y, f0.z, f1.x, f1.y, f1.z;
+    F << c.f0.x, c.f0.y, c.f0.z, c.f1.x, c.f1.y, c.f1.z;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
         m.addBlock(v[std::size_t(i)], v[std::size_t(j)], F.transpose() * K.block<2, 2>(2 * i, 2 * j) * F);
@@ -195,15 +207,7 @@ const bool registered = ForceFieldRegistry::instance().add({
      {"thickness", "h, >= 0 (default 1; SOFA's has none: 1)"},
      {"restScale", "> 0, scales every element's rest shape, as SOFA's restScale (default 1)"}},
     {},
-    [](const ParameterSource& s) -> std::any {
-      TriangularFEMParameters p;
-      p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
-      p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
-      p.thickness = s.nonNegative("thickness", p.thickness);
-      p.restScale = s.positive("restScale", p.restScale);
-      s.check([&] { p.validate(); });
-      return p;
-    },
+    [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, false); },
     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
       return std::make_unique<TriangularFEMOptim>(t, std::any_cast<const TriangularFEMParameters&>(p));
     }});

@@ -11,17 +11,12 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/topology/errors.hpp"
+#include "sofa_text.hpp"
 
 namespace cutsim::core {
 namespace {
 
-std::optional<double> toDouble(std::string_view t) {
-  if (!t.empty() && t.front() == '+') t.remove_prefix(1);
-  double v = 0;
-  const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-  if (r.ec != std::errc() || r.ptr != t.data() + t.size()) return std::nullopt;
-  return v;
-}
+using detail::parseSofaNumber;
 
 std::vector<std::string> splitWords(const std::string& line) {
   std::istringstream in(line);
@@ -56,12 +51,12 @@ std::vector<RegressionEntry> readRegressionList(const std::filesystem::path& lis
     e.scene = w[0];
     e.line = n;
     if (w.size() > 1) {
-      const auto s = toDouble(w[1]);
+      const auto s = parseSofaNumber(w[1]);
       if (!s || *s < 1 || *s != std::floor(*s) || *s > 1e9) throw InvalidInput(where, "steps: expected a whole number >= 1, got \"" + w[1] + "\"");
       e.steps = long(*s);
     }
     if (w.size() > 2) {
-      const auto s = toDouble(w[2]);
+      const auto s = parseSofaNumber(w[2]);
       if (!s || !(*s >= 0) || !std::isfinite(*s)) throw InvalidInput(where, "epsilon: expected a number >= 0, got \"" + w[2] + "\"");
       e.epsilon = *s;
     }
@@ -126,15 +121,15 @@ std::vector<StateFrame> readReference(const std::filesystem::path& file) {
     const std::string where = file.string() + ":" + std::to_string(n);
     auto values = [&](std::vector<double>& out) {
       for (std::size_t k = 1; k < w.size(); ++k) {
-        const auto d = toDouble(w[k]);
+        const auto d = parseSofaNumber(w[k]);
         if (!d) throw InvalidInput(where, "malformed number \"" + w[k] + "\"");
         out.push_back(*d);
       }
       if (out.size() % 3 != 0) throw InvalidInput(where, std::to_string(out.size()) + " values: not 3 per point");
     };
     if (w[0] == "T=") {
-      if (w.size() != 2 || !toDouble(w[1])) throw InvalidInput(where, "expected 'T= time'");
-      frames.push_back({*toDouble(w[1]), {}, {}});
+      if (w.size() != 2 || !parseSofaNumber(w[1])) throw InvalidInput(where, "expected 'T= time'");
+      frames.push_back({*parseSofaNumber(w[1]), {}, {}});
     } else if (w[0] == "X=" || w[0] == "V=") {
       if (frames.empty()) throw InvalidInput(where, w[0] + " before the first 'T='");
       values(w[0] == "X=" ? frames.back().x : frames.back().v);

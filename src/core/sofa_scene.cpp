@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "cutsim/topology/errors.hpp"
+#include "sofa_text.hpp"
 #include "scene_json.hpp"
 
 namespace cutsim::core {
@@ -48,13 +49,7 @@ struct SofaNode {
 std::string SofaComponent::path() const { return node->path() + "/" + name; }
 
 /// Text helpers: numbers read with from_chars (locale-independent, exact round trip).
-std::optional<double> toDouble(std::string_view t) {
-  if (!t.empty() && t.front() == '+') t.remove_prefix(1);
-  double v = 0;
-  const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-  if (r.ec != std::errc() || r.ptr != t.data() + t.size()) return std::nullopt;
-  return v;
-}
+using detail::parseSofaNumber;
 
 std::vector<std::string_view> words(std::string_view s) {
   std::vector<std::string_view> out;
@@ -149,14 +144,14 @@ class Importer {
     if (!v) return fallback;
     const auto w = words(*v);
     if (w.size() != 1) fail(c, name, "expected one number, got " + inQuotes(*v));
-    const auto d = toDouble(w[0]);
+    const auto d = parseSofaNumber(w[0]);
     if (!d || !std::isfinite(*d)) fail(c, name, "expected a finite number, got " + inQuotes(*v));
     return *d;
   }
   std::vector<double> numbers(SofaComponent& c, const char* name, const std::string& text) {
     std::vector<double> out;
     for (auto w : words(text)) {
-      const auto d = toDouble(w);
+      const auto d = parseSofaNumber(w);
       if (!d || !std::isfinite(*d)) fail(c, name, "expected numbers, got " + inQuotes(w));
       out.push_back(*d);
     }
@@ -873,14 +868,14 @@ SofaSceneImport Importer::run() {
   readTree(rootXml, nullptr);
   rootLine_ = root_->line;
   if (const auto a = rootXml.attribute("dt")) {
-    const auto d = toDouble(a.value());
+    const auto d = parseSofaNumber(a.value());
     if (!d || !(*d > 0) || !std::isfinite(*d)) fail(rootLine_, root_->path() + "/dt", "expected a time step > 0, got " + inQuotes(a.value()));
     dt_ = *d;
   }
   if (const auto a = rootXml.attribute("gravity")) {
     std::vector<double> g;
     for (auto w : words(a.value())) {
-      const auto d = toDouble(w);
+      const auto d = parseSofaNumber(w);
       if (!d || !std::isfinite(*d)) fail(rootLine_, root_->path() + "/gravity", "expected 3 numbers, got " + inQuotes(a.value()));
       g.push_back(*d);
     }

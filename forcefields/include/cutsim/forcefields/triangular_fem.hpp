@@ -57,6 +57,10 @@
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
 
+namespace cutsim {
+class ParameterSource;
+}  // namespace cutsim
+
 namespace cutsim::forcefields {
 
 /// The component's parameters.
@@ -194,5 +198,9 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   std::vector<std::string> eventProblems_;
   topology::Subscription subscription_;
 };
+
+/// The keys of a TriangularFEM-like registry entry (youngModulus, poissonRatio, thickness,
+/// restScale, and exactHessian if asked), checked.
+TriangularFEMParameters readTriangularFEMParameters(const cutsim::ParameterSource& s, bool withExactHessian);
 
 }  // namespace cutsim::forcefields
