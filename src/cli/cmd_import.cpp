@@ -20,6 +20,7 @@ void importScene(const ImportOptions& options) {
   const std::filesystem::path out(options.output);
   std::error_code ec;
   if (std::filesystem::is_directory(out, ec)) throw InvalidInput("-o", options.output + " is a folder, not a file");
+  if (!out.parent_path().empty()) std::filesystem::create_directories(out.parent_path(), ec);  // checked on writing
   core::SofaImportOptions o;
   o.steps = options.steps;
   o.jsonDir = out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path();

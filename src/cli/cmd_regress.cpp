@@ -23,8 +23,10 @@ void regress(const RegressOptions& options) {
   const std::vector<core::RegressionEntry> entries = core::readRegressionList(list);
   const std::filesystem::path base = list.parent_path();
   const std::filesystem::path refs = options.refs.empty() ? base / "references" : std::filesystem::path(options.refs);
-  int failed = 0;
+  int failed = 0, errors = 0;
   for (const core::RegressionEntry& e : entries) {
+    // A scene that cannot run or be compared is reported, and the others still run.
+    try {
     if (e.mechanicalInMapping)
       std::cerr << list.string() << ":" << e.line << ": note: mecaInMapping 1: cutsim's scenes have no mapped states\n";
     const std::filesystem::path scene = base / e.scene;
@@ -37,7 +39,8 @@ void regress(const RegressOptions& options) {
     for (const std::string& n : notes) std::cerr << n << "\n";
     if (flagged > 0)
       std::cerr << "note: " << flagged << " of " << (e.steps - 1)
-                << " steps ended their linear solve above its tolerance (as SOFA's CGLinearSolver does at its cap)\n";
+                << " steps ended their linear solve above its tolerance (at its iteration cap or its threshold, as SOFA's "
+                   "CGLinearSolver does)\n";
     const std::filesystem::path ref = core::referencePath(refs, e, 0, name);
     if (options.write) {
       core::writeReference(ref, frames);
@@ -60,9 +63,19 @@ void regress(const RegressOptions& options) {
                   e.scene.string().c_str(), pass ? "pass" : "FAIL", c.legacy, e.epsilon, c.positions, c.largestDistance,
                   c.worstPoint, c.worstTime, c.largestPrintedDifference, c.frames);
     std::cout << line << "\n";
+    } catch (const Error& err) {
+      ++errors;
+      std::cout << e.scene.string() << ": ERROR (below)\n";
+      std::cerr << "cutsim: error: " << err.what() << "\n";
+    }
   }
   std::cout.flush();
-  if (failed > 0) throw Error(std::to_string(failed) + " of " + std::to_string(entries.size()) + " scenes above their threshold");
+  const std::string counts = std::to_string(entries.size()) + " scenes";
+  if (errors > 0)
+    throw InvalidInput(list.string(), std::to_string(errors) + " of " + counts + " could not be " +
+                                          (options.write ? "written" : "compared") +
+                                          (failed ? " and " + std::to_string(failed) + " were above their threshold" : ""));
+  if (failed > 0) throw Error(std::to_string(failed) + " of " + counts + " above their threshold");
 }
 
 }  // namespace

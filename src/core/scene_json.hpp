@@ -31,6 +31,9 @@ std::string escapePointerToken(const std::string& key);
 struct JsonDocument {
   json root;
   std::map<std::string, std::size_t> lines;
+  /// What messages call a value instead of its JSON pointer (by the pointer of it or of an
+  /// ancestor; the rest of the pointer appended): a translated scene's own paths. Usually empty.
+  std::map<std::string, std::string> labels;
 };
 /// Parses the text (nested at most 64 deep, no duplicate keys); InvalidInput "SOURCE:LINE: ..."
 /// for malformed text.
@@ -43,8 +46,21 @@ Scene parseSceneDocument(const JsonDocument& doc, const std::string& sourceName,
 
 class Reader {
  public:
-  Reader(std::string source, std::map<std::string, std::size_t> lines)
-      : source_(std::move(source)), lines_(std::move(lines)) {}
+  Reader(std::string source, std::map<std::string, std::size_t> lines,
+         std::map<std::string, std::string> labels = {})
+      : source_(std::move(source)), lines_(std::move(lines)), labels_(std::move(labels)) {}
+
+  /// The pointer as messages show it: itself, or its nearest labelled ancestor's label and the rest.
+  std::string shown(const std::string& pointer) const {
+    if (labels_.empty()) return pointer.empty() ? "/" : pointer;
+    std::string p = pointer;
+    while (true) {
+      auto it = labels_.find(p);
+      if (it != labels_.end()) return it->second + pointer.substr(p.size());
+      if (p.empty()) return pointer.empty() ? "/" : pointer;
+      p = p.substr(0, p.rfind('/'));
+    }
+  }
 
   SceneLocation location(const std::string& pointer) const {
     // The value's own line, else its nearest ancestor's.
@@ -59,7 +75,7 @@ class Reader {
 
   [[noreturn]] void fail(const std::string& pointer, const std::string& message) const {
     const SceneLocation loc = location(pointer);
-    throw InvalidInput(loc.where(source_), (pointer.empty() ? "/" : pointer) + ": " + message);
+    throw InvalidInput(loc.where(source_), shown(pointer) + ": " + message);
   }
 
   const std::string& source() const { return source_; }
@@ -204,6 +220,7 @@ class Reader {
  private:
   std::string source_;
   std::map<std::string, std::size_t> lines_;
+  std::map<std::string, std::string> labels_;
 };
 
 

@@ -672,7 +672,7 @@ Scene parseScene(std::string_view text, const std::string& sourceName,
 
 Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sourceName,
                                  const std::filesystem::path& baseDir) {
-  const Reader r(sourceName, doc.lines);
+  const Reader r(sourceName, doc.lines, doc.labels);
   const json& root = doc.root;
   r.expectObject(root, "");
   r.checkKeys(root, "",

@@ -131,6 +131,13 @@ class SofaEuler final : public Integrator {
     double rho = vDot(r, r), rho1 = 0.0;
     bool indefinite = false;
     std::vector<double> x(N, 0.0);
+    if (cs.warmStart && warm_.size() == N) {  // SOFA: x from the last solve, r = b - A x
+      for (std::size_t p = 0; p < n; ++p)
+        if (!c.constrained[p])
+          for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = warm_[3 * p + std::size_t(k)];
+      apply(x, q);
+      for (std::size_t i = 0; i < N; ++i) r[i] = r[i] - q[i];
+    }
     if (normb != 0.0) {
       for (int it = 1; it <= cs.maxIterations; ++it) {
         rho = vDot(r, r);
@@ -152,6 +159,7 @@ class SofaEuler final : public Integrator {
         ++iterations;
       }
     }
+    warm_ = x;
     const double residual = normb > 0 ? std::sqrt(vDot(r, r)) / normb : std::sqrt(vDot(r, r));
     stats.iterations += iterations;
     ++stats.solves;
@@ -178,6 +186,7 @@ class SofaEuler final : public Integrator {
   std::unique_ptr<LinearSolver> solver_;
   SofaConjugateGradient* cg_ = nullptr;
   long solves_ = 0;
+  std::vector<double> warm_;  // the last solution, for warmStart
 };
 
 const bool registered = IntegratorRegistry::instance().add(

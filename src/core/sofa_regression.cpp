@@ -122,13 +122,14 @@ std::vector<StateFrame> readReference(const std::filesystem::path& file) {
     auto values = [&](std::vector<double>& out) {
       for (std::size_t k = 1; k < w.size(); ++k) {
         const auto d = parseSofaNumber(w[k]);
-        if (!d) throw InvalidInput(where, "malformed number \"" + w[k] + "\"");
+        if (!d || !std::isfinite(*d)) throw InvalidInput(where, "malformed or non-finite number \"" + w[k] + "\"");
         out.push_back(*d);
       }
       if (out.size() % 3 != 0) throw InvalidInput(where, std::to_string(out.size()) + " values: not 3 per point");
     };
     if (w[0] == "T=") {
-      if (w.size() != 2 || !parseSofaNumber(w[1])) throw InvalidInput(where, "expected 'T= time'");
+      if (w.size() != 2 || !parseSofaNumber(w[1]) || !std::isfinite(*parseSofaNumber(w[1])))
+        throw InvalidInput(where, "expected 'T= time' (a finite number)");
       frames.push_back({*parseSofaNumber(w[1]), {}, {}});
     } else if (w[0] == "X=" || w[0] == "V=") {
       if (frames.empty()) throw InvalidInput(where, w[0] + " before the first 'T='");

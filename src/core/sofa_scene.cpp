@@ -191,7 +191,9 @@ class Importer {
   void checkTemplate(SofaComponent& c) {
     const auto t = attr(c, "template");
     if (!t) return;
-    static const std::set<std::string> ok = {"Vec3", "Vec3d", "Vec3f", "Vec3Types", "Vec3dTypes", "Vec3fTypes"};
+    static const std::set<std::string> ok = {"Vec3", "Vec3d", "Vec3Types", "Vec3dTypes"};
+    if (*t == "Vec3f" || *t == "Vec3fTypes")
+      fail(c, "template", "template " + inQuotes(*t) + " (single precision) is not supported: cutsim computes in double (Vec3d)");
     if (!ok.count(*t))
       fail(c, "template", "template " + inQuotes(*t) + " is not supported: cutsim simulates surfaces of 3D points (Vec3)");
   }
@@ -199,11 +201,16 @@ class Importer {
   // ---- links ----
   SofaComponent* findComponent(SofaNode* from, const std::string& path, std::string& why);
   std::string linkedValue(SofaComponent& c, const char* name, const std::string& link);
+  std::vector<SofaComponent*> boxes_;  ///< BoxROIs whose indices a link read ("@box:N")
+  int linkDepth_ = 0;
+  std::map<std::string, int> unnamed_;        ///< unnamed components so far, by type
+  std::vector<SofaComponent*> actOnState_;    ///< force fields, constraints: in the state's node
   SofaComponent& linkTarget(SofaComponent& c, const char* name, const std::string& link, std::string& field);
 
   // ---- the tree ----
   void readTree(pugi::xml_node xml, SofaNode* parent);
   void translate(SofaNode& n);
+  void translateLoaders(SofaNode& n);
   void component(SofaComponent& c);
   void loader(SofaComponent& c);
   void meshFrom(SofaComponent& c, bool topologyContainer);
@@ -219,11 +226,16 @@ class Importer {
         hi.push_back(std::max(n[k + std::size_t(a)], n[k + 3 + std::size_t(a)]));
       }
       constraints_.push_back({{"type", "fixed"}, {"box", {lo, hi}}});
-      constraintLines_.push_back(c.line);
+      constraintFrom_.push_back(&c);
     }
   }
   std::string resolveMeshFile(SofaComponent& c, const std::string& name);
   void setLine(const std::string& pointer, std::size_t line) { out_.lines[pointer] = line; }
+  /// The line and the scene's own path of a JSON value (messages of the JSON checks show them).
+  void setFrom(const std::string& pointer, const SofaComponent& c) {
+    out_.lines[pointer] = c.line;
+    out_.labels[pointer] = c.path();
+  }
 
   std::filesystem::path file_;
   SofaImportOptions options_;
@@ -248,7 +260,7 @@ class Importer {
   MeshTransform stateTransform_;
   ojson massJson_, integratorJson_, linearSolverJson_;
   ojson forceFields_ = ojson::array(), constraints_ = ojson::array(), ignored_ = ojson::array();
-  std::vector<std::size_t> forceFieldLines_, constraintLines_;
+  std::vector<const SofaComponent*> forceFieldFrom_, constraintFrom_;  // the components they come from
   std::size_t massAt_ = 0;
   std::size_t rootLine_ = 0;
   double dt_ = 0.01;
@@ -281,30 +293,41 @@ SofaComponent* Importer::findComponent(SofaNode* from, const std::string& path, 
     why = "no component named " + inQuotes(parts[0]) + " in node " + inQuotes(from->path()) + " or above";
     return nullptr;
   }
-  SofaNode* n = absolute ? root_.get() : from;
-  std::size_t k = 0;
-  if (absolute && parts[0] == root_->name) k = 1;
-  for (; k + 1 < parts.size(); ++k) {
-    if (parts[k] == ".") continue;
-    if (parts[k] == "..") {
-      if (!n->parent) {
-        why = "\"..\" above the root node";
+  // The path walked from a node; a relative path that starts with a node's name is looked for
+  // from the component's node, then from each of its ancestors (as SOFA does).
+  auto walk = [&](SofaNode* n, std::string& whyHere) -> SofaComponent* {
+    std::size_t k = 0;
+    if (absolute && parts[0] == root_->name) k = 1;
+    for (; k + 1 < parts.size(); ++k) {
+      if (parts[k] == ".") continue;
+      if (parts[k] == "..") {
+        if (!n->parent) {
+          whyHere = "\"..\" above the root node";
+          return nullptr;
+        }
+        n = n->parent;
+        continue;
+      }
+      SofaNode* next = nullptr;
+      for (auto& child : n->children)
+        if (child->name == parts[k]) next = child.get();
+      if (!next) {
+        whyHere = "no node named " + inQuotes(parts[k]) + " in " + inQuotes(n->path());
         return nullptr;
       }
-      n = n->parent;
-      continue;
+      n = next;
     }
-    SofaNode* next = nullptr;
-    for (auto& child : n->children)
-      if (child->name == parts[k]) next = child.get();
-    if (!next) {
-      why = "no node named " + inQuotes(parts[k]) + " in " + inQuotes(n->path());
-      return nullptr;
-    }
-    n = next;
+    if (SofaComponent* c = inNode(n, parts.back())) return c;
+    whyHere = "no component named " + inQuotes(parts.back()) + " in node " + inQuotes(n->path());
+    return nullptr;
+  };
+  if (absolute) return walk(root_.get(), why);
+  const bool fromHere = parts[0] == "." || parts[0] == "..";
+  for (SofaNode* start = from; start; start = fromHere ? nullptr : start->parent) {
+    std::string whyHere;
+    if (SofaComponent* c = walk(start, whyHere)) return c;
+    if (start == from) why = whyHere;
   }
-  if (SofaComponent* c = inNode(n, parts.back())) return c;
-  why = "no component named " + inQuotes(parts.back()) + " in node " + inQuotes(n->path());
   return nullptr;
 }
 
@@ -332,10 +355,22 @@ std::string Importer::linkedValue(SofaComponent& c, const char* name, const std:
   std::string field;
   SofaComponent& t = linkTarget(c, name, link, field);
   if (field.empty()) fail(c, name, "link " + inQuotes(link) + " names a component where a value is expected (give @name.field)");
-  // The values cutsim knows: a BoxROI's selection, a component's own attributes.
-  if (t.type == "BoxROI" && field == "indices") return "@box:" + t.name;
+  // The values cutsim knows: a BoxROI's selection (the component itself, kept), a component's own
+  // attributes (followed through further links, at most 32 deep: a cycle is an error).
+  if (t.type == "BoxROI" && field == "indices") {
+    boxes_.push_back(&t);
+    return "@box:" + std::to_string(boxes_.size() - 1);
+  }
   if (const auto v = attr(t, field.c_str())) {
-    if (!v->empty() && v->front() == '@') return linkedValue(t, field.c_str(), *v);
+    if (!v->empty() && v->front() == '@') {
+      if (++linkDepth_ > 32) {
+        linkDepth_ = 0;
+        fail(c, name, "link " + inQuotes(link) + " leads round a cycle of links");
+      }
+      std::string out = linkedValue(t, field.c_str(), *v);
+      linkDepth_ = 0;
+      return out;
+    }
     return *v;
   }
   fail(c, name, "link " + inQuotes(link) + ": " + t.type + " " + inQuotes(t.name) + " has no field " + inQuotes(field) +
@@ -364,7 +399,9 @@ void Importer::readTree(pugi::xml_node xml, SofaNode* parent) {
     c->line = lineOf(child.offset_debug());
     c->type = tag == "Object" && child.attribute("type") ? child.attribute("type").value() : tag;
     if (tag == "Object") c->read.insert("type");
-    c->name = child.attribute("name") ? child.attribute("name").value() : c->type;
+    // An unnamed component: SOFA names it after its class, numbered (MechanicalObject1, ...).
+    c->name = child.attribute("name") ? std::string(child.attribute("name").value())
+                                      : c->type + std::to_string(++unnamed_[c->type]);
     self->components.push_back(std::move(c));
   }
 }
@@ -425,11 +462,14 @@ void Importer::loader(SofaComponent& c) {
   }
   l.file = resolveMeshFile(c, *f);
   }
-  if (const auto s = value(c, "scale")) {
-    const double k = number(c, "scale", 1);
-    l.transform.scale = {k, k, k};
+  // SOFA reads "scale" as a float and multiplies scale3d by it.
+  if (const auto s = vec3(c, "scale3d")) l.transform.scale = *s;
+  if (value(c, "scale")) {
+    const double k = double(float(number(c, "scale", 1)));
+    l.transform.scale = {l.transform.scale[0] * k, l.transform.scale[1] * k, l.transform.scale[2] * k};
   }
-  if (const auto s = vec3(c, "scale3d")) l.transform.scale = {l.transform.scale[0] * (*s)[0], l.transform.scale[1] * (*s)[1], l.transform.scale[2] * (*s)[2]};
+  for (int k = 0; k < 3; ++k)
+    if (!(l.transform.scale[std::size_t(k)] > 0)) fail(c, "scale", "must be > 0");
   if (const auto r = vec3(c, "rotation")) l.transform.rotation = *r;
   if (const auto t = vec3(c, "translation")) l.transform.translation = *t;
   if (value(c, "transformation")) fail(c, "transformation", "a loader's 4x4 transformation is not supported: give scale, rotation and translation");
@@ -477,6 +517,10 @@ void Importer::meshFrom(SofaComponent& c, bool topologyContainer) {
 
 void Importer::component(SofaComponent& c) {
   const std::string& t = c.type;
+  static const std::set<std::string> onState = {
+      "TriangularFEMForceFieldOptim", "TriangularFEMForceField", "FastTriangularBendingSprings", "MeshSpringForceField",
+      "FixedProjectiveConstraint", "FixedConstraint", "BoxConstraint", "UniformMass", "DiagonalMass"};
+  if (onState.count(t)) actOnState_.push_back(&c);
   if (isLoader(t)) return loader(c);
   if (isVisualOrGui(t)) {
     for (const auto& a : c.xml.attributes()) c.read.insert(a.name());
@@ -547,11 +591,12 @@ void Importer::component(SofaComponent& c) {
     mechanicalObject_ = &c;
     checkTemplate(c);
     meshFrom(c, false);
-    if (const auto s = value(c, "scale")) {
-      const double k = number(c, "scale", 1);
+    // SOFA reads "scale" as a float, and it sets scale3d (after scale3d itself is read).
+    if (const auto s = vec3(c, "scale3d")) stateTransform_.scale = *s;
+    if (value(c, "scale")) {
+      const double k = double(float(number(c, "scale", 1)));
       stateTransform_.scale = {k, k, k};
     }
-    if (const auto s = vec3(c, "scale3d")) stateTransform_.scale = *s;
     for (int k = 0; k < 3; ++k)
       if (!(stateTransform_.scale[std::size_t(k)] > 0)) fail(c, "scale", "must be > 0");
     if (const auto r = vec3(c, "rotation")) stateTransform_.rotation = *r;
@@ -582,6 +627,8 @@ void Importer::component(SofaComponent& c) {
       const auto vertex = value(c, "vertexMass");
       if (value(c, "filename")) fail(c, "filename", "a mass from a file is not supported");
       if (c.xml.attribute("indices")) fail(c, "indices", "a mass on some points only is not supported");
+      requireFalse(c, "preserveTotalMass", "keeps the mass per point when a cut adds points (preserveTotalMass=0)");
+      if (c.xml.attribute("localRange")) fail(c, "localRange", "localRange is not supported");
       if (total) {  // SOFA: totalMass wins over vertexMass
         if (vertex) note(c.line, c.path() + "/vertexMass: ignored: totalMass is given too (as in SOFA, totalMass wins)");
         massJson_["total"] = number(c, "totalMass", 1);
@@ -599,8 +646,10 @@ void Importer::component(SofaComponent& c) {
       if (total) {
         if (density) note(c.line, c.path() + "/massDensity: ignored: totalMass is given too (as in SOFA, totalMass wins)");
         massJson_["total"] = number(c, "totalMass", 1);
+      } else if (density) {
+        massJson_["density"] = number(c, "massDensity", 1);
       } else {
-        massJson_["density"] = density ? number(c, "massDensity", 1) : 1.0;
+        massJson_["total"] = 1.0;  // SOFA: neither given, a total mass of 1
       }
     }
     for (auto it = massJson_.begin(); it != massJson_.end(); ++it)
@@ -629,7 +678,7 @@ void Importer::component(SofaComponent& c) {
         fail(c, "", "given initial rotations are not supported");
     }
     forceFields_.push_back(f);
-    forceFieldLines_.push_back(c.line);
+    forceFieldFrom_.push_back(&c);
     return;
   }
   if (t == "BoxConstraint") {
@@ -670,7 +719,7 @@ void Importer::component(SofaComponent& c) {
     f["perRestLength"] = true;    // SOFA: stiffness / L0 per spring
     f["stableJacobian"] = false;  // SOFA's K is the spring's whole Jacobian
     forceFields_.push_back(f);
-    forceFieldLines_.push_back(c.line);
+    forceFieldFrom_.push_back(&c);
     return;
   }
   if (t == "TriangularBendingSprings" || t == "QuadularBendingSprings" || t == "TriangleFEMForceField") {
@@ -686,7 +735,7 @@ void Importer::component(SofaComponent& c) {
     f["minDistValidity"] = number(c, "minDistValidity", 1e-6);
     requireNumber(c, "rayleighStiffness", 0.0, "has Rayleigh damping on the ODE solver only");
     forceFields_.push_back(f);
-    forceFieldLines_.push_back(c.line);
+    forceFieldFrom_.push_back(&c);
     return;
   }
   if (t == "BoxROI") {
@@ -710,17 +759,16 @@ void Importer::component(SofaComponent& c) {
     checkTemplate(c);
     if (boolean(c, "fixAll", false)) {
       constraints_.push_back({{"type", "fixed"}, {"box", {{-1e300, -1e300, -1e300}, {1e300, 1e300, 1e300}}}});
-      constraintLines_.push_back(c.line);
+      constraintFrom_.push_back(&c);
       return;
     }
     attr(c, "activate_projectVelocity");  // the fixed points' velocity is zero either way
     const auto v = value(c, "indices");
     if (v && startsWith(*v, "@box:")) {
-      const std::string boxName = v->substr(5);
-      SofaComponent* box = nullptr;
-      std::string why;
-      box = findComponent(c.node, boxName, why);
-      addBoxes(c, numbers(*box, "box", *value(*box, "box")));
+      SofaComponent& box = *boxes_.at(std::size_t(std::stoul(v->substr(5))));
+      const auto b = value(box, "box");
+      if (!b) fail(box, "box", "missing attribute \"box\" (SOFA's default box 0 0 0 1 1 1 is not assumed)");
+      addBoxes(box, numbers(box, "box", *b));
       return;
     }
     ojson points = ojson::array();
@@ -733,7 +781,7 @@ void Importer::component(SofaComponent& c) {
       return;
     }
     constraints_.push_back({{"type", "fixed"}, {"points", points}});
-    constraintLines_.push_back(c.line);
+    constraintFrom_.push_back(&c);
     return;
   }
   fail(c, "", "component " + inQuotes(t) +
@@ -744,10 +792,15 @@ void Importer::component(SofaComponent& c) {
                   "drawing and GUI components are ignored)");
 }
 
-void Importer::translate(SofaNode& n) {
-  // Loaders first (other components link to them), then the rest in file order, then the nodes.
+void Importer::translateLoaders(SofaNode& n) {
   for (auto& c : n.components)
     if (isLoader(c->type)) component(*c);
+  for (auto& child : n.children) translateLoaders(*child);
+}
+
+void Importer::translate(SofaNode& n) {
+  // The loaders were read first (others link to them, anywhere): the rest in file order, then
+  // the nodes.
   for (auto& c : n.components)
     if (!isLoader(c->type)) component(*c);
   for (auto& c : n.components)
@@ -778,17 +831,38 @@ void Importer::finish() {
   if (!mass_) fail(mechanicalObject_->line, mechanicalObject_->path(), "the scene has no mass (UniformMass or DiagonalMass)");
   if (!odeSolver_) fail(rootLine_, "/" + root_->name, "the scene has no ODE solver (EulerImplicitSolver)");
   if (!linearSolver_) fail(odeSolver_->line, odeSolver_->path(), "the ODE solver has no linear solver (CGLinearSolver)");
+  // SOFA's context: a mass, a force field or a constraint acts on the state of its own node; a
+  // solver on the states of its node and below; a state takes the topology of its node or above.
+  const SofaNode* stateNode = mechanicalObject_->node;
+  auto above = [&](const SofaNode* n, const SofaNode* below) {
+    for (const SofaNode* m = below; m; m = m->parent)
+      if (m == n) return true;
+    return false;
+  };
+  for (const SofaComponent* c : actOnState_)
+    if (c->node != stateNode)
+      fail(c->line, c->path(), c->type + " acts on the MechanicalObject of its own node: put it in " +
+                                   inQuotes(stateNode->path()) + ", beside the MechanicalObject (line " +
+                                   std::to_string(mechanicalObject_->line) + ")");
+  if (!above(odeSolver_->node, stateNode))
+    fail(odeSolver_->line, odeSolver_->path(), "the ODE solver steps the states of its node and below: the MechanicalObject (line " +
+                                                   std::to_string(mechanicalObject_->line) + ") is not among them");
+  if (!above(linearSolver_->node, odeSolver_->node))
+    fail(linearSolver_->line, linearSolver_->path(), "the ODE solver (line " + std::to_string(odeSolver_->line) +
+                                                         ") finds its linear solver in its node or above, not here");
+  if (!above(topology_->node, stateNode))
+    fail(topology_->line, topology_->path(), "the MechanicalObject (line " + std::to_string(mechanicalObject_->line) +
+                                                 ") takes the topology of its node or above, not this one");
   const Loader& l = loaders_.at(meshLoader_);
   // The loader places the points (scale, rotation, translation), then the MechanicalObject does.
-  if (!l.transform.identity() && !stateTransform_.identity() &&
-      (l.transform.rotation != Vec3{0, 0, 0} || stateTransform_.rotation != Vec3{0, 0, 0} ||
-       l.transform.translation != Vec3{0, 0, 0}))
-    fail(mechanicalObject_->line, mechanicalObject_->path(),
-         "a loader and the MechanicalObject that both rotate or translate are not supported: place the mesh in one of them");
-  MeshTransform tr = l.transform.identity() ? stateTransform_ : l.transform;
+  // SOFA places the points twice (the loader's 4 x 4 matrix, then the MechanicalObject's scale,
+  // rotation and translation): cutsim places them once, so only one of the two may move them.
   if (!l.transform.identity() && !stateTransform_.identity())
-    for (int k = 0; k < 3; ++k) tr.scale[std::size_t(k)] *= stateTransform_.scale[std::size_t(k)];
-  if (!l.transform.identity() && !stateTransform_.identity()) tr.translation = stateTransform_.translation;
+    fail(mechanicalObject_->line, mechanicalObject_->path(),
+         "both the loader (line " + std::to_string(l.line) +
+             ") and the MechanicalObject place the mesh (scale, rotation, translation): place it in one of them");
+  const MeshTransform tr = l.transform.identity() ? stateTransform_ : l.transform;
+  const std::size_t placedAt = l.transform.identity() ? mechanicalObject_->line : l.line;
 
   ojson& s = out_.scene;
   s = ojson::object();
@@ -803,8 +877,11 @@ void Importer::finish() {
     grid["diagonals"] = l.grid->alternating ? "alternating" : l.grid->downward ? "downward" : "oneway";
     mesh["grid"] = grid;
   } else {
-    std::filesystem::path rel = std::filesystem::absolute(l.file, ec).lexically_relative(std::filesystem::absolute(jsonDir.empty() ? "." : jsonDir, ec));
-    mesh["file"] = (rel.empty() ? std::filesystem::absolute(l.file, ec) : rel).generic_string();
+    // Relative to the JSON's folder, both resolved (symbolic links, "..") first.
+    const std::filesystem::path meshAbs = std::filesystem::weakly_canonical(std::filesystem::absolute(l.file, ec), ec);
+    const std::filesystem::path dirAbs = std::filesystem::weakly_canonical(std::filesystem::absolute(jsonDir.empty() ? "." : jsonDir, ec), ec);
+    const std::filesystem::path rel = meshAbs.lexically_relative(dirAbs);
+    mesh["file"] = (rel.empty() ? meshAbs : rel).generic_string();
   }
   if (tr.scale != Vec3{1, 1, 1}) {
     if (tr.scale[0] == tr.scale[1] && tr.scale[1] == tr.scale[2]) mesh["scale"] = tr.scale[0];
@@ -813,28 +890,35 @@ void Importer::finish() {
   if (tr.rotation != Vec3{0, 0, 0}) mesh["rotation"] = {tr.rotation[0], tr.rotation[1], tr.rotation[2]};
   if (tr.translation != Vec3{0, 0, 0}) mesh["translation"] = {tr.translation[0], tr.translation[1], tr.translation[2]};
   s["mesh"] = mesh;
-  setLine("/mesh", l.line);
-  setLine("/mesh/file", l.line);
-  for (const char* k : {"scale", "rotation", "translation"}) setLine(std::string("/mesh/") + k, mechanicalObject_->line);
+  setFrom("/mesh", *meshLoader_);
+  for (const char* k : {"scale", "rotation", "translation"}) {
+    setLine(std::string("/mesh/") + k, placedAt);
+    out_.labels[std::string("/mesh/") + k] = (l.transform.identity() ? mechanicalObject_->path() : meshLoader_->path()) + "/" + k;
+  }
   s["mass"] = massJson_;
-  setLine("/mass", mass_->line);
+  setFrom("/mass", *mass_);
   s["gravity"] = {gravity_[0], gravity_[1], gravity_[2]};
   setLine("/gravity", rootLine_);
+  out_.labels["/gravity"] = root_->path() + "/gravity";
   s["forceFields"] = forceFields_;
-  for (std::size_t i = 0; i < forceFieldLines_.size(); ++i) setLine("/forceFields/" + std::to_string(i), forceFieldLines_[i]);
+  for (std::size_t i = 0; i < forceFieldFrom_.size(); ++i) setFrom("/forceFields/" + std::to_string(i), *forceFieldFrom_[i]);
   s["constraints"] = constraints_;
-  for (std::size_t i = 0; i < constraintLines_.size(); ++i) setLine("/constraints/" + std::to_string(i), constraintLines_[i]);
+  for (std::size_t i = 0; i < constraintFrom_.size(); ++i) setFrom("/constraints/" + std::to_string(i), *constraintFrom_[i]);
   if (massAt_ > 0) integratorJson_["massAt"] = massAt_;
   s["integrator"] = integratorJson_;
-  setLine("/integrator", odeSolver_->line);
+  setFrom("/integrator", *odeSolver_);
   s["linearSolver"] = linearSolverJson_;
-  setLine("/linearSolver", linearSolver_->line);
+  setFrom("/linearSolver", *linearSolver_);
   s["timeStep"] = dt_;
   setLine("/timeStep", rootLine_);
+  out_.labels["/timeStep"] = root_->path() + "/dt";
+  setLine("/duration", rootLine_);
+  out_.labels["/duration"] = root_->path() + "/dt (times the steps)";
   s["duration"] = double(options_.steps) * dt_;
   s["output"] = {{"every", 1}, {"vtk", true}, {"springs", false}, {"obj", false}, {"csv", true}};
   s["ignored"] = ignored_;
   setLine("", rootLine_);
+  out_.labels[""] = root_->path();
 }
 
 SofaSceneImport Importer::run() {
@@ -868,9 +952,12 @@ SofaSceneImport Importer::run() {
   readTree(rootXml, nullptr);
   rootLine_ = root_->line;
   if (const auto a = rootXml.attribute("dt")) {
-    const auto d = parseSofaNumber(a.value());
+    const auto w = words(a.value());
+    const auto d = w.size() == 1 ? parseSofaNumber(w[0]) : std::nullopt;
     if (!d || !(*d > 0) || !std::isfinite(*d)) fail(rootLine_, root_->path() + "/dt", "expected a time step > 0, got " + inQuotes(a.value()));
     dt_ = *d;
+    if (!std::isfinite(dt_ * double(options_.steps)))
+      fail(rootLine_, root_->path() + "/dt", "dt times the " + std::to_string(options_.steps) + " steps is beyond the range of doubles");
   }
   if (const auto a = rootXml.attribute("gravity")) {
     std::vector<double> g;
@@ -882,6 +969,7 @@ SofaSceneImport Importer::run() {
     if (g.size() != 3) fail(rootLine_, root_->path() + "/gravity", "expected 3 numbers, got " + inQuotes(a.value()));
     gravity_ = {g[0], g[1], g[2]};
   }
+  translateLoaders(*root_);
   translate(*root_);
   finish();
   return std::move(out_);
@@ -898,6 +986,7 @@ Scene sceneFromSofa(const SofaSceneImport& imported) {
   detail::JsonDocument doc;
   doc.root = detail::json::parse(imported.scene.dump());
   doc.lines = imported.lines;
+  doc.labels = imported.labels;
   return detail::parseSceneDocument(doc, imported.file.string(), imported.jsonDir);
 }
 

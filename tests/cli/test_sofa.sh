@@ -57,6 +57,12 @@ check "SOFA's reference: the FEM scene's metrics" grep -q "TriangularFEMForceFie
 "$CUTSIM" regress sofa/RegressionStateScenes.regression-tests > missing.txt 2> missing.err
 check "a missing reference: exit code 2" test $? -eq 2
 check "a missing reference: the list's line" grep -q "RegressionStateScenes.regression-tests:4: no reference" missing.err
+check "a missing reference: the other scene is still compared" grep -q "TriangularFEMForceFieldOptim.scn: pass" missing.txt
+
+# ---- import into a folder that does not exist yet ----
+check "import into a new folder" "$CUTSIM" import sofa/FastTriangularBendingSprings.scn -o new/deeper/ftbs.json > /dev/null 2>&1
+check "its mesh path is relative to it" grep -q '"file": "../../sofa/mesh/triangleGrid_10_10.obj"' new/deeper/ftbs.json
+check "and it runs" "$CUTSIM" run new/deeper/ftbs.json --out new_out --quiet > /dev/null 2>&1
 
 # ---- bad scenes: exit code 2, the scene's line ----
 sed 's/template="Vec3"/template="Vec2d"/' sofa/FastTriangularBendingSprings.scn > sofa/vec2.scn

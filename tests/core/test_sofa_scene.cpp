@@ -119,7 +119,7 @@ TEST(SofaScene, TranslatesTheBendingExampleWithABoxROILinkAndAUniformMass) {
 TEST(SofaScene, UnusedAttributesAndTheirLinesAreReported) {
   const SofaSceneImport s = importSofaScene(writeScene("notes.scn", scn("    <FastTriangularBendingSprings bendingStiffness=\"2\" colour=\"red\"/>\n")));
   ASSERT_EQ(s.notes.size(), 1u);
-  EXPECT_THAT(s.notes[0], HasSubstr("notes.scn:11: /root/cloth/FastTriangularBendingSprings/colour"));
+  EXPECT_THAT(s.notes[0], HasSubstr("notes.scn:11: /root/cloth/FastTriangularBendingSprings1/colour"));
   EXPECT_THAT(s.notes[0], HasSubstr("not used"));
 }
 
@@ -146,7 +146,7 @@ TEST(SofaScene, ErrorsNameTheSceneLineAndWhatIsWrong) {
   EXPECT_THAT(importError(text), AllOf(StartsWith((scratch() / "bad.scn").string() + ":9:"), HasSubstr("malformed XML")));
   // A check of the translated scene lands on the component's line: a box that selects nothing.
   EXPECT_THAT(importError(scn("    <BoxROI name=\"b\" box=\"500 500 500 501 501 501\"/>\n    <FixedConstraint indices=\"@b.indices\"/>\n")),
-              AllOf(HasSubstr("bad.scn:12:"), HasSubstr("selects no point")));
+              AllOf(HasSubstr("bad.scn:11: /root/cloth/b/box: selects no point")));
 }
 
 TEST(SofaScene, RunningTheSceneAndItsImportedJsonGivesTheSameStates) {
@@ -235,6 +235,51 @@ TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
   bad = text;
   bad.replace(bad.find("damping=\"0.5\""), 13, "damping=\"0.5\" trianglesStiffness=\"7\"");
   EXPECT_THAT(importError(bad), HasSubstr("one stiffness"));
+}
+
+/// A scene with the solver, the loader and one child node "cloth" holding `body` (from line 7).
+std::string sceneWithBody(const std::string& body, const std::string& rootExtra = "") {
+  return "<?xml version=\"1.0\"?>\n"                                                  // 1
+         "<Node name=\"root\" dt=\" 0.02 \" gravity=\"0 -9.81 0\">\n"                // 2 (spaces kept)
+         "  <EulerImplicitSolver/>\n"                                                  // 3
+         "  <CGLinearSolver iterations=\"40\" tolerance=\"1e-7\" threshold=\"1e-12\"/>\n"  // 4
+         "  <MeshOBJLoader name=\"loader\" filename=\"mesh/triangleGrid_10_10.obj\"/>\n"   // 5
+         "  <Node name=\"cloth\">\n" +                                                 // 6
+         body + "  </Node>\n" + rootExtra + "</Node>\n";
+}
+
+TEST(SofaScene, LinksFollowSofasContextAndPlacementIsChecked) {
+  const std::string state = "    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject name=\"dofs\" src=\"@../loader\"/>\n";
+  // A BoxROI in a child node, linked by a relative path; another of the same name elsewhere.
+  const SofaSceneImport a = importSofaScene(writeScene(
+      "child_box.scn", sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n"
+                                             "    <FixedConstraint indices=\"@sub/b.indices\"/>\n"
+                                             "    <Node name=\"sub\"><BoxROI name=\"b\" box=\"-0.5 -0.5 -0.5 100.5 0.005 0.005\"/></Node>\n",
+                                     "  <BoxROI name=\"b\" box=\"0 0 0 0 0 0\"/>\n")));
+  EXPECT_EQ(a.scene["constraints"][0]["box"][1], nlohmann::ordered_json({100.5, 0.005, 0.005}));
+  EXPECT_EQ(a.scene["timeStep"], 0.02);  // " 0.02 ": spaces around a number are fine
+  // DiagonalMass with neither massDensity nor totalMass: SOFA's total mass of 1.
+  const SofaSceneImport d = importSofaScene(writeScene("diag.scn", sceneWithBody(state + "    <DiagonalMass/>\n")));
+  EXPECT_EQ(d.scene["mass"]["total"], 1.0);
+  // SOFA reads "scale" as a float.
+  const SofaSceneImport f = importSofaScene(writeScene(
+      "float.scn", sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject src=\"@../loader\" scale=\"0.1\"/>\n"
+                                 "    <UniformMass totalMass=\"3\"/>\n")));
+  EXPECT_EQ(f.scene["mesh"]["scale"], double(0.1f));
+  EXPECT_EQ(f.mechanicalObject, "MechanicalObject1");  // SOFA's name of an unnamed component
+  // A cycle of links, a box without a box, a mass outside the state's node, a solver beside it.
+  EXPECT_THAT(importError(sceneWithBody(state + "    <UniformMass name=\"m\" totalMass=\"@m.totalMass\"/>\n")),
+              HasSubstr("cycle of links"));
+  EXPECT_THAT(importError(sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n    <FixedConstraint indices=\"@b.indices\"/>\n"
+                                                "    <BoxROI name=\"b\"/>\n")),
+              AllOf(HasSubstr("bad.scn:11: /root/cloth/b/box"), HasSubstr("missing attribute")));
+  EXPECT_THAT(importError(sceneWithBody(state, "  <UniformMass totalMass=\"3\"/>\n")),
+              AllOf(HasSubstr("bad.scn:10: /root/UniformMass1"), HasSubstr("acts on the MechanicalObject of its own node")));
+  std::string sibling = sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n", "  <Node name=\"other\"><EulerImplicitSolver/></Node>\n");
+  sibling.replace(sibling.find("  <EulerImplicitSolver/>\n"), 25, "");
+  EXPECT_THAT(importError(sibling), HasSubstr("steps the states of its node and below"));
+  EXPECT_THAT(importError(sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject template=\"Vec3f\" src=\"@../loader\"/>\n")),
+              HasSubstr("single precision"));
 }
 
 // ---- meshes ----

@@ -38,6 +38,8 @@ struct SofaSceneImport {
   nlohmann::ordered_json scene;  ///< the JSON scene (with an "ignored" list)
   /// The .scn line of each JSON value, by JSON pointer (messages of the JSON checks name them).
   std::map<std::string, std::size_t> lines;
+  /// The scene's own path of each JSON value ("/root/cloth/FEM"), by JSON pointer.
+  std::map<std::string, std::string> labels;
   /// Unused attributes and ignored components, each "SCENE.scn:LINE: message".
   std::vector<std::string> notes;
   /// The name of the scene's MechanicalObject (SOFA's regression files are named after it).
