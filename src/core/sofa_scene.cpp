@@ -3,6 +3,7 @@
 #include "cutsim/core/sofa_scene.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -461,6 +462,13 @@ void Importer::loader(SofaComponent& c) {
     fail(c, "filename", "missing attribute \"filename\"");
   }
   l.file = resolveMeshFile(c, *f);
+  {
+    // Each loader reads its own format (cutsim reads by the file's extension).
+    std::string ext = l.file.extension().string();
+    for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    const std::string want = c.type == "MeshOBJLoader" ? ".obj" : c.type == "MeshGmshLoader" ? ".msh" : ".off";
+    if (ext != want) fail(c, "filename", c.type + " reads " + want + " files, not " + inQuotes(l.file.filename().string()));
+  }
   }
   // SOFA reads "scale" as a float and multiplies scale3d by it.
   if (const auto s = vec3(c, "scale3d")) l.transform.scale = *s;
@@ -518,7 +526,8 @@ void Importer::meshFrom(SofaComponent& c, bool topologyContainer) {
 void Importer::component(SofaComponent& c) {
   const std::string& t = c.type;
   static const std::set<std::string> onState = {
-      "TriangularFEMForceFieldOptim", "TriangularFEMForceField", "FastTriangularBendingSprings", "MeshSpringForceField",
+      "TriangularFEMForceFieldOptim", "TriangularFEMForceField", "TriangleFEMForceField", "FastTriangularBendingSprings",
+      "TriangularBendingSprings", "MeshSpringForceField",
       "FixedProjectiveConstraint", "FixedConstraint", "BoxConstraint", "UniformMass", "DiagonalMass"};
   if (onState.count(t)) actOnState_.push_back(&c);
   if (isLoader(t)) return loader(c);
@@ -656,14 +665,20 @@ void Importer::component(SofaComponent& c) {
       if (it.value().is_number() && !(it.value().get<double>() > 0)) fail(c, "", "the mass must be > 0");
     return;
   }
-  if (t == "TriangularFEMForceFieldOptim" || t == "TriangularFEMForceField") {
+  if (t == "TriangularFEMForceFieldOptim" || t == "TriangularFEMForceField" || t == "TriangleFEMForceField") {
     checkTemplate(c);
     ojson f = ojson::object();
     f["type"] = "TriangularFEMForceFieldOptim";
     f["label"] = c.name;
     const auto method = value(c, "method");
-    if (method && *method != "large")
-      fail(c, "method", "method " + inQuotes(*method) + " is not supported (cutsim has SOFA's \"large\" method)");
+    if (method && *method != "large") {
+      // SOFA's Optim has the large method only: it warns and runs it; the other field's small
+      // method is another element.
+      if (t == "TriangularFEMForceFieldOptim")
+        note(c.line, c.path() + "/method: \"" + *method + "\" ignored: TriangularFEMForceFieldOptim has the large method only (as SOFA warns)");
+      else
+        fail(c, "method", "method " + inQuotes(*method) + " is not supported (cutsim has SOFA's \"large\" method)");
+    }
     f["youngModulus"] = number(c, "youngModulus", 5000);  // SOFA's defaults (BaseLinearElasticityFEMForceField)
     f["poissonRatio"] = number(c, "poissonRatio", 0.45);
     if (value(c, "restScale")) f["restScale"] = number(c, "restScale", 1);
@@ -671,6 +686,10 @@ void Importer::component(SofaComponent& c) {
     attr(c, "damping");  // SOFA reads it and never uses it
     attr(c, "computePrincipalStress");
     attr(c, "stressMaxValue");
+    if (t == "TriangleFEMForceField") {  // SOFA's older triangle: the same element, with a thickness
+      if (value(c, "thickness")) f["thickness"] = number(c, "thickness", 1);
+      requireFalse(c, "planeStrain", "has plane stress (planeStrain=0)");
+    }
     if (t == "TriangularFEMForceField") {
       requireFalse(c, "computeGlobalMatrix", "has no global matrix option");
       for (const char* a : {"fiberAngle", "fiberCenter", "hosfordExponant", "criteriaValue", "computeVonMisesStress"}) attr(c, a);
@@ -722,9 +741,19 @@ void Importer::component(SofaComponent& c) {
     forceFieldFrom_.push_back(&c);
     return;
   }
-  if (t == "TriangularBendingSprings" || t == "QuadularBendingSprings" || t == "TriangleFEMForceField") {
-    const std::string instead = t == "TriangleFEMForceField" ? "TriangularFEMForceFieldOptim (method large)" : "FastTriangularBendingSprings";
-    fail(c, "", t + " is not supported: cutsim has no formulation of its own that gives SOFA's numbers for it; use " + instead);
+  if (t == "QuadularBendingSprings") fail(c, "", t + " is not supported: cutsim simulates triangle meshes");
+  if (t == "TriangularBendingSprings") {
+    checkTemplate(c);
+    ojson f = ojson::object();
+    f["type"] = "TriangularBendingSprings";
+    f["label"] = c.name;
+    f["stiffness"] = number(c, "stiffness", 100000.0);  // SOFA's defaults
+    f["damping"] = number(c, "damping", 1.0);
+    requireNumber(c, "rayleighStiffness", 0.0, "has Rayleigh damping on the ODE solver only");
+    attr(c, "showSprings");
+    forceFields_.push_back(f);
+    forceFieldFrom_.push_back(&c);
+    return;
   }
   if (t == "FastTriangularBendingSprings") {
     checkTemplate(c);
@@ -788,7 +817,8 @@ void Importer::component(SofaComponent& c) {
                   " is not supported (cutsim reads: DefaultAnimationLoop, EulerImplicitSolver, CGLinearSolver, MeshOBJLoader, "
                   "MeshGmshLoader, MeshOffLoader, GridMeshCreator, MeshTopology, TriangleSetTopologyContainer, MechanicalObject, "
                   "BoxROI, FixedProjectiveConstraint, FixedConstraint, BoxConstraint, UniformMass, DiagonalMass, "
-                  "TriangularFEMForceFieldOptim, TriangularFEMForceField, FastTriangularBendingSprings, MeshSpringForceField; "
+                  "TriangularFEMForceFieldOptim, TriangularFEMForceField, TriangleFEMForceField, FastTriangularBendingSprings, "
+                  "TriangularBendingSprings, MeshSpringForceField; "
                   "drawing and GUI components are ignored)");
 }
 

@@ -49,7 +49,7 @@ void runsAndFalls(const std::string& text) {
 TEST(Registry, HasEveryForceFieldIntegratorAndLinearSolverOfTheProject) {
   EXPECT_EQ(forcefields::ForceFieldRegistry::instance().names(),
             (std::vector<std::string>{"DihedralBending", "FastTriangularBendingSprings", "StretchSprings",
-                                      "TriangularFEM", "TriangularFEMForceFieldOptim"}));
+                                      "TriangularBendingSprings", "TriangularFEM", "TriangularFEMForceFieldOptim"}));
   EXPECT_EQ(core::IntegratorRegistry::instance().names(),
             (std::vector<std::string>{"bdf2", "explicit-euler", "implicit-euler", "newton", "sofa-euler"}));
   EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod", "sofa-cg"}));
@@ -154,7 +154,7 @@ TEST(Registry, BadComponentsNameTheAlternatives) {
   const std::vector<BadCase> cases = {
       {"{\"type\": \"Magnet\"}", "", "inline.json:6: /forceFields/0/type: ",
        "unknown force field type \"Magnet\" (registered: DihedralBending, FastTriangularBendingSprings, "
-       "StretchSprings, TriangularFEM, TriangularFEMForceFieldOptim)"},
+       "StretchSprings, TriangularBendingSprings, TriangularFEM, TriangularFEMForceFieldOptim)"},
       {"{\"type\": \"FastTriangularBendingSprings\", \"youngModulus\": 3}", "",
        "inline.json:6: /forceFields/0/youngModulus: ",
        "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to TriangularFEM, TriangularFEMForceFieldOptim); expected one of: "

@@ -225,10 +225,21 @@ TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
   r.start();
   for (int k = 0; k < 5; ++k) r.advance();
   EXPECT_LT(r.simulation().state().x()[3 * 19 + 2], 0.0);  // the free corner falls
-  // Unsupported tier-2 components say what to use instead; quads are refused.
+  // SOFA's other bending springs and older triangle map too; quads are refused.
   std::string bad = text;
-  bad.replace(bad.find("<MeshSpringForceField"), 21, "<TriangularBendingSprings");
-  EXPECT_THAT(importError(bad), AllOf(HasSubstr("bad.scn:9:"), HasSubstr("use FastTriangularBendingSprings")));
+  bad.replace(bad.find("<MeshSpringForceField stiffness"), 31, "<TriangularBendingSprings stiffness");
+  const SofaSceneImport tbs = importSofaScene(writeScene("tbs.scn", bad));
+  EXPECT_EQ(tbs.scene["forceFields"][0]["type"], "TriangularBendingSprings");
+  EXPECT_EQ(tbs.scene["forceFields"][0]["stiffness"], 30.0);
+  bad = text;  // SOFA's older triangle: the same element, its thickness kept
+  bad.replace(bad.find("<MeshSpringForceField stiffness=\"30\" damping=\"0.5\"/>"), 51,
+              "<TriangleFEMForceField youngModulus=\"300\" poissonRatio=\"0.2\" thickness=\"0.01\"/>");
+  const SofaSceneImport older = importSofaScene(writeScene("older.scn", bad));
+  EXPECT_EQ(older.scene["forceFields"][0]["type"], "TriangularFEMForceFieldOptim");
+  EXPECT_EQ(older.scene["forceFields"][0]["thickness"], 0.01);
+  bad = text;
+  bad.replace(bad.find("<MeshSpringForceField"), 21, "<QuadularBendingSprings");
+  EXPECT_THAT(importError(bad), AllOf(HasSubstr("bad.scn:9:"), HasSubstr("triangle meshes")));
   bad = text;
   bad.replace(bad.find("trianglePattern=\"3\""), 19, "trianglePattern=\"0\"");
   EXPECT_THAT(importError(bad), AllOf(HasSubstr(":4:"), HasSubstr("0 makes quads")));
@@ -280,6 +291,15 @@ TEST(SofaScene, LinksFollowSofasContextAndPlacementIsChecked) {
   EXPECT_THAT(importError(sibling), HasSubstr("steps the states of its node and below"));
   EXPECT_THAT(importError(sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject template=\"Vec3f\" src=\"@../loader\"/>\n")),
               HasSubstr("single precision"));
+  // A loader reads its own format; the Optim membrane's "method" is noted, as SOFA warns.
+  std::string gmsh = sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n");
+  gmsh.replace(gmsh.find("MeshOBJLoader"), 13, "MeshGmshLoader");
+  EXPECT_THAT(importError(gmsh), AllOf(HasSubstr("bad.scn:5:"), HasSubstr("MeshGmshLoader reads .msh files")));
+  const SofaSceneImport m = importSofaScene(writeScene(
+      "method.scn", sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n"
+                                          "    <TriangularFEMForceFieldOptim youngModulus=\"100\" poissonRatio=\"0.3\" method=\"small\"/>\n")));
+  ASSERT_EQ(m.notes.size(), 1u);
+  EXPECT_THAT(m.notes[0], AllOf(HasSubstr("method.scn:10:"), HasSubstr("large method only")));
 }
 
 // ---- meshes ----
