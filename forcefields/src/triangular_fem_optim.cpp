@@ -75,6 +75,23 @@ Strain strainOf(const Rest& r, const Current& c) {
   return {r.cy * dbx, r.bx * dcy, r.bx * dcx - r.cx * dbx};
 }
 
+/// SOFA's forces of a strain (times 2A), its stress scaled by `scale` (1 / 4A, times the kFactor
+/// for a change of force): f_b, f_c, and f_a = -f_b - f_c.
+struct Forces {
+  V fa, fb, fc;
+};
+template <class Rest>
+Forces forcesOf(const Rest& r, const V& f0, const V& f1, double e0, double e1, double e2, double mu, double gamma,
+                double scale) {
+  const double gxy = gamma * (e0 + e1);
+  const double s0 = (mu * e0 + gxy) * scale, s1 = (mu * e1 + gxy) * scale, s2 = (0.5 * mu * e2) * scale;
+  Forces out;
+  out.fb = add(mul(f0, r.cy * s0 - r.cx * s2), mul(f1, r.cy * s2 - r.cx * s1));
+  out.fc = add(mul(f0, r.bx * s2), mul(f1, r.bx * s1));
+  out.fa = sub(mul(out.fb, -1.0), out.fc);
+  return out;
+}
+
 }  // namespace
 
 TriangularFEMOptim::RestFrame TriangularFEMOptim::restFrame(const FemTriangle& e) const {
@@ -117,14 +134,10 @@ void TriangularFEMOptim::addForce(std::span<const double> x, std::span<const dou
     if (!current(x.data(), e, c)) continue;
     const RestFrame r = restFrame(e);
     const auto [e0, e1, e2] = strainOf(r, c);
-    const double gxy = gamma_ * (e0 + e1);
-    const double s0 = (muPrime_ * e0 + gxy) * r.ss, s1 = (muPrime_ * e1 + gxy) * r.ss, s2 = (0.5 * muPrime_ * e2) * r.ss;
-    const V fb = add(mul(c.f0, r.cy * s0 - r.cx * s2), mul(c.f1, r.cy * s2 - r.cx * s1));
-    const V fc = add(mul(c.f0, r.bx * s2), mul(c.f1, r.bx * s1));
-    const V fa = sub(mul(fb, -1.0), fc);
-    addTo(f.data(), e.v[0], fa);
-    addTo(f.data(), e.v[1], fb);
-    addTo(f.data(), e.v[2], fc);
+    const Forces g = forcesOf(r, c.f0, c.f1, e0, e1, e2, muPrime_, gamma_, r.ss);
+    addTo(f.data(), e.v[0], g.fa);
+    addTo(f.data(), e.v[1], g.fb);
+    addTo(f.data(), e.v[2], g.fc);
   }
 }
 
@@ -143,15 +156,10 @@ void TriangularFEMOptim::addDForce(std::span<const double> x, std::span<const do
     const V dab = sub(load(dx.data(), e.v[1]), da), dac = sub(load(dx.data(), e.v[2]), da);
     const double dbx = dot(f0, dab), dby = dot(f1, dab), dcx = dot(f0, dac), dcy = dot(f1, dac);
     const double e0 = r.cy * dbx, e1 = r.bx * dcy - r.cx * dby, e2 = r.bx * dcx - r.cx * dbx + r.cy * dby;
-    const double gxy = gamma_ * (e0 + e1);
-    const double k = r.ss * kFactor;
-    const double s0 = (muPrime_ * e0 + gxy) * k, s1 = (muPrime_ * e1 + gxy) * k, s2 = (0.5 * muPrime_ * e2) * k;
-    const V fb = add(mul(f0, r.cy * s0 - r.cx * s2), mul(f1, r.cy * s2 - r.cx * s1));
-    const V fc = add(mul(f0, r.bx * s2), mul(f1, r.bx * s1));
-    const V fa = sub(mul(fb, -1.0), fc);
-    subFrom(df.data(), e.v[0], fa);  // SOFA: df -= dfa, dfb, dfc (its kFactor carries the sign)
-    subFrom(df.data(), e.v[1], fb);
-    subFrom(df.data(), e.v[2], fc);
+    const Forces g = forcesOf(r, f0, f1, e0, e1, e2, muPrime_, gamma_, r.ss * kFactor);
+    subFrom(df.data(), e.v[0], g.fa);  // SOFA: df -= dfa, dfb, dfc (its kFactor carries the sign)
+    subFrom(df.data(), e.v[1], g.fb);
+    subFrom(df.data(), e.v[2], g.fc);
   }
 }
 
