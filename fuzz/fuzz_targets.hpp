@@ -244,6 +244,7 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
     const std::size_t points = topo.numPoints(), edges = topo.numEdges(),
                       triangles = topo.numTriangles();
     const std::uint64_t revision = topo.revision();
+    const std::uint64_t digest = topo.digest();
     const std::size_t transactions = mirror.transactions;
     std::string name, outcome = " -> done";
     try {
@@ -332,7 +333,7 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
       outcome = std::string(" -> rejected: ") + e.what();
       detail::require(topo.numPoints() == points && topo.numEdges() == edges &&
                           topo.numTriangles() == triangles && topo.revision() == revision &&
-                          mirror.transactions == transactions,
+                          topo.digest() == digest && mirror.transactions == transactions,
                       "op " + std::to_string(op) + " (" + name +
                           ") was rejected but changed the mesh: " + e.what() + "\nafter:\n" +
                           history);

@@ -57,6 +57,17 @@ class RandomTopologyOps {
 
   RandomOp step();
 
+  /// What the next step() depends on besides the topology: draws after restore(save()) repeat.
+  struct Snapshot {
+    std::mt19937_64 rng;
+    std::vector<topology::TriangleVertices> removed;
+  };
+  Snapshot save() const { return {rng_, removed_}; }
+  void restore(const Snapshot& s) {
+    rng_ = s.rng;
+    removed_ = s.removed;
+  }
+
  private:
   /// Writes the call into `what` and carries it out; false when skipped.
   bool apply(OpKind kind, std::ostringstream& what);

@@ -126,6 +126,41 @@ bool Topology::isTriangleAlive(TriangleId t) const { return impl_->faceAlive(FI(
 
 std::uint64_t Topology::revision() const { return impl_->revision; }
 
+std::uint64_t Topology::digest() const {
+  const Mesh& m = impl_->mesh;
+  std::uint64_t h = 14695981039346656037ull;
+  auto mix = [&](const void* data, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  auto add = [&](std::uint64_t x) { mix(&x, sizeof x); };
+  add(m.num_vertices()); add(m.num_edges()); add(m.num_faces());
+  add(m.number_of_removed_vertices()); add(m.number_of_removed_edges());
+  add(m.number_of_removed_faces()); add(m.has_garbage() ? 1 : 0);
+  add(detail::field<detail::VerticesFreelist>(m));
+  add(detail::field<detail::EdgesFreelist>(m));
+  add(detail::field<detail::FacesFreelist>(m));
+  add(impl_->revision);
+  for (Mesh::size_type i = 0; i < m.num_vertices(); ++i) {
+    const VI v(i);
+    add(m.halfedge(v).idx());
+    add(m.is_removed(v) ? 1 : 0);
+    const Point3& p = m.point(v);
+    const double c[3] = {p.x(), p.y(), p.z()};
+    mix(c, sizeof c);
+  }
+  for (Mesh::size_type i = 0; i < m.num_halfedges(); ++i) {
+    const HI e(i);
+    add(m.face(e).idx()); add(m.target(e).idx()); add(m.next(e).idx()); add(m.prev(e).idx());
+  }
+  for (Mesh::size_type i = 0; i < m.num_edges(); ++i) add(m.is_removed(EI(i)) ? 1 : 0);
+  for (Mesh::size_type i = 0; i < m.num_faces(); ++i) {
+    add(m.halfedge(FI(i)).idx());
+    add(m.is_removed(FI(i)) ? 1 : 0);
+  }
+  return h;
+}
+
 double Topology::garbageFraction() const {
   const Mesh& m = impl_->mesh;
   double slots = double(m.num_vertices() + m.num_edges() + m.num_faces());
@@ -321,26 +356,60 @@ Subscription Topology::subscribe(TopologyObserver& observer) {
 std::size_t Topology::numObservers() const { return impl_->registry->observers.size(); }
 
 // ------------------------------------------------------------------------------------------
+// Failure injection
+
+namespace {
+thread_local std::uint64_t gFailureCountdown = 0;  // 0: disarmed
+thread_local std::uint64_t gFailurePointsPassed = 0;
+}  // namespace
+
+void injectFailureAt(std::uint64_t n) {
+  gFailureCountdown = n;
+  gFailurePointsPassed = 0;
+}
+
+std::uint64_t failurePointsPassed() { return gFailurePointsPassed; }
+
+void failurePoint(const char* where) {
+  ++gFailurePointsPassed;
+  if (gFailureCountdown != 0 && --gFailureCountdown == 0)
+    throw InjectedFailure(std::string("injected failure at ") + where + " (failure point " +
+                          std::to_string(gFailurePointsPassed) + ")");
+}
+
+// ------------------------------------------------------------------------------------------
 // Transactions
 
 void Topology::Impl::begin(std::string op) {
+  if (registry->delivering)
+    throw TopologyError("'" + op + "' called from an observer while events are delivered: " +
+                        "observers must not change the topology");
   if (open) throw TopologyError("internal error: nested transaction '" + op + "' in '" + operation + "'");
   open = true;
   operation = std::move(op);
   vBefore = Index(mesh.num_vertices());
   eBefore = Index(mesh.num_edges());
   fBefore = Index(mesh.num_faces());
+  journal.begin(mesh);
 }
 
-void Topology::Impl::abortIfOpen() {
-  // Only used before any mutation happened (validation failures); nothing to undo.
+void Topology::Impl::clearTransaction() noexcept {
   open = false;
   trisDestroyed.clear(); trisDestroyedV.clear(); trisDestroyedE.clear(); trisDestroyedP.clear();
   edgesDestroyed.clear(); edgesDestroyedV.clear(); pointsDestroyed.clear();
   ancestry.clear(); touched.clear();
+  journal.clear();
 }
 
-VI Topology::Impl::newFreePoint(const Point3& p) { return mesh.add_vertex(p); }
+void Topology::Impl::rollback() noexcept {
+  journal.rollback(mesh);
+  clearTransaction();
+}
+
+VI Topology::Impl::newFreePoint(const Point3& p) {
+  failurePoint("a new point");
+  return mesh.add_vertex(p);
+}
 
 VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ancestors) {
   // Compose with the ancestry of points created earlier in this transaction.
@@ -358,6 +427,7 @@ VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ances
     }
     flat.emplace_back(a, w);
   }
+  failurePoint("a new point");
   std::sort(flat.begin(), flat.end());
   std::vector<std::pair<PointId, double>> merged;
   for (auto& [a, w] : flat) {
@@ -372,6 +442,8 @@ VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ances
 void Topology::Impl::detachFace(FI f) {
   // As CGAL::Euler::remove_face, but a vertex left without edges stays (isolated) until commit,
   // so that the same transaction may attach new faces to it.
+  failurePoint("a triangle detached");
+  for (PointId p : verticesOf(f)) journal.recordStar(mesh, VI(p));
   HI h = mesh.halfedge(f);
   HI end = h;
   if (f.idx() < fBefore) {
@@ -425,6 +497,8 @@ std::vector<FI> Topology::Impl::attachFaces(const std::vector<std::array<VI, 3>>
   while (!pending.empty()) {
     std::vector<std::size_t> next;
     for (std::size_t i : pending) {
+      failurePoint("a triangle attached");
+      for (VI v : faces[i]) journal.recordStar(mesh, v);
       FI f = CGAL::Euler::add_face(faces[i], mesh);
       if (f == Mesh::null_face()) next.push_back(i);
       else out[i] = f;
@@ -540,69 +614,135 @@ void sortTogether(std::vector<Id>& ids, std::vector<Data>& data) {
 }
 }  // namespace
 
-void Topology::Impl::commit(Topology& self) {
-  // Points left without any edge by this transaction are removed (carving).
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  for (VI v : touched) {
-    if (!vertexAlive(v) || !mesh.is_isolated(v)) continue;
-    if (v.idx() < vBefore) pointsDestroyed.push_back(PointId(v.idx()));
-    mesh.remove_vertex(v);
+namespace {
+/// Delivers one transaction's events, each to every observer in turn (the contract's order). An
+/// observer that throws does not stop the delivery: the transaction is done and every other
+/// observer must follow it; the first failure is thrown as ObserverError once all is delivered.
+class Delivery {
+ public:
+  explicit Delivery(Subscription::Registry& registry)
+      : registry_(registry), observers_(registry.observers) {
+    registry_.delivering = true;
+  }
+  ~Delivery() { registry_.delivering = false; }
+  Delivery(const Delivery&) = delete;
+  Delivery& operator=(const Delivery&) = delete;
+
+  template <class F>
+  void each(const char* event, F&& f) {
+    for (TopologyObserver* o : observers_) {
+      try {
+        f(*o);
+      } catch (const std::exception& e) {
+        failed(*o, event, e.what());
+      } catch (...) {
+        failed(*o, event, "an exception that is not a std::exception");
+      }
+    }
+  }
+  void finish(const std::string& operation) {
+    registry_.delivering = false;
+    if (failures_ == 0) return;
+    throw ObserverError("observer '" + first_ + "' failed on the event '" + event_ + "' of '" +
+                        operation + "': " + message_ +
+                        (failures_ > 1 ? " (and " + std::to_string(failures_ - 1) + " more failures)" : "") +
+                        "; the operation was carried out and every other observer followed it");
   }
 
-  // Net lists. Elements created in this transaction have slots >= the *Before marks.
+ private:
+  void failed(const TopologyObserver& o, const char* event, const char* what) {
+    if (failures_++ > 0) return;
+    first_ = o.observerName();
+    event_ = event;
+    message_ = what;
+  }
+  Subscription::Registry& registry_;
+  std::vector<TopologyObserver*> observers_;
+  std::size_t failures_ = 0;
+  std::string first_, event_, message_;
+};
+}  // namespace
+
+void Topology::Impl::commit(Topology& self) {
+  // Phase 1, which may still fail (then the transaction is rolled back): the points left without
+  // any edge are removed (carving), and the events' lists are made.
   std::vector<TriangleId> triC;
   std::vector<TriangleVertices> triCV;
   std::vector<TriangleEdges> triCE;
-  for (Index f = fBefore; f < mesh.num_faces(); ++f)
-    if (!mesh.is_removed(FI(f))) {
-      triC.push_back(f);
-      triCV.push_back(verticesOf(FI(f)));
-      triCE.push_back(edgesOf(FI(f)));
-    }
   std::vector<EdgeId> edgeC;
   std::vector<EdgeVertices> edgeCV;
-  for (Index e = eBefore; e < mesh.num_edges(); ++e)
-    if (!mesh.is_removed(EI(e))) {
-      edgeC.push_back(e);
-      HI h = mesh.halfedge(EI(e));
-      edgeCV.push_back({PointId(mesh.source(h).idx()), PointId(mesh.target(h).idx())});
-    }
   std::vector<PointId> pointC;
   std::vector<std::uint32_t> offsets{0};
   std::vector<PointId> anc;
   std::vector<double> w;
-  for (Index v = vBefore; v < mesh.num_vertices(); ++v)
-    if (!mesh.is_removed(VI(v))) {
-      pointC.push_back(v);
-      if (auto it = ancestry.find(v); it != ancestry.end())
-        for (auto [a, ww] : it->second) { anc.push_back(a); w.push_back(ww); }
-      offsets.push_back(std::uint32_t(anc.size()));
+  std::string op;
+  try {
+    std::sort(touched.begin(), touched.end());
+    touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+    for (VI v : touched) {
+      if (!vertexAlive(v) || !mesh.is_isolated(v)) continue;
+      failurePoint("an isolated point removed");
+      journal.recordVertex(mesh, v);
+      if (v.idx() < vBefore) pointsDestroyed.push_back(PointId(v.idx()));
+      mesh.remove_vertex(v);
     }
-  {
-    std::vector<std::size_t> order(trisDestroyed.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t a, std::size_t b) { return trisDestroyed[a] < trisDestroyed[b]; });
-    std::vector<TriangleId> t2; std::vector<TriangleVertices> v2; std::vector<TriangleEdges> e2;
-    std::vector<std::array<Point3, 3>> p2;
-    for (std::size_t k : order) {
-      t2.push_back(trisDestroyed[k]); v2.push_back(trisDestroyedV[k]);
-      e2.push_back(trisDestroyedE[k]); p2.push_back(trisDestroyedP[k]);
-    }
-    trisDestroyed.swap(t2); trisDestroyedV.swap(v2); trisDestroyedE.swap(e2); trisDestroyedP.swap(p2);
-  }
-  sortTogether(edgesDestroyed, edgesDestroyedV);
-  std::sort(pointsDestroyed.begin(), pointsDestroyed.end());
 
-  // Keep the locator up to date (only once it has been built).
+    // Net lists. Elements created in this transaction have slots >= the *Before marks.
+    for (Index f = fBefore; f < mesh.num_faces(); ++f)
+      if (!mesh.is_removed(FI(f))) {
+        triC.push_back(f);
+        triCV.push_back(verticesOf(FI(f)));
+        triCE.push_back(edgesOf(FI(f)));
+      }
+    for (Index e = eBefore; e < mesh.num_edges(); ++e)
+      if (!mesh.is_removed(EI(e))) {
+        edgeC.push_back(e);
+        HI h = mesh.halfedge(EI(e));
+        edgeCV.push_back({PointId(mesh.source(h).idx()), PointId(mesh.target(h).idx())});
+      }
+    for (Index v = vBefore; v < mesh.num_vertices(); ++v)
+      if (!mesh.is_removed(VI(v))) {
+        pointC.push_back(v);
+        if (auto it = ancestry.find(v); it != ancestry.end())
+          for (auto [a, ww] : it->second) { anc.push_back(a); w.push_back(ww); }
+        offsets.push_back(std::uint32_t(anc.size()));
+      }
+    {
+      std::vector<std::size_t> order(trisDestroyed.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::sort(order.begin(), order.end(),
+                [&](std::size_t a, std::size_t b) { return trisDestroyed[a] < trisDestroyed[b]; });
+      std::vector<TriangleId> t2; std::vector<TriangleVertices> v2; std::vector<TriangleEdges> e2;
+      std::vector<std::array<Point3, 3>> p2;
+      for (std::size_t k : order) {
+        t2.push_back(trisDestroyed[k]); v2.push_back(trisDestroyedV[k]);
+        e2.push_back(trisDestroyedE[k]); p2.push_back(trisDestroyedP[k]);
+      }
+      trisDestroyed.swap(t2); trisDestroyedV.swap(v2); trisDestroyedE.swap(e2); trisDestroyedP.swap(p2);
+    }
+    sortTogether(edgesDestroyed, edgesDestroyedV);
+    std::sort(pointsDestroyed.begin(), pointsDestroyed.end());
+    op = operation;
+    failurePoint("the commit");
+  } catch (...) {
+    rollback();
+    throw;
+  }
+
+  // Phase 2, the point of no return: nothing below undoes the transaction.
+  // Keep the locator up to date (only once it has been built); a locator that cannot be updated
+  // is dropped (it is rebuilt when next needed).
   if (grid.built()) {
-    for (std::size_t i = 0; i < trisDestroyed.size(); ++i) grid.erase(trisDestroyedP[i], FI(trisDestroyed[i]));
-    for (TriangleId t : triC) grid.insert(mesh, FI(t));
+    try {
+      for (std::size_t i = 0; i < trisDestroyed.size(); ++i) grid.erase(trisDestroyedP[i], FI(trisDestroyed[i]));
+      for (TriangleId t : triC) grid.insert(mesh, FI(t));
+    } catch (...) {
+      grid.clear();
+    }
   }
 
   TransactionSummary summary;
-  summary.operation = operation;
+  summary.operation = op;
   summary.trianglesDestroyed = trisDestroyed.size();
   summary.edgesDestroyed = edgesDestroyed.size();
   summary.pointsDestroyed = pointsDestroyed.size();
@@ -617,22 +757,20 @@ void Topology::Impl::commit(Topology& self) {
   std::vector<EdgeId> eD; eD.swap(edgesDestroyed);
   std::vector<EdgeVertices> eDV; eDV.swap(edgesDestroyedV);
   std::vector<PointId> pD; pD.swap(pointsDestroyed);
-  std::string op = operation;
-  summary.operation = op;
-  abortIfOpen();
+  clearTransaction();
   ++revision;
 
-  std::vector<TopologyObserver*> obs = registry->observers;
-  if (obs.empty()) return;
-  registry->delivering = true;
-  struct Guard { Subscription::Registry& r; ~Guard() { r.delivering = false; } } guard{*registry};
-  if (!tD.empty()) for (auto* o : obs) o->onTrianglesDestroyed(self, {tD, tDV, tDE});
-  if (!eD.empty()) for (auto* o : obs) o->onEdgesDestroyed(self, {eD, eDV});
-  if (!pD.empty()) for (auto* o : obs) o->onPointsDestroyed(self, {pD});
-  if (!pointC.empty()) for (auto* o : obs) o->onPointsCreated(self, {pointC, offsets, anc, w});
-  if (!edgeC.empty()) for (auto* o : obs) o->onEdgesCreated(self, {edgeC, edgeCV});
-  if (!triC.empty()) for (auto* o : obs) o->onTrianglesCreated(self, {triC, triCV, triCE});
-  for (auto* o : obs) o->onTransactionEnd(self, summary);
+  Delivery d(*registry);
+  if (!tD.empty()) d.each("triangles destroyed", [&](auto& o) { o.onTrianglesDestroyed(self, {tD, tDV, tDE}); });
+  if (!eD.empty()) d.each("edges destroyed", [&](auto& o) { o.onEdgesDestroyed(self, {eD, eDV}); });
+  if (!pD.empty()) d.each("points destroyed", [&](auto& o) { o.onPointsDestroyed(self, {pD}); });
+  if (!pointC.empty())
+    d.each("points created", [&](auto& o) { o.onPointsCreated(self, {pointC, offsets, anc, w}); });
+  if (!edgeC.empty()) d.each("edges created", [&](auto& o) { o.onEdgesCreated(self, {edgeC, edgeCV}); });
+  if (!triC.empty())
+    d.each("triangles created", [&](auto& o) { o.onTrianglesCreated(self, {triC, triCV, triCE}); });
+  d.each("transaction end", [&](auto& o) { o.onTransactionEnd(self, summary); });
+  d.finish(op);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -666,6 +804,7 @@ void Topology::compact() {
   // A removed element that was not moved keeps map[i] == i, which may be < live count only if
   // it was swapped; mark removed ones explicitly before collecting.
   std::vector<bool> vdead(nV), edead(nE), fdead(nF);
+  failurePoint("the compaction");  // the last point at which nothing has changed
   for (std::size_t i = 0; i < nV; ++i) vdead[i] = m.is_removed(VI(Index(i)));
   for (std::size_t i = 0; i < nE; ++i) edead[i] = m.is_removed(EI(Index(i)));
   for (std::size_t i = 0; i < nF; ++i) fdead[i] = m.is_removed(FI(Index(i)));
@@ -679,13 +818,12 @@ void Topology::compact() {
   TransactionSummary summary;
   summary.operation = "compact";
   summary.renumbered = true;
-  std::vector<TopologyObserver*> obs = I.registry->observers;
-  I.registry->delivering = true;
-  struct Guard { Subscription::Registry& r; ~Guard() { r.delivering = false; } } guard{*I.registry};
-  for (auto* o : obs) o->onPointsRenumbered(*this, {vmap, liveV});
-  for (auto* o : obs) o->onEdgesRenumbered(*this, {emap, liveE});
-  for (auto* o : obs) o->onTrianglesRenumbered(*this, {fmap, liveF});
-  for (auto* o : obs) o->onTransactionEnd(*this, summary);
+  Delivery d(*I.registry);
+  d.each("points renumbered", [&](auto& o) { o.onPointsRenumbered(*this, {vmap, liveV}); });
+  d.each("edges renumbered", [&](auto& o) { o.onEdgesRenumbered(*this, {emap, liveE}); });
+  d.each("triangles renumbered", [&](auto& o) { o.onTrianglesRenumbered(*this, {fmap, liveF}); });
+  d.each("transaction end", [&](auto& o) { o.onTransactionEnd(*this, summary); });
+  d.finish("compact");
 }
 
 // ------------------------------------------------------------------------------------------

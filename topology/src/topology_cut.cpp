@@ -688,6 +688,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       walker.check(snapped);
       plan(snapped, walker);
       done = true;
+    } catch (const InjectedFailure&) {  // a failure of the whole request
+      throw;
     } catch (const TopologyError&) {  // fall back to the polyline as given
     }
   }
@@ -695,6 +697,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     try {
       plan(poly, checked);
       done = true;
+    } catch (const InjectedFailure&) {  // a failure of the whole request
+      throw;
     } catch (const TopologyError&) {  // below: without snapping
     }
   }
@@ -706,6 +710,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     snap = 0.0;
     try {
       plan(poly, checked);
+    } catch (const InjectedFailure&) {  // a failure of the whole request
+      throw;
     } catch (const TopologyError& e) {
       // An end exactly on the border (within rounding) can defeat the walk where the same end a
       // little inside, snapped onto the border edge, does not: pull the ends 1% of their segment
@@ -726,6 +732,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
           walker.check(nudged);
           plan(nudged, walker);
           ok = true;
+        } catch (const InjectedFailure&) {  // a failure of the whole request
+          throw;
         } catch (const TopologyError&) {
         }
       }
@@ -736,12 +744,13 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
     }
   }
 
-  // Replay the plan on the mesh: the same splits, in the same order.
-  I.begin("cutPolyline");
-  IncisionResult result;
-  std::vector<VI> path;
-  std::vector<PointId> inserted;
-  try {
+  // Replay the plan on the mesh: the same splits, in the same order. Should the replay fail
+  // (not expected: the plan ran the same splits), the undo journal puts the mesh back and the
+  // request is refused with nothing changed.
+  return I.committed(*this, "cutPolyline", [&] {
+    IncisionResult result;
+    std::vector<VI> path;
+    std::vector<PointId> inserted;
     std::unordered_map<std::uint32_t, VI> toMesh;  // patch vertex -> mesh vertex
     auto mapped = [&](VI pv) {
       if (pv.idx() < patch->toMesh.size()) return patch->toMesh[pv.idx()];
@@ -752,13 +761,13 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       if (s.onEdge) {
         VI a = mapped(s.a), b = mapped(s.b);
         HI h = I.findHalfedge(a, b);
-        if (!h.is_valid()) throw TopologyError("internal error: cutPolyline's plan lost an edge");
+        if (!h.is_valid()) throw TopologyError("internal error: cutPolyline's plan lost an edge; nothing was changed");
         v = I.splitEdgeNoTxn(I.mesh.edge(h), a, s.u);
       } else {
         std::array<VI, 3> c{mapped(s.corners[0]), mapped(s.corners[1]), mapped(s.corners[2])};
         HI h = I.findHalfedge(c[0], c[1]);
         if (!h.is_valid() || !I.mesh.face(h).is_valid() || I.mesh.target(I.mesh.next(h)) != c[2])
-          throw TopologyError("internal error: cutPolyline's plan lost a triangle");
+          throw TopologyError("internal error: cutPolyline's plan lost a triangle; nothing was changed");
         v = I.splitFaceNoTxn(I.mesh.face(h), c, s.weights);
       }
       toMesh[s.created.idx()] = v;
@@ -774,14 +783,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       for (VI v : path) result.path.push_back(PointId(v.idx()));
     }
     I.repairIncision(options.repair, result);
-  } catch (...) {
-    // Not expected (the plan ran the same splits): the mesh is valid, so announce what was
-    // done, close the transaction, then report.
-    I.commit(*this);
-    throw;
-  }
-  I.commit(*this);
-  return result;
+    return result;
+  });
 }
 
 }  // namespace cutsim::topology

@@ -1,26 +1,19 @@
 #pragma once
 // Private to topology/: the CGAL-based implementation of Topology. The only place (with the
 // topology_*.cpp files that include it) where CGAL's headers are seen.
-#include <CGAL/Simple_cartesian.h>
-#include <CGAL/Surface_mesh.h>
-
 #include <functional>
+#include <optional>
+#include <type_traits>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
+#include "cutsim/topology/failure_injection.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "mesh_journal.hpp"
 
 namespace cutsim::topology {
-
-using Kernel = CGAL::Simple_cartesian<double>;
-using Point3 = Kernel::Point_3;
-using Mesh = CGAL::Surface_mesh<Point3>;
-using VI = Mesh::Vertex_index;
-using HI = Mesh::Halfedge_index;
-using EI = Mesh::Edge_index;
-using FI = Mesh::Face_index;
 
 struct Subscription::Registry {
   std::vector<TopologyObserver*> observers;
@@ -68,6 +61,7 @@ struct Topology::Impl {
   std::vector<PointId> pointsDestroyed;
   std::unordered_map<PointId, std::vector<std::pair<PointId, double>>> ancestry;
   std::vector<VI> touched;
+  MeshJournal journal;  // what the open transaction changed, to put it back on failure
 
   Impl() { mesh.set_recycle_garbage(false); }
 
@@ -100,22 +94,40 @@ struct Topology::Impl {
   void splitFans(const std::vector<VI>& candidates, const std::function<bool(EI)>& isSeparator,
                  const std::unordered_map<std::uint32_t, FI>& keepFace,
                  std::vector<PointId>* copies, std::vector<PointId>* copiedFrom);
+  /// Ends the open transaction: removes the points it left isolated, then delivers the events.
+  /// A failure before the first event rolls the transaction back (and propagates); an observer
+  /// that throws does not stop the delivery (see deliver()).
   void commit(Topology& self);
-  /// Runs `body` in the open transaction, then commits, also when body throws: the mesh is valid
-  /// after every primitive, so what was done is announced before the error propagates.
+  /// Runs `body` in the open transaction begun as `op`, then commits; when body throws, the
+  /// transaction is rolled back (the mesh as it was, no event) and the error propagates.
   template <class F>
-  auto committed(Topology& self, F&& body) {
-    decltype(body()) result{};
-    try {
-      result = body();
-    } catch (...) {
+  auto committed(Topology& self, std::string op, F&& body) {
+    begin(std::move(op));
+    using R = decltype(body());
+    if constexpr (std::is_void_v<R>) {
+      try {
+        body();
+      } catch (...) {
+        rollback();
+        throw;
+      }
       commit(self);
-      throw;
+    } else {
+      std::optional<R> result;
+      try {
+        result.emplace(body());
+      } catch (...) {
+        rollback();
+        throw;
+      }
+      commit(self);
+      return std::move(*result);
     }
-    commit(self);
-    return result;
   }
-  void abortIfOpen();
+  /// Puts the mesh back as it was when the open transaction began and closes it (no event).
+  void rollback() noexcept;
+  /// Closes the transaction's lists (after commit or rollback).
+  void clearTransaction() noexcept;
 
   // operations used by several public ones
   VI splitEdgeNoTxn(EI e, VI from, double t);

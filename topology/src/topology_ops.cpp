@@ -24,11 +24,11 @@ std::vector<PointId> Topology::addPoints(std::span<const Vec3> restPositions) {
       if (!std::isfinite(c))
         throw TopologyError("addPoints: point " + std::to_string(i) + " has a non-finite coordinate");
   Impl& I = *impl_;
-  I.begin("addPoints");
-  std::vector<PointId> out;
-  for (const Vec3& p : restPositions) out.push_back(PointId(I.newFreePoint(toPoint(p)).idx()));
-  I.commit(*this);
-  return out;
+  return I.committed(*this, "addPoints", [&] {
+    std::vector<PointId> out;
+    for (const Vec3& p : restPositions) out.push_back(PointId(I.newFreePoint(toPoint(p)).idx()));
+    return out;
+  });
 }
 
 std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices> triangles) {
@@ -85,11 +85,9 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
       throw TopologyError("addTriangles: point " + pt(v) + " would join " + std::to_string(roots) +
                           " separate fans of triangles (a non-manifold vertex)");
   }
-  I.begin("addTriangles");
   std::vector<std::array<VI, 3>> faces;
   for (const auto& t : triangles) faces.push_back({VI(t[0]), VI(t[1]), VI(t[2])});
-  std::vector<FI> added = I.attachFaces(faces);
-  I.commit(*this);
+  std::vector<FI> added = I.committed(*this, "addTriangles", [&] { return I.attachFaces(faces); });
   std::vector<TriangleId> out;
   for (FI f : added) out.push_back(TriangleId(f.idx()));
   return out;
@@ -111,12 +109,11 @@ RepairReport Topology::removeTriangles(std::span<const TriangleId> triangles,
   for (TriangleId t : ts)
     if (!I.faceAlive(FI(t))) throw TopologyError("removeTriangles: triangle " + pt(t) + " does not exist");
   if (ts.empty()) return {};
-  I.begin("removeTriangles");
-  for (TriangleId t : ts) I.detachFace(FI(t));
-  // Removal may leave a vertex with two fans (a bowtie): give each extra fan its own copy.
-  std::vector<VI> candidates = I.touched;
-  I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
-  return I.committed(*this, [&] {
+  return I.committed(*this, "removeTriangles", [&] {
+    for (TriangleId t : ts) I.detachFace(FI(t));
+    // Removal may leave a vertex with two fans (a bowtie): give each extra fan its own copy.
+    std::vector<VI> candidates = I.touched;
+    I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
     std::unordered_map<Index, Index> replaced;
     return I.repairNoTxn(candidates, repair, replaced);
   });
@@ -165,10 +162,8 @@ PointId Topology::splitEdge(EdgeId e, double t) {
   if (!(t > 0.0 && t < 1.0))
     throw TopologyError("splitEdge: parameter " + std::to_string(t) + " on edge " + pt(e) +
                         " is not strictly between 0 and 1");
-  I.begin("splitEdge");
   VI from = I.mesh.source(I.mesh.halfedge(EI(e)));
-  VI m = I.splitEdgeNoTxn(EI(e), from, t);
-  I.commit(*this);
+  VI m = I.committed(*this, "splitEdge", [&] { return I.splitEdgeNoTxn(EI(e), from, t); });
   return PointId(m.idx());
 }
 
@@ -179,9 +174,7 @@ PointId Topology::splitTriangle(TriangleId t, const std::array<double, 3>& bary)
   if (!(bary[0] > 0 && bary[1] > 0 && bary[2] > 0) || !(std::abs(s - 1.0) < 1e-9))
     throw TopologyError("splitTriangle: barycentric weights of triangle " + pt(t) +
                         " must be positive and sum to 1");
-  I.begin("splitTriangle");
-  VI m = I.splitFaceNoTxn(FI(t), bary);
-  I.commit(*this);
+  VI m = I.committed(*this, "splitTriangle", [&] { return I.splitFaceNoTxn(FI(t), bary); });
   return PointId(m.idx());
 }
 
@@ -234,13 +227,13 @@ IncisionResult Topology::incise(std::span<const PointId> path) {
     if (!used.insert({std::min(a, b), std::max(a, b)}).second)
       throw TopologyError("incise: edge " + edgeName(a, b) + " appears twice in the path");
   }
-  I.begin("incise");
-  IncisionResult result;
   std::vector<VI> vs;
   for (PointId p : path) vs.push_back(VI(p));
-  I.inciseNoTxn(vs, result);
-  I.commit(*this);
-  return result;
+  return I.committed(*this, "incise", [&] {
+    IncisionResult result;
+    I.inciseNoTxn(vs, result);
+    return result;
+  });
 }
 
 IncisionResult Topology::tear(EdgeId e) { return tear(e, RepairOptions{}); }
@@ -252,10 +245,9 @@ IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
   if (I.mesh.is_border(EI(e)))
     throw TopologyError("tear: edge " + pt(e) + " is on the border: there is nothing to tear");
   HI h = I.mesh.halfedge(EI(e));
-  I.begin("tear");
-  IncisionResult result;
-  I.inciseNoTxn({I.mesh.source(h), I.mesh.target(h)}, result);
-  return I.committed(*this, [&] {
+  return I.committed(*this, "tear", [&] {
+    IncisionResult result;
+    I.inciseNoTxn({I.mesh.source(h), I.mesh.target(h)}, result);
     I.repairIncision(repair, result);
     return result;
   });
@@ -311,8 +303,7 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
   bool anyInside = false;
   std::vector<Crossing> crossings = findCrossings(anyInside);
   if (!anyInside) return {};
-  I.begin("carve");
-  return I.committed(*this, [&] {
+  return I.committed(*this, "carve", [&] {
     std::unordered_map<Index, char> inside;  // points that existed: phi <= 0
     for (auto& [v, x] : value) inside[v] = x <= 0 ? 1 : 0;
     // A point next to a crossing (within a quarter of the edge) moves onto it, so that the

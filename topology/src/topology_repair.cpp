@@ -624,8 +624,7 @@ RepairReport Topology::repair(std::span<const PointId> around, const RepairOptio
   std::vector<VI> seeds;
   for (PointId p : around)
     if (I.vertexAlive(VI(p))) seeds.push_back(VI(p));
-  I.begin("repair");
-  return I.committed(*this, [&] {
+  return I.committed(*this, "repair", [&] {
     std::unordered_map<Index, Index> replaced;
     return I.repairNoTxn(seeds, options, replaced);
   });

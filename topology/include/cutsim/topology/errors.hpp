@@ -34,6 +34,14 @@ class TopologyError : public Error {
   using Error::Error;
 };
 
+/// An observer threw while a transaction's events were delivered. The operation was carried out
+/// (it cannot be undone once its events are out), every other observer received every event; the
+/// observer named in the message may not follow the mesh any more (its validate() tells).
+class ObserverError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// A numerical failure of a solver (non-finite values, a factorisation that fails).
 class SolverError : public Error {
  public:

@@ -118,6 +118,11 @@ class Topology {
   /// Increases with every transaction that changes the mesh and with every compaction (for
   /// caches of what depends on the connectivity, such as a solver's sparsity pattern).
   std::uint64_t revision() const;
+  /// A 64-bit hash (FNV-1a) of the whole half-edge structure as stored: every slot, live or dead,
+  /// its connectivity, removal flag and rest position bit for bit, the removal counters and free
+  /// lists, and the revision. Two topologies with the same digest behave the same under every
+  /// operation; a failed operation leaves it unchanged (the undo journal).
+  std::uint64_t digest() const;
 
   // ---- geometry (rest configuration: material coordinates) ----
   Vec3 restPosition(PointId p) const;
