@@ -2,6 +2,8 @@
 // it, writes its frames and CSV (see cutsim/core/output.hpp) and prints a summary.
 #include <unistd.h>
 
+#include <csignal>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -71,6 +73,36 @@ class Progress {
   int lastPercent_ = -1;
 };
 
+// SIGINT and SIGTERM stop a run at the end of the step being made: the first signal sets this
+// flag (and gives the signal back its default action, so that a second one ends the program at
+// once); the loop checks it after every step.
+volatile std::sig_atomic_t gStopSignal = 0;
+extern "C" void onStopSignal(int signal) { gStopSignal = signal; }
+
+/// Installs the handlers while it lives; restores the earlier ones when destroyed.
+class StopSignals {
+ public:
+  StopSignals() {
+    gStopSignal = 0;
+    struct sigaction a {};
+    a.sa_handler = onStopSignal;
+    sigemptyset(&a.sa_mask);
+    a.sa_flags = SA_RESETHAND;  // one clean stop; the second signal is not caught
+    ::sigaction(SIGINT, &a, &oldInt_);
+    ::sigaction(SIGTERM, &a, &oldTerm_);
+  }
+  ~StopSignals() {
+    ::sigaction(SIGINT, &oldInt_, nullptr);
+    ::sigaction(SIGTERM, &oldTerm_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+  int received() const { return gStopSignal; }
+
+ private:
+  struct sigaction oldInt_ {}, oldTerm_ {};
+};
+
 std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceField* field) {
   for (std::size_t i = 0; i < sim.numForceFields(); ++i)
     if (&sim.forceField(i) == field) return i;
@@ -127,14 +159,34 @@ void runScene(const RunOptions& options) {
   if (scene.output.vtk) core::writeRunInfo(outDir, scene);
   Progress progress(runner.numSteps(), !options.quiet);
 
+  StopSignals signals;
   runner.start();
   writer.record(runner.simulation(), {0, 0.0, {}}, runner.finished());
   progress.update(0, 0.0);
-  while (!runner.finished()) {
+  core::StepRecord last{0, 0.0, {}};
+  while (!runner.finished() && !signals.received()) {
     const core::StepStats stats = runner.advance();
-    writer.record(runner.simulation(), {runner.currentStep(), runner.time(), stats},
-                  runner.finished());
+    last = {runner.currentStep(), runner.time(), stats};
+    writer.record(runner.simulation(), last, runner.finished());
     progress.update(runner.currentStep(), runner.time());
+  }
+  if (const int signal = signals.received(); signal && !runner.finished()) {
+    // Stopped cleanly between two steps: the step made last gets its frame, the outputs so far
+    // are written whole under partial names, and the player (if asked for) shows them.
+    writer.frame(runner.simulation(), last);
+    writer.finishPartial();
+    std::cerr << "cutsim: stopped by " << (signal == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
+              << runner.currentStep() << " of " << runner.numSteps() << " (t = " << runner.time()
+              << " s): the outputs in " << outDir.string()
+              << " are marked partial (steps.partial.csv, *.partial.pvd); the run cannot be resumed\n";
+    if (options.htmlAuto || !options.html.empty()) {
+      const std::filesystem::path html =
+          options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
+      const view::PlayerReport r = view::writePlayer(outDir, html);
+      std::cerr << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun
+                << " frames, partial)\n";
+    }
+    throw ExitStatus{128 + signal};
   }
   writer.finish();
   if (!options.dumpFinal.empty()) {

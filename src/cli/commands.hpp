@@ -9,6 +9,12 @@
 
 namespace cutsim::cli {
 
+/// Thrown by a command that ends with a particular exit code after saying why itself (a run
+/// stopped by SIGINT: 130, by SIGTERM: 143).
+struct ExitStatus {
+  int code;
+};
+
 /// `cutsim info MESH [--json]`: loads and checks a mesh, prints its counts (src/cli/cmd_info.cpp).
 void registerInfoCommand(CLI::App& app);
 

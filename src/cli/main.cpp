@@ -1,5 +1,6 @@
 // The `cutsim` command-line program: subcommands (see commands.hpp) and the mapping of errors to
-// exit codes: 0 success, 2 bad input or usage (message on stderr), 1 any other failure.
+// exit codes: 0 success, 2 bad input or usage (message on stderr), 1 any other failure, 128 + the
+// signal for a run stopped by SIGINT or SIGTERM (130, 143).
 #include <exception>
 #include <iostream>
 
@@ -25,6 +26,8 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);  // runs the chosen subcommand's callback
+  } catch (const cutsim::cli::ExitStatus& e) {
+    return e.code;
   } catch (const CLI::ParseError& e) {
     // --help and --version end here too, with exit code 0.
     return app.exit(e) == 0 ? 0 : 2;

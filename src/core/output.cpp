@@ -423,7 +423,8 @@ bool OutputWriter::isRunOutput(const std::string& name) {
     return name.size() >= n && name.compare(name.size() - n, n, suffix) == 0;
   };
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
-  if (name == "steps.csv" || name == ".steps.csv.tmp" || name == "run.json") return true;
+  if (name == "steps.csv" || name == "steps.partial.csv" || name == ".steps.csv.tmp" || name == "run.json")
+    return true;
   if (name == "player.html" || name == "player.png") return true;  // cutsim view's, of the earlier run
   if (ends(".pvd")) return true;  // the collections, final or partial
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
@@ -600,6 +601,35 @@ void OutputWriter::finish() {
     csvTemp_.clear();
   }
   if (lockFd_ >= 0) {  // the run is complete: the folder is free, and holds only its outputs
+    std::error_code ignored;
+    std::filesystem::remove(dir_ / ".cutsim.lock", ignored);
+    ::close(lockFd_);
+    lockFd_ = -1;
+  }
+}
+
+void OutputWriter::finishPartial() {
+  if (settings_.csv && csv_.is_open()) {
+    csv_.flush();
+    const bool ok = bool(csv_);
+    csv_.close();
+    if (!ok) throw Error("cannot write " + csvTemp_.string());
+  }
+  if (settings_.vtk && !surfaceFrames_.empty()) {
+    writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+    writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
+  }
+  if (!obstacleFrames_.empty())
+    writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+  for (const auto& [series, frames] : networkFrames_)
+    writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
+  if (settings_.csv && !csvTemp_.empty()) {
+    std::error_code ec;
+    std::filesystem::rename(csvTemp_, dir_ / "steps.partial.csv", ec);
+    if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
+    csvTemp_.clear();
+  }
+  if (lockFd_ >= 0) {
     std::error_code ignored;
     std::filesystem::remove(dir_ / ".cutsim.lock", ignored);
     ::close(lockFd_);

@@ -180,7 +180,8 @@ RunFolder scanRun(const fs::path& dir) {
     run.partial = true;
   }
   if (!fs::exists(surface)) {
-    const bool csvOnly = fs::exists(dir / "steps.csv") || fs::exists(dir / ".steps.csv.tmp");
+    const bool csvOnly = fs::exists(dir / "steps.csv") || fs::exists(dir / "steps.partial.csv") ||
+                         fs::exists(dir / ".steps.csv.tmp");
     throw InvalidInput(dir.string(), csvOnly ? "the run wrote no frames (its scene's output has \"vtk\": false): "
                                                "nothing to play"
                                              : "not a cutsim run folder (no surface.pvd or surface.partial.pvd)");
@@ -197,6 +198,8 @@ RunFolder scanRun(const fs::path& dir) {
   optional("obstacles", run.obstacles);
   if (fs::exists(dir / "steps.csv"))
     run.csv = dir / "steps.csv";
+  else if (fs::exists(dir / "steps.partial.csv"))  // a run stopped before its end
+    run.csv = dir / "steps.partial.csv";
   else if (fs::exists(dir / ".steps.csv.tmp"))
     run.csv = dir / ".steps.csv.tmp";
   if (fs::exists(dir / "run.json")) {

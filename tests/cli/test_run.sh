@@ -167,6 +167,47 @@ check "the earlier run's frame is gone" [ ! -e "$tmp/rerun/surface_000999.vtp" ]
 check "the user's file stays" [ -e "$tmp/rerun/notes.txt" ]
 check "the re-run says so" grep -q "^note: removed 1 files of an earlier run" "$tmp/err_rerun"
 
+# ---- SIGINT and SIGTERM stop a run cleanly between two steps, its outputs marked partial ----
+python3 - "$scene" "$tmp/endless.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["duration"] = 1000  # 10^5 steps: stopped long before its end
+s["output"] = {"every": 20}
+s["timeline"] = []
+json.dump(s, open(sys.argv[2], "w"))
+PY
+for sig in INT TERM; do
+  out="$tmp/stopped_$sig"
+  "$CUTSIM" run "$tmp/endless.json" --out "$out" --quiet >/dev/null 2>"$tmp/err_$sig" &
+  pid=$!
+  # Stopped once a few frames are out.
+  for _ in $(seq 1 600); do
+    [ -e "$out/surface_000003.vtp" ] && break
+    sleep 0.1
+  done
+  kill -s "$sig" "$pid"
+  wait "$pid"
+  code=$?
+  want=$([ "$sig" = INT ] && echo 130 || echo 143)
+  check "SIG$sig: exit code $want (got $code; $(cat "$tmp/err_$sig"))" [ "$code" -eq "$want" ]
+  check "SIG$sig: it says where it stopped" grep -q "^cutsim: stopped by SIG$sig after step [0-9]* of 100000 .* are marked partial" "$tmp/err_$sig"
+  check "SIG$sig: nothing is named as a finished run's" test ! -e "$out/steps.csv" -a ! -e "$out/surface.pvd"
+  check "SIG$sig: no temporary file or lock is left" [ -z "$(ls -A "$out" | grep -E '^\.')" ]
+  step=$(sed -n "s/^cutsim: stopped by SIG$sig after step \([0-9]*\) .*/\1/p" "$tmp/err_$sig")
+  check "SIG$sig: steps.partial.csv has the header and a row for steps 0 to $step" \
+    [ "$(wc -l <"$out/steps.partial.csv")" -eq $((step + 2)) ]
+  listed=$(grep -c "<DataSet" "$out/surface.partial.pvd")
+  written=$(ls "$out" | grep -c "^surface_.*\.vtp$")
+  check "SIG$sig: surface.partial.pvd lists every frame written ($listed of $written)" [ "$listed" -eq "$written" ]
+  last_csv=$(tail -1 "$out/steps.partial.csv" | cut -d, -f1)
+  last_pvd=$(grep "<DataSet" "$out/surface.partial.pvd" | tail -1 | sed 's/.*timestep="\([^"]*\)".*/\1/')
+  check "SIG$sig: the last frame is the last step's (t = $last_csv, frame at $last_pvd)" \
+    python3 -c 'import sys; a, b = map(float, sys.argv[1:]); sys.exit(abs(a - b) > 1e-12 * max(1, abs(a)))' "$last_csv" "$last_pvd"
+done
+"$CUTSIM" run "$scene" --out "$tmp/stopped_INT" --quiet >/dev/null 2>&1
+check "a re-run into a stopped run's folder removes its partial files" \
+  test ! -e "$tmp/stopped_INT/steps.partial.csv" -a -e "$tmp/stopped_INT/steps.csv"
+
 # ---- the demo scenes load (validation only: a run of each is too long for a test) ----
 # (tests/core/test_scene.cpp loads them; here: they are valid JSON files)
 for f in "$CUTSIM_DATA_DIR"/scenes/*.json; do

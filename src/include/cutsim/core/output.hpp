@@ -84,7 +84,7 @@ struct StepRecord {
 /// folder at the same time is refused) and removes what an earlier run wrote there first.
 ///   surface.pvd, surface_NNNNNN.vtp   springs.pvd, springs_NNNNNN.vtp   frame_NNNNNN.obj
 ///   network_<label>.pvd, network_<label>_NNNNNN.vtp (every other field that draws)
-///   steps.csv: time, kinetic_energy, potential_<label> per force field, gravity_energy,
+///   steps.csv (steps.partial.csv for a run stopped before its end): time, kinetic_energy, potential_<label> per force field, gravity_energy,
 ///     solver_iterations, solver_residual, solver_flags ("ok" or the StepStats flags joined by
 ///     '+'), newton_iterations, active_springs, points, edges, triangles,
 ///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active);
@@ -112,6 +112,11 @@ class OutputWriter {
   }
   /// Flushes and closes the CSV (throws cutsim::Error if it could not be written).
   void finish();
+  /// Ends a run stopped before its end (interrupted): the CSV's rows so far flushed and renamed
+  /// steps.partial.csv, every collection written whole under its ".partial.pvd" name; nothing
+  /// is given the name of a finished run's file. Throws cutsim::Error if the CSV could not be
+  /// written.
+  void finishPartial();
 
   const std::filesystem::path& dir() const { return dir_; }
   std::size_t framesWritten() const { return surfaceFrames_.size(); }
