@@ -876,3 +876,164 @@ void Topology::validateOrThrow() const {
 }
 
 }  // namespace cutsim::topology
+
+// ------------------------------------------------------------------------------------------
+// Checkpoints
+
+#include "cutsim/topology/archive.hpp"
+
+namespace cutsim::topology {
+
+void Topology::save(ArchiveWriter& out) const {
+  const Impl& I = *impl_;
+  if (I.open) throw TopologyError("save: a transaction is open");
+  const Mesh& m = I.mesh;
+  out.begin("topology");
+  out.u64(m.num_vertices());
+  out.u64(m.num_edges());
+  out.u64(m.num_faces());
+  out.u64(I.revision);
+  out.u64(m.number_of_removed_vertices());
+  out.u64(m.number_of_removed_edges());
+  out.u64(m.number_of_removed_faces());
+  out.u64(detail::field<detail::VerticesFreelist>(m));
+  out.u64(detail::field<detail::EdgesFreelist>(m));
+  out.u64(detail::field<detail::FacesFreelist>(m));
+  out.boolean(m.has_garbage());
+  std::vector<std::uint32_t> vh, vr, h, er, fh, fr;
+  std::vector<double> pts;
+  for (Mesh::size_type i = 0; i < m.num_vertices(); ++i) {
+    vh.push_back(m.halfedge(VI(i)).idx());
+    vr.push_back(m.is_removed(VI(i)) ? 1 : 0);
+    const Point3& p = m.point(VI(i));
+    pts.insert(pts.end(), {p.x(), p.y(), p.z()});
+  }
+  for (Mesh::size_type i = 0; i < m.num_halfedges(); ++i) {
+    const HI e(i);
+    h.insert(h.end(), {m.face(e).idx(), m.target(e).idx(), m.next(e).idx(), m.prev(e).idx()});
+  }
+  for (Mesh::size_type i = 0; i < m.num_edges(); ++i) er.push_back(m.is_removed(EI(i)) ? 1 : 0);
+  for (Mesh::size_type i = 0; i < m.num_faces(); ++i) {
+    fh.push_back(m.halfedge(FI(i)).idx());
+    fr.push_back(m.is_removed(FI(i)) ? 1 : 0);
+  }
+  out.u32s(vh);
+  out.u32s(vr);
+  out.f64s(pts);
+  out.u32s(h);
+  out.u32s(er);
+  out.u32s(fh);
+  out.u32s(fr);
+  out.u64(digest());
+}
+
+Topology Topology::load(ArchiveReader& in) {
+  in.open("topology");
+  const std::uint64_t nv = in.u64(), ne = in.u64(), nf = in.u64();
+  constexpr std::uint64_t kMax = 1ull << 31;
+  if (nv >= kMax || ne >= kMax / 2 || nf >= kMax) in.fail("sizes out of range");
+  const std::uint64_t revision = in.u64();
+  const std::uint64_t removedV = in.u64(), removedE = in.u64(), removedF = in.u64();
+  const std::uint64_t freeV = in.u64(), freeE = in.u64(), freeF = in.u64();
+  const bool garbage = in.boolean();
+  const auto vh = in.u32s(), vr = in.u32s();
+  const auto pts = in.f64s();
+  const auto h = in.u32s(), er = in.u32s(), fh = in.u32s(), fr = in.u32s();
+  const std::uint64_t savedDigest = in.u64();
+  const std::uint64_t nh = 2 * ne;
+  if (vh.size() != nv || vr.size() != nv || pts.size() != 3 * nv || h.size() != 4 * nh ||
+      er.size() != ne || fh.size() != nf || fr.size() != nf)
+    in.fail("arrays of the wrong sizes");
+  const std::uint32_t null = std::uint32_t(-1);
+  auto index = [&](std::uint32_t x, std::uint64_t n, const char* what) {
+    if (x != null && x >= n) in.fail(std::string("a ") + what + " index out of range");
+  };
+  auto flags = [&](const std::vector<std::uint32_t>& f, std::uint64_t removed, const char* what) {
+    std::uint64_t count = 0;
+    for (std::uint32_t x : f) {
+      if (x > 1) in.fail(std::string("a ") + what + " removal flag holds " + std::to_string(x));
+      count += x;
+    }
+    if (count != removed) in.fail(std::string("the ") + what + " removal count disagrees with the flags");
+  };
+  flags(vr, removedV, "point");
+  flags(er, removedE, "edge");
+  flags(fr, removedF, "triangle");
+  for (double c : pts)
+    if (!std::isfinite(c)) in.fail("a rest position is not finite");
+  Topology t;
+  Impl& I = *t.impl_;
+  Mesh& m = I.mesh;
+  m.resize(Mesh::size_type(nv), Mesh::size_type(ne), Mesh::size_type(nf));
+  auto& vconn = detail::field<detail::VConn>(m);
+  auto& hconn = detail::field<detail::HConn>(m);
+  auto& fconn = detail::field<detail::FConn>(m);
+  auto& vremoved = detail::field<detail::VRemoved>(m);
+  auto& eremoved = detail::field<detail::ERemoved>(m);
+  auto& fremoved = detail::field<detail::FRemoved>(m);
+  // A removed element's link is its free list's next (an index of its own kind, or null).
+  for (std::uint64_t i = 0; i < nv; ++i) {
+    index(vh[i], vr[i] ? nv : nh, vr[i] ? "free point" : "halfedge");
+    vconn[VI(Mesh::size_type(i))].halfedge_ = HI(vh[i]);
+    vremoved[VI(Mesh::size_type(i))] = vr[i] != 0;
+    m.point(VI(Mesh::size_type(i))) = Point3(pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]);
+  }
+  for (std::uint64_t i = 0; i < nh; ++i) {
+    const bool dead = er[i / 2] != 0;
+    index(h[4 * i], nf, "triangle");
+    index(h[4 * i + 1], nv, "point");
+    index(h[4 * i + 2], nh, "halfedge");
+    index(h[4 * i + 3], nh, "halfedge");
+    auto& c = hconn[HI(Mesh::size_type(i))];
+    c.face_ = FI(h[4 * i]);
+    c.vertex_ = VI(h[4 * i + 1]);
+    c.next_halfedge_ = HI(h[4 * i + 2]);
+    c.prev_halfedge_ = HI(h[4 * i + 3]);
+    if (!dead && (h[4 * i + 1] == null || h[4 * i + 2] == null || h[4 * i + 3] == null))
+      in.fail("a live halfedge without its point or neighbours");
+  }
+  for (std::uint64_t i = 0; i < ne; ++i) eremoved[EI(Mesh::size_type(i))] = er[i] != 0;
+  for (std::uint64_t i = 0; i < nf; ++i) {
+    index(fh[i], fr[i] ? nf : nh, fr[i] ? "free triangle" : "halfedge");
+    if (!fr[i] && fh[i] == null) in.fail("a live triangle without a halfedge");
+    fconn[FI(Mesh::size_type(i))].halfedge_ = HI(fh[i]);
+    fremoved[FI(Mesh::size_type(i))] = fr[i] != 0;
+  }
+  index(std::uint32_t(freeV), nv, "free point");
+  index(std::uint32_t(freeE), nh, "free edge");
+  index(std::uint32_t(freeF), nf, "free triangle");
+  detail::field<detail::RemovedVertices>(m) = Mesh::size_type(removedV);
+  detail::field<detail::RemovedEdges>(m) = Mesh::size_type(removedE);
+  detail::field<detail::RemovedFaces>(m) = Mesh::size_type(removedF);
+  detail::field<detail::VerticesFreelist>(m) = Mesh::size_type(freeV);
+  detail::field<detail::EdgesFreelist>(m) = Mesh::size_type(freeE);
+  detail::field<detail::FacesFreelist>(m) = Mesh::size_type(freeF);
+  detail::field<detail::Garbage>(m) = garbage;
+  I.revision = revision;
+  // Live elements must point to live ones, and the links must agree, before anything walks them.
+  for (std::uint64_t i = 0; i < nh; ++i) {
+    if (er[i / 2]) continue;
+    const HI e{Mesh::size_type(i)};
+    if (m.is_removed(m.target(e)) || m.is_removed(m.edge(m.next(e))) || m.prev(m.next(e)) != e ||
+        (m.face(e).is_valid() && m.is_removed(m.face(e))))
+      in.fail("the half-edge links do not agree (halfedge " + std::to_string(i) + ")");
+  }
+  for (std::uint64_t i = 0; i < nv; ++i) {
+    const VI v{Mesh::size_type(i)};
+    if (!vr[i] && m.halfedge(v).is_valid() && (m.is_removed(m.edge(m.halfedge(v))) || m.target(m.halfedge(v)) != v))
+      in.fail("point " + std::to_string(i) + " has a halfedge that does not end at it");
+  }
+  for (std::uint64_t i = 0; i < nf; ++i) {
+    const FI f{Mesh::size_type(i)};
+    if (!fr[i] && (m.is_removed(m.edge(m.halfedge(f))) || m.face(m.halfedge(f)) != f ||
+                   m.next(m.next(m.next(m.halfedge(f)))) != m.halfedge(f)))
+      in.fail("triangle " + std::to_string(i) + " is not a triangle of its halfedges");
+  }
+  if (t.digest() != savedDigest) in.fail("the structure read back differs from the one saved");
+  const ValidationReport r = t.validate();
+  if (!r.ok()) in.fail("the saved topology is not valid:\n" + r.summary());
+  in.close();
+  return t;
+}
+
+}  // namespace cutsim::topology

@@ -16,6 +16,8 @@
 namespace cutsim::topology {
 
 class Topology;
+class ArchiveWriter;
+class ArchiveReader;
 
 /// Keeps an observer registered while it lives; ends the registration when destroyed or reset.
 /// Outliving the topology is safe.
@@ -196,6 +198,16 @@ class Topology {
   /// Half-edge structure, manifoldness, and every observer's validate().
   ValidationReport validate() const;
   void validateOrThrow() const;  ///< throws TopologyError listing the problems
+
+  // ---- checkpoints ----
+  /// Writes the whole structure as stored, every slot live or dead with its connectivity,
+  /// removal flag and rest position, the counters, free lists and revision, into the section
+  /// "topology" (an observer's data goes in sections of its own).
+  void save(ArchiveWriter& out) const;
+  /// Reads what save() wrote: the same structure bit for bit (digest() is checked against the
+  /// saved one), with no observer. Every index is checked before use and the half-edge structure
+  /// validated: a damaged or foreign archive is refused (InvalidInput naming the archive).
+  static Topology load(ArchiveReader& in);
 
   /// Current state as a triangle soup (live points densely renumbered in ascending id order).
   MeshData toMeshData(std::vector<PointId>* pointIds = nullptr) const;

@@ -1,0 +1,82 @@
+#pragma once
+// The binary archive of checkpoints: a file of named sections, each with its length and CRC-32,
+// behind a magic string and a format version, written atomically (a temporary file, flushed to
+// disk, renamed into place). Values are stored as the machine holds them (little-endian
+// IEEE doubles: the reader refuses a file from a machine of the other byte order), so that a
+// double read back is the same bits.
+//
+//   "CUTSIMCK"  u32 format version  u32 0x01020304 (byte order)
+//   per section: 8-byte tag (name padded with NULs), u64 payload length, payload, u32 CRC-32
+//   the section "END" (empty) last
+//
+// A reader refuses, naming the file and what is wrong: a file that is not an archive, one of
+// another format version or byte order, a section whose checksum fails, a file that ends inside a
+// section, a missing section, a value read past its section's end, a section not read to its end.
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cutsim/topology/errors.hpp"
+
+namespace cutsim::topology {
+
+inline constexpr std::uint32_t kArchiveFormat = 1;
+
+/// Writes one section at a time; save() writes the whole file atomically.
+class ArchiveWriter {
+ public:
+  /// Starts a section (at most 8 bytes of name; each name once).
+  void begin(std::string_view tag);
+  void u64(std::uint64_t v) { raw(&v, sizeof v); }
+  void i64(std::int64_t v) { raw(&v, sizeof v); }
+  void f64(double v) { raw(&v, sizeof v); }
+  void boolean(bool v) { u64(v ? 1 : 0); }
+  void str(std::string_view s);
+  void f64s(std::span<const double> v);
+  void u32s(std::span<const std::uint32_t> v);
+  void raw(const void* data, std::size_t n);
+  /// Ends the last section and writes the file (a temporary file renamed into place).
+  void save(const std::filesystem::path& path);
+
+ private:
+  void end();
+  std::string out_;
+  std::string section_;  // the open section's payload
+  std::string tag_;
+  std::vector<std::string> tags_;
+};
+
+/// Reads a whole archive (checks every section's checksum first), then one section at a time.
+class ArchiveReader {
+ public:
+  explicit ArchiveReader(const std::filesystem::path& path);
+  bool has(std::string_view tag) const { return sections_.count(std::string(tag)) > 0; }
+  /// Opens a section for reading (throws if the archive has none of that name).
+  void open(std::string_view tag);
+  /// Throws unless the open section was read to its end.
+  void close();
+  std::uint64_t u64();
+  std::int64_t i64();
+  double f64();
+  bool boolean();
+  std::string str();
+  std::vector<double> f64s();
+  std::vector<std::uint32_t> u32s();
+  void raw(void* data, std::size_t n);
+  /// Throws InvalidInput (where(): the archive's path) naming the open section and the problem.
+  [[noreturn]] void fail(const std::string& message) const;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  std::string data_;
+  std::map<std::string, std::pair<std::size_t, std::size_t>> sections_;  // offset, length
+  std::string tag_;
+  std::size_t pos_ = 0, end_ = 0;
+};
+
+}  // namespace cutsim::topology
