@@ -1,7 +1,7 @@
 // cutsim_soak: a long run of random topology operations (not part of CI; scripts/soak.sh runs it
 // under the sanitizers). Sheets of random size are cut, torn, split, carved, repaired and
-// compacted by the tests' random operation generator, with the bending springs, the mechanical
-// state and the event mirror subscribed; a share of the operations is failed at a random failure
+// compacted by the tests' random operation generator, with every observer of the core subscribed
+// (the state, the mass, every force field, contact, and the event mirror); a share of the operations is failed at a random failure
 // point (the undo journal must leave the digest and every observer unchanged). After every
 // operation the topology and every observer are validated. Prints progress every ten seconds and
 // a summary at the end; exit code 1 on the first problem, with what is needed to replay it.
@@ -15,8 +15,15 @@
 #include <random>
 #include <string>
 
+#include "cutsim/core/mass.hpp"
 #include "cutsim/core/state.hpp"
+#include "cutsim/forcefields/contact.hpp"
+#include "cutsim/forcefields/dihedral_bending.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/forcefields/stretch_springs.hpp"
+#include "cutsim/forcefields/triangular_bending_springs.hpp"
+#include "cutsim/forcefields/triangular_fem.hpp"
+#include "cutsim/forcefields/triangular_fem_optim.hpp"
 #include "cutsim/topology/failure_injection.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/fixtures.hpp"
@@ -95,8 +102,21 @@ int main(int argc, char** argv) {
     topology::Topology t(test::grid(side, test::kSheetSize, 0.25, sheetSeed));
     test::MirrorObserver mirror(t);
     auto mirrorSub = t.subscribe(mirror);
+    // Every observer the core has: each validate() compares it with a rebuild.
     forcefields::FastTriangularBendingSprings springs(t, {});
     core::MechanicalState state(t);
+    core::LumpedMass mass(t, 1.0);
+    forcefields::StretchSprings stretch(t, {});
+    forcefields::TriangularFEMParameters fem;
+    fem.restScale = 0.9;
+    forcefields::TriangularFEM membrane(t, fem);
+    forcefields::TriangularFEMOptim optim(t, {});
+    forcefields::DihedralBending dihedral(t, {});
+    forcefields::TriangularBendingSprings wingSprings(t, {});
+    forcefields::ContactParameters contactParameters;
+    contactParameters.thickness = 0.05;
+    contactParameters.stiffness = 100.0;
+    forcefields::Contact contact(t, contactParameters, {});
     test::RandomTopologyOps ops(t, sheetSeed);
     ++totals.sheets;
     for (int step = 0; step < 400 && totals.ops < o.ops && t.numTriangles() > 12; ++step) {
