@@ -74,12 +74,17 @@ class Progress {
 };
 
 // SIGINT and SIGTERM stop a run at the end of the step being made: the first signal sets this
-// flag (and gives the signal back its default action, so that a second one ends the program at
-// once); the loop checks it after every step.
+// flag and gives both signals back their default action, so that a second one ends the program
+// at once; the loop checks the flag after every step.
 volatile std::sig_atomic_t gStopSignal = 0;
-extern "C" void onStopSignal(int signal) { gStopSignal = signal; }
+extern "C" void onStopSignal(int signal) {
+  gStopSignal = signal;
+  std::signal(SIGINT, SIG_DFL);  // (async-signal-safe)
+  std::signal(SIGTERM, SIG_DFL);
+}
 
-/// Installs the handlers while it lives; restores the earlier ones when destroyed.
+/// Installs the handlers while it lives (the stepping loop), restores the earlier ones when
+/// destroyed. A signal the program was started ignoring (a background job) stays ignored.
 class StopSignals {
  public:
   StopSignals() {
@@ -87,9 +92,11 @@ class StopSignals {
     struct sigaction a {};
     a.sa_handler = onStopSignal;
     sigemptyset(&a.sa_mask);
-    a.sa_flags = SA_RESETHAND;  // one clean stop; the second signal is not caught
-    ::sigaction(SIGINT, &a, &oldInt_);
-    ::sigaction(SIGTERM, &a, &oldTerm_);
+    a.sa_flags = SA_RESTART;  // writes under way are not interrupted
+    for (auto [signal, old] : {std::pair{SIGINT, &oldInt_}, std::pair{SIGTERM, &oldTerm_}}) {
+      ::sigaction(signal, nullptr, old);
+      if (old->sa_handler != SIG_IGN) ::sigaction(signal, &a, nullptr);
+    }
   }
   ~StopSignals() {
     ::sigaction(SIGINT, &oldInt_, nullptr);
@@ -159,18 +166,22 @@ void runScene(const RunOptions& options) {
   if (scene.output.vtk) core::writeRunInfo(outDir, scene);
   Progress progress(runner.numSteps(), !options.quiet);
 
-  StopSignals signals;
   runner.start();
   writer.record(runner.simulation(), {0, 0.0, {}}, runner.finished());
   progress.update(0, 0.0);
   core::StepRecord last{0, 0.0, {}};
-  while (!runner.finished() && !signals.received()) {
-    const core::StepStats stats = runner.advance();
-    last = {runner.currentStep(), runner.time(), stats};
-    writer.record(runner.simulation(), last, runner.finished());
-    progress.update(runner.currentStep(), runner.time());
+  int signal = 0;
+  {
+    StopSignals signals;  // only while stepping: afterwards a signal ends the program at once
+    while (!runner.finished() && !signals.received()) {
+      const core::StepStats stats = runner.advance();
+      last = {runner.currentStep(), runner.time(), stats};
+      writer.record(runner.simulation(), last, runner.finished());
+      progress.update(runner.currentStep(), runner.time());
+    }
+    signal = signals.received();
   }
-  if (const int signal = signals.received(); signal && !runner.finished()) {
+  if (signal && !runner.finished()) {
     // Stopped cleanly between two steps: the step made last gets its frame, the outputs so far
     // are written whole under partial names, and the player (if asked for) shows them.
     writer.frame(runner.simulation(), last);
@@ -186,7 +197,7 @@ void runScene(const RunOptions& options) {
       std::cerr << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun
                 << " frames, partial)\n";
     }
-    throw ExitStatus{128 + signal};
+    throw ExitStatus{128 + signal, signal};
   }
   writer.finish();
   if (!options.dumpFinal.empty()) {
@@ -241,6 +252,13 @@ void runScene(const RunOptions& options) {
   }
   std::cout.flush();
   if (!std::cout) throw Error("cannot write to standard output");
+  if (signal) {
+    // Received during the last step: the run is complete and its outputs final; the program
+    // still ends as the signal asks.
+    std::cerr << "cutsim: " << (signal == SIGINT ? "SIGINT" : "SIGTERM")
+              << " received during the last step: the run is complete\n";
+    throw ExitStatus{128 + signal, signal};
+  }
 }
 
 }  // namespace

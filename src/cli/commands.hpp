@@ -9,10 +9,12 @@
 
 namespace cutsim::cli {
 
-/// Thrown by a command that ends with a particular exit code after saying why itself (a run
-/// stopped by SIGINT: 130, by SIGTERM: 143).
+/// Thrown by a command that ends with a particular exit code after saying why itself. A run
+/// stopped by SIGINT or SIGTERM gives the signal: the program then ends by that signal (as a
+/// shell expects of a program interrupted, so that a loop of runs stops too), else with code.
 struct ExitStatus {
   int code;
+  int signal = 0;
 };
 
 /// `cutsim info MESH [--json]`: loads and checks a mesh, prints its counts (src/cli/cmd_info.cpp).

@@ -1,6 +1,8 @@
 // The `cutsim` command-line program: subcommands (see commands.hpp) and the mapping of errors to
-// exit codes: 0 success, 2 bad input or usage (message on stderr), 1 any other failure, 128 + the
-// signal for a run stopped by SIGINT or SIGTERM (130, 143).
+// exit codes: 0 success, 2 bad input or usage (message on stderr), 1 any other failure; a run
+// stopped by SIGINT or SIGTERM ends by that signal after writing its outputs (a shell shows 130
+// or 143).
+#include <csignal>
 #include <exception>
 #include <iostream>
 
@@ -27,6 +29,12 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);  // runs the chosen subcommand's callback
   } catch (const cutsim::cli::ExitStatus& e) {
+    if (e.signal != 0) {
+      std::cout.flush();
+      std::cerr.flush();
+      std::signal(e.signal, SIG_DFL);
+      std::raise(e.signal);
+    }
     return e.code;
   } catch (const CLI::ParseError& e) {
     // --help and --version end here too, with exit code 0.

@@ -176,6 +176,7 @@ s["output"] = {"every": 20}
 s["timeline"] = []
 json.dump(s, open(sys.argv[2], "w"))
 PY
+set -m  # job control: a background job does not start with SIGINT ignored
 for sig in INT TERM; do
   out="$tmp/stopped_$sig"
   "$CUTSIM" run "$tmp/endless.json" --out "$out" --quiet >/dev/null 2>"$tmp/err_$sig" &
@@ -189,7 +190,7 @@ for sig in INT TERM; do
   wait "$pid"
   code=$?
   want=$([ "$sig" = INT ] && echo 130 || echo 143)
-  check "SIG$sig: exit code $want (got $code; $(cat "$tmp/err_$sig"))" [ "$code" -eq "$want" ]
+  check "SIG$sig: ended by the signal, status $want (got $code; $(cat "$tmp/err_$sig"))" [ "$code" -eq "$want" ]
   check "SIG$sig: it says where it stopped" grep -q "^cutsim: stopped by SIG$sig after step [0-9]* of 100000 .* are marked partial" "$tmp/err_$sig"
   check "SIG$sig: nothing is named as a finished run's" test ! -e "$out/steps.csv" -a ! -e "$out/surface.pvd"
   check "SIG$sig: no temporary file or lock is left" [ -z "$(ls -A "$out" | grep -E '^\.')" ]
@@ -204,6 +205,7 @@ for sig in INT TERM; do
   check "SIG$sig: the last frame is the last step's (t = $last_csv, frame at $last_pvd)" \
     python3 -c 'import sys; a, b = map(float, sys.argv[1:]); sys.exit(abs(a - b) > 1e-12 * max(1, abs(a)))' "$last_csv" "$last_pvd"
 done
+set +m
 "$CUTSIM" run "$scene" --out "$tmp/stopped_INT" --quiet >/dev/null 2>&1
 check "a re-run into a stopped run's folder removes its partial files" \
   test ! -e "$tmp/stopped_INT/steps.partial.csv" -a -e "$tmp/stopped_INT/steps.csv"

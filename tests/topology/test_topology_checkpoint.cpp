@@ -149,41 +149,79 @@ TEST(TopologyCheckpoint, SavedAndLoadedTopologiesAreTheSameAndBehaveTheSame) {
   }
 }
 
-TEST(TopologyCheckpoint, ALoadedArchiveWhoseStructureDisagreesIsRefused) {
-  // An archive whose checksums hold but whose structure is not one (written by something else):
-  // the links are checked before anything walks them.
-  Topology a(grid(4, 1.0));
-  const auto path = tempFile("topology.ckpt");
-  ArchiveWriter w;
-  a.save(w);
-  w.save(path);
-  std::string bytes = slurp(path);
-  // Rewrite one halfedge's next link inside the payload, and its checksum with it.
-  const std::size_t payload = 16 + 16;  // file header, then the section's tag and length
+/// The topology section of a saved 4 x 4 grid, to be altered: offsets into its payload.
+struct SavedGrid {
+  std::filesystem::path path;
+  std::string bytes;
+  static constexpr std::size_t kPayload = 16 + 16;  // file header, the section's tag and length
+  static constexpr std::uint64_t nv = 16, ne = 33;
   std::uint64_t length = 0;
-  std::memcpy(&length, bytes.data() + 16 + 8, 8);
-  // The halfedge array follows 11 u64 scalars and the three point arrays; find it by its size.
-  const std::uint64_t nv = 16, ne = 33;
-  std::size_t at = payload + 11 * 8;
-  at += 8 + nv * 4;       // vertex halfedges
-  at += 8 + nv * 4;       // vertex flags
-  at += 8 + 3 * nv * 8;   // rest positions
-  at += 8;                // the halfedge array's length
-  ASSERT_LT(at + 4 * 2 * ne * 4, payload + length);
-  std::uint32_t next = 0;
-  std::memcpy(&next, bytes.data() + at + 2 * 4, 4);  // halfedge 0's next
-  next = (next + 2) % std::uint32_t(2 * ne);
-  std::memcpy(bytes.data() + at + 2 * 4, &next, 4);
-  const std::uint32_t c = std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(bytes.data() + payload),
-                                              uInt(length)));
-  std::memcpy(bytes.data() + payload + length, &c, 4);
-  spit(path, bytes);
-  ArchiveReader r(path);
-  try {
-    Topology::load(r);
-    FAIL() << "accepted";
-  } catch (const InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("section 'topology': "), std::string::npos) << e.what();
+
+  SavedGrid() : path(tempFile("topology.ckpt")) {
+    Topology a(grid(4, 1.0));
+    ArchiveWriter w;
+    a.save(w);
+    w.save(path);
+    bytes = slurp(path);
+    std::memcpy(&length, bytes.data() + 16 + 8, 8);
+  }
+  /// The n-th of the 12 scalars that open the section (sizes, revision, counters, free lists,
+  /// the garbage flag, the locator's cell size).
+  static std::size_t scalar(int n) { return kPayload + 8 * std::size_t(n); }
+  /// Halfedge i's links (face, target, next, prev), after the scalars and the point arrays.
+  static std::size_t halfedge(std::size_t i) {
+    return scalar(12) + (8 + nv * 4) + (8 + nv * 4) + (8 + 3 * nv * 8) + 8 + 16 * i;
+  }
+  template <class T>
+  void set(std::size_t at, T value) {
+    std::memcpy(bytes.data() + at, &value, sizeof value);
+  }
+  /// Writes the altered bytes with a checksum that holds, and loads them.
+  std::string load() {
+    const std::uint32_t c = std::uint32_t(
+        crc32(0L, reinterpret_cast<const Bytef*>(bytes.data() + kPayload), uInt(length)));
+    std::memcpy(bytes.data() + kPayload + length, &c, 4);
+    spit(path, bytes);
+    ArchiveReader r(path);
+    try {
+      Topology::load(r);
+    } catch (const InvalidInput& e) {
+      return e.what();
+    }
+    return "accepted";
+  }
+};
+
+TEST(TopologyCheckpoint, ALoadedArchiveWhoseStructureDisagreesIsRefused) {
+  // Archives whose checksums hold but whose structure is not one (written by something else):
+  // the links and the free lists are checked before anything walks them.
+  {
+    SavedGrid g;
+    EXPECT_EQ(g.load(), "accepted");  // unaltered
+  }
+  {
+    SavedGrid g;
+    std::uint32_t next = 0;
+    std::memcpy(&next, g.bytes.data() + SavedGrid::halfedge(0) + 8, 4);
+    g.set(SavedGrid::halfedge(0) + 8, std::uint32_t((next + 2) % (2 * SavedGrid::ne)));
+    EXPECT_NE(g.load().find("section 'topology': the half-edge links do not agree"), std::string::npos);
+  }
+  {
+    SavedGrid g;
+    g.set(SavedGrid::scalar(7), std::uint64_t(0));  // the points' free list starts at a live point
+    EXPECT_NE(g.load().find("section 'topology': the free list of points is broken"), std::string::npos);
+  }
+  {
+    SavedGrid g;
+    g.set(SavedGrid::scalar(8), std::uint64_t(1) << 40);  // beyond 32 bits
+    EXPECT_NE(g.load().find("the free list of edges is broken"), std::string::npos);
+  }
+  {
+    SavedGrid g;
+    g.set(SavedGrid::halfedge(5), std::uint32_t(3));  // halfedge 5 claims another triangle
+    const std::string m = g.load();
+    EXPECT_NE(m.find("section 'topology': "), std::string::npos) << m;
+    EXPECT_EQ(m.find("accepted"), std::string::npos);
   }
 }
 

@@ -4,6 +4,7 @@
 // events are delivered.
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -199,6 +200,28 @@ TEST(UndoJournal, AnObserverMayNotChangeTheTopology) {
         << e.what();
   }
   EXPECT_TRUE(t.validate().ok());
+}
+
+TEST(UndoJournal, AnObserverUnsubscribedDuringDeliveryIsNotCalledAgain) {
+  // One observer's handler ends another's subscription and destroys it: the delivery skips it.
+  struct Closer : topology::TopologyObserver {
+    std::unique_ptr<MirrorObserver>* victim = nullptr;
+    topology::Subscription* victimSub = nullptr;
+    void onPointsCreated(const Topology&, const topology::PointsCreated&) override {
+      victimSub->reset();
+      victim->reset();
+    }
+  };
+  Topology t(grid(4, 1.0));
+  auto mirror = std::make_unique<MirrorObserver>(t);
+  Closer closer;
+  auto s1 = t.subscribe(closer);
+  auto s2 = t.subscribe(*mirror);
+  closer.victim = &mirror;
+  closer.victimSub = &s2;
+  EXPECT_NO_THROW(t.splitEdge(t.edges()[4], 0.5));  // (under ASan: no use after free)
+  EXPECT_EQ(mirror, nullptr);
+  EXPECT_EQ(t.numObservers(), 1u);
 }
 
 TEST(UndoJournal, AFailureInALargeSheetChangesNothing) {

@@ -88,7 +88,11 @@ void ArchiveWriter::save(const std::filesystem::path& path) {
   file += out_;
   // A temporary file beside the target, flushed to the disk, then renamed over it: a checkpoint
   // is either the old one or the new one, whole.
-  const std::filesystem::path tmp = path.parent_path() / ("." + path.filename().string() + ".tmp");
+  std::string name = ".";  // appended, not "." + ...: GCC 12 warns (-Wrestrict) on that falsely
+  name += path.filename().string();
+  name += ".tmp";
+  const std::filesystem::path tmp = path.parent_path() / name;
+  if (path.filename().empty()) throw Error("archive: no file name in " + path.string());
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw Error("cannot write " + tmp.string() + ": " + std::strerror(errno));
   std::size_t done = 0;
@@ -103,13 +107,27 @@ void ArchiveWriter::save(const std::filesystem::path& path) {
     }
     done += std::size_t(n);
   }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+  const bool synced = ::fsync(fd) == 0;
+  const int syncErrno = errno;
+  const bool closed = ::close(fd) == 0;
+  if (!synced || !closed) {
+    const std::string why = std::strerror(synced ? errno : syncErrno);
     ::unlink(tmp.c_str());
-    throw Error("cannot write " + tmp.string() + ": " + std::strerror(errno));
+    throw Error("cannot write " + tmp.string() + ": " + why);
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
-  if (ec) throw Error("cannot rename " + tmp.string() + " to " + path.string() + ": " + ec.message());
+  if (ec) {
+    ::unlink(tmp.c_str());
+    throw Error("cannot rename " + tmp.string() + " to " + path.string() + ": " + ec.message());
+  }
+  // The rename itself reaches the disk with the folder's entry.
+  const std::filesystem::path folder = path.parent_path().empty() ? "." : path.parent_path();
+  const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
 }
 
 // ---- reader ----

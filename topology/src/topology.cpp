@@ -620,8 +620,9 @@ namespace {
 /// observer must follow it; the first failure is thrown as ObserverError once all is delivered.
 class Delivery {
  public:
-  explicit Delivery(Subscription::Registry& registry)
-      : registry_(registry), observers_(registry.observers) {
+  /// `observers`: the registry's list, copied before the point of no return (copying allocates).
+  Delivery(Subscription::Registry& registry, std::vector<TopologyObserver*> observers)
+      : registry_(registry), observers_(std::move(observers)) {
     registry_.delivering = true;
   }
   ~Delivery() { registry_.delivering = false; }
@@ -631,6 +632,9 @@ class Delivery {
   template <class F>
   void each(const char* event, F&& f) {
     for (TopologyObserver* o : observers_) {
+      // An observer unsubscribed (and perhaps destroyed) by another one's handler is skipped.
+      const auto& now = registry_.observers;
+      if (std::find(now.begin(), now.end(), o) == now.end()) continue;
       try {
         f(*o);
       } catch (const std::exception& e) {
@@ -650,11 +654,14 @@ class Delivery {
   }
 
  private:
-  void failed(const TopologyObserver& o, const char* event, const char* what) {
+  void failed(const TopologyObserver& o, const char* event, const char* what) noexcept {
     if (failures_++ > 0) return;
-    first_ = o.observerName();
-    event_ = event;
-    message_ = what;
+    try {
+      first_ = o.observerName();
+      event_ = event;
+      message_ = what;
+    } catch (...) {  // (out of memory: the count still says that something failed)
+    }
   }
   Subscription::Registry& registry_;
   std::vector<TopologyObserver*> observers_;
@@ -676,6 +683,7 @@ void Topology::Impl::commit(Topology& self) {
   std::vector<PointId> anc;
   std::vector<double> w;
   std::string op;
+  std::vector<TopologyObserver*> observers;
   try {
     std::sort(touched.begin(), touched.end());
     touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
@@ -723,6 +731,7 @@ void Topology::Impl::commit(Topology& self) {
     sortTogether(edgesDestroyed, edgesDestroyedV);
     std::sort(pointsDestroyed.begin(), pointsDestroyed.end());
     op = operation;
+    observers = registry->observers;
     failurePoint("the commit");
   } catch (...) {
     rollback();
@@ -760,7 +769,7 @@ void Topology::Impl::commit(Topology& self) {
   clearTransaction();
   ++revision;
 
-  Delivery d(*registry);
+  Delivery d(*registry, std::move(observers));
   if (!tD.empty()) d.each("triangles destroyed", [&](auto& o) { o.onTrianglesDestroyed(self, {tD, tDV, tDE}); });
   if (!eD.empty()) d.each("edges destroyed", [&](auto& o) { o.onEdgesDestroyed(self, {eD, eDV}); });
   if (!pD.empty()) d.each("points destroyed", [&](auto& o) { o.onPointsDestroyed(self, {pD}); });
@@ -779,6 +788,7 @@ void Topology::Impl::commit(Topology& self) {
 void Topology::compact() {
   Impl& I = *impl_;
   if (I.registry->delivering) throw TopologyError("compact() called from an observer");
+  if (I.open) throw TopologyError("compact() called inside the transaction '" + I.operation + "'");
   Mesh& m = I.mesh;
   if (!m.has_garbage()) return;
   const std::size_t nV = m.num_vertices(), nE = m.num_edges(), nF = m.num_faces();
@@ -804,6 +814,7 @@ void Topology::compact() {
   // A removed element that was not moved keeps map[i] == i, which may be < live count only if
   // it was swapped; mark removed ones explicitly before collecting.
   std::vector<bool> vdead(nV), edead(nE), fdead(nF);
+  std::vector<TopologyObserver*> observers = I.registry->observers;  // (allocates: before the change)
   failurePoint("the compaction");  // the last point at which nothing has changed
   for (std::size_t i = 0; i < nV; ++i) vdead[i] = m.is_removed(VI(Index(i)));
   for (std::size_t i = 0; i < nE; ++i) edead[i] = m.is_removed(EI(Index(i)));
@@ -814,11 +825,12 @@ void Topology::compact() {
   for (std::size_t i = 0; i < nE; ++i) if (edead[i]) emap[i] = kInvalidIndex;
   for (std::size_t i = 0; i < nF; ++i) if (fdead[i]) fmap[i] = kInvalidIndex;
   I.grid.clear();
+  I.grid.chooseCellSize(0.0);  // chosen again for the compacted mesh, at its next build
 
   TransactionSummary summary;
   summary.operation = "compact";
   summary.renumbered = true;
-  Delivery d(*I.registry);
+  Delivery d(*I.registry, std::move(observers));
   d.each("points renumbered", [&](auto& o) { o.onPointsRenumbered(*this, {vmap, liveV}); });
   d.each("edges renumbered", [&](auto& o) { o.onEdgesRenumbered(*this, {emap, liveE}); });
   d.each("triangles renumbered", [&](auto& o) { o.onTrianglesRenumbered(*this, {fmap, liveF}); });
@@ -900,6 +912,7 @@ void Topology::save(ArchiveWriter& out) const {
   out.u64(detail::field<detail::EdgesFreelist>(m));
   out.u64(detail::field<detail::FacesFreelist>(m));
   out.boolean(m.has_garbage());
+  out.f64(I.grid.chosenCellSize());
   std::vector<std::uint32_t> vh, vr, h, er, fh, fr;
   std::vector<double> pts;
   for (Mesh::size_type i = 0; i < m.num_vertices(); ++i) {
@@ -936,6 +949,8 @@ Topology Topology::load(ArchiveReader& in) {
   const std::uint64_t removedV = in.u64(), removedE = in.u64(), removedF = in.u64();
   const std::uint64_t freeV = in.u64(), freeE = in.u64(), freeF = in.u64();
   const bool garbage = in.boolean();
+  const double cell = in.f64();
+  if (!(cell >= 0 && std::isfinite(cell))) in.fail("the locator's cell size is " + std::to_string(cell));
   const auto vh = in.u32s(), vr = in.u32s();
   const auto pts = in.f64s();
   const auto h = in.u32s(), er = in.u32s(), fh = in.u32s(), fr = in.u32s();
@@ -999,9 +1014,25 @@ Topology Topology::load(ArchiveReader& in) {
     fconn[FI(Mesh::size_type(i))].halfedge_ = HI(fh[i]);
     fremoved[FI(Mesh::size_type(i))] = fr[i] != 0;
   }
-  index(std::uint32_t(freeV), nv, "free point");
-  index(std::uint32_t(freeE), nh, "free edge");
-  index(std::uint32_t(freeF), nf, "free triangle");
+  // The free lists (CGAL's remove_* links every removed element into its kind's list): each
+  // must run through removed elements only, exactly as many as the counter says, then end.
+  auto freeList = [&](std::uint64_t head, std::uint64_t removed, std::uint64_t n, std::uint64_t step,
+                      const auto& isRemoved, const auto& link, const char* what) {
+    std::uint64_t x = head, count = 0;
+    while (x != null) {
+      if (x >= n || x % step != 0 || !isRemoved(x / step) || count >= removed)
+        in.fail(std::string("the free list of ") + what + " is broken");
+      ++count;
+      x = link(x);
+    }
+    if (count != removed) in.fail(std::string("the free list of ") + what + " misses removed ones");
+  };
+  freeList(freeV, removedV, nv, 1, [&](std::uint64_t i) { return vr[i] != 0; },
+           [&](std::uint64_t i) { return vh[i]; }, "points");
+  freeList(freeE, removedE, nh, 2, [&](std::uint64_t i) { return er[i] != 0; },
+           [&](std::uint64_t i) { return h[4 * i + 2]; }, "edges");
+  freeList(freeF, removedF, nf, 1, [&](std::uint64_t i) { return fr[i] != 0; },
+           [&](std::uint64_t i) { return fh[i]; }, "triangles");
   detail::field<detail::RemovedVertices>(m) = Mesh::size_type(removedV);
   detail::field<detail::RemovedEdges>(m) = Mesh::size_type(removedE);
   detail::field<detail::RemovedFaces>(m) = Mesh::size_type(removedF);
@@ -1010,6 +1041,7 @@ Topology Topology::load(ArchiveReader& in) {
   detail::field<detail::FacesFreelist>(m) = Mesh::size_type(freeF);
   detail::field<detail::Garbage>(m) = garbage;
   I.revision = revision;
+  I.grid.chooseCellSize(cell);
   // Live elements must point to live ones, and the links must agree, before anything walks them.
   for (std::uint64_t i = 0; i < nh; ++i) {
     if (er[i / 2]) continue;
@@ -1023,11 +1055,37 @@ Topology Topology::load(ArchiveReader& in) {
     if (!vr[i] && m.halfedge(v).is_valid() && (m.is_removed(m.edge(m.halfedge(v))) || m.target(m.halfedge(v)) != v))
       in.fail("point " + std::to_string(i) + " has a halfedge that does not end at it");
   }
+  // Each live triangle is the face of exactly the three halfedges of its cycle.
+  std::vector<std::uint32_t> claims(nf, 0), incoming(nv, 0);
+  for (std::uint64_t i = 0; i < nh; ++i) {
+    if (er[i / 2]) continue;
+    const HI e{Mesh::size_type(i)};
+    if (m.face(e).is_valid()) {
+      if (m.face(m.next(e)) != m.face(e)) in.fail("halfedge " + std::to_string(i) + " and the next have other triangles");
+      ++claims[m.face(e).idx()];
+    }
+    ++incoming[m.target(e).idx()];
+  }
   for (std::uint64_t i = 0; i < nf; ++i) {
     const FI f{Mesh::size_type(i)};
-    if (!fr[i] && (m.is_removed(m.edge(m.halfedge(f))) || m.face(m.halfedge(f)) != f ||
+    if (!fr[i] && (claims[i] != 3 || m.is_removed(m.edge(m.halfedge(f))) || m.face(m.halfedge(f)) != f ||
                    m.next(m.next(m.next(m.halfedge(f)))) != m.halfedge(f)))
       in.fail("triangle " + std::to_string(i) + " is not a triangle of its halfedges");
+  }
+  // Each live point's halfedges form one circle (the journal and every walk go round it).
+  for (std::uint64_t i = 0; i < nv; ++i) {
+    const VI v{Mesh::size_type(i)};
+    if (vr[i] || !m.halfedge(v).is_valid()) {
+      if (!vr[i] && incoming[i] != 0) in.fail("point " + std::to_string(i) + " has edges but no halfedge");
+      continue;
+    }
+    HI e = m.halfedge(v);
+    std::uint32_t walked = 0;
+    do {
+      if (++walked > incoming[i]) break;
+      e = m.opposite(m.next(e));
+    } while (e != m.halfedge(v));
+    if (walked != incoming[i]) in.fail("point " + std::to_string(i) + "'s halfedges do not form one circle");
   }
   if (t.digest() != savedDigest) in.fail("the structure read back differs from the one saved");
   const ValidationReport r = t.validate();

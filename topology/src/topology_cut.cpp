@@ -156,14 +156,17 @@ void TriangleGrid::cellRange(const std::array<Point3, 3>& c, long lo[3], long hi
 
 void TriangleGrid::build(const Mesh& mesh) {
   cells_.clear();
-  double sum = 0;
-  std::size_t n = 0;
-  for (auto e : mesh.edges()) {
-    sum += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(mesh.halfedge(e))),
-                                            mesh.point(mesh.target(mesh.halfedge(e)))));
-    ++n;
+  if (chosen_ <= 0) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (auto e : mesh.edges()) {
+      sum += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(mesh.halfedge(e))),
+                                              mesh.point(mesh.target(mesh.halfedge(e)))));
+      ++n;
+    }
+    chosen_ = n ? std::max(2.0 * sum / double(n), 1e-300) : 1.0;
   }
-  cell_ = n ? std::max(2.0 * sum / double(n), 1e-300) : 1.0;
+  cell_ = chosen_;
   built_ = true;
   for (FI f : mesh.faces()) insert(mesh, f);
 }

@@ -25,6 +25,8 @@ struct Subscription::Registry {
 class TriangleGrid {
  public:
   bool built() const { return built_; }
+  /// Builds the grid; its cell size is chosen at the first build (twice the mean edge length)
+  /// and kept from then on, so that a saved and loaded topology locates points alike.
   void build(const Mesh& mesh);
   void clear() { built_ = false; cells_.clear(); }
   void insert(const Mesh& mesh, FI f);
@@ -32,6 +34,9 @@ class TriangleGrid {
   /// Triangles whose box meets the cube of half-size r around p.
   void query(const Point3& p, double r, std::vector<FI>& out) const;
   double cellSize() const { return cell_; }
+  /// The cell size chosen (0: none yet), as saved and loaded with the topology.
+  double chosenCellSize() const { return chosen_; }
+  void chooseCellSize(double cell) { chosen_ = cell; }
 
  private:
   using Key = std::uint64_t;
@@ -39,6 +44,7 @@ class TriangleGrid {
   void cellRange(const std::array<Point3, 3>& c, long lo[3], long hi[3]) const;
   bool built_ = false;
   double cell_ = 1.0;
+  double chosen_ = 0.0;
   std::unordered_map<Key, std::vector<FI>> cells_;
 };
 

@@ -303,7 +303,8 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
   bool anyInside = false;
   std::vector<Crossing> crossings = findCrossings(anyInside);
   if (!anyInside) return {};
-  return I.committed(*this, "carve", [&] {
+  std::size_t removedHere = 0;  // told once the transaction is done (not if it is rolled back)
+  RepairReport report = I.committed(*this, "carve", [&] {
     std::unordered_map<Index, char> inside;  // points that existed: phi <= 0
     for (auto& [v, x] : value) inside[v] = x <= 0 ? 1 : 0;
     // A point next to a crossing (within a quarter of the edge) moves onto it, so that the
@@ -392,12 +393,14 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
       if (in == 1) gone.push_back(f);
     }
     for (FI f : gone) I.detachFace(f);
-    if (removed) *removed = gone.size();
+    removedHere = gone.size();
     std::vector<VI> candidates = I.touched;
     I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
     std::unordered_map<Index, Index> replaced;
     return I.repairNoTxn(candidates, repair, replaced);
   });
+  if (removed) *removed = removedHere;
+  return report;
 }
 
 }  // namespace cutsim::topology
