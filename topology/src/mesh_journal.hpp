@@ -62,6 +62,40 @@ template <class Tag>
 decltype(auto) field(const Mesh& m) {
   return m.*member(Tag{});
 }
+
+/// The connectivity arrays and removal flags of a mesh, as stored.
+struct Arrays {
+  decltype(field<VConn>(std::declval<Mesh&>())) vconn;
+  decltype(field<HConn>(std::declval<Mesh&>())) hconn;
+  decltype(field<FConn>(std::declval<Mesh&>())) fconn;
+  decltype(field<VRemoved>(std::declval<Mesh&>())) vremoved;
+  decltype(field<ERemoved>(std::declval<Mesh&>())) eremoved;
+  decltype(field<FRemoved>(std::declval<Mesh&>())) fremoved;
+  explicit Arrays(Mesh& m)
+      : vconn(field<VConn>(m)), hconn(field<HConn>(m)), fconn(field<FConn>(m)),
+        vremoved(field<VRemoved>(m)), eremoved(field<ERemoved>(m)), fremoved(field<FRemoved>(m)) {}
+};
+
+/// The mesh's removal counters, free lists' heads and garbage flag.
+struct Header {
+  Mesh::size_type removedV = 0, removedE = 0, removedF = 0;
+  Mesh::size_type freeV = 0, freeE = 0, freeF = 0;
+  bool garbage = false;
+  static Header of(const Mesh& m) {
+    return {field<RemovedVertices>(m), field<RemovedEdges>(m), field<RemovedFaces>(m),
+            field<VerticesFreelist>(m), field<EdgesFreelist>(m), field<FacesFreelist>(m),
+            field<Garbage>(m)};
+  }
+  void applyTo(Mesh& m) const noexcept {
+    field<RemovedVertices>(m) = removedV;
+    field<RemovedEdges>(m) = removedE;
+    field<RemovedFaces>(m) = removedF;
+    field<VerticesFreelist>(m) = freeV;
+    field<EdgesFreelist>(m) = freeE;
+    field<FacesFreelist>(m) = freeF;
+    field<Garbage>(m) = garbage;
+  }
+};
 }  // namespace detail
 
 class MeshJournal {
@@ -73,13 +107,7 @@ class MeshJournal {
     nv_ = m.num_vertices();
     ne_ = m.num_edges();
     nf_ = m.num_faces();
-    removedV_ = detail::field<detail::RemovedVertices>(m);
-    removedE_ = detail::field<detail::RemovedEdges>(m);
-    removedF_ = detail::field<detail::RemovedFaces>(m);
-    freeV_ = detail::field<detail::VerticesFreelist>(m);
-    freeE_ = detail::field<detail::EdgesFreelist>(m);
-    freeF_ = detail::field<detail::FacesFreelist>(m);
-    garbage_ = detail::field<detail::Garbage>(m);
+    header_ = detail::Header::of(m);
   }
   bool active() const { return active_; }
 
@@ -119,33 +147,22 @@ class MeshJournal {
   /// Puts the mesh back as it was at begin(). Allocates nothing (cannot fail).
   void rollback(Mesh& m) noexcept {
     if (!active_) return;
-    auto& vconn = detail::field<detail::VConn>(m);
-    auto& hconn = detail::field<detail::HConn>(m);
-    auto& fconn = detail::field<detail::FConn>(m);
-    auto& vremoved = detail::field<detail::VRemoved>(m);
-    auto& eremoved = detail::field<detail::ERemoved>(m);
-    auto& fremoved = detail::field<detail::FRemoved>(m);
+    detail::Arrays a(m);
     for (const auto& r : vertices_) {
-      vconn[VI(r.index)] = r.conn;
-      vremoved[VI(r.index)] = r.removed;
+      a.vconn[VI(r.index)] = r.conn;
+      a.vremoved[VI(r.index)] = r.removed;
     }
     for (const auto& r : edges_) {
-      hconn[HI(2 * r.index)] = r.conn0;
-      hconn[HI(2 * r.index + 1)] = r.conn1;
-      eremoved[EI(r.index)] = r.removed;
+      a.hconn[HI(2 * r.index)] = r.conn0;
+      a.hconn[HI(2 * r.index + 1)] = r.conn1;
+      a.eremoved[EI(r.index)] = r.removed;
     }
     for (const auto& r : faces_) {
-      fconn[FI(r.index)] = r.conn;
-      fremoved[FI(r.index)] = r.removed;
+      a.fconn[FI(r.index)] = r.conn;
+      a.fremoved[FI(r.index)] = r.removed;
     }
     m.resize(nv_, ne_, nf_);  // shrinking: no allocation
-    detail::field<detail::RemovedVertices>(m) = removedV_;
-    detail::field<detail::RemovedEdges>(m) = removedE_;
-    detail::field<detail::RemovedFaces>(m) = removedF_;
-    detail::field<detail::VerticesFreelist>(m) = freeV_;
-    detail::field<detail::EdgesFreelist>(m) = freeE_;
-    detail::field<detail::FacesFreelist>(m) = freeF_;
-    detail::field<detail::Garbage>(m) = garbage_;
+    header_.applyTo(m);
     active_ = false;
   }
 
@@ -175,9 +192,7 @@ class MeshJournal {
 
   bool active_ = false;
   Mesh::size_type nv_ = 0, ne_ = 0, nf_ = 0;
-  Mesh::size_type removedV_ = 0, removedE_ = 0, removedF_ = 0;
-  Mesh::size_type freeV_ = 0, freeE_ = 0, freeF_ = 0;
-  bool garbage_ = false;
+  detail::Header header_;
   std::vector<VertexRecord> vertices_;
   std::vector<EdgeRecord> edges_;
   std::vector<FaceRecord> faces_;

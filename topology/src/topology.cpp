@@ -135,11 +135,11 @@ std::uint64_t Topology::digest() const {
   };
   auto add = [&](std::uint64_t x) { mix(&x, sizeof x); };
   add(m.num_vertices()); add(m.num_edges()); add(m.num_faces());
-  add(m.number_of_removed_vertices()); add(m.number_of_removed_edges());
-  add(m.number_of_removed_faces()); add(m.has_garbage() ? 1 : 0);
-  add(detail::field<detail::VerticesFreelist>(m));
-  add(detail::field<detail::EdgesFreelist>(m));
-  add(detail::field<detail::FacesFreelist>(m));
+  const detail::Header header = detail::Header::of(m);
+  for (Mesh::size_type x : {header.removedV, header.removedE, header.removedF, header.freeV,
+                            header.freeE, header.freeF})
+    add(x);
+  add(header.garbage ? 1 : 0);
   add(impl_->revision);
   for (Mesh::size_type i = 0; i < m.num_vertices(); ++i) {
     const VI v(i);
@@ -905,13 +905,11 @@ void Topology::save(ArchiveWriter& out) const {
   out.u64(m.num_edges());
   out.u64(m.num_faces());
   out.u64(I.revision);
-  out.u64(m.number_of_removed_vertices());
-  out.u64(m.number_of_removed_edges());
-  out.u64(m.number_of_removed_faces());
-  out.u64(detail::field<detail::VerticesFreelist>(m));
-  out.u64(detail::field<detail::EdgesFreelist>(m));
-  out.u64(detail::field<detail::FacesFreelist>(m));
-  out.boolean(m.has_garbage());
+  const detail::Header header = detail::Header::of(m);
+  for (Mesh::size_type x : {header.removedV, header.removedE, header.removedF, header.freeV,
+                            header.freeE, header.freeF})
+    out.u64(x);
+  out.boolean(header.garbage);
   out.f64(I.grid.chosenCellSize());
   std::vector<std::uint32_t> vh, vr, h, er, fh, fr;
   std::vector<double> pts;
@@ -980,17 +978,15 @@ Topology Topology::load(ArchiveReader& in) {
   Impl& I = *t.impl_;
   Mesh& m = I.mesh;
   m.resize(Mesh::size_type(nv), Mesh::size_type(ne), Mesh::size_type(nf));
-  auto& vconn = detail::field<detail::VConn>(m);
-  auto& hconn = detail::field<detail::HConn>(m);
-  auto& fconn = detail::field<detail::FConn>(m);
-  auto& vremoved = detail::field<detail::VRemoved>(m);
-  auto& eremoved = detail::field<detail::ERemoved>(m);
-  auto& fremoved = detail::field<detail::FRemoved>(m);
+  detail::Arrays a(m);
+  auto& vconn = a.vconn;
+  auto& hconn = a.hconn;
+  auto& fconn = a.fconn;
   // A removed element's link is its free list's next (an index of its own kind, or null).
   for (std::uint64_t i = 0; i < nv; ++i) {
     index(vh[i], vr[i] ? nv : nh, vr[i] ? "free point" : "halfedge");
     vconn[VI(Mesh::size_type(i))].halfedge_ = HI(vh[i]);
-    vremoved[VI(Mesh::size_type(i))] = vr[i] != 0;
+    a.vremoved[VI(Mesh::size_type(i))] = vr[i] != 0;
     m.point(VI(Mesh::size_type(i))) = Point3(pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]);
   }
   for (std::uint64_t i = 0; i < nh; ++i) {
@@ -1007,12 +1003,12 @@ Topology Topology::load(ArchiveReader& in) {
     if (!dead && (h[4 * i + 1] == null || h[4 * i + 2] == null || h[4 * i + 3] == null))
       in.fail("a live halfedge without its point or neighbours");
   }
-  for (std::uint64_t i = 0; i < ne; ++i) eremoved[EI(Mesh::size_type(i))] = er[i] != 0;
+  for (std::uint64_t i = 0; i < ne; ++i) a.eremoved[EI(Mesh::size_type(i))] = er[i] != 0;
   for (std::uint64_t i = 0; i < nf; ++i) {
     index(fh[i], fr[i] ? nf : nh, fr[i] ? "free triangle" : "halfedge");
     if (!fr[i] && fh[i] == null) in.fail("a live triangle without a halfedge");
     fconn[FI(Mesh::size_type(i))].halfedge_ = HI(fh[i]);
-    fremoved[FI(Mesh::size_type(i))] = fr[i] != 0;
+    a.fremoved[FI(Mesh::size_type(i))] = fr[i] != 0;
   }
   // The free lists (CGAL's remove_* links every removed element into its kind's list): each
   // must run through removed elements only, exactly as many as the counter says, then end.
@@ -1033,13 +1029,9 @@ Topology Topology::load(ArchiveReader& in) {
            [&](std::uint64_t i) { return h[4 * i + 2]; }, "edges");
   freeList(freeF, removedF, nf, 1, [&](std::uint64_t i) { return fr[i] != 0; },
            [&](std::uint64_t i) { return fh[i]; }, "triangles");
-  detail::field<detail::RemovedVertices>(m) = Mesh::size_type(removedV);
-  detail::field<detail::RemovedEdges>(m) = Mesh::size_type(removedE);
-  detail::field<detail::RemovedFaces>(m) = Mesh::size_type(removedF);
-  detail::field<detail::VerticesFreelist>(m) = Mesh::size_type(freeV);
-  detail::field<detail::EdgesFreelist>(m) = Mesh::size_type(freeE);
-  detail::field<detail::FacesFreelist>(m) = Mesh::size_type(freeF);
-  detail::field<detail::Garbage>(m) = garbage;
+  detail::Header{Mesh::size_type(removedV), Mesh::size_type(removedE), Mesh::size_type(removedF),
+                 Mesh::size_type(freeV), Mesh::size_type(freeE), Mesh::size_type(freeF), garbage}
+      .applyTo(m);
   I.revision = revision;
   I.grid.chooseCellSize(cell);
   // Live elements must point to live ones, and the links must agree, before anything walks them.
