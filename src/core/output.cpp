@@ -569,72 +569,60 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
   }
 }
 
+void OutputWriter::closeCsv() {
+  if (!settings_.csv || !csv_.is_open()) return;
+  csv_.flush();
+  const bool ok = bool(csv_);
+  csv_.close();
+  if (!ok) throw Error("cannot write " + csvTemp_.string());
+}
+
+void OutputWriter::writeCollections(const std::string& suffix) {
+  if (settings_.vtk && !surfaceFrames_.empty()) {
+    writeFileAtomically(dir_ / ("surface" + suffix), [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+    writeFileAtomically(dir_ / ("borders" + suffix), [&](std::ostream& o) { writePvd(o, borderFrames_); });
+  }
+  if (!obstacleFrames_.empty())
+    writeFileAtomically(dir_ / ("obstacles" + suffix), [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+  for (const auto& [series, frames] : networkFrames_)
+    writeFileAtomically(dir_ / (series + suffix), [&](std::ostream& o) { writePvd(o, frames); });
+}
+
+void OutputWriter::renameCsv(const std::string& name) {
+  if (!settings_.csv || csvTemp_.empty()) return;
+  std::error_code ec;
+  std::filesystem::rename(csvTemp_, dir_ / name, ec);
+  if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
+  csvTemp_.clear();
+}
+
+void OutputWriter::releaseFolder() {
+  if (lockFd_ < 0) return;
+  std::error_code ignored;
+  std::filesystem::remove(dir_ / ".cutsim.lock", ignored);
+  ::close(lockFd_);
+  lockFd_ = -1;
+}
+
 void OutputWriter::finish() {
   // The CSV's data first: if the disk is full, the run stops here with its collections still
   // marked partial, and nothing looks complete.
-  bool csvOk = true;
-  if (settings_.csv && csv_.is_open()) {
-    csv_.flush();
-    csvOk = bool(csv_);
-    csv_.close();
-    if (!csvOk) throw Error("cannot write " + csvTemp_.string());
-  }
+  closeCsv();
+  writeCollections(".pvd");
   std::error_code removeError;
-  if (settings_.vtk && !surfaceFrames_.empty()) {
-    writeFileAtomically(dir_ / "surface.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
-    std::filesystem::remove(dir_ / "surface.partial.pvd", removeError);
-    writeFileAtomically(dir_ / "borders.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
-    std::filesystem::remove(dir_ / "borders.partial.pvd", removeError);
-  }
-  if (!obstacleFrames_.empty()) {
-    writeFileAtomically(dir_ / "obstacles.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
-    std::filesystem::remove(dir_ / "obstacles.partial.pvd", removeError);
-  }
-  for (const auto& [series, frames] : networkFrames_) {
-    writeFileAtomically(dir_ / (series + ".pvd"), [&](std::ostream& o) { writePvd(o, frames); });
-    std::filesystem::remove(dir_ / (series + ".partial.pvd"), removeError);
-  }
-  if (settings_.csv && !csvTemp_.empty()) {
-    std::error_code ec;
-    std::filesystem::rename(csvTemp_, dir_ / "steps.csv", ec);
-    if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
-    csvTemp_.clear();
-  }
-  if (lockFd_ >= 0) {  // the run is complete: the folder is free, and holds only its outputs
-    std::error_code ignored;
-    std::filesystem::remove(dir_ / ".cutsim.lock", ignored);
-    ::close(lockFd_);
-    lockFd_ = -1;
-  }
+  for (const auto& name : {std::string("surface"), std::string("borders"), std::string("obstacles")})
+    std::filesystem::remove(dir_ / (name + ".partial.pvd"), removeError);
+  for (const auto& entry : networkFrames_)
+    std::filesystem::remove(dir_ / (entry.first + ".partial.pvd"), removeError);
+  renameCsv("steps.csv");
+  releaseFolder();  // the run is complete: the folder is free, and holds only its outputs
 }
 
 void OutputWriter::finishPartial() {
-  if (settings_.csv && csv_.is_open()) {
-    csv_.flush();
-    const bool ok = bool(csv_);
-    csv_.close();
-    if (!ok) throw Error("cannot write " + csvTemp_.string());
-  }
-  if (settings_.vtk && !surfaceFrames_.empty()) {
-    writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
-    writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
-  }
-  if (!obstacleFrames_.empty())
-    writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
-  for (const auto& [series, frames] : networkFrames_)
-    writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
-  if (settings_.csv && !csvTemp_.empty()) {
-    std::error_code ec;
-    std::filesystem::rename(csvTemp_, dir_ / "steps.partial.csv", ec);
-    if (ec) throw Error("cannot rename " + csvTemp_.string() + ": " + ec.message());
-    csvTemp_.clear();
-  }
-  if (lockFd_ >= 0) {
-    std::error_code ignored;
-    std::filesystem::remove(dir_ / ".cutsim.lock", ignored);
-    ::close(lockFd_);
-    lockFd_ = -1;
-  }
+  closeCsv();
+  writeCollections(".partial.pvd");
+  renameCsv("steps.partial.csv");
+  releaseFolder();
 }
 
 void dumpFinal(const std::filesystem::path& dir, const Simulation& sim,

@@ -102,7 +102,7 @@ struct Topology::Impl {
                  std::vector<PointId>* copies, std::vector<PointId>* copiedFrom);
   /// Ends the open transaction: removes the points it left isolated, then delivers the events.
   /// A failure before the first event rolls the transaction back (and propagates); an observer
-  /// that throws does not stop the delivery (see deliver()).
+  /// that throws does not stop the delivery (Delivery in topology.cpp).
   void commit(Topology& self);
   /// Runs `body` in the open transaction begun as `op`, then commits; when body throws, the
   /// transaction is rolled back (the mesh as it was, no event) and the error propagates.

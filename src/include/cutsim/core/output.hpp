@@ -130,6 +130,12 @@ class OutputWriter {
 
  private:
   void writeFrame(Simulation& sim, const StepRecord& r);
+  // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection
+  // written whole with a suffix (".pvd", ".partial.pvd"), the CSV renamed, the lock released.
+  void closeCsv();
+  void writeCollections(const std::string& suffix);
+  void renameCsv(const std::string& name);
+  void releaseFolder();
   /// Whether the partial collections are rewritten after the frames-th frame.
   bool partialDue(std::size_t frames);
 
