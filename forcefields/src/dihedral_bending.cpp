@@ -1,3 +1,4 @@
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 
@@ -538,4 +539,13 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<DihedralBending>(t, std::any_cast<const DihedralBendingParameters&>(p));
     }});
 }  // namespace
+void DihedralBending::saveState(topology::ArchiveWriter& out) const {
+  out.boolean(params_.exactHessian);
+  saveTable(out);
+}
+void DihedralBending::loadState(topology::ArchiveReader& in) {
+  setExactStiffness(in.boolean());
+  loadTable(in, *topology_);
+}
+
 }  // namespace cutsim::forcefields

@@ -57,4 +57,11 @@ Eigen::SparseMatrix<double> TripletAccumulator::toSparse(Index numPoints) const 
 
 ForceField::~ForceField() = default;
 
+void ForceField::saveState(topology::ArchiveWriter&) const {
+  throw Error("checkpoints: the " + typeName() + " force field cannot be saved");
+}
+void ForceField::loadState(topology::ArchiveReader&) {
+  throw Error("checkpoints: the " + typeName() + " force field cannot be restored");
+}
+
 }  // namespace cutsim::forcefields

@@ -46,6 +46,21 @@ auto recordPerLiveEdge(const topology::Topology& t, MakeRecord make) {
 // The table
 
 template <class F, class T>
+void HingeTable<F, T>::saveTable(topology::ArchiveWriter& out) const {
+  table_.save(out);
+}
+
+template <class F, class T>
+void HingeTable<F, T>::loadTable(topology::ArchiveReader& in, const topology::Topology& topology) {
+  table_.load(in);
+  counters_ = recount();
+  eventProblems_.clear();
+  std::vector<std::string> problems;
+  validate(topology, problems);
+  if (!problems.empty()) in.fail(field().typeName() + ": " + problems.front());
+}
+
+template <class F, class T>
 bool HingeTable<F, T>::flagOf(const Record& r) {
   if constexpr (kHasFlag) {
     return r.*T::kFlag;

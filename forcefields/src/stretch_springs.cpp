@@ -1,3 +1,4 @@
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 
@@ -420,4 +421,18 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<StretchSprings>(t, std::any_cast<const StretchParameters&>(p));
     }});
 }  // namespace
+void StretchSprings::saveState(topology::ArchiveWriter& out) const {
+  out.boolean(params_.stableJacobian);
+  table_.save(out);
+}
+void StretchSprings::loadState(topology::ArchiveReader& in) {
+  params_.stableJacobian = in.boolean();
+  table_.load(in);
+  linValid_ = false;
+  eventProblems_.clear();
+  std::vector<std::string> problems;
+  validate(*topology_, problems);
+  if (!problems.empty()) in.fail("StretchSprings: " + problems.front());
+}
+
 }  // namespace cutsim::forcefields

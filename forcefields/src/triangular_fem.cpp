@@ -1,3 +1,4 @@
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/forcefields/registry.hpp"
@@ -522,4 +523,19 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<TriangularFEM>(t, std::any_cast<const TriangularFEMParameters&>(p));
     }});
 }  // namespace
+void TriangularFEM::saveState(topology::ArchiveWriter& out) const {
+  out.boolean(params_.exactHessian);
+  out.u64(numDegenerate_);
+  table_.save(out);
+}
+void TriangularFEM::loadState(topology::ArchiveReader& in) {
+  params_.exactHessian = in.boolean();
+  numDegenerate_ = std::size_t(in.u64());
+  table_.load(in);
+  eventProblems_.clear();
+  std::vector<std::string> problems;
+  validate(*topology_, problems);
+  if (!problems.empty()) in.fail(typeName() + ": " + problems.front());
+}
+
 }  // namespace cutsim::forcefields

@@ -1,13 +1,16 @@
-// `cutsim run SCENE [--out DIR] [--dump-final DIR] [--quiet]`: loads and validates a scene, runs
-// it, writes its frames and CSV (see cutsim/core/output.hpp) and prints a summary.
+// `cutsim run SCENE [--out DIR] [--dump-final DIR] [--quiet] [--checkpoint-every N]`: loads and
+// validates a scene, runs it, writes its frames, CSV and checkpoints (see cutsim/core/output.hpp)
+// and prints a summary. `cutsim resume CHECKPOINT`: continues a run from its checkpoint.
 #include <unistd.h>
 
 #include <csignal>
 
 #include <chrono>
+#include <fstream>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -16,6 +19,8 @@
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
+#include "cutsim/core/version.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/view/player.hpp"
 
@@ -31,6 +36,8 @@ struct RunOptions {
   std::string html;  ///< also write the player page (cutsim view) here; "" none
   bool htmlAuto = false;  ///< --html without a file: OUT/player.html
   long steps = 0;         ///< a SOFA scene's number of steps (0: 100)
+  long checkpointEvery = 0;  ///< a checkpoint every N steps (0: only when stopped by a signal)
+  long stopAfter = 0;        ///< stop after this step as a signal would (0: run to the end)
 };
 
 bool isSofaScene(const std::string& file) {
@@ -116,80 +123,84 @@ std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceFiel
   return 0;
 }
 
-void runScene(const RunOptions& options) {
-  if (options.steps != 0 && !isSofaScene(options.scene))
-    throw InvalidInput("--steps", "is for SOFA scenes (.scn); a JSON scene gives its duration");
-  const core::Scene scene = [&] {
-    if (!isSofaScene(options.scene)) return core::loadScene(options.scene);
-    core::SofaImportOptions o;
-    if (options.steps > 0) o.steps = options.steps;
-    const core::SofaSceneImport imported = core::importSofaScene(options.scene, o);
-    for (const std::string& n : imported.notes) std::cerr << n << "\n";
-    return core::sceneFromSofa(imported);
-  }();
-  const std::filesystem::path outDir = options.out.empty()
-                                           ? std::filesystem::path("out") / scene.name
-                                           : std::filesystem::path(options.out);
+/// What a checkpoint holds beyond the run's state: the scene (its text, so that a checkpoint
+/// does not depend on the file staying as it was) and how the run was asked for.
+struct RunSource {
+  std::string sceneText;  ///< "" for a SOFA scene (not checkpointed)
+  std::string sceneName;  ///< the scene file as given (for messages)
+  std::filesystem::path baseDir;  ///< the scene's folder, absolute (its mesh files)
+  long checkpointEvery = 0;
+};
 
-  // What the run will make, checked before it starts: a scene that asks for days of work or
-  // millions of files says so now, not after.
-  const long steps = scene.numSteps();
-  const long frames = (scene.output.vtk || scene.output.obj) ? steps / scene.output.every + 2 : 0;
-  constexpr long kMaxSteps = 10'000'000, kMaxFrames = 100'000;
-  if (!options.allowLong && (steps > kMaxSteps || frames > kMaxFrames))
-    throw InvalidInput(options.scene, "the run would take " + std::to_string(steps) + " steps and write " +
-                                          std::to_string(frames) + " frames, more than the limits (10^7 steps, 10^5 "
-                                          "frames): raise output.every or the time step, or pass --allow-long");
-  if ((options.htmlAuto || !options.html.empty()) && !scene.output.vtk)
-    throw InvalidInput("--html", "the scene writes no frames (its output has \"vtk\": false): the player has nothing to "
-                                 "show");
-  if (!options.dumpFinal.empty()) {
-    std::error_code ec;
-    if (std::filesystem::exists(options.dumpFinal, ec) && !std::filesystem::is_directory(options.dumpFinal, ec))
-      throw InvalidInput("--dump-final", options.dumpFinal + " is a file, not a folder");
-  }
-  if (!options.quiet)
-    std::cerr << "running " << steps << " steps of " << scene.timeStep << " s"
-              << (frames ? ", " + std::to_string(frames - 1) + " frames at most" : std::string()) << ", into "
-              << outDir.string() << "\n";
+constexpr const char* kCheckpointName = "checkpoint.ckpt";
 
-  const auto start = std::chrono::steady_clock::now();
-  core::SceneRunner runner(scene);
-  std::vector<std::string> obstacleNames;
-  for (const auto& o : scene.obstacles) obstacleNames.push_back(o.name);
-  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
-                            scene.contact.has_value(), obstacleNames);
-  if (writer.replacedFiles() > 0)
-    std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from " << outDir.string()
-              << "\n";
-  // What the player (cutsim view) shows of the scene: its name, description and "up".
-  if (scene.output.vtk) core::writeRunInfo(outDir, scene);
+/// Writes OUT/checkpoint.ckpt atomically (the previous one stays whole until the new one is).
+void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& source, const core::SceneRunner& runner,
+                     core::OutputWriter& writer) {
+  topology::ArchiveWriter w;
+  w.begin("cutsim");
+  w.str(core::version());
+  w.str(source.sceneText);
+  w.str(source.sceneName);
+  w.str(source.baseDir.string());
+  w.i64(source.checkpointEvery);
+  runner.save(w);
+  writer.saveState(w);
+  w.save(outDir / kCheckpointName);
+}
+
+/// Why a run cannot be checkpointed ("" if it can).
+std::string whyNotCheckpointable(const RunSource& source, const core::SceneRunner& runner) {
+  if (source.sceneText.empty()) return "checkpoints are written for JSON scenes (this is a SOFA scene)";
+  std::string list;
+  for (const std::string& m : runner.notCheckpointable()) list += (list.empty() ? "" : ", ") + m;
+  return list.empty() ? "" : "its " + list + " cannot be saved yet";
+}
+
+/// Steps a run to its end (or to a stop signal), writing its outputs and checkpoints, then prints
+/// its summary. `resumed`: the runner and the writer continue a checkpoint.
+void play(const RunOptions& options, const core::Scene& scene, const RunSource& source, core::SceneRunner& runner,
+          core::OutputWriter& writer, const std::filesystem::path& outDir, bool resumed,
+          std::chrono::steady_clock::time_point start) {
+  const std::string notSaved = whyNotCheckpointable(source, runner);
   Progress progress(runner.numSteps(), !options.quiet);
-
-  runner.start();
-  writer.record(runner.simulation(), {0, 0.0, {}}, runner.finished());
-  progress.update(0, 0.0);
-  core::StepRecord last{0, 0.0, {}};
+  if (!resumed) {
+    runner.start();
+    writer.record(runner.simulation(), {0, 0.0, {}}, runner.finished());
+  }
+  progress.update(runner.currentStep(), runner.time());
+  core::StepRecord last{runner.currentStep(), runner.time(), {}};
+  const long every = source.checkpointEvery;
+  const long firstStep = runner.currentStep();
   int signal = 0;
   {
     StopSignals signals;  // only while stepping: afterwards a signal ends the program at once
-    while (!runner.finished() && !signals.received()) {
+    const long stopAt = options.stopAfter > 0 ? options.stopAfter : std::numeric_limits<long>::max();
+    while (!runner.finished() && !signals.received() && runner.currentStep() < stopAt) {
       const core::StepStats stats = runner.advance();
       last = {runner.currentStep(), runner.time(), stats};
       writer.record(runner.simulation(), last, runner.finished());
       progress.update(runner.currentStep(), runner.time());
+      if (every > 0 && runner.currentStep() % every == 0 && !runner.finished())
+        writeCheckpoint(outDir, source, runner, writer);
     }
     signal = signals.received();
   }
-  if (signal && !runner.finished()) {
-    // Stopped cleanly between two steps: the step made last gets its frame, the outputs so far
-    // are written whole under partial names, and the player (if asked for) shows them.
+  if ((signal || options.stopAfter > 0) && !runner.finished()) {
+    // Stopped cleanly between two steps: a checkpoint of this point, then the step made last
+    // gets its frame, the outputs so far are written whole under partial names, and the player
+    // (if asked for) shows them.
+    const bool saved = notSaved.empty();
+    if (saved) writeCheckpoint(outDir, source, runner, writer);
     writer.frame(runner.simulation(), last);
     writer.finishPartial();
-    std::cerr << "cutsim: stopped by " << (signal == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
+    const std::string by = signal == SIGINT ? "by SIGINT" : signal == SIGTERM ? "by SIGTERM" : "as asked (--stop-after)";
+    std::cerr << "cutsim: stopped " << by << " after step "
               << runner.currentStep() << " of " << runner.numSteps() << " (t = " << runner.time()
-              << " s): the outputs in " << outDir.string()
-              << " are marked partial (steps.partial.csv, *.partial.pvd); the run cannot be resumed\n";
+              << " s): the outputs in " << outDir.string() << " are marked partial (steps.partial.csv, *.partial.pvd); "
+              << (saved ? "resume with: cutsim resume " + (outDir / kCheckpointName).string()
+                        : "the run cannot be resumed: " + notSaved)
+              << "\n";
     if (options.htmlAuto || !options.html.empty()) {
       const std::filesystem::path html =
           options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
@@ -197,7 +208,8 @@ void runScene(const RunOptions& options) {
       std::cerr << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun
                 << " frames, partial)\n";
     }
-    throw ExitStatus{128 + signal, signal};
+    if (signal) throw ExitStatus{128 + signal, signal};
+    return;
   }
   writer.finish();
   if (!options.dumpFinal.empty()) {
@@ -207,13 +219,15 @@ void runScene(const RunOptions& options) {
   const core::SolveSummary& solves = sim.solveSummary();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const long stepsRun = runner.currentStep() - firstStep;
 
   const topology::Topology& topo = runner.simulation().topology();
-  std::cout << "scene      " << scene.name << " (" << options.scene << ")\n"
+  std::cout << "scene      " << scene.name << " (" << source.sceneName << ")\n"
             << "steps      " << runner.numSteps() << " of " << scene.timeStep
-            << " s, t = " << runner.time() << " s\n"
+            << " s, t = " << runner.time() << " s" << (resumed ? " (resumed at step " + std::to_string(firstStep) + ")" : "")
+            << "\n"
             << "wall time  " << seconds << " s ("
-            << (seconds > 0 ? double(runner.numSteps()) / seconds : 0.0) << " steps/s)\n"
+            << (seconds > 0 ? double(stepsRun) / seconds : 0.0) << " steps/s)\n"
             << "final      " << topo.numPoints() << " points, " << topo.numEdges() << " edges, "
             << topo.numTriangles() << " triangles";
   if (const auto* b = runner.bendingField()) {
@@ -226,6 +240,7 @@ void runScene(const RunOptions& options) {
   std::cout << "solver     " << sim.integrator().name();
   if (const auto* ls = sim.integrator().linearSolver()) std::cout << " with " << ls->name();
   std::cout << ", " << solves.flaggedSteps << " flagged steps\n";
+  if (every > 0) std::cout << "checkpoint " << (outDir / kCheckpointName).string() << " (every " << every << " steps)\n";
   if (solves.flaggedSteps > 0) {
     std::ostringstream w;
     w << "warning: " << solves.flaggedSteps << " of " << runner.numSteps()
@@ -261,6 +276,124 @@ void runScene(const RunOptions& options) {
   }
 }
 
+/// The checks of --html and --dump-final before a run.
+void checkOutputOptions(const RunOptions& options, const core::Scene& scene) {
+  if ((options.htmlAuto || !options.html.empty()) && !scene.output.vtk)
+    throw InvalidInput("--html", "the scene writes no frames (its output has \"vtk\": false): the player has nothing to "
+                                 "show");
+  if (!options.dumpFinal.empty()) {
+    std::error_code ec;
+    if (std::filesystem::exists(options.dumpFinal, ec) && !std::filesystem::is_directory(options.dumpFinal, ec))
+      throw InvalidInput("--dump-final", options.dumpFinal + " is a file, not a folder");
+  }
+}
+
+std::vector<std::string> obstacleNamesOf(const core::Scene& scene) {
+  std::vector<std::string> names;
+  for (const auto& o : scene.obstacles) names.push_back(o.name);
+  return names;
+}
+
+void runScene(const RunOptions& options) {
+  if (options.steps != 0 && !isSofaScene(options.scene))
+    throw InvalidInput("--steps", "is for SOFA scenes (.scn); a JSON scene gives its duration");
+  RunSource source;
+  source.sceneName = options.scene;
+  source.checkpointEvery = options.checkpointEvery;
+  const core::Scene scene = [&] {
+    if (!isSofaScene(options.scene)) {
+      // Read once: the checkpoints hold the text the run was made from.
+      std::error_code ec;
+      if (std::filesystem::is_directory(options.scene, ec)) return core::loadScene(options.scene);  // its message
+      std::ifstream in(options.scene, std::ios::binary);
+      if (!in) return core::loadScene(options.scene);
+      std::ostringstream text;
+      text << in.rdbuf();
+      source.sceneText = text.str();
+      source.baseDir = std::filesystem::absolute(std::filesystem::path(options.scene)).parent_path();
+      return core::parseScene(source.sceneText, options.scene, std::filesystem::path(options.scene).parent_path());
+    }
+    core::SofaImportOptions o;
+    if (options.steps > 0) o.steps = options.steps;
+    const core::SofaSceneImport imported = core::importSofaScene(options.scene, o);
+    for (const std::string& n : imported.notes) std::cerr << n << "\n";
+    return core::sceneFromSofa(imported);
+  }();
+  const std::filesystem::path outDir = options.out.empty()
+                                           ? std::filesystem::path("out") / scene.name
+                                           : std::filesystem::path(options.out);
+
+  // What the run will make, checked before it starts: a scene that asks for days of work or
+  // millions of files says so now, not after.
+  const long steps = scene.numSteps();
+  const long frames = (scene.output.vtk || scene.output.obj) ? steps / scene.output.every + 2 : 0;
+  constexpr long kMaxSteps = 10'000'000, kMaxFrames = 100'000;
+  if (!options.allowLong && (steps > kMaxSteps || frames > kMaxFrames))
+    throw InvalidInput(options.scene, "the run would take " + std::to_string(steps) + " steps and write " +
+                                          std::to_string(frames) + " frames, more than the limits (10^7 steps, 10^5 "
+                                          "frames): raise output.every or the time step, or pass --allow-long");
+  checkOutputOptions(options, scene);
+  if (!options.quiet)
+    std::cerr << "running " << steps << " steps of " << scene.timeStep << " s"
+              << (frames ? ", " + std::to_string(frames - 1) + " frames at most" : std::string()) << ", into "
+              << outDir.string() << "\n";
+
+  const auto start = std::chrono::steady_clock::now();
+  core::SceneRunner runner(scene);
+  if (options.checkpointEvery > 0 || options.stopAfter > 0) {
+    const std::string why = whyNotCheckpointable(source, runner);
+    if (!why.empty())
+      throw InvalidInput(options.checkpointEvery > 0 ? "--checkpoint-every" : "--stop-after",
+                         "this run cannot be checkpointed: " + why);
+  }
+  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
+                            scene.contact.has_value(), obstacleNamesOf(scene));
+  if (writer.replacedFiles() > 0)
+    std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from " << outDir.string()
+              << "\n";
+  // What the player (cutsim view) shows of the scene: its name, description and "up".
+  if (scene.output.vtk) core::writeRunInfo(outDir, scene);
+  play(options, scene, source, runner, writer, outDir, false, start);
+}
+
+struct ResumeOptions {
+  std::string checkpoint;
+  RunOptions run;
+  bool everyGiven = false;
+};
+
+void resumeRun(const ResumeOptions& options) {
+  const std::filesystem::path file(options.checkpoint);
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    throw InvalidInput(file.string(), "is a folder: give its " + std::string(kCheckpointName));
+  topology::ArchiveReader in(file);
+  in.open("cutsim");
+  const std::string written = in.str();
+  RunSource source;
+  source.sceneText = in.str();
+  source.sceneName = in.str();
+  source.baseDir = in.str();
+  source.checkpointEvery = long(in.i64());
+  in.close();
+  if (written != core::version())
+    throw InvalidInput(file.string(), "written by cutsim " + written + ", this is cutsim " + core::version() +
+                                          ": a run resumes with the program that began it (its outputs would differ)");
+  if (options.everyGiven) source.checkpointEvery = options.run.checkpointEvery;
+  const core::Scene scene = core::parseScene(source.sceneText, source.sceneName, source.baseDir);
+  checkOutputOptions(options.run, scene);
+  const std::filesystem::path outDir = file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+  const auto start = std::chrono::steady_clock::now();
+  core::SceneRunner runner(scene, in);
+  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(), scene.contact.has_value(),
+                            obstacleNamesOf(scene), in);
+  if (!options.run.quiet)
+    std::cerr << "resuming " << source.sceneName << " at step " << runner.currentStep() << " of " << runner.numSteps()
+              << " (t = " << runner.time() << " s), into " << outDir.string() << "\n";
+  if (scene.output.vtk) core::writeRunInfo(outDir, scene);
+  play(options.run, scene, source, runner, writer, outDir, true, start);
+}
+
 }  // namespace
 
 void registerRunCommand(CLI::App& app) {
@@ -279,6 +412,14 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_option("--html", options->html,
                   "also write the run's player page (as cutsim view) to this file; --html alone: OUT/player.html")
       ->expected(0, 1);
+  cmd->add_option("--checkpoint-every", options->checkpointEvery,
+                  "write OUT/checkpoint.ckpt every N steps (a stop by SIGINT or SIGTERM writes one too); "
+                  "cutsim resume continues from it")
+      ->check(CLI::Range(1L, 1000000000L));
+  cmd->add_option("--stop-after", options->stopAfter,
+                  "stop after this step as SIGINT would (a checkpoint, the outputs marked partial), exit code 0: "
+                  "a run made in parts")
+      ->check(CLI::Range(1L, 1000000000L));
   CLI::Option* html = cmd->get_option("--html");
   cmd->callback([options, html] {
     options->htmlAuto = html->count() > 0;
@@ -288,6 +429,35 @@ void registerRunCommand(CLI::App& app) {
         throw InvalidInput("--html", options->html + " is a folder, not a file");
     }
     runScene(*options);
+  });
+}
+
+void registerResumeCommand(CLI::App& app) {
+  auto options = std::make_shared<ResumeOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "resume", "Continue a run from its checkpoint (OUT/checkpoint.ckpt) into the same folder: the outputs are those "
+                "of the run made without a stop");
+  cmd->add_option("checkpoint", options->checkpoint, "the checkpoint file (OUT/checkpoint.ckpt)")->required();
+  cmd->add_option("--dump-final", options->run.dumpFinal,
+                  "also write final_rest.obj, final.obj and final_forces.json in this folder");
+  cmd->add_flag("--quiet", options->run.quiet, "no progress display (the summary is still printed)");
+  cmd->add_option("--html", options->run.html,
+                  "also write the run's player page (as cutsim view) to this file; --html alone: OUT/player.html")
+      ->expected(0, 1);
+  CLI::Option* every = cmd->add_option("--checkpoint-every", options->run.checkpointEvery,
+                                       "a checkpoint every N steps (default: as the run did)")
+                           ->check(CLI::Range(1L, 1000000000L));
+  cmd->add_option("--stop-after", options->run.stopAfter,
+                  "stop after this step as SIGINT would (a checkpoint, the outputs marked partial), exit code 0: "
+                  "a run made in parts")
+      ->check(CLI::Range(1L, 1000000000L));
+  CLI::Option* html = cmd->get_option("--html");
+  cmd->callback([options, html, every] {
+    options->run.htmlAuto = html->count() > 0;
+    options->everyGiven = every->count() > 0;
+    if (options->run.htmlAuto && !options->run.html.empty() && std::filesystem::is_directory(options->run.html))
+      throw InvalidInput("--html", options->run.html + " is a folder, not a file");
+    resumeRun(*options);
   });
 }
 

@@ -27,6 +27,8 @@ void registerEvalCommand(CLI::App& app);
 /// `cutsim run SCENE [--out DIR] [--dump-final DIR] [--quiet]`: runs a scene file
 /// (src/cli/cmd_run.cpp).
 void registerRunCommand(CLI::App& app);
+/// `cutsim resume CHECKPOINT`: continues a run from OUT/checkpoint.ckpt (src/cli/cmd_run.cpp).
+void registerResumeCommand(CLI::App& app);
 
 /// `cutsim components [KIND]`: the registered force fields, integrators and linear solvers with
 /// their keys (src/cli/cmd_components.cpp).

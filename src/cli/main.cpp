@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   cutsim::cli::registerInfoCommand(app);
   cutsim::cli::registerEvalCommand(app);
   cutsim::cli::registerRunCommand(app);
+  cutsim::cli::registerResumeCommand(app);
   cutsim::cli::registerComponentsCommand(app);
   cutsim::cli::registerViewCommand(app);
   cutsim::cli::registerImportCommand(app);

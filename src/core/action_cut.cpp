@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "cutsim/core/timeline.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
@@ -62,6 +63,30 @@ class CutAction final : public TimelineAction {
     minPiece_ = 0.5 * c.meanRestEdge();
     started_ = true;
     afterStep(c);
+  }
+
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override {
+    out.f64(done_);
+    out.boolean(started_);
+    out.boolean(finished_);
+    out.f64(minPiece_);
+    out.boolean(tip_.has_value());
+    if (tip_) out.raw(tip_->data(), sizeof(double) * 3);
+  }
+  void loadState(topology::ArchiveReader& in) override {
+    done_ = in.f64();
+    started_ = in.boolean();
+    finished_ = in.boolean();
+    minPiece_ = in.f64();
+    tip_.reset();
+    if (in.boolean()) {
+      Vec3 t;
+      in.raw(t.data(), sizeof(double) * 3);
+      tip_ = t;
+    }
+    if (!(done_ >= 0 && done_ <= arc_.back()) || !std::isfinite(minPiece_))
+      in.fail("a progressive cut's progress of " + std::to_string(done_) + " along " + std::to_string(arc_.back()));
   }
 
   void afterStep(ActionContext& c) override {

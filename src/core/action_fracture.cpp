@@ -26,6 +26,7 @@
 #include <unordered_set>
 
 #include "cutsim/core/timeline.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
@@ -120,6 +121,32 @@ class FractureAction final : public TimelineAction {
     }
     tips_ = std::move(found);
     revision_ = t.revision();
+  }
+
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override {
+    out.boolean(on_);
+    out.f64(piece_);
+    out.u64(revision_);
+    out.u64(tips_.size());
+    for (const Tip& t : tips_) {
+      out.u64(t.point);
+      out.raw(t.direction.data(), sizeof(double) * 3);
+      out.f64(t.budget);
+    }
+  }
+  void loadState(topology::ArchiveReader& in) override {
+    on_ = in.boolean();
+    piece_ = in.f64();
+    revision_ = in.u64();
+    const std::uint64_t n = in.u64();
+    if (n > in.remaining()) in.fail("fracture: a count of " + std::to_string(n) + " crack tips");
+    tips_.assign(n, Tip{});
+    for (Tip& t : tips_) {
+      t.point = PointId(topology::Index(in.u64()));
+      in.raw(t.direction.data(), sizeof(double) * 3);
+      t.budget = in.f64();
+    }
   }
 
   void afterStep(ActionContext& c) override {

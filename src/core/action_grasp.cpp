@@ -19,6 +19,7 @@ void checkIds(DryRunContext& c, const PointSelection& sel) {
 class GraspAction final : public TimelineAction {
  public:
   explicit GraspAction(GraspParameters p) : p_(std::move(p)) {}
+  bool checkpointable() const override { return true; }  // done once started
   void dryRun(DryRunContext& c) const override {
     if (c.activeGrasps().count(p_.name)) c.fail("name", "a grasp named \"" + p_.name + "\" is already active");
     checkIds(c, p_.selection);
@@ -56,6 +57,7 @@ class GraspAction final : public TimelineAction {
 class ReleaseAction final : public TimelineAction {
  public:
   explicit ReleaseAction(ReleaseParameters p) : p_(std::move(p)) {}
+  bool checkpointable() const override { return true; }  // done once started
   void dryRun(DryRunContext& c) const override {
     if (!c.activeGrasps().erase(p_.name))
       c.fail("name", "no grasp named \"" + p_.name + "\" is active at that time");

@@ -8,6 +8,7 @@ namespace {
 class RemoveAction final : public TimelineAction {
  public:
   explicit RemoveAction(RemoveParameters p) : p_(p) {}
+  bool checkpointable() const override { return true; }  // done once started
   void dryRun(DryRunContext& c) const override {
     const std::string key = p_.region.kind == Region::Kind::Sphere ? "sphere" : "box";
     topology::RepairOptions repair;

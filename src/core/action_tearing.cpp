@@ -1,6 +1,7 @@
 // The "tearing" action: from its time on, after each step, tears the interior edges whose two
 // triangles are both strained across the edge above a threshold, the most strained first.
 #include "cutsim/core/timeline.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "tearing.hpp"
 
 namespace cutsim::core {
@@ -12,6 +13,9 @@ class TearingAction final : public TimelineAction {
   void dryRun(DryRunContext&) const override {}
   bool rehearsed() const override { return false; }  // at rest nothing tears
   void start(ActionContext&) override { on_ = true; }
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override { out.boolean(on_); }
+  void loadState(topology::ArchiveReader& in) override { on_ = in.boolean(); }
   void afterStep(ActionContext& c) override {
     if (!on_) return;
     Simulation& sim = c.simulation();

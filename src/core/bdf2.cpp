@@ -1,5 +1,6 @@
 // Second-order backward differentiation, linearised once per step (integrator.hpp).
 #include "cutsim/core/integrator.hpp"
+#include "cutsim/topology/archive.hpp"
 
 namespace cutsim::core {
 
@@ -93,4 +94,27 @@ namespace {
 const bool registered =
     registerImplicitIntegrator<BDF2>("bdf2", "second-order backward differentiation, linearised once per step (Choi and Ko)");
 }  // namespace
+
+void BDF2::saveState(topology::ArchiveWriter& out) const {
+  ImplicitIntegrator::saveState(out);
+  for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_})
+    out.f64s(std::span<const double>(v->data(), std::size_t(v->size())));
+  out.f64(dtLast_);
+  out.u64(revision_);
+  out.boolean(have_);
+  out.i64(restarts_);
+}
+
+void BDF2::loadState(topology::ArchiveReader& in) {
+  ImplicitIntegrator::loadState(in);
+  for (Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) {
+    const std::vector<double> a = in.f64s();
+    *v = Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
+  }
+  dtLast_ = in.f64();
+  revision_ = in.u64();
+  have_ = in.boolean();
+  restarts_ = long(in.i64());
+}
+
 }  // namespace cutsim::core

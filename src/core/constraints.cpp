@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "checkpoint_io.hpp"
+
 #include "cutsim/topology/errors.hpp"
 
 namespace cutsim::core {
@@ -123,6 +125,17 @@ Vec3 Grasp::target(PointId p, double t) const {
   Vec3 d = path_.at(t - start_);
   const Vec3& a = points_.data(p);
   return {a[0] + d[0], a[1] + d[1], a[2] + d[2]};
+}
+
+void PointSet::saveState(topology::ArchiveWriter& out) const {
+  checkpoint::saveValues(out, flags_.values());
+  checkpoint::saveValues(out, data_.values());
+}
+void PointSet::loadState(topology::ArchiveReader& in) {
+  checkpoint::loadValues(in, flags_.values(), name_ + ": members");
+  checkpoint::loadValues(in, data_.values(), name_ + ": data");
+  count_ = 0;
+  for (char f : flags_.values()) count_ += f ? 1 : 0;
 }
 
 }  // namespace cutsim::core

@@ -1,6 +1,7 @@
 // What the integrators share: step flags, the failure policy, the implicit base, the shorthand
 // settings of the first scenes (integrator.hpp).
 #include "cutsim/core/integrator.hpp"
+#include "cutsim/topology/archive.hpp"
 
 #include <cmath>
 #include <sstream>
@@ -217,6 +218,25 @@ ImplicitSettings readImplicitSettings(const ParameterSource& s) {
                                 std::string(toString(p.onSolveFailure)) + "\")");
   s.check([&] { p.validate(); });
   return p;
+}
+
+
+void ImplicitIntegrator::saveState(topology::ArchiveWriter& out) const {
+  out.str(solver_->name());
+  solver_->saveState(out);
+  out.boolean(fallback_ != nullptr);
+  if (fallback_) fallback_->saveState(out);
+}
+
+void ImplicitIntegrator::loadState(topology::ArchiveReader& in) {
+  const std::string name = in.str();
+  if (name != solver_->name())
+    in.fail("the saved linear solver is " + name + ", the scene's " + std::string(solver_->name()));
+  solver_->loadState(in);
+  if (in.boolean()) {
+    fallback_ = std::make_unique<CholmodSolver>();
+    fallback_->loadState(in);
+  }
 }
 
 }  // namespace cutsim::core

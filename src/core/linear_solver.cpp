@@ -1,5 +1,6 @@
 // SystemOperator and the Jacobi-preconditioned conjugate gradients (linear_solver.hpp).
 #include "cutsim/core/linear_solver.hpp"
+#include "cutsim/topology/archive.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -180,4 +181,18 @@ const bool registered = LinearSolverRegistry::instance().add({
       return std::make_unique<ConjugateGradient>(std::any_cast<const CGSettings&>(p));
     }});
 }  // namespace
+
+namespace {
+void saveVector(topology::ArchiveWriter& out, const Eigen::VectorXd& v) {
+  out.f64s(std::span<const double>(v.data(), std::size_t(v.size())));
+}
+Eigen::VectorXd loadVector(topology::ArchiveReader& in) {
+  const std::vector<double> a = in.f64s();
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
+}
+}  // namespace
+
+void ConjugateGradient::saveState(topology::ArchiveWriter& out) const { saveVector(out, warm_); }
+void ConjugateGradient::loadState(topology::ArchiveReader& in) { warm_ = loadVector(in); }
+
 }  // namespace cutsim::core

@@ -1,5 +1,6 @@
 // CholmodSolver: supernodal Cholesky of the system assembled in place (linear_solver.hpp).
 #include <dlfcn.h>
+#include "cutsim/topology/archive.hpp"
 
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCore>
@@ -42,6 +43,11 @@ struct CholmodSolver::Impl {
   int solvesOnPattern = 0;
   bool analysed = false;
   long analyses = 0;
+  // Restored from a checkpoint: the pattern the saved solver kept (built again at the next
+  // solve, in the same ordering, when the topology is still the one it was built for).
+  bool restored = false;
+  SystemMatrix::Ordering restoredOrdering = SystemMatrix::Ordering::NestedDissection;
+  std::size_t restoredSlots = 0;
 };
 
 CholmodSolver::CholmodSolver(CholmodSettings settings)
@@ -59,19 +65,30 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
   const SystemMatrix::Fields fl(A.fields().begin(), A.fields().end());
   // The pattern follows the topology and the list of fields; a field that adds a block outside
   // it (it should not) gets the pattern rediscovered, once.
-  bool rebuild = !S.system.built() || S.revision != A.revision() || S.fields != fl ||
-                 S.system.numSlots() != n;
+  using Ordering = SystemMatrix::Ordering;
+  // A restored solver decides as the saved one would have, with the pattern it kept.
+  const bool built = S.system.built() || S.restored;
+  const Ordering kept = S.restored ? S.restoredOrdering : S.system.ordering();
+  bool rebuild = S.restored ? (S.revision != A.revision() || S.restoredSlots != n)
+                            : (!S.system.built() || S.revision != A.revision() || S.fields != fl ||
+                               S.system.numSlots() != n);
   // Nested dissection costs more to compute but factorises faster: worth it for a pattern that
   // lasts. A pattern that lasted only a few solves (a progressive cut) is followed by
   // minimum-degree ones, until one of those has lasted long enough to be worth reordering.
-  using Ordering = SystemMatrix::Ordering;
   Ordering ordering = Ordering::NestedDissection;
-  if (rebuild && S.system.built() && S.solvesOnPattern < settings_.shortLivedPattern)
+  if (rebuild && built && S.solvesOnPattern < settings_.shortLivedPattern)
     ordering = Ordering::MinimumDegree;
-  if (!rebuild && S.system.ordering() == Ordering::MinimumDegree && S.solvesOnPattern >= settings_.reorderAfter)
+  if (!rebuild && kept == Ordering::MinimumDegree && S.solvesOnPattern >= settings_.reorderAfter)
     rebuild = true;
   if (rebuild) S.solvesOnPattern = 0;
   ++S.solvesOnPattern;
+  if (S.restored && !rebuild) {
+    // The kept pattern, built again in its ordering (its age goes on).
+    S.system.build(fl, A.x(), n, kept);
+    S.fields = fl;
+    S.analysed = false;
+  }
+  S.restored = false;
   for (int attempt = 0;; ++attempt) {
     if (rebuild) {
       S.system.build(fl, A.x(), n, ordering);
@@ -167,4 +184,25 @@ const bool registered = LinearSolverRegistry::instance().add({
       return std::make_unique<CholmodSolver>(std::any_cast<const CholmodSettings&>(p));
     }});
 }  // namespace
+void CholmodSolver::saveState(topology::ArchiveWriter& out) const {
+  const Impl& S = *impl_;
+  const bool built = S.system.built() || S.restored;
+  out.boolean(built);
+  out.u64(S.restored ? std::uint64_t(S.restoredOrdering) : std::uint64_t(S.system.ordering()));
+  out.u64(S.revision);
+  out.u64(S.restored ? S.restoredSlots : (S.system.built() ? S.system.numSlots() : 0));
+  out.i64(S.solvesOnPattern);
+}
+
+void CholmodSolver::loadState(topology::ArchiveReader& in) {
+  Impl& S = *impl_;
+  S.restored = in.boolean();
+  const std::uint64_t ordering = in.u64();
+  if (ordering > 1) in.fail("cholmod: an ordering of " + std::to_string(ordering));
+  S.restoredOrdering = SystemMatrix::Ordering(ordering);
+  S.revision = in.u64();
+  S.restoredSlots = std::size_t(in.u64());
+  S.solvesOnPattern = int(in.i64());
+}
+
 }  // namespace cutsim::core

@@ -1,5 +1,6 @@
 // SOFA's CGLinearSolver, step for step (linear_solver.hpp).
 #include <cmath>
+#include "cutsim/topology/archive.hpp"
 
 #include "cutsim/core/linear_solver.hpp"
 #include "cutsim/forcefields/parameters.hpp"
@@ -109,4 +110,19 @@ const bool registered = LinearSolverRegistry::instance().add({
       return std::make_unique<SofaConjugateGradient>(std::any_cast<const SofaCGSettings&>(p));
     }});
 }  // namespace
+
+namespace {
+void saveVector(topology::ArchiveWriter& out, const Eigen::VectorXd& v) {
+  out.f64s(std::span<const double>(v.data(), std::size_t(v.size())));
+}
+Eigen::VectorXd loadVector(topology::ArchiveReader& in) {
+  const std::vector<double> a = in.f64s();
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
+}
+}  // namespace
+
+// (lastStop() describes the last solve only: not kept.)
+void SofaConjugateGradient::saveState(topology::ArchiveWriter& out) const { saveVector(out, warm_); }
+void SofaConjugateGradient::loadState(topology::ArchiveReader& in) { warm_ = loadVector(in); }
+
 }  // namespace cutsim::core

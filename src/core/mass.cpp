@@ -1,6 +1,8 @@
 #include "cutsim/core/mass.hpp"
 
 #include <cmath>
+
+#include "checkpoint_io.hpp"
 #include <numeric>
 
 #include "cutsim/forcefields/parameters.hpp"
@@ -91,6 +93,18 @@ void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>&
     if (std::abs(mass_[p] - expected[p]) > 1e-9 * scale)
       problems.push_back("point " + std::to_string(p) + ": mass " + std::to_string(mass_[p]) +
                          " != rebuilt " + std::to_string(expected[p]));
+}
+
+void LumpedMass::saveState(topology::ArchiveWriter& out) const {
+  out.f64(density_);
+  checkpoint::saveValues(out, mass_.values());
+  checkpoint::saveValues(out, triangleArea_.values());
+}
+void LumpedMass::loadState(topology::ArchiveReader& in) {
+  density_ = in.f64();
+  if (!(density_ >= 0) || !std::isfinite(density_)) in.fail("mass: a density of " + std::to_string(density_));
+  checkpoint::loadValues(in, mass_.values(), "masses");
+  checkpoint::loadValues(in, triangleArea_.values(), "triangle areas");
 }
 
 }  // namespace cutsim::core

@@ -1,6 +1,8 @@
 // Model: topology, state, mass, force fields, gravity and constraints (model.hpp).
 #include "cutsim/core/model.hpp"
 
+#include "cutsim/topology/archive.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -177,6 +179,98 @@ std::vector<double> Model::totalForce() const {
       for (int c = 0; c < 3; ++c) f[3 * p + c] += m[p] * gravity_[c];
   }
   return f;
+}
+
+std::vector<std::string> Model::notCheckpointable() const {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < fields_.size(); ++i)
+    if (!fields_[i]->checkpointable()) out.push_back(labels_[i] + " (" + fields_[i]->typeName() + ")");
+  return out;
+}
+
+void Model::saveState(topology::ArchiveWriter& out) const {
+  out.begin("state");
+  state_->saveState(out);
+  out.begin("mass");
+  out.boolean(mass_ != nullptr);
+  if (mass_) mass_->saveState(out);
+  out.begin("fixed");
+  fixed_->saveState(out);
+  out.begin("grasps");
+  out.u64(grasps_.size());
+  for (const auto& g : grasps_) {
+    out.str(g->name());
+    out.f64(g->startTime());
+    out.f64s(g->path().times);
+    out.u64(g->path().displacements.size());
+    for (const Vec3& d : g->path().displacements) out.raw(d.data(), sizeof(double) * 3);
+    out.raw(g->reaction().data(), sizeof(double) * 3);
+    g->points().saveState(out);
+  }
+  for (std::size_t i = 0; i < fields_.size(); ++i) {
+    out.begin("field" + std::to_string(i));
+    out.str(fields_[i]->typeName());
+    fields_[i]->saveState(out);
+  }
+}
+
+void Model::loadState(topology::ArchiveReader& in) {
+  std::vector<std::string> problems;
+  auto check = [&](const char* what) {
+    if (!problems.empty()) in.fail(std::string(what) + ": " + problems.front());
+  };
+  in.open("state");
+  state_->loadState(in);
+  in.close();
+  for (double v : state_->x())
+    if (!std::isfinite(v)) in.fail("a position is not finite");
+  for (double v : state_->v())
+    if (!std::isfinite(v)) in.fail("a velocity is not finite");
+  in.open("mass");
+  if (in.boolean() != (mass_ != nullptr)) in.fail("the saved simulation and the scene differ in having a mass");
+  if (mass_) mass_->loadState(in);
+  in.close();
+  if (mass_) mass_->validate(*topology_, problems);
+  check("mass");
+  in.open("fixed");
+  fixed_->loadState(in);
+  in.close();
+  fixed_->validate(*topology_, problems);
+  check("fixed points");
+  in.open("grasps");
+  grasps_.clear();
+  const std::uint64_t n = in.u64();
+  if (n > in.remaining()) in.fail("grasps: a count of " + std::to_string(n));
+  for (std::uint64_t k = 0; k < n; ++k) {
+    const std::string name = in.str();
+    const double start = in.f64();
+    DisplacementPath path;
+    path.times = in.f64s();
+    const std::uint64_t m = in.u64();
+    if (m != path.times.size()) in.fail("grasp '" + name + "': its path's times and displacements differ in number");
+    path.displacements.resize(m);
+    for (Vec3& d : path.displacements) in.raw(d.data(), sizeof(double) * 3);
+    Vec3 reaction;
+    in.raw(reaction.data(), sizeof(double) * 3);
+    try {
+      grasps_.push_back(std::make_unique<Grasp>(*topology_, name, start, std::move(path)));
+    } catch (const InvalidInput& e) {
+      in.fail(e.what());
+    }
+    grasps_.back()->setReaction(reaction);
+    grasps_.back()->points().loadState(in);
+    grasps_.back()->points().validate(*topology_, problems);
+    check("grasps");
+  }
+  in.close();
+  for (std::size_t i = 0; i < fields_.size(); ++i) {
+    in.open("field" + std::to_string(i));
+    const std::string type = in.str();
+    if (type != fields_[i]->typeName())
+      in.fail("force field " + std::to_string(i) + " was a " + type + ", the scene's is a " + fields_[i]->typeName());
+    fields_[i]->loadState(in);
+    in.close();
+  }
 }
 
 }  // namespace cutsim::core

@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <optional>
+#include <zlib.h>
 
 #include <array>
 #include <charconv>
@@ -20,6 +22,7 @@
 
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "tearing.hpp"
 
@@ -391,15 +394,7 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
   }
   // One run at a time in a folder; what an earlier run left there goes, so that its frames and
   // CSV cannot be mistaken for this run's.
-  const std::filesystem::path lock = dir_ / ".cutsim.lock";
-  lockFd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (lockFd_ < 0) throw Error("cannot create " + lock.string() + ": " + std::strerror(errno));
-  if (::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
-    ::close(lockFd_);
-    lockFd_ = -1;
-    throw Error("another run is writing into the output folder " + dir_.string() +
-                " (give this one another --out folder)");
-  }
+  lockFolder();
   for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
     if (!entry.is_regular_file(ec) || !isRunOutput(entry.path().filename().string())) continue;
     if (std::filesystem::remove(entry.path(), ec)) ++replaced_;
@@ -413,6 +408,187 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
   }
 }
 
+void OutputWriter::lockFolder() {
+  const std::filesystem::path lock = dir_ / ".cutsim.lock";
+  lockFd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lockFd_ < 0) throw Error("cannot create " + lock.string() + ": " + std::strerror(errno));
+  if (::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(lockFd_);
+    lockFd_ = -1;
+    throw Error("another run is writing into the output folder " + dir_.string() +
+                " (give this one another --out folder)");
+  }
+}
+
+namespace {
+using Frames = std::vector<std::pair<double, std::string>>;
+void saveFrames(topology::ArchiveWriter& out, const Frames& frames) {
+  out.u64(frames.size());
+  for (const auto& [t, name] : frames) {
+    out.f64(t);
+    out.str(name);
+  }
+}
+Frames loadFrames(topology::ArchiveReader& in) {
+  const std::uint64_t n = in.u64();
+  if (n > in.remaining()) in.fail("output: a count of " + std::to_string(n) + " frames");
+  Frames frames(n);
+  for (auto& [t, name] : frames) {
+    t = in.f64();
+    name = in.str();
+    if (name.empty() || name.find('/') != std::string::npos || !OutputWriter::isRunOutput(name))
+      in.fail("output: \"" + name + "\" is not the name of a frame");
+  }
+  return frames;
+}
+/// CRC-32 of the `n` bytes of `file` before `end` ("" if the file is shorter).
+std::optional<std::uint32_t> tailChecksum(const std::filesystem::path& file, std::uint64_t end, std::uint64_t n) {
+  std::ifstream f(file, std::ios::binary);
+  if (!f) return std::nullopt;
+  std::string bytes(n, '\0');
+  f.seekg(std::streamoff(end - n));
+  if (!f.read(bytes.data(), std::streamsize(n))) return std::nullopt;
+  return std::uint32_t(::crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), uInt(n)));
+}
+/// The number of a frame file ("surface_000012.vtp": 12), if the name has one.
+std::optional<std::size_t> frameNumber(const std::string& name) {
+  const std::size_t dot = name.rfind('.'), bar = name.rfind('_', dot);
+  if (dot == std::string::npos || bar == std::string::npos || dot - bar != 7) return std::nullopt;
+  std::size_t n = 0;
+  for (std::size_t i = bar + 1; i < dot; ++i) {
+    if (!std::isdigit(static_cast<unsigned char>(name[i]))) return std::nullopt;
+    n = 10 * n + std::size_t(name[i] - '0');
+  }
+  return n;
+}
+constexpr std::uint64_t kCsvTail = 4096;
+}  // namespace
+
+void OutputWriter::saveState(topology::ArchiveWriter& out) {
+  out.begin("output");
+  saveFrames(out, surfaceFrames_);
+  saveFrames(out, borderFrames_);
+  saveFrames(out, obstacleFrames_);
+  out.u64(networkFrames_.size());
+  for (const auto& [series, frames] : networkFrames_) {
+    out.str(series);
+    saveFrames(out, frames);
+  }
+  out.u64(originalBorder_.segments.size());
+  for (const auto& s : originalBorder_.segments)
+    for (const Vec3& p : s) out.raw(p.data(), sizeof(double) * 3);
+  out.i64(lastFrameStep_);
+  out.u64(nextPartial_);
+  out.boolean(settings_.csv);
+  if (settings_.csv) {
+    csv_.flush();
+    if (!csv_) throw Error("cannot write " + csvTemp_.string());
+    const std::uint64_t length = std::uint64_t(csv_.tellp());
+    const std::uint64_t n = std::min(kCsvTail, length);
+    const auto crc = tailChecksum(csvTemp_, length, n);
+    if (!crc) throw Error("cannot read back " + csvTemp_.string());
+    out.u64(length);
+    out.u64(*crc);
+  }
+}
+
+OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
+                           std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames,
+                           topology::ArchiveReader& in)
+    : dir_(std::move(dir)),
+      settings_(settings),
+      labels_(std::move(fieldLabels)),
+      grasps_(std::move(graspNames)),
+      contact_(contact),
+      obstacles_(std::move(obstacleNames)) {
+  in.open("output");
+  surfaceFrames_ = loadFrames(in);
+  borderFrames_ = loadFrames(in);
+  obstacleFrames_ = loadFrames(in);
+  const std::uint64_t series = in.u64();
+  if (series > in.remaining()) in.fail("output: a count of " + std::to_string(series) + " series");
+  for (std::uint64_t k = 0; k < series; ++k) {
+    const std::string name = in.str();
+    networkFrames_[name] = loadFrames(in);
+  }
+  const std::uint64_t segments = in.u64();
+  if (segments > in.remaining() / (6 * sizeof(double))) in.fail("output: a count of " + std::to_string(segments) + " border segments");
+  originalBorder_.segments.resize(segments);
+  for (auto& s : originalBorder_.segments)
+    for (Vec3& p : s) in.raw(p.data(), sizeof(double) * 3);
+  lastFrameStep_ = long(in.i64());
+  nextPartial_ = std::size_t(in.u64());
+  const bool csv = in.boolean();
+  if (csv != settings_.csv) in.fail("output: the saved run and the scene differ in writing a CSV");
+  std::uint64_t length = 0, crc = 0;
+  if (csv) {
+    length = in.u64();
+    crc = in.u64();
+  }
+  in.close();
+
+  if (!std::filesystem::is_directory(dir_))
+    throw Error("cannot resume into " + dir_.string() + ": the folder of the run is gone");
+  lockFolder();
+  // Every frame up to the checkpoint must be there.
+  std::vector<std::string> missing;
+  auto need = [&](const Frames& frames) {
+    for (const auto& f : frames)
+      if (!std::filesystem::exists(dir_ / f.second)) missing.push_back(f.second);
+  };
+  need(surfaceFrames_);
+  need(borderFrames_);
+  need(obstacleFrames_);
+  for (const auto& [name, frames] : networkFrames_) need(frames);
+  if (!missing.empty())
+    throw Error("cannot resume into " + dir_.string() + ": " + std::to_string(missing.size()) +
+                " frames of the run up to the checkpoint are missing (" + missing.front() + ", ...)");
+  // The CSV up to the checkpoint: the one being written, a partial one, or a finished one.
+  if (settings_.csv) {
+    csvTemp_ = dir_ / ".steps.csv.tmp";
+    std::filesystem::path found;
+    const std::string header = csvHeader() + '\n';
+    for (const char* name : {".steps.csv.tmp", "steps.partial.csv", "steps.csv"}) {
+      const std::filesystem::path p = dir_ / name;
+      std::error_code ec;
+      const auto size = std::filesystem::file_size(p, ec);
+      if (ec || size < length || length < header.size()) continue;
+      const auto tail = tailChecksum(p, length, std::min(kCsvTail, length));
+      std::string first(header.size(), '\0');
+      std::ifstream f(p, std::ios::binary);
+      if (!tail || *tail != crc || !f.read(first.data(), std::streamsize(first.size())) || first != header) continue;
+      found = p;
+      break;
+    }
+    if (found.empty())
+      throw Error("cannot resume into " + dir_.string() + ": no steps.csv, steps.partial.csv or .steps.csv.tmp there holds "
+                  "the run's rows up to the checkpoint (" + std::to_string(length) + " bytes)");
+    std::error_code ec;
+    std::filesystem::resize_file(found, length, ec);
+    if (!ec && found != csvTemp_) std::filesystem::rename(found, csvTemp_, ec);
+    if (ec) throw Error("cannot resume the CSV " + found.string() + ": " + ec.message());
+    csv_.open(csvTemp_, std::ios::binary | std::ios::app);
+    if (!csv_) throw Error("cannot open " + csvTemp_.string());
+  }
+  // What the run wrote after the checkpoint, and every collection (written again at the end).
+  const std::size_t frames = surfaceFrames_.size();
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_regular_file(ec) || !isRunOutput(name) || name == ".steps.csv.tmp" || name == "checkpoint.ckpt" ||
+        name == "run.json")
+      continue;
+    const auto number = frameNumber(name);
+    const bool later = number && *number >= frames;
+    const bool stale = name == "steps.csv" || name == "steps.partial.csv" || name.ends_with(".pvd") ||
+                       name == "player.html" || name == "player.png" || (name.front() == '.' && name.ends_with(".tmp"));
+    if (later || stale) {
+      std::error_code removeError;
+      if (std::filesystem::remove(entry.path(), removeError)) ++replaced_;
+    }
+  }
+}
+
 OutputWriter::~OutputWriter() {
   if (lockFd_ >= 0) ::close(lockFd_);  // releases the folder's lock
 }
@@ -423,7 +599,8 @@ bool OutputWriter::isRunOutput(const std::string& name) {
     return name.size() >= n && name.compare(name.size() - n, n, suffix) == 0;
   };
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
-  if (name == "steps.csv" || name == "steps.partial.csv" || name == ".steps.csv.tmp" || name == "run.json")
+  if (name == "steps.csv" || name == "steps.partial.csv" || name == ".steps.csv.tmp" || name == "run.json" ||
+      name == "checkpoint.ckpt")
     return true;
   if (name == "player.html" || name == "player.png") return true;  // cutsim view's, of the earlier run
   if (ends(".pvd")) return true;  // the collections, final or partial

@@ -7,6 +7,7 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/topology/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
 
@@ -81,9 +82,8 @@ void SceneRunner::rehearseTimeline(const Scene& scene) {
   while (r.step_ < steps) r.stepOnce();
 }
 
-void SceneRunner::build(bool physics) {
-  const topology::MeshData mesh = scene_.mesh();
-  auto topo = std::make_unique<topology::Topology>(mesh);
+void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) {
+  if (!topo) topo = std::make_unique<topology::Topology>(scene_.mesh());
   const MassLaw mass = scene_.massLaw(*topo);
   // Mean rest edge length: the smallest piece a progressive cut makes is half of it.
   double edgeSum = 0;
@@ -151,6 +151,7 @@ void SceneRunner::setTimeStep(double dt) {
 }
 
 void SceneRunner::schedule(ActionSpec action) {
+  edited_ = true;
   const double begins = action.startTime();
   auto at = std::upper_bound(scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), begins,
                              [](double t, const std::unique_ptr<ActionSpec>& a) { return t < a->startTime(); });
@@ -162,6 +163,7 @@ void SceneRunner::schedule(ActionSpec action) {
 }
 
 void SceneRunner::replaceForceField(std::size_t i, const ForceFieldSpec& spec) {
+  edited_ = true;
   const auto* entry = forcefields::ForceFieldRegistry::instance().find(spec.type);
   if (!entry) throw InvalidInput(spec.location.where(scene_.file.string()), "unknown force field type \"" + spec.type + "\"");
   if (i >= scene_.forceFields.size())
@@ -176,6 +178,7 @@ void SceneRunner::replaceForceField(std::size_t i, const ForceFieldSpec& spec) {
 }
 
 void SceneRunner::applyConstraint(const ConstraintSpec& constraint) {
+  edited_ = true;
   const auto* entry = ConstraintRegistry::instance().find(constraint.type);
   if (!entry) throw InvalidInput(constraint.location.where(scene_.file.string()), "unknown constraint type \"" + constraint.type + "\"");
   entry->build(constraint.parameters)->apply(*sim_);
@@ -254,6 +257,85 @@ void SceneRunner::runDueActions(double t) {
     }
   }
   throwFailures(failures);
+}
+
+// ---- checkpoints ----
+
+std::vector<std::string> SceneRunner::notCheckpointable() const {
+  std::vector<std::string> out;
+  if (rehearsal_) out.push_back("a rehearsal");
+  for (const std::string& s : sim_->notCheckpointable()) out.push_back(s);
+  for (const ActionSpec& a : scene_.timeline)
+    if (!a.build()->checkpointable()) out.push_back("the " + a.type + " action (" + a.location.pointer + ")");
+  if (edited_) out.push_back("changes made while running (actions given, force fields replaced, constraints applied)");
+  return out;
+}
+
+void SceneRunner::save(topology::ArchiveWriter& out) const {
+  const std::vector<std::string> missing = notCheckpointable();
+  if (!missing.empty()) {
+    std::string list;
+    for (const std::string& m : missing) list += (list.empty() ? "" : ", ") + m;
+    throw Error("checkpoints: this run cannot be saved: " + list + " cannot be");
+  }
+  sim_->topology().save(out);
+  sim_->saveState(out);
+  out.begin("runner");
+  out.i64(step_);
+  out.i64(numSteps_);
+  out.u64(nextAction_);
+  out.boolean(started_);
+  out.f64(timeStep_);
+  out.i64(stepBase_);
+  out.f64(timeBase_);
+  out.f64(meanEdge_);
+  out.i64(tornEdges_);
+  out.i64(cutsDone_);
+  out.u64(running_.size());
+  for (const Running& r : running_) {
+    out.u64(std::uint64_t(r.spec - scene_.timeline.data()));
+    out.str(r.spec->type);
+    r.action->saveState(out);
+  }
+}
+
+SceneRunner::SceneRunner(const Scene& scene, topology::ArchiveReader& in)
+    : scene_(scene), context_(std::make_unique<Context>(*this)) {
+  auto topo = std::make_unique<topology::Topology>(topology::Topology::load(in));
+  build(true, std::move(topo));
+  sim_->loadState(in);
+  in.open("runner");
+  step_ = long(in.i64());
+  numSteps_ = long(in.i64());
+  nextAction_ = std::size_t(in.u64());
+  started_ = in.boolean();
+  timeStep_ = in.f64();
+  stepBase_ = long(in.i64());
+  timeBase_ = in.f64();
+  meanEdge_ = in.f64();
+  tornEdges_ = long(in.i64());
+  cutsDone_ = long(in.i64());
+  if (step_ < 0 || numSteps_ < step_ || nextAction_ > scene_.timeline.size() || !(timeStep_ > 0) ||
+      !std::isfinite(timeStep_) || stepBase_ < 0 || stepBase_ > step_ || !std::isfinite(timeBase_))
+    in.fail("step " + std::to_string(step_) + " of " + std::to_string(numSteps_) + ", next action " +
+            std::to_string(nextAction_) + " of " + std::to_string(scene_.timeline.size()) +
+            ": not a run of this scene");
+  const std::uint64_t n = in.u64();
+  if (n > nextAction_) in.fail(std::to_string(n) + " started actions, " + std::to_string(nextAction_) + " due so far");
+  for (std::uint64_t k = 0; k < n; ++k) {
+    const std::uint64_t i = in.u64();
+    const std::string type = in.str();
+    if (i >= nextAction_ || type != scene_.timeline[i].type)
+      in.fail("a started action " + type + " at " + std::to_string(i) + " that the scene's timeline does not have");
+    running_.push_back({&scene_.timeline[i], scene_.timeline[i].build()});
+    running_.back().action->loadState(in);
+  }
+  in.close();
+  if (std::abs(sim_->time() - time()) > 1e-9 * std::max(1.0, std::abs(time())) || sim_->steps() != step_)
+    in.fail("the simulation's clock (step " + std::to_string(sim_->steps()) + ") and the timeline's (step " +
+            std::to_string(step_) + ") differ");
+  const topology::ValidationReport report = sim_->topology().validate();
+  if (!report.ok()) in.fail("the restored simulation does not validate: " + report.problems.front());
 }
 
 }  // namespace cutsim::core

@@ -2,9 +2,11 @@
 // (simulation.hpp).
 #include "cutsim/core/simulation.hpp"
 
+#include <cmath>
 #include <sstream>
 
 #include "cutsim/forcefields/contact.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 
@@ -134,6 +136,55 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
   }
   if (contact) contact->recordStep(model_->state().x(), model_->state().v());
   time_ += h;
+}
+
+std::vector<std::string> Simulation::notCheckpointable() const {
+  std::vector<std::string> out = model_->notCheckpointable();
+  if (!integrator_->checkpointable()) {
+    std::string what = "the integrator " + std::string(integrator_->name());
+    if (const LinearSolver* s = integrator_->linearSolver()) what += " with " + std::string(s->name());
+    out.push_back(what);
+  }
+  return out;
+}
+
+void Simulation::saveState(topology::ArchiveWriter& out) const {
+  out.begin("sim");
+  out.f64(time_);
+  out.i64(steps_);
+  out.i64(summary_.flaggedSteps);
+  out.i64(summary_.missedTolerance);
+  out.i64(summary_.indefinite);
+  out.i64(summary_.fellBack);
+  out.i64(summary_.newtonNotConverged);
+  out.f64(summary_.worstResidual);
+  out.i64(summary_.worstStep);
+  out.begin("integr");
+  out.str(integrator_->name());
+  integrator_->saveState(out);
+  model_->saveState(out);
+}
+
+void Simulation::loadState(topology::ArchiveReader& in) {
+  in.open("sim");
+  time_ = in.f64();
+  steps_ = long(in.i64());
+  summary_.flaggedSteps = long(in.i64());
+  summary_.missedTolerance = long(in.i64());
+  summary_.indefinite = long(in.i64());
+  summary_.fellBack = long(in.i64());
+  summary_.newtonNotConverged = long(in.i64());
+  summary_.worstResidual = in.f64();
+  summary_.worstStep = long(in.i64());
+  in.close();
+  if (!std::isfinite(time_) || steps_ < 0) in.fail("a time of " + std::to_string(time_) + " after " + std::to_string(steps_) + " steps");
+  in.open("integr");
+  const std::string name = in.str();
+  if (name != integrator_->name())
+    in.fail("the saved integrator is " + name + ", the scene's " + std::string(integrator_->name()));
+  integrator_->loadState(in);
+  in.close();
+  model_->loadState(in);
 }
 
 }  // namespace cutsim::core

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "checkpoint_io.hpp"
+
 namespace cutsim::core {
 
 MechanicalState::MechanicalState(topology::Topology& topology)
@@ -49,6 +51,17 @@ void MechanicalState::validate(const topology::Topology& t, std::vector<std::str
         problems.push_back("point " + std::to_string(p) + ": non-finite state");
     }
   }
+}
+
+void MechanicalState::saveState(topology::ArchiveWriter& out) const {
+  checkpoint::saveValues(out, x());
+  checkpoint::saveValues(out, v());
+  checkpoint::saveValues(out, rest());  // interpolated for new points: within rounding of the topology's
+}
+void MechanicalState::loadState(topology::ArchiveReader& in) {
+  checkpoint::loadValues(in, x(), "positions");
+  checkpoint::loadValues(in, v(), "velocities");
+  checkpoint::loadValues(in, rest_.values(), "rest positions");
 }
 
 }  // namespace cutsim::core

@@ -204,6 +204,9 @@ class DihedralBending
   bool setExactStiffness(bool exact) override;
   /// One segment per active hinge, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
 
   // ---- the table (its events are detail::HingeTable's) ----
   // validate() compares the table with buildFromScratch: statuses per edge, active hinges with

@@ -30,6 +30,11 @@
 
 #include "cutsim/topology/types.hpp"
 
+namespace cutsim::topology {
+class ArchiveWriter;
+class ArchiveReader;
+}  // namespace cutsim::topology
+
 namespace cutsim::forcefields {
 
 using topology::EdgeId;
@@ -109,6 +114,18 @@ class ForceField {
   /// Asks for the exact K (Newton's method converges quadratically only with it) or the field's
   /// default. Returns false, changing nothing, when the field has no exact K to offer.
   virtual bool setExactStiffness(bool exact) { return !exact || stiffnessIsExact(); }
+
+  /// Checkpoints (cutsim run --checkpoint-every, docs/robustness.md): whether the field saves
+  /// and restores everything its continuation depends on beyond the topology and its parameters,
+  /// its tables in their order (the order of its sums) included. A run with a field that does
+  /// not is refused checkpoints before it starts.
+  virtual bool checkpointable() const { return false; }
+  /// Writes that state into the open section of `out` (a field that is not checkpointable:
+  /// cutsim::Error).
+  virtual void saveState(topology::ArchiveWriter& out) const;
+  /// Replaces the state of a field just built on the checkpoint's topology by the saved one,
+  /// refusing (ArchiveReader::fail) what does not fit that topology.
+  virtual void loadState(topology::ArchiveReader& in);
 };
 
 }  // namespace cutsim::forcefields

@@ -10,6 +10,11 @@
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
 
+namespace cutsim::topology {
+class ArchiveWriter;
+class ArchiveReader;
+}  // namespace cutsim::topology
+
 namespace cutsim::core {
 
 using topology::PointId;
@@ -34,6 +39,9 @@ class PointSet : public topology::TopologyObserver {
   void onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed&) override;
   std::string observerName() const override { return "PointSet '" + name_ + "'"; }
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
+  /// Checkpoints: the members and their data as stored.
+  void saveState(topology::ArchiveWriter& out) const;
+  void loadState(topology::ArchiveReader& in);
 
  private:
   std::string name_;

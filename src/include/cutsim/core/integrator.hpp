@@ -120,12 +120,18 @@ class Integrator {
   virtual void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) = 0;
   /// The linear solver, if the method uses one.
   virtual LinearSolver* linearSolver() const { return nullptr; }
+  /// Checkpoints: whether the method (with its solvers) saves what its next steps depend on (a
+  /// previous step, a warm start); saveState and loadState write and read it in the open section.
+  virtual bool checkpointable() const { return false; }
+  virtual void saveState(topology::ArchiveWriter& /*out*/) const {}
+  virtual void loadState(topology::ArchiveReader& /*in*/) {}
 };
 
 class ExplicitEuler final : public Integrator {
  public:
   std::string_view name() const override { return "explicit-euler"; }
   bool isExplicit() const override { return true; }
+  bool checkpointable() const override { return true; }  // nothing kept between steps
   void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
 };
 
@@ -136,6 +142,10 @@ class ImplicitIntegrator : public Integrator {
   ~ImplicitIntegrator() override;
   LinearSolver* linearSolver() const override { return solver_.get(); }
   const ImplicitSettings& settings() const { return settings_; }
+  bool checkpointable() const override { return solver_->checkpointable(); }
+  /// The solver's state, and the CHOLMOD fallback's if it was made.
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
 
  protected:
   /// Solves A dv = b with the linear solver and applies the failure policy; records the solve in
@@ -169,6 +179,8 @@ class BDF2 final : public ImplicitIntegrator {
   void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
   /// Steps taken as implicit Euler (the first, and after each restart).
   long restarts() const { return restarts_; }
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
 
  private:
   bool historyValid(const Model& model, const StepInput& in) const;

@@ -87,6 +87,11 @@ class LinearSolver {
   /// report (the integrator's failure policy decides).
   virtual SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b,
                             Eigen::VectorXd& dv) = 0;
+  /// Checkpoints: whether the solver saves what its next solves depend on (a warm start, the
+  /// ordering of a kept pattern); saveState and loadState write and read it in the open section.
+  virtual bool checkpointable() const { return false; }
+  virtual void saveState(topology::ArchiveWriter& /*out*/) const {}
+  virtual void loadState(topology::ArchiveReader& /*in*/) {}
 };
 
 /// Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver, with a
@@ -106,6 +111,9 @@ class ConjugateGradient final : public LinearSolver {
   std::string_view name() const override { return "cg"; }
   bool direct() const override { return false; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
   const CGSettings& settings() const { return settings_; }
 
  private:
@@ -134,6 +142,9 @@ class SofaConjugateGradient final : public LinearSolver {
   std::string_view name() const override { return "sofa-cg"; }
   bool direct() const override { return false; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
   const SofaCGSettings& settings() const { return settings_; }
   /// How the last solve ended: "tolerance", "threshold", "iterations" (the cap), "zero-denominator",
   /// "zero-rhs".
@@ -164,6 +175,11 @@ class CholmodSolver final : public LinearSolver {
   std::string_view name() const override { return "cholmod"; }
   bool direct() const override { return true; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  /// Saves the kept pattern's ordering, revision and age: restored, the pattern is built again
+  /// in that ordering at the next solve (the factorisation, and so the rounding, are the same).
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
   /// Symbolic analyses done so far, for tests of the reuse policy.
   long analyses() const;
 

@@ -14,6 +14,11 @@
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
 
+namespace cutsim::topology {
+class ArchiveWriter;
+class ArchiveReader;
+}  // namespace cutsim::topology
+
 namespace cutsim::core {
 
 /// How the mass is spread over the points.
@@ -47,6 +52,9 @@ class LumpedMass : public topology::TopologyObserver {
   void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
   std::string observerName() const override { return "LumpedMass"; }
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
+  /// Checkpoints: the density and the per-slot masses and areas as stored (as they were summed).
+  void saveState(topology::ArchiveWriter& out) const;
+  void loadState(topology::ArchiveReader& in);
 
   static double triangleArea(const topology::Topology& t, topology::TriangleId f);
 

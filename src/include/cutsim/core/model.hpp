@@ -113,6 +113,15 @@ class Model {
   /// Total force on each point slot from the force fields and gravity (not the constraints).
   std::vector<double> totalForce() const;
 
+  // ---- checkpoints (docs/robustness.md) ----
+  /// The labels of the force fields that cannot be saved (empty: the model can).
+  std::vector<std::string> notCheckpointable() const;
+  /// Writes the sections "state", "mass", "fixed", "grasps" and "field<i>" per force field.
+  void saveState(topology::ArchiveWriter& out) const;
+  /// Reads them into a model built as the saved one was, on the checkpoint's topology: the
+  /// state, mass, fixed points and fields replaced, the grasps made again; each part validated.
+  void loadState(topology::ArchiveReader& in);
+
  private:
   std::unique_ptr<topology::Topology> topology_;
   std::unique_ptr<MechanicalState> state_;

@@ -99,6 +99,15 @@ class OutputWriter {
   OutputWriter(std::filesystem::path dir, OutputSettings settings,
                std::vector<std::string> fieldLabels, std::vector<std::string> graspNames,
                bool contact = false, std::vector<std::string> obstacleNames = {});
+  /// The writer of a run resumed from a checkpoint (section "output", saveState): it takes the
+  /// folder, keeps the frames written up to the checkpoint, removes the later ones and the
+  /// collections, and continues the CSV cut back to its length at the checkpoint (the run's
+  /// steps.csv, steps.partial.csv or the CSV being written, whichever still holds those rows:
+  /// its header and its last bytes are checked). A folder that does not hold the run's outputs
+  /// up to the checkpoint: cutsim::Error naming what is missing.
+  OutputWriter(std::filesystem::path dir, OutputSettings settings,
+               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames, bool contact,
+               std::vector<std::string> obstacleNames, topology::ArchiveReader& in);
   ~OutputWriter();
   OutputWriter(const OutputWriter&) = delete;
   OutputWriter& operator=(const OutputWriter&) = delete;
@@ -127,9 +136,13 @@ class OutputWriter {
   static bool isRunOutput(const std::string& name);
   /// The CSV header line (without newline).
   std::string csvHeader() const;
+  /// Checkpoints: the section "output": the frames so far, the first frame's border, and the
+  /// CSV's length (flushed first) with a checksum of its last bytes.
+  void saveState(topology::ArchiveWriter& out);
 
  private:
   void writeFrame(Simulation& sim, const StepRecord& r);
+  void lockFolder();
   // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection
   // written whole with a suffix (".pvd", ".partial.pvd"), the CSV renamed, the lock released.
   void closeCsv();

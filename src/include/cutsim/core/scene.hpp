@@ -222,6 +222,22 @@ class SceneRunner {
   long tornEdges() const { return tornEdges_; }
   long cutsDone() const { return cutsDone_; }
 
+  // ---- checkpoints (docs/robustness.md) ----
+  /// What of this run cannot be saved: components without checkpoints (by label or name),
+  /// actions without them, and changes made while running (schedule, replaceForceField,
+  /// applyConstraint: a checkpoint restores the scene's run). Empty: the run can be saved.
+  std::vector<std::string> notCheckpointable() const;
+  /// Writes the run's whole state between two steps: the sections "topology" (the mesh with its
+  /// index history), the simulation's (Simulation::saveState) and "runner" (the clock, the
+  /// timeline's progress and each started action's state). Throws cutsim::Error naming what
+  /// cannot be saved.
+  void save(topology::ArchiveWriter& out) const;
+  /// The runner of `scene` as save() left it: the topology read back exactly, every component
+  /// built on it as the scene asks, then given its saved state, each validated. The scene must be
+  /// the one the checkpoint was written for. A checkpoint that does not fit: InvalidInput naming
+  /// the checkpoint and the section.
+  SceneRunner(const Scene& scene, topology::ArchiveReader& in);
+
  private:
   class Context;
   struct Running {
@@ -231,7 +247,7 @@ class SceneRunner {
   void runDueActions(double t);
   struct Rehearsal {};
   SceneRunner(const Scene& scene, Rehearsal);
-  void build(bool physics);
+  void build(bool physics, std::unique_ptr<topology::Topology> topology = nullptr);
 
   bool rehearsal_ = false;
   Scene scene_;
@@ -252,6 +268,7 @@ class SceneRunner {
   double timeBase_ = 0.0;
   double meanEdge_ = 0.0;
   long tornEdges_ = 0, cutsDone_ = 0;
+  bool edited_ = false;  // changed while running (schedule, replaceForceField, applyConstraint)
 };
 
 }  // namespace cutsim::core

@@ -85,6 +85,15 @@ class Simulation {
   long steps() const { return steps_; }
   const SolveSummary& solveSummary() const { return summary_; }
 
+  // ---- checkpoints (docs/robustness.md) ----
+  /// What cannot be saved: force fields, the integrator or its solver, by name (empty: all can).
+  std::vector<std::string> notCheckpointable() const;
+  /// Writes the sections "sim" (clock, counters), "integr" (the integrator's history) and the
+  /// model's (Model::saveState).
+  void saveState(topology::ArchiveWriter& out) const;
+  /// Reads them into a simulation built as the saved one was, on the checkpoint's topology.
+  void loadState(topology::ArchiveReader& in);
+
   // ---- energies (at the current state) ----
   double kineticEnergy() const { return model_->kineticEnergy(); }
   double gravityEnergy() const { return model_->gravityEnergy(); }  ///< -sum m g.x

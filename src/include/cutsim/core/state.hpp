@@ -12,6 +12,11 @@
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
 
+namespace cutsim::topology {
+class ArchiveWriter;
+class ArchiveReader;
+}  // namespace cutsim::topology
+
 namespace cutsim::core {
 
 class MechanicalState : public topology::TopologyObserver {
@@ -35,6 +40,9 @@ class MechanicalState : public topology::TopologyObserver {
   std::string observerName() const override { return "MechanicalState"; }
   /// Sizes match the topology; rest equals the topology's rest positions; dead slots are zero.
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
+  /// Checkpoints: x, v and rest as stored; loadState refuses values for another number of slots.
+  void saveState(topology::ArchiveWriter& out) const;
+  void loadState(topology::ArchiveReader& in);
 
  private:
   using PointVectors = topology::SlotData<topology::PointId, double, 3>;

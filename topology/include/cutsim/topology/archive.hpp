@@ -67,6 +67,8 @@ class ArchiveReader {
   std::vector<double> f64s();
   std::vector<std::uint32_t> u32s();
   void raw(void* data, std::size_t n);
+  /// Bytes left in the open section.
+  std::size_t remaining() const { return end_ - pos_; }
   /// Throws InvalidInput (where(): the archive's path) naming the open section and the problem.
   [[noreturn]] void fail(const std::string& message) const;
   const std::filesystem::path& path() const { return path_; }

@@ -50,6 +50,7 @@
 #include <utility>
 #include <vector>
 
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -203,6 +204,32 @@ class DenseSlotTable {
 
   // ---- accounting and checks ----
   /// Bytes held per slot (sizes, not capacities): sizeof(Entry) + 4 per entry, 4 per slot.
+  /// Checkpoints: the entries, their slots and the slot index exactly as stored (the entries'
+  /// order is the order of every sum over them).
+  void save(ArchiveWriter& out) const {
+    static_assert(std::is_trivially_copyable_v<Entry>);
+    out.u64(entries_.size());
+    out.raw(entries_.data(), entries_.size() * sizeof(Entry));
+    out.u32s(slotOfEntry_);
+    out.u32s(indexOfSlot_);
+  }
+  /// Reads what save() wrote; refuses (ArchiveReader::fail) a table whose entries, back-references
+  /// and slot index do not agree.
+  void load(ArchiveReader& in) {
+    const std::uint64_t n = in.u64();
+    if (n >= kStatusBase || n > in.remaining() / sizeof(Entry))
+      in.fail(std::string(Traits::kNoun) + " table: " + std::to_string(n) + " entries");
+    std::vector<Entry> entries(n);
+    in.raw(entries.data(), n * sizeof(Entry));
+    std::vector<Index> back = in.u32s(), slots = in.u32s();
+    entries_ = std::move(entries);
+    slotOfEntry_ = std::move(back);
+    indexOfSlot_ = std::move(slots);
+    std::vector<std::string> problems;
+    checkConsistency(problems, "");
+    if (!problems.empty()) in.fail(std::string(Traits::kNoun) + " table: " + problems.front());
+  }
+
   double bytesPerSlot() const {
     if (indexOfSlot_.empty()) return 0.0;
     const double bytes = static_cast<double>(entries_.size() * (sizeof(Entry) + sizeof(Index)) +
