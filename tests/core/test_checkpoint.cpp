@@ -1,0 +1,204 @@
+// Checkpoints of a whole run (SceneRunner::save and its restoring constructor): a runner restored
+// at a random step goes on bit for bit as the runner that wrote it, whatever the integrator and
+// linear solver, through every kind of action; what does not fit is refused.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "cutsim/core/scene.hpp"
+#include "cutsim/topology/archive.hpp"
+#include "cutsim/topology/errors.hpp"
+#include "cutsim/topology/topology.hpp"
+#include "support/scene_text.hpp"
+
+namespace cutsim::core {
+namespace {
+
+std::string readFile(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// small.json (every kind of action: cuts at a time and progressive, removals, a grasp and its
+/// release, tearing) with its "solver" entry replaced by `solver`.
+std::string smallScene(const std::string& solver, const std::string& timeStep = "0.01") {
+  const std::string text = readFile(test::kSceneDir / "small.json");
+  return std::regex_replace(std::regex_replace(text, std::regex("\"solver\": \\{[^}]*\\}"), solver),
+                            std::regex("\"timeStep\": 0.01"), "\"timeStep\": " + timeStep);
+}
+
+struct Snapshot {
+  std::vector<double> x, v;
+  std::uint64_t digest;
+  long cuts, torn;
+  bool operator==(const Snapshot&) const = default;
+};
+Snapshot snapshot(const SceneRunner& r) {
+  const Simulation& s = r.simulation();
+  return {std::vector<double>(s.state().x().begin(), s.state().x().end()),
+          std::vector<double>(s.state().v().begin(), s.state().v().end()), s.topology().digest(), r.cutsDone(),
+          r.tornEdges()};
+}
+
+class CheckpointRun : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
+
+
+TEST_P(CheckpointRun, ARestoredRunnerGoesOnBitForBitAsTheOneThatWroteIt) {
+  const std::string text = smallScene(GetParam().second, "0.01");
+  const Scene scene = parseScene(text, "small.json", test::kSceneDir);
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / (std::string("cutsim_ck_") + GetParam().first + ".ckpt");
+  std::mt19937 rng(std::hash<std::string>{}(GetParam().first));
+  for (int trial = 0; trial < 3; ++trial) {
+    SceneRunner a(scene);
+    const long stop = std::uniform_int_distribution<long>(0, a.numSteps() - 1)(rng);
+    a.start();
+    while (a.currentStep() < stop) a.advance();
+    {
+      topology::ArchiveWriter w;
+      a.save(w);
+      w.save(file);
+    }
+    topology::ArchiveReader in(file);
+    SceneRunner b(scene, in);
+    ASSERT_EQ(b.currentStep(), stop);
+    ASSERT_EQ(b.time(), a.time());
+    EXPECT_TRUE(snapshot(a) == snapshot(b)) << "at the checkpoint, step " << stop;
+    while (!a.finished()) {
+      a.advance();
+      b.advance();
+      ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
+    }
+    EXPECT_TRUE(b.finished());
+    EXPECT_EQ(a.simulation().solveSummary().flaggedSteps, b.simulation().solveSummary().flaggedSteps);
+    EXPECT_TRUE(b.simulation().topology().validate().ok());
+  }
+  std::filesystem::remove(file);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Integrators, CheckpointRun,
+    ::testing::Values(
+        std::pair{"ImplicitCG", "\"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10, "
+                                "\"rayleighMass\": 0.5}"},
+        std::pair{"ImplicitCholmod", "\"integrator\": {\"type\": \"implicit-euler\", \"rayleighMass\": 0.5}, "
+                                     "\"linearSolver\": {\"type\": \"cholmod\"}"},
+        std::pair{"BDF2", "\"integrator\": {\"type\": \"bdf2\"}, \"linearSolver\": {\"type\": \"cg\", "
+                          "\"iterations\": 200, \"tolerance\": 1e-10}"},
+        std::pair{"Newton", "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"cholmod\"}"},
+        std::pair{"Explicit", "\"integrator\": {\"type\": \"explicit-euler\"}"}),
+    [](const auto& info) { return std::string(info.param.first); });
+
+TEST(Checkpoint, FEMDihedralAndFractureGoOnBitForBit) {
+  // The surgery and tearing fields (TriangularFEM with a prestrain, its SOFA twin, dihedral and
+  // SOFA's bending springs) and a crack that advances from a notch under a grasp.
+  const std::string text = R"({
+    "mesh": {"grid": {"nx": 13, "ny": 13, "size": [1, 1]}},
+    "mass": {"density": 1},
+    "forceFields": [
+      {"type": "TriangularFEM", "youngModulus": 2000, "poissonRatio": 0.3, "restScale": 0.99},
+      {"type": "TriangularFEMForceFieldOptim", "youngModulus": 500, "poissonRatio": 0.3},
+      {"type": "DihedralBending", "bendingStiffness": 0.001},
+      {"type": "TriangularBendingSprings", "stiffness": 1, "damping": 0}
+    ],
+    "constraints": [{"type": "fixed", "box": [[-1, -1, -1], [2, 0.01, 1]]}],
+    "integrator": {"type": "implicit-euler"}, "linearSolver": {"type": "cholmod"},
+    "timeStep": 0.005, "duration": 0.4,
+    "timeline": [
+      {"at": 0, "action": "cut", "polyline": [[0, 0.5, 0], [0.3, 0.5, 0]]},
+      {"at": 0, "action": "grasp", "name": "top", "box": [[-1, 0.99, -1], [2, 2, 1]],
+       "path": [[0, 0, 0, 0], [0.4, 0, 0.3, 0]]},
+      {"at": 0, "action": "fracture", "criticalStrain": 0.02, "length": 0.15, "speed": 2}
+    ]})";
+  const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
+  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_fem.ckpt";
+  for (long stop : {1L, 37L, 55L}) {
+    SceneRunner a(scene);
+    a.start();
+    while (a.currentStep() < stop) a.advance();
+    topology::ArchiveWriter w;
+    a.save(w);
+    w.save(file);
+    topology::ArchiveReader in(file);
+    SceneRunner b(scene, in);
+    while (!a.finished()) {
+      a.advance();
+      b.advance();
+      ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
+    }
+  }
+  SceneRunner probe(scene);
+  probe.start();
+  while (!probe.finished()) probe.advance();
+  EXPECT_GT(probe.tornEdges() + probe.cutsDone(), 1) << "the crack should advance in this scene";
+  std::filesystem::remove(file);
+}
+
+TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
+  // Contact keeps caches and exclusions that are not saved yet: the run says so.
+  const Scene contact = parseScene(test::scene("\"contact\": {\"thickness\": 0.01, \"stiffness\": 1}"), "inline.json", test::kSceneDir);
+  SceneRunner c(contact);
+  ASSERT_FALSE(c.notCheckpointable().empty());
+  EXPECT_NE(c.notCheckpointable().front().find("Contact"), std::string::npos);
+  topology::ArchiveWriter w;
+  try {
+    c.save(w);
+    FAIL() << "a run with contact was saved";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("contact (Contact)"), std::string::npos) << e.what();
+  }
+
+  // A checkpoint of one scene does not restore into another.
+  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_other.ckpt";
+  const Scene small = parseScene(smallScene("\"solver\": {\"type\": \"implicit-cg\"}"), "small.json", test::kSceneDir);
+  SceneRunner a(small);
+  a.start();
+  for (int i = 0; i < 12; ++i) a.advance();
+  {
+    topology::ArchiveWriter out;
+    a.save(out);
+    out.save(file);
+  }
+  auto refusal = [&](const Scene& other) -> std::string {
+    try {
+      topology::ArchiveReader in(file);
+      SceneRunner b(other, in);
+    } catch (const InvalidInput& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const Scene bending = parseScene(
+      test::scene("\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 1}]"),
+      "inline.json", test::kSceneDir);
+  const std::string wrongMesh = refusal(bending);
+  EXPECT_NE(wrongMesh.find("cutsim_ck_other.ckpt"), std::string::npos) << wrongMesh;
+  EXPECT_FALSE(wrongMesh.empty());
+  const Scene cholmod = parseScene(
+      smallScene("\"integrator\": {\"type\": \"implicit-euler\"}, \"linearSolver\": {\"type\": \"cholmod\"}"),
+      "small.json", test::kSceneDir);
+  const std::string wrongSolver = refusal(cholmod);
+  EXPECT_NE(wrongSolver.find("the saved linear solver is cg, the scene's cholmod"), std::string::npos) << wrongSolver;
+
+  // A damaged byte anywhere is caught by the section's checksum before anything is built.
+  std::string bytes = readFile(file);
+  std::mt19937 rng(5);
+  for (int k = 0; k < 20; ++k) {
+    std::string damaged = bytes;
+    const std::size_t at = std::uniform_int_distribution<std::size_t>(16, bytes.size() - 1)(rng);
+    damaged[at] = char(damaged[at] ^ 0x10);
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << damaged;
+    EXPECT_NE(refusal(small), "") << "byte " << at << " damaged, restored anyway";
+  }
+  std::filesystem::remove(file);
+}
+
+}  // namespace
+}  // namespace cutsim::core
