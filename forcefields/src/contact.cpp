@@ -10,6 +10,7 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "contact_archive.hpp"
 #include "contact_bvh.hpp"
 #include "contact_geometry.hpp"
 #include "cutsim/forcefields/parameters.hpp"
@@ -2092,6 +2093,171 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
     s << "Contact: the BVH finds " << fast.size() << " self pairs, every pair of triangles gives " << brute.size();
     problems.push_back(s.str());
   }
+}
+
+// ---- checkpoints ----
+
+namespace {
+void saveV3s(topology::ArchiveWriter& out, const std::vector<V3>& v) { contact::saveRecords(out, v); }
+void loadV3s(topology::ArchiveReader& in, std::vector<V3>& v, const char* what) { contact::loadRecords(in, v, what); }
+}  // namespace
+
+void Contact::saveState(topology::ArchiveWriter& out) const {
+  const Impl& I = *impl_;
+  using contact::saveRecords;
+  out.u64(obstacles_.size());
+  for (const Obstacle& o : obstacles_) saveRecords(out, o.path);
+  out.u64(last_.candidates);
+  out.u64(last_.active);
+  out.u64(last_.excluded);
+  out.f64(last_.selfNormal);
+  out.f64(last_.selfFriction);
+  out.f64s(last_.obstacleNormal);
+  out.f64s(last_.obstacleFriction);
+
+  out.boolean(I.built);
+  out.u64(I.revision);
+  out.boolean(I.bvhBuilt);
+  out.f64(I.meanEdge);
+  saveRecords(out, I.boxes);
+  I.bvh.save(out);
+  for (const auto& m : I.meshes) {
+    saveRecords(out, m.boxes);
+    m.bvh.save(out);
+  }
+  saveV3s(out, I.offset);
+  saveV3s(out, I.velocity);
+  saveV3s(out, I.startOffset);
+  saveV3s(out, I.move);
+  saveRecords(out, I.pairs);
+  saveRecords(out, I.nearPairs);
+  saveV3s(out, I.sweptMotion);
+  saveRecords(out, I.fastPoint);
+  out.f64s(I.moveLength);
+  out.f64s(I.pointMargin);
+  out.f64s(I.triMargin);
+  out.f64s(I.obstacleMargin);
+  out.f64s(I.bound);
+  saveV3s(out, I.anchor);
+  out.boolean(I.reframedAny);
+  out.boolean(I.absoluteReach);
+  saveRecords(out, I.tight.tri);
+  saveRecords(out, I.tight.edge);
+  out.u64(I.excluded.size());
+  for (const auto& key : I.excluded) out.raw(key.data(), sizeof(key));
+  out.u64(I.released.size());
+  for (const auto& [a, b] : I.released) {
+    out.u64(a);
+    out.u64(b);
+  }
+  out.f64s(I.lastX);
+  saveRecords(out, I.cache);
+  out.f64s(I.cacheX);
+  saveV3s(out, I.cacheOffset);
+  out.u64(I.cacheRevision);
+  out.f64(I.cacheR);
+  out.boolean(I.cacheBuilt);
+  out.f64s(I.sinceCache);
+  out.f64s(I.obstacleSinceCache);
+  for (std::size_t v : {I.cacheUses, I.cacheBuilds, I.usesSinceBuild, I.plainSteps, I.backoff, I.plainSearches}) out.u64(v);
+}
+
+void Contact::loadState(topology::ArchiveReader& in) {
+  Impl& I = *impl_;
+  using contact::loadRecords;
+  if (in.u64() != obstacles_.size()) in.fail("contact: the saved run has another number of obstacles");
+  for (Obstacle& o : obstacles_) {
+    loadRecords(in, o.path, "an obstacle's path");
+    try {
+      o.validate();
+    } catch (const InvalidInput& e) {
+      in.fail("contact: obstacle \"" + o.name + "\": " + e.what());
+    }
+  }
+  last_.candidates = std::size_t(in.u64());
+  last_.active = std::size_t(in.u64());
+  last_.excluded = std::size_t(in.u64());
+  last_.selfNormal = in.f64();
+  last_.selfFriction = in.f64();
+  last_.obstacleNormal = in.f64s();
+  last_.obstacleFriction = in.f64s();
+
+  const bool built = in.boolean();
+  I.revision = in.u64();
+  // The tables of the topology as it is (what the saved ones were built from).
+  I.rebuildTables();
+  I.built = built;
+  if (built && I.revision != I.topo.revision()) in.fail("contact: tables of another revision of the mesh");
+  I.bvhBuilt = in.boolean();
+  I.meanEdge = in.f64();
+  loadRecords(in, I.boxes, "boxes");
+  I.bvh.load(in);
+  for (auto& m : I.meshes) {
+    loadRecords(in, m.boxes, "obstacle boxes");
+    m.bvh.load(in);
+  }
+  loadV3s(in, I.offset, "obstacle offsets");
+  loadV3s(in, I.velocity, "obstacle velocities");
+  loadV3s(in, I.startOffset, "obstacle offsets");
+  loadV3s(in, I.move, "obstacle moves");
+  loadRecords(in, I.pairs, "pairs");
+  loadRecords(in, I.nearPairs, "pairs");
+  loadV3s(in, I.sweptMotion, "motions");
+  loadRecords(in, I.fastPoint, "fast points");
+  I.moveLength = in.f64s();
+  I.pointMargin = in.f64s();
+  I.triMargin = in.f64s();
+  I.obstacleMargin = in.f64s();
+  I.bound = in.f64s();
+  loadV3s(in, I.anchor, "anchors");
+  I.reframedAny = in.boolean();
+  I.absoluteReach = in.boolean();
+  loadRecords(in, I.tight.tri, "boxes");
+  loadRecords(in, I.tight.edge, "boxes");
+  const std::uint64_t excluded = in.u64();
+  if (excluded > in.remaining() / (5 * sizeof(std::uint32_t))) in.fail("contact: a count of " + std::to_string(excluded) + " exclusions");
+  I.excluded.clear();
+  for (std::uint64_t k = 0; k < excluded; ++k) {
+    std::array<std::uint32_t, 5> key;
+    in.raw(key.data(), sizeof(key));
+    I.excluded.insert(key);
+  }
+  const std::uint64_t released = in.u64();
+  if (released > in.remaining() / 16) in.fail("contact: a count of " + std::to_string(released) + " released pairs");
+  I.released.clear();
+  for (std::uint64_t k = 0; k < released; ++k) {
+    const auto a = std::uint32_t(in.u64()), b = std::uint32_t(in.u64());
+    I.released.insert({a, b});
+  }
+  I.lastX = in.f64s();
+  loadRecords(in, I.cache, "cached pairs");
+  I.cacheX = in.f64s();
+  loadV3s(in, I.cacheOffset, "cached offsets");
+  I.cacheRevision = in.u64();
+  I.cacheR = in.f64();
+  I.cacheBuilt = in.boolean();
+  I.sinceCache = in.f64s();
+  I.obstacleSinceCache = in.f64s();
+  for (std::size_t* v : {&I.cacheUses, &I.cacheBuilds, &I.usesSinceBuild, &I.plainSteps, &I.backoff, &I.plainSearches})
+    *v = std::size_t(in.u64());
+  I.evalValid = false;
+  I.sweep = nullptr;
+  // Every index the records hold must be one of this mesh's.
+  const std::size_t points = I.topo.pointCapacity(), tris = I.tris.size();
+  auto checkPair = [&](auto kind, std::int32_t obstacle, std::uint8_t surface, const std::array<std::uint32_t, 4>& id) {
+    if (obstacle < -1 || obstacle >= std::int32_t(obstacles_.size()) || std::uint8_t(kind) > std::uint8_t(Kind::FO))
+      in.fail("contact: a pair of an obstacle or a kind that does not exist");
+    for (int i = 0; i < 4; ++i)
+      if (((surface >> i) & 1) && id[std::size_t(i)] != kInvalidIndex && id[std::size_t(i)] >= points)
+        in.fail("contact: a pair of a point that does not exist");
+  };
+  for (const Pair& p : I.pairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
+  for (const Pair& p : I.nearPairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
+  for (const auto& c : I.cache) {
+    checkPair(c.kind, c.obstacle, c.surface, c.id);
+    if (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)) in.fail("contact: a cached pair of a triangle that does not exist");
+  }
+  if (I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
 }
 
 }  // namespace cutsim::forcefields

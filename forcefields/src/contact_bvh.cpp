@@ -1,6 +1,8 @@
 // The contact code's bounding volume hierarchy (contact_bvh.hpp).
 #include "contact_bvh.hpp"
 
+#include "contact_archive.hpp"
+
 #include <algorithm>
 #include <numeric>
 #include <sstream>
@@ -165,6 +167,25 @@ void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problem
     if (seen[e] != 1)
       problems.push_back("contact BVH: element " + std::to_string(e) + " is in " + std::to_string(seen[e]) +
                          " leaves");
+}
+
+void Bvh::save(topology::ArchiveWriter& out) const {
+  saveRecords(out, nodes_);
+  saveRecords(out, order_);
+  saveRecords(out, boxes_);
+}
+
+void Bvh::load(topology::ArchiveReader& in) {
+  loadRecords(in, nodes_, "BVH nodes");
+  loadRecords(in, order_, "BVH order");
+  loadRecords(in, boxes_, "BVH boxes");
+  const std::int32_t n = std::int32_t(nodes_.size()), m = std::int32_t(order_.size());
+  for (const Node& node : nodes_)
+    if (node.left < -1 || node.left >= n || node.right < -1 || node.right >= n || node.first < 0 || node.count < 0 ||
+        node.first > m - node.count)
+      in.fail("contact: a BVH node outside the hierarchy");
+  for (std::int32_t e : order_)
+    if (e < 0 || e >= std::int32_t(boxes_.size())) in.fail("contact: a BVH element outside the hierarchy");
 }
 
 }  // namespace cutsim::forcefields::contact

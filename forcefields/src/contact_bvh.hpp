@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "contact_geometry.hpp"
+#include "cutsim/topology/archive.hpp"
 
 namespace cutsim::forcefields::contact {
 
@@ -31,6 +32,10 @@ class Bvh {
   /// Problems of the hierarchy against the boxes it was last given: every element in exactly one
   /// leaf, every node's box the union of its children's.
   void check(const std::vector<Box>& boxes, std::vector<std::string>& problems) const;
+
+  /// Checkpoints: the hierarchy as built (its shape follows the boxes it was built with).
+  void save(topology::ArchiveWriter& out) const;
+  void load(topology::ArchiveReader& in);
 
  private:
   struct Node {

@@ -126,7 +126,7 @@ std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceFiel
 /// What a checkpoint holds beyond the run's state: the scene (its text, so that a checkpoint
 /// does not depend on the file staying as it was) and how the run was asked for.
 struct RunSource {
-  std::string sceneText;  ///< "" for a SOFA scene (not checkpointed)
+  std::string sceneText;  ///< the JSON scene (a SOFA scene's translation, as cutsim import writes it)
   std::string sceneName;  ///< the scene file as given (for messages)
   std::filesystem::path baseDir;  ///< the scene's folder, absolute (its mesh files)
   long checkpointEvery = 0;
@@ -151,7 +151,7 @@ void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& sourc
 
 /// Why a run cannot be checkpointed ("" if it can).
 std::string whyNotCheckpointable(const RunSource& source, const core::SceneRunner& runner) {
-  if (source.sceneText.empty()) return "checkpoints are written for JSON scenes (this is a SOFA scene)";
+  if (source.sceneText.empty()) return "the scene's text could not be kept";
   std::string list;
   for (const std::string& m : runner.notCheckpointable()) list += (list.empty() ? "" : ", ") + m;
   return list.empty() ? "" : "its " + list + " cannot be saved yet";
@@ -317,6 +317,9 @@ void runScene(const RunOptions& options) {
     if (options.steps > 0) o.steps = options.steps;
     const core::SofaSceneImport imported = core::importSofaScene(options.scene, o);
     for (const std::string& n : imported.notes) std::cerr << n << "\n";
+    // The checkpoints hold its JSON translation (what cutsim import writes: the same run).
+    source.sceneText = imported.scene.dump(2) + "\n";
+    source.baseDir = std::filesystem::absolute(imported.jsonDir.empty() ? std::filesystem::path(".") : imported.jsonDir);
     return core::sceneFromSofa(imported);
   }();
   const std::filesystem::path outDir = options.out.empty()

@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "cutsim/core/integrator.hpp"
+#include "cutsim/topology/archive.hpp"
 #include "cutsim/core/linear_solver.hpp"
 #include "cutsim/core/model.hpp"
 #include "cutsim/core/registries.hpp"
@@ -41,6 +42,17 @@ class SofaEuler final : public Integrator {
   }
   std::string_view name() const override { return "sofa-euler"; }
   LinearSolver* linearSolver() const override { return solver_.get(); }
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override {
+    solver_->saveState(out);
+    out.i64(solves_);
+    out.f64s(warm_);
+  }
+  void loadState(topology::ArchiveReader& in) override {
+    solver_->loadState(in);
+    solves_ = long(in.i64());
+    warm_ = in.f64s();
+  }
 
   void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override {
     const double h = in.dt, tr = 1.0;

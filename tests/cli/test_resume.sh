@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
 # Checkpoints and resume, end to end (CTest: cli.resume). Demo scenes (a progressive cut with
 # CG, a notch torn by fracture under a grasp, the surgery incision with CHOLMOD, FEM and dihedral
-# bending) are stopped at random steps (--stop-after, SIGINT) and resumed: the resumed run's
+# bending, a cloth falling on the ground with contact) and a SOFA scene are stopped at random steps (--stop-after, SIGINT) and resumed: the resumed run's
 # folder must equal, file for file and byte for byte, that of the same run made without a stop.
 # Also: writing checkpoints changes no output; a run resumed twice; damaged, truncated and foreign
-# checkpoints, a folder missing a frame or its CSV, and a scene whose parts cannot be saved are
-# refused with clear messages.
-# Environment: CUTSIM (the program), CUTSIM_DATA_DIR (data), CUTSIM_QUICK=1 for shorter runs (the
-# sanitizer build), CUTSIM_SEED to replay a draw of the stop steps.
+# checkpoints and a folder missing a frame or its CSV are refused with clear messages.
+# Environment: CUTSIM (the program), CUTSIM_DATA_DIR (data), CUTSIM_TEST_DATA_DIR (tests/data),
+# CUTSIM_QUICK=1 for shorter runs (the sanitizer build), CUTSIM_SEED to replay a draw of the stop
+# steps.
 set -uo pipefail
 
 : "${CUTSIM:?set CUTSIM to the cutsim program}"
 : "${CUTSIM_DATA_DIR:?set CUTSIM_DATA_DIR to data}"
+: "${CUTSIM_TEST_DATA_DIR:?set CUTSIM_TEST_DATA_DIR to tests/data}"
 
 failures=0
 checks=0
@@ -47,9 +48,9 @@ shortened() {  # shortened NAME DURATION -> path
 # name, duration (past the scene's last action), steps, and whether to also stop twice and
 # write checkpoints along the way (the longest run only once under the sanitizers).
 if [ "${CUTSIM_QUICK:-0}" = 1 ]; then
-  cases=("hanging_cut 1.8 360 1" "tearing 0.8 160 1" "surgery_incision 1.35 270 0")
+  cases=("hanging_cut 1.8 360 1" "tearing 0.8 160 1" "surgery_incision 1.35 270 0" "fold_ground 0.2 100 0")
 else
-  cases=("hanging_cut 4 800 1" "tearing 1.6 320 1" "surgery_incision 1.5 300 1")
+  cases=("hanging_cut 4 800 1" "tearing 1.6 320 1" "surgery_incision 1.5 300 1" "fold_ground 0.5 250 1")
 fi
 
 for c in "${cases[@]}"; do
@@ -120,6 +121,23 @@ elif [ "$code" -ne 0 ]; then
   fail "SIGINT: the run ended with $code ($(head -3 "$tmp/err"))"
 fi  # (0: the run ended before the signal came; nothing to resume)
 
+# ---- SIGKILL: nothing is written at the end; resumed from the last periodic checkpoint ----
+dir="$tmp/sigkill"
+"$CUTSIM" run "$scene" --out "$dir" --quiet --checkpoint-every 25 >/dev/null 2>&1 &
+pid=$!
+for _ in $(seq 1 400); do
+  [ -f "$dir/checkpoint.ckpt" ] && [ -f "$dir/surface_000006.vtp" ] && break
+  sleep 0.05
+done
+kill -KILL "$pid" 2>/dev/null
+wait "$pid" 2>/dev/null
+if [ -f "$dir/.steps.csv.tmp" ]; then
+  "$CUTSIM" resume "$dir/checkpoint.ckpt" --quiet >/dev/null 2>"$tmp/err"
+  code=$?
+  check "SIGKILL: resume from the last checkpoint exits with 0 ($(head -3 "$tmp/err"))" [ "$code" -eq 0 ]
+  check "SIGKILL: killed and resumed, the outputs equal the run's without a stop" same_outputs "$tmp/ref_$name" "$dir"
+fi  # (else the run ended before the signal came)
+
 # ---- refusals ----
 expect() {  # expect DESCRIPTION CODE PATTERN COMMAND...: the command fails with CODE, stderr matches PATTERN
   local what="$1" code="$2" pattern="$3"
@@ -159,9 +177,15 @@ sed -i '3s/[0-9]/7/' "$tmp/othercsv/steps.partial.csv"
 expect "a CSV changed since the checkpoint" 1 "holds the run's rows up to the checkpoint" \
   "$CUTSIM" resume "$tmp/othercsv/checkpoint.ckpt"
 
-expect "--checkpoint-every on a scene with contact" 2 "--checkpoint-every: this run cannot be checkpointed: its contact \(Contact\) cannot be saved yet" \
-  "$CUTSIM" run "$scenes/drape_cut.json" --out "$tmp/contact" --quiet --checkpoint-every 10
-check "a refused --checkpoint-every leaves no output folder" [ ! -e "$tmp/contact" ]
+# ---- a SOFA scene: its checkpoint holds its JSON translation ----
+sofa="$CUTSIM_TEST_DATA_DIR/sofa-scenes/FastTriangularBendingSprings.scn"
+"$CUTSIM" run "$sofa" --steps 40 --out "$tmp/sofa_ref" --quiet >/dev/null 2>&1
+s=$((1 + RANDOM % 39))
+"$CUTSIM" run "$sofa" --steps 40 --out "$tmp/sofa" --quiet --stop-after "$s" >/dev/null 2>&1
+(cd / && "$CUTSIM" resume "$tmp/sofa/checkpoint.ckpt" --quiet >/dev/null 2>"$tmp/err")
+code=$?
+check "SOFA scene: resumed from step $s in another folder, exits with 0 ($(head -3 "$tmp/err"))" [ "$code" -eq 0 ]
+check "SOFA scene: stopped at step $s and resumed, the outputs equal the run's without a stop" same_outputs "$tmp/sofa_ref" "$tmp/sofa"
 
 echo "$checks checks, $failures failed"
 [ "$failures" -eq 0 ]

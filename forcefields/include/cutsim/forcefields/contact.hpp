@@ -198,6 +198,12 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) override;
   std::string observerName() const override { return "Contact"; }
   void validate(const topology::Topology& topology, std::vector<std::string>& problems) const override;
+  /// Checkpoints: the exclusions and released pairs, the hierarchy as built, the pair cache and
+  /// its schedule, the step's pairs and bounds, the obstacles' paths and poses (what the next
+  /// steps depend on; the per-topology tables are rebuilt, as they are after every change).
+  bool checkpointable() const override { return true; }
+  void saveState(topology::ArchiveWriter& out) const override;
+  void loadState(topology::ArchiveReader& in) override;
 
   struct Impl;
 
