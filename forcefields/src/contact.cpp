@@ -2258,6 +2258,29 @@ void Contact::loadState(topology::ArchiveReader& in) {
     if (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)) in.fail("contact: a cached pair of a triangle that does not exist");
   }
   if (I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
+  // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles.
+  const std::size_t k = obstacles_.size(), edges = I.topo.edgeCapacity();
+  auto size = [&](std::size_t got, std::size_t most, const char* what) {
+    if (got > most) in.fail(std::string("contact: ") + what + " for " + std::to_string(got) + " elements, at most " + std::to_string(most));
+  };
+  size(I.boxes.size(), tris, "boxes");
+  size(I.fastPoint.size(), points, "fast points");
+  size(I.moveLength.size(), points, "displacements");
+  size(I.pointMargin.size(), points, "point margins");
+  size(I.triMargin.size(), tris, "triangle margins");
+  size(I.bound.size(), points, "bounds");
+  size(I.anchor.size(), points, "anchors");
+  size(I.sweptMotion.size(), points, "motions");
+  size(I.sinceCache.size(), points, "cache distances");
+  size(I.lastX.size(), 3 * points, "positions");
+  size(I.cacheX.size(), 3 * points, "cached positions");
+  size(I.tight.tri.size(), tris, "boxes");
+  size(I.tight.edge.size(), edges, "edge boxes");
+  if (I.offset.size() != k || I.velocity.size() != k || I.startOffset.size() != k || I.move.size() != k ||
+      I.obstacleMargin.size() > k || I.obstacleSinceCache.size() > k || I.cacheOffset.size() > k)
+    in.fail("contact: poses for another number of obstacles");
+  for (std::size_t j = 0; j < I.meshes.size(); ++j)
+    if (I.meshes[j].bvh.size() > I.meshes[j].triangles.size()) in.fail("contact: an obstacle's hierarchy over other triangles");
 }
 
 }  // namespace cutsim::forcefields

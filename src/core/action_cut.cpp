@@ -74,7 +74,7 @@ class CutAction final : public TimelineAction {
     out.boolean(tip_.has_value());
     if (tip_) out.raw(tip_->data(), sizeof(double) * 3);
   }
-  void loadState(topology::ArchiveReader& in) override {
+  void loadState(topology::ArchiveReader& in, const Simulation&) override {
     done_ = in.f64();
     started_ = in.boolean();
     finished_ = in.boolean();

@@ -135,7 +135,7 @@ class FractureAction final : public TimelineAction {
       out.f64(t.budget);
     }
   }
-  void loadState(topology::ArchiveReader& in) override {
+  void loadState(topology::ArchiveReader& in, const Simulation& sim) override {
     on_ = in.boolean();
     piece_ = in.f64();
     revision_ = in.u64();
@@ -143,7 +143,10 @@ class FractureAction final : public TimelineAction {
     if (n > in.remaining()) in.fail("fracture: a count of " + std::to_string(n) + " crack tips");
     tips_.assign(n, Tip{});
     for (Tip& t : tips_) {
-      t.point = PointId(topology::Index(in.u64()));
+      const std::uint64_t p = in.u64();
+      if (p >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(PointId(topology::Index(p))))
+        in.fail("fracture: a crack tip at point " + std::to_string(p) + ", which the mesh does not have");
+      t.point = PointId(topology::Index(p));
       in.raw(t.direction.data(), sizeof(double) * 3);
       t.budget = in.f64();
     }

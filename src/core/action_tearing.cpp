@@ -15,7 +15,7 @@ class TearingAction final : public TimelineAction {
   void start(ActionContext&) override { on_ = true; }
   bool checkpointable() const override { return true; }
   void saveState(topology::ArchiveWriter& out) const override { out.boolean(on_); }
-  void loadState(topology::ArchiveReader& in) override { on_ = in.boolean(); }
+  void loadState(topology::ArchiveReader& in, const Simulation&) override { on_ = in.boolean(); }
   void afterStep(ActionContext& c) override {
     if (!on_) return;
     Simulation& sim = c.simulation();

@@ -1,6 +1,7 @@
 // Second-order backward differentiation, linearised once per step (integrator.hpp).
 #include "cutsim/core/integrator.hpp"
-#include "cutsim/topology/archive.hpp"
+
+#include "checkpoint_io.hpp"
 
 namespace cutsim::core {
 
@@ -97,8 +98,7 @@ const bool registered =
 
 void BDF2::saveState(topology::ArchiveWriter& out) const {
   ImplicitIntegrator::saveState(out);
-  for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_})
-    out.f64s(std::span<const double>(v->data(), std::size_t(v->size())));
+  for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) checkpoint::saveVector(out, *v);
   out.f64(dtLast_);
   out.u64(revision_);
   out.boolean(have_);
@@ -107,10 +107,7 @@ void BDF2::saveState(topology::ArchiveWriter& out) const {
 
 void BDF2::loadState(topology::ArchiveReader& in) {
   ImplicitIntegrator::loadState(in);
-  for (Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) {
-    const std::vector<double> a = in.f64s();
-    *v = Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
-  }
+  for (Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) *v = checkpoint::loadVector(in);
   dtLast_ = in.f64();
   revision_ = in.u64();
   have_ = in.boolean();

@@ -2,10 +2,12 @@
 // Helpers of the checkpoints' readers and writers in the core (cutsim/topology/archive.hpp): a
 // table of trivially copyable values saved as stored, and read back only into a table of the
 // same size (the one a component built on the checkpoint's topology).
+#include <Eigen/Core>
 #include <cstdint>
 #include <span>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "cutsim/topology/archive.hpp"
 
@@ -26,6 +28,15 @@ void loadValues(topology::ArchiveReader& in, std::span<T> into, const std::strin
     in.fail(what + ": " + std::to_string(n) + " values saved, " + std::to_string(into.size()) +
             " slots in the topology");
   in.raw(into.data(), into.size() * sizeof(T));
+}
+
+/// A vector of any length (a warm start, a previous step), as stored.
+inline void saveVector(topology::ArchiveWriter& out, const Eigen::VectorXd& v) {
+  out.f64s(std::span<const double>(v.data(), std::size_t(v.size())));
+}
+inline Eigen::VectorXd loadVector(topology::ArchiveReader& in) {
+  const std::vector<double> a = in.f64s();
+  return Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
 }
 
 }  // namespace cutsim::core::checkpoint

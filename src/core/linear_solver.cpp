@@ -1,10 +1,10 @@
 // SystemOperator and the Jacobi-preconditioned conjugate gradients (linear_solver.hpp).
 #include "cutsim/core/linear_solver.hpp"
-#include "cutsim/topology/archive.hpp"
 
 #include <algorithm>
 #include <cmath>
 
+#include "checkpoint_io.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 
@@ -182,15 +182,8 @@ const bool registered = LinearSolverRegistry::instance().add({
     }});
 }  // namespace
 
-namespace {
-void saveVector(topology::ArchiveWriter& out, const Eigen::VectorXd& v) {
-  out.f64s(std::span<const double>(v.data(), std::size_t(v.size())));
-}
-Eigen::VectorXd loadVector(topology::ArchiveReader& in) {
-  const std::vector<double> a = in.f64s();
-  return Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
-}
-}  // namespace
+using checkpoint::loadVector;
+using checkpoint::saveVector;
 
 void ConjugateGradient::saveState(topology::ArchiveWriter& out) const { saveVector(out, warm_); }
 void ConjugateGradient::loadState(topology::ArchiveReader& in) { warm_ = loadVector(in); }

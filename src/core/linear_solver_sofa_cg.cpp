@@ -1,8 +1,8 @@
 // SOFA's CGLinearSolver, step for step (linear_solver.hpp).
 #include <cmath>
-#include "cutsim/topology/archive.hpp"
 
 #include "cutsim/core/linear_solver.hpp"
+#include "checkpoint_io.hpp"
 #include "cutsim/forcefields/parameters.hpp"
 #include "cutsim/topology/errors.hpp"
 
@@ -111,15 +111,8 @@ const bool registered = LinearSolverRegistry::instance().add({
     }});
 }  // namespace
 
-namespace {
-void saveVector(topology::ArchiveWriter& out, const Eigen::VectorXd& v) {
-  out.f64s(std::span<const double>(v.data(), std::size_t(v.size())));
-}
-Eigen::VectorXd loadVector(topology::ArchiveReader& in) {
-  const std::vector<double> a = in.f64s();
-  return Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
-}
-}  // namespace
+using checkpoint::loadVector;
+using checkpoint::saveVector;
 
 // (lastStop() describes the last solve only: not kept.)
 void SofaConjugateGradient::saveState(topology::ArchiveWriter& out) const { saveVector(out, warm_); }

@@ -376,16 +376,22 @@ std::string frameName(const std::string& prefix, std::size_t index, const std::s
 
 }  // namespace
 
-OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
-                           std::vector<std::string> fieldLabels,
-                           std::vector<std::string> graspNames, bool contact,
+OutputWriter::OutputWriter(Columns, std::filesystem::path dir, OutputSettings settings,
+                           std::vector<std::string> fieldLabels, std::vector<std::string> graspNames, bool contact,
                            std::vector<std::string> obstacleNames)
     : dir_(std::move(dir)),
       settings_(settings),
       labels_(std::move(fieldLabels)),
       grasps_(std::move(graspNames)),
       contact_(contact),
-      obstacles_(std::move(obstacleNames)) {
+      obstacles_(std::move(obstacleNames)) {}
+
+OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
+                           std::vector<std::string> fieldLabels,
+                           std::vector<std::string> graspNames, bool contact,
+                           std::vector<std::string> obstacleNames)
+    : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels), std::move(graspNames), contact,
+                   std::move(obstacleNames)) {
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
   if (ec || !std::filesystem::is_directory(dir_)) {
@@ -495,12 +501,8 @@ void OutputWriter::saveState(topology::ArchiveWriter& out) {
 OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
                            std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames,
                            topology::ArchiveReader& in)
-    : dir_(std::move(dir)),
-      settings_(settings),
-      labels_(std::move(fieldLabels)),
-      grasps_(std::move(graspNames)),
-      contact_(contact),
-      obstacles_(std::move(obstacleNames)) {
+    : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels), std::move(graspNames), contact,
+                   std::move(obstacleNames)) {
   in.open("output");
   surfaceFrames_ = loadFrames(in);
   borderFrames_ = loadFrames(in);

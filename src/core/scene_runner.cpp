@@ -328,7 +328,7 @@ SceneRunner::SceneRunner(const Scene& scene, topology::ArchiveReader& in)
     if (i >= nextAction_ || type != scene_.timeline[i].type)
       in.fail("a started action " + type + " at " + std::to_string(i) + " that the scene's timeline does not have");
     running_.push_back({&scene_.timeline[i], scene_.timeline[i].build()});
-    running_.back().action->loadState(in);
+    running_.back().action->loadState(in, *sim_);
   }
   in.close();
   if (std::abs(sim_->time() - time()) > 1e-9 * std::max(1.0, std::abs(time())) || sim_->steps() != step_)

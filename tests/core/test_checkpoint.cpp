@@ -47,6 +47,32 @@ Snapshot snapshot(const SceneRunner& r) {
           r.tornEdges()};
 }
 
+/// Steps a runner of `scene` to `stop`, saves it to `file`, restores it and steps both to the end:
+/// at the checkpoint and after every step, the two must be the same to the bit.
+void resumeAndCompare(const Scene& scene, long stop, const std::filesystem::path& file) {
+  SceneRunner a(scene);
+  a.start();
+  while (a.currentStep() < stop) a.advance();
+  {
+    topology::ArchiveWriter w;
+    a.save(w);
+    w.save(file);
+  }
+  topology::ArchiveReader in(file);
+  SceneRunner b(scene, in);
+  ASSERT_EQ(b.currentStep(), stop);
+  ASSERT_EQ(b.time(), a.time());
+  ASSERT_TRUE(snapshot(a) == snapshot(b)) << "at the checkpoint, step " << stop;
+  while (!a.finished()) {
+    a.advance();
+    b.advance();
+    ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
+  }
+  EXPECT_TRUE(b.finished());
+  EXPECT_EQ(a.simulation().solveSummary().flaggedSteps, b.simulation().solveSummary().flaggedSteps);
+  EXPECT_TRUE(b.simulation().topology().validate().ok());
+}
+
 class CheckpointRun : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
 
 
@@ -56,30 +82,8 @@ TEST_P(CheckpointRun, ARestoredRunnerGoesOnBitForBitAsTheOneThatWroteIt) {
   const std::filesystem::path file =
       std::filesystem::path(::testing::TempDir()) / (std::string("cutsim_ck_") + GetParam().first + ".ckpt");
   std::mt19937 rng(std::hash<std::string>{}(GetParam().first));
-  for (int trial = 0; trial < 3; ++trial) {
-    SceneRunner a(scene);
-    const long stop = std::uniform_int_distribution<long>(0, a.numSteps() - 1)(rng);
-    a.start();
-    while (a.currentStep() < stop) a.advance();
-    {
-      topology::ArchiveWriter w;
-      a.save(w);
-      w.save(file);
-    }
-    topology::ArchiveReader in(file);
-    SceneRunner b(scene, in);
-    ASSERT_EQ(b.currentStep(), stop);
-    ASSERT_EQ(b.time(), a.time());
-    EXPECT_TRUE(snapshot(a) == snapshot(b)) << "at the checkpoint, step " << stop;
-    while (!a.finished()) {
-      a.advance();
-      b.advance();
-      ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
-    }
-    EXPECT_TRUE(b.finished());
-    EXPECT_EQ(a.simulation().solveSummary().flaggedSteps, b.simulation().solveSummary().flaggedSteps);
-    EXPECT_TRUE(b.simulation().topology().validate().ok());
-  }
+  const long steps = scene.numSteps();
+  for (int trial = 0; trial < 3; ++trial) resumeAndCompare(scene, std::uniform_int_distribution<long>(0, steps - 1)(rng), file);
   std::filesystem::remove(file);
 }
 
@@ -121,45 +125,12 @@ TEST(Checkpoint, FEMDihedralAndFractureGoOnBitForBit) {
     ]})";
   const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
   const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_fem.ckpt";
-  for (long stop : {1L, 37L, 55L}) {
-    SceneRunner a(scene);
-    a.start();
-    while (a.currentStep() < stop) a.advance();
-    topology::ArchiveWriter w;
-    a.save(w);
-    w.save(file);
-    topology::ArchiveReader in(file);
-    SceneRunner b(scene, in);
-    while (!a.finished()) {
-      a.advance();
-      b.advance();
-      ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
-    }
-  }
+  for (long stop : {1L, 37L, 55L}) resumeAndCompare(scene, stop, file);
   SceneRunner probe(scene);
   probe.start();
   while (!probe.finished()) probe.advance();
   EXPECT_GT(probe.tornEdges() + probe.cutsDone(), 1) << "the crack should advance in this scene";
   std::filesystem::remove(file);
-}
-
-/// Steps a runner to `stop`, saves it, restores it and steps both to the end, comparing every step.
-void resumeAndCompare(const Scene& scene, long stop, const std::filesystem::path& file) {
-  SceneRunner a(scene);
-  a.start();
-  while (a.currentStep() < stop) a.advance();
-  {
-    topology::ArchiveWriter w;
-    a.save(w);
-    w.save(file);
-  }
-  topology::ArchiveReader in(file);
-  SceneRunner b(scene, in);
-  while (!a.finished()) {
-    a.advance();
-    b.advance();
-    ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
-  }
 }
 
 TEST(Checkpoint, ContactGoesOnBitForBitThroughACutAndAMovingObstacle) {

@@ -141,6 +141,10 @@ class OutputWriter {
   void saveState(topology::ArchiveWriter& out);
 
  private:
+  struct Columns {};
+  /// What both constructors start with: the folder and the CSV's columns (nothing done yet).
+  OutputWriter(Columns, std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
+               std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames);
   void writeFrame(Simulation& sim, const StepRecord& r);
   void lockFolder();
   // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection

@@ -112,11 +112,12 @@ class TimelineAction {
   /// surface at rest) plays it: not the actions that act on strains.
   virtual bool rehearsed() const { return true; }
   /// Checkpoints: whether the action saves what it goes on with (a progressive cut's progress,
-  /// crack tips); saveState and loadState write and read it in the open section. An action that
-  /// is done once started keeps nothing.
+  /// crack tips); saveState and loadState write and read it in the open section (loadState on the
+  /// restored simulation, which it checks what it read against). An action that is done once
+  /// started keeps nothing.
   virtual bool checkpointable() const { return false; }
   virtual void saveState(topology::ArchiveWriter& /*out*/) const {}
-  virtual void loadState(topology::ArchiveReader& /*in*/) {}
+  virtual void loadState(topology::ArchiveReader& /*in*/, const Simulation& /*simulation*/) {}
 };
 using ActionRegistry = Registry<TimelineAction, const ActionTiming&>;
 
