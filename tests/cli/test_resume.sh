@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Checkpoints and resume, end to end (CTest: cli.resume). Demo scenes (a progressive cut with
 # CG, a notch torn by fracture under a grasp, the surgery incision with CHOLMOD, FEM and dihedral
-# bending, a cloth falling on the ground with contact) and a SOFA scene are stopped at random steps (--stop-after, SIGINT) and resumed: the resumed run's
+# bending, a cloth falling on the ground and one draped over a ball and cut, with contact, the
+# surgery flap lifted by forceps) and a SOFA scene are stopped at random steps (--stop-after, SIGINT) and resumed: the resumed run's
 # folder must equal, file for file and byte for byte, that of the same run made without a stop.
 # Also: writing checkpoints changes no output; a run resumed twice; damaged, truncated and foreign
 # checkpoints and a folder missing a frame or its CSV are refused with clear messages.
@@ -46,11 +47,12 @@ shortened() {  # shortened NAME DURATION -> path
 }
 
 # name, duration (past the scene's last action), steps, and whether to also stop twice and
-# write checkpoints along the way (the longest run only once under the sanitizers).
+# write checkpoints along the way (the longest runs only once; under the sanitizers, fewer).
 if [ "${CUTSIM_QUICK:-0}" = 1 ]; then
   cases=("hanging_cut 1.8 360 1" "tearing 0.8 160 1" "surgery_incision 1.35 270 0" "fold_ground 0.2 100 0")
 else
-  cases=("hanging_cut 4 800 1" "tearing 1.6 320 1" "surgery_incision 1.5 300 1" "fold_ground 0.5 250 1")
+  cases=("hanging_cut 4 800 1" "tearing 1.6 320 1" "surgery_incision 1.5 300 1" "fold_ground 0.5 250 1"
+         "drape_cut 1.4 700 0" "surgery_flap 1.6 320 0")
 fi
 
 for c in "${cases[@]}"; do
