@@ -2183,11 +2183,14 @@ void Contact::loadState(topology::ArchiveReader& in) {
   last_.obstacleFriction = in.f64s();
 
   const bool built = in.boolean();
-  I.revision = in.u64();
-  // The tables of the topology as it is (what the saved ones were built from).
+  const std::uint64_t revision = in.u64();
+  // The tables of the topology as it is. A checkpoint written right after a topology change holds
+  // the tables of the mesh before it, which the next step rebuilds (dropping the hierarchy):
+  // the saved revision says so, and the restored contact does the same.
   I.rebuildTables();
   I.built = built;
-  if (built && I.revision != I.topo.revision()) in.fail("contact: tables of another revision of the mesh");
+  I.revision = revision;
+  const bool current = built && revision == I.topo.revision();
   I.bvhBuilt = in.boolean();
   I.meanEdge = in.f64();
   loadRecords(in, I.boxes, "boxes");
@@ -2255,13 +2258,15 @@ void Contact::loadState(topology::ArchiveReader& in) {
   for (const Pair& p : I.nearPairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
   for (const auto& c : I.cache) {
     checkPair(c.kind, c.obstacle, c.surface, c.id);
-    if (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)) in.fail("contact: a cached pair of a triangle that does not exist");
+    if (I.cacheRevision == I.topo.revision() && (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)))
+      in.fail("contact: a cached pair of a triangle that does not exist");
   }
-  if (I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
-  // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles.
+  if (current && I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
+  // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles
+  // (tables of the mesh before a change are replaced at the next step, unread).
   const std::size_t k = obstacles_.size(), edges = I.topo.edgeCapacity();
   auto size = [&](std::size_t got, std::size_t most, const char* what) {
-    if (got > most) in.fail(std::string("contact: ") + what + " for " + std::to_string(got) + " elements, at most " + std::to_string(most));
+    if (current && got > most) in.fail(std::string("contact: ") + what + " for " + std::to_string(got) + " elements, at most " + std::to_string(most));
   };
   size(I.boxes.size(), tris, "boxes");
   size(I.fastPoint.size(), points, "fast points");
