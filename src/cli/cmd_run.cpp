@@ -13,6 +13,9 @@
 #include <limits>
 #include <memory>
 #include <sstream>
+#include <vector>
+
+#include <zlib.h>
 #include <string>
 
 #include "commands.hpp"
@@ -130,7 +133,32 @@ struct RunSource {
   std::string sceneName;  ///< the scene file as given (for messages)
   std::filesystem::path baseDir;  ///< the scene's folder, absolute (its mesh files)
   long checkpointEvery = 0;
+  // What the run was asked to write at its end (a resumed run does the same unless told).
+  bool htmlAuto = false;
+  std::string html, dumpFinal;
 };
+
+/// The program's build, as a CRC-32 and size of its own executable: a checkpoint resumes, to the
+/// bit, only with the build that wrote it.
+std::string buildIdentity() {
+  static const std::string id = [] {
+    std::ifstream f("/proc/self/exe", std::ios::binary);
+    uLong crc = ::crc32(0L, Z_NULL, 0);
+    std::uint64_t size = 0;
+    std::vector<char> buffer(1 << 16);
+    while (f) {
+      f.read(buffer.data(), std::streamsize(buffer.size()));
+      const std::streamsize got = f.gcount();
+      if (got <= 0) break;
+      crc = ::crc32(crc, reinterpret_cast<const Bytef*>(buffer.data()), uInt(got));
+      size += std::uint64_t(got);
+    }
+    char text[64];
+    std::snprintf(text, sizeof text, "%08lx-%llu", static_cast<unsigned long>(crc), static_cast<unsigned long long>(size));
+    return std::string(size > 0 ? text : "unknown");
+  }();
+  return id;
+}
 
 constexpr const char* kCheckpointName = "checkpoint.ckpt";
 
@@ -144,6 +172,10 @@ void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& sourc
   w.str(source.sceneName);
   w.str(source.baseDir.string());
   w.i64(source.checkpointEvery);
+  w.str(buildIdentity());
+  w.boolean(source.htmlAuto);
+  w.str(source.html);
+  w.str(source.dumpFinal);
   runner.save(w);
   writer.saveState(w);
   w.save(outDir / kCheckpointName);
@@ -276,8 +308,16 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
   }
 }
 
-/// The checks of --html and --dump-final before a run.
-void checkOutputOptions(const RunOptions& options, const core::Scene& scene) {
+/// The checks of --html and --dump-final before a run into outDir.
+void checkOutputOptions(const RunOptions& options, const core::Scene& scene, const std::filesystem::path& outDir) {
+  if (!options.html.empty()) {
+    std::error_code ec;
+    const std::filesystem::path page = std::filesystem::weakly_canonical(std::filesystem::absolute(options.html), ec);
+    const std::filesystem::path dir = std::filesystem::weakly_canonical(std::filesystem::absolute(outDir), ec);
+    const std::string name = page.filename().string();
+    if (page.parent_path() == dir && name != "player.html" && core::OutputWriter::isRunOutput(name))
+      throw InvalidInput("--html", options.html + " is one of the run's own files: name the page otherwise");
+  }
   if ((options.htmlAuto || !options.html.empty()) && !scene.output.vtk)
     throw InvalidInput("--html", "the scene writes no frames (its output has \"vtk\": false): the player has nothing to "
                                  "show");
@@ -300,6 +340,9 @@ void runScene(const RunOptions& options) {
   RunSource source;
   source.sceneName = options.scene;
   source.checkpointEvery = options.checkpointEvery;
+  source.htmlAuto = options.htmlAuto;
+  source.html = options.html.empty() ? "" : std::filesystem::absolute(options.html).string();
+  source.dumpFinal = options.dumpFinal.empty() ? "" : std::filesystem::absolute(options.dumpFinal).string();
   const core::Scene scene = [&] {
     if (!isSofaScene(options.scene)) {
       // Read once: the checkpoints hold the text the run was made from.
@@ -335,7 +378,7 @@ void runScene(const RunOptions& options) {
     throw InvalidInput(options.scene, "the run would take " + std::to_string(steps) + " steps and write " +
                                           std::to_string(frames) + " frames, more than the limits (10^7 steps, 10^5 "
                                           "frames): raise output.every or the time step, or pass --allow-long");
-  checkOutputOptions(options, scene);
+  checkOutputOptions(options, scene, outDir);
   if (!options.quiet)
     std::cerr << "running " << steps << " steps of " << scene.timeStep << " s"
               << (frames ? ", " + std::to_string(frames - 1) + " frames at most" : std::string()) << ", into "
@@ -362,7 +405,8 @@ void runScene(const RunOptions& options) {
 struct ResumeOptions {
   std::string checkpoint;
   RunOptions run;
-  bool everyGiven = false;
+  bool everyGiven = false, htmlGiven = false, dumpGiven = false;
+  bool otherBuild = false;  ///< resume with another build of cutsim (its rounding may differ)
 };
 
 void resumeRun(const ResumeOptions& options) {
@@ -378,23 +422,45 @@ void resumeRun(const ResumeOptions& options) {
   source.sceneName = in.str();
   source.baseDir = in.str();
   source.checkpointEvery = long(in.i64());
+  const std::string build = in.str();
+  source.htmlAuto = in.boolean();
+  source.html = in.str();
+  source.dumpFinal = in.str();
   in.close();
   if (written != core::version())
     throw InvalidInput(file.string(), "written by cutsim " + written + ", this is cutsim " + core::version() +
                                           ": a run resumes with the program that began it (its outputs would differ)");
-  if (options.everyGiven) source.checkpointEvery = options.run.checkpointEvery;
+  if (build != buildIdentity() && !options.otherBuild)
+    throw InvalidInput(file.string(), "written by another build of cutsim (" + build + ", this one is " + buildIdentity() +
+                                          "): its rounding may differ from this one's, so the resumed run would not be "
+                                          "the run made without a stop; pass --other-build to resume anyway");
+  // What the run was asked for, unless given again.
+  RunOptions run = options.run;
+  if (options.everyGiven) source.checkpointEvery = run.checkpointEvery;
+  if (!options.htmlGiven) {
+    run.htmlAuto = source.htmlAuto;
+    run.html = source.html;
+  }
+  if (!options.dumpGiven) run.dumpFinal = source.dumpFinal;
+  // (and the checkpoints this run writes remember what it was asked for)
+  source.htmlAuto = run.htmlAuto;
+  source.html = run.html.empty() ? "" : std::filesystem::absolute(run.html).string();
+  source.dumpFinal = run.dumpFinal.empty() ? "" : std::filesystem::absolute(run.dumpFinal).string();
   const core::Scene scene = core::parseScene(source.sceneText, source.sceneName, source.baseDir);
-  checkOutputOptions(options.run, scene);
   const std::filesystem::path outDir = file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+  checkOutputOptions(run, scene, outDir);
   const auto start = std::chrono::steady_clock::now();
   core::SceneRunner runner(scene, in);
+  if (run.stopAfter > 0 && run.stopAfter <= runner.currentStep())
+    throw InvalidInput("--stop-after", std::to_string(run.stopAfter) + " is not after the checkpoint's step " +
+                                           std::to_string(runner.currentStep()));
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(), scene.contact.has_value(),
                             obstacleNamesOf(scene), in);
-  if (!options.run.quiet)
+  if (!run.quiet)
     std::cerr << "resuming " << source.sceneName << " at step " << runner.currentStep() << " of " << runner.numSteps()
               << " (t = " << runner.time() << " s), into " << outDir.string() << "\n";
   if (scene.output.vtk) core::writeRunInfo(outDir, scene);
-  play(options.run, scene, source, runner, writer, outDir, true, start);
+  play(run, scene, source, runner, writer, outDir, true, start);
 }
 
 }  // namespace
@@ -454,9 +520,15 @@ void registerResumeCommand(CLI::App& app) {
                   "stop after this step as SIGINT would (a checkpoint, the outputs marked partial), exit code 0: "
                   "a run made in parts")
       ->check(CLI::Range(1L, 1000000000L));
+  CLI::Option* dump = cmd->get_option("--dump-final");
+  cmd->add_flag("--other-build", options->otherBuild,
+                "resume a checkpoint written by another build of cutsim (the outputs may then differ by rounding "
+                "from the run made without a stop)");
   CLI::Option* html = cmd->get_option("--html");
-  cmd->callback([options, html, every] {
+  cmd->callback([options, html, every, dump] {
     options->run.htmlAuto = html->count() > 0;
+    options->htmlGiven = html->count() > 0;
+    options->dumpGiven = dump->count() > 0;
     options->everyGiven = every->count() > 0;
     if (options->run.htmlAuto && !options->run.html.empty() && std::filesystem::is_directory(options->run.html))
       throw InvalidInput("--html", options->run.html + " is a folder, not a file");

@@ -400,7 +400,7 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
   }
   // One run at a time in a folder; what an earlier run left there goes, so that its frames and
   // CSV cannot be mistaken for this run's.
-  lockFolder();
+  lockFolder("give this one another --out folder");
   for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
     if (!entry.is_regular_file(ec) || !isRunOutput(entry.path().filename().string())) continue;
     if (std::filesystem::remove(entry.path(), ec)) ++replaced_;
@@ -410,19 +410,18 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
     csvTemp_ = dir_ / ".steps.csv.tmp";
     csv_.open(csvTemp_, std::ios::binary | std::ios::trunc);
     if (!csv_) throw Error("cannot create " + csvTemp_.string());
-    csv_ << csvHeader() << '\n';
+    writeCsv(csvHeader() + '\n');
   }
 }
 
-void OutputWriter::lockFolder() {
+void OutputWriter::lockFolder(const char* hint) {
   const std::filesystem::path lock = dir_ / ".cutsim.lock";
   lockFd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (lockFd_ < 0) throw Error("cannot create " + lock.string() + ": " + std::strerror(errno));
   if (::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
     ::close(lockFd_);
     lockFd_ = -1;
-    throw Error("another run is writing into the output folder " + dir_.string() +
-                " (give this one another --out folder)");
+    throw Error("another run is writing into the output folder " + dir_.string() + " (" + hint + ")");
   }
 }
 
@@ -435,26 +434,36 @@ void saveFrames(topology::ArchiveWriter& out, const Frames& frames) {
     out.str(name);
   }
 }
-Frames loadFrames(topology::ArchiveReader& in) {
+/// `blank`: a list of times without files (the surface's frames when only OBJ frames are written).
+Frames loadFrames(topology::ArchiveReader& in, bool blank = false) {
   const std::uint64_t n = in.u64();
   if (n > in.remaining()) in.fail("output: a count of " + std::to_string(n) + " frames");
   Frames frames(n);
   for (auto& [t, name] : frames) {
     t = in.f64();
     name = in.str();
-    if (name.empty() || name.find('/') != std::string::npos || !OutputWriter::isRunOutput(name))
+    if (blank ? !name.empty() : (name.find('/') != std::string::npos || !OutputWriter::isRunOutput(name)))
       in.fail("output: \"" + name + "\" is not the name of a frame");
   }
   return frames;
 }
-/// CRC-32 of the `n` bytes of `file` before `end` ("" if the file is shorter).
-std::optional<std::uint32_t> tailChecksum(const std::filesystem::path& file, std::uint64_t end, std::uint64_t n) {
+/// CRC-32 of the first `n` bytes of `file` (all of it: n = -1); nothing if it is shorter or
+/// cannot be read.
+std::optional<std::uint32_t> fileChecksum(const std::filesystem::path& file, std::uint64_t n = ~std::uint64_t(0)) {
   std::ifstream f(file, std::ios::binary);
   if (!f) return std::nullopt;
-  std::string bytes(n, '\0');
-  f.seekg(std::streamoff(end - n));
-  if (!f.read(bytes.data(), std::streamsize(n))) return std::nullopt;
-  return std::uint32_t(::crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), uInt(n)));
+  uLong crc = ::crc32(0L, Z_NULL, 0);
+  std::vector<char> buffer(1 << 16);
+  std::uint64_t left = n;
+  while (left > 0) {
+    f.read(buffer.data(), std::streamsize(std::min<std::uint64_t>(buffer.size(), left)));
+    const std::streamsize got = f.gcount();
+    if (got <= 0) break;
+    crc = ::crc32(crc, reinterpret_cast<const Bytef*>(buffer.data()), uInt(got));
+    left -= std::uint64_t(got);
+  }
+  if (n != ~std::uint64_t(0) && left > 0) return std::nullopt;
+  return std::uint32_t(crc);
 }
 /// The number of a frame file ("surface_000012.vtp": 12), if the name has one.
 std::optional<std::size_t> frameNumber(const std::string& name) {
@@ -467,8 +476,12 @@ std::optional<std::size_t> frameNumber(const std::string& name) {
   }
   return n;
 }
-constexpr std::uint64_t kCsvTail = 4096;
 }  // namespace
+
+void OutputWriter::writeCsv(const std::string& text) {
+  csv_ << text;
+  csvCrc_ = std::uint32_t(::crc32(csvCrc_, reinterpret_cast<const Bytef*>(text.data()), uInt(text.size())));
+}
 
 void OutputWriter::saveState(topology::ArchiveWriter& out) {
   out.begin("output");
@@ -485,16 +498,24 @@ void OutputWriter::saveState(topology::ArchiveWriter& out) {
     for (const Vec3& p : s) out.raw(p.data(), sizeof(double) * 3);
   out.i64(lastFrameStep_);
   out.u64(nextPartial_);
+  out.u64(partialFrames_);
+  // The last frame's file, which ties the folder to this run (its CSV may be off).
+  std::string last;
+  if (!surfaceFrames_.empty())
+    last = settings_.vtk ? surfaceFrames_.back().second
+                         : (settings_.obj ? frameName("frame", surfaceFrames_.size() - 1, ".obj") : "");
+  out.str(last);
+  if (!last.empty()) {
+    const auto crc = fileChecksum(dir_ / last);
+    if (!crc) throw Error("cannot read back " + (dir_ / last).string());
+    out.u64(*crc);
+  }
   out.boolean(settings_.csv);
   if (settings_.csv) {
     csv_.flush();
     if (!csv_) throw Error("cannot write " + csvTemp_.string());
-    const std::uint64_t length = std::uint64_t(csv_.tellp());
-    const std::uint64_t n = std::min(kCsvTail, length);
-    const auto crc = tailChecksum(csvTemp_, length, n);
-    if (!crc) throw Error("cannot read back " + csvTemp_.string());
-    out.u64(length);
-    out.u64(*crc);
+    out.u64(std::uint64_t(csv_.tellp()));
+    out.u64(csvCrc_);
   }
 }
 
@@ -504,7 +525,7 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
     : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels), std::move(graspNames), contact,
                    std::move(obstacleNames)) {
   in.open("output");
-  surfaceFrames_ = loadFrames(in);
+  surfaceFrames_ = loadFrames(in, !settings_.vtk);
   borderFrames_ = loadFrames(in);
   obstacleFrames_ = loadFrames(in);
   const std::uint64_t series = in.u64();
@@ -520,6 +541,9 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
     for (Vec3& p : s) in.raw(p.data(), sizeof(double) * 3);
   lastFrameStep_ = long(in.i64());
   nextPartial_ = std::size_t(in.u64());
+  partialFrames_ = std::size_t(in.u64());
+  const std::string lastFrame = in.str();
+  const std::uint64_t lastCrc = lastFrame.empty() ? 0 : in.u64();
   const bool csv = in.boolean();
   if (csv != settings_.csv) in.fail("output: the saved run and the scene differ in writing a CSV");
   std::uint64_t length = 0, crc = 0;
@@ -528,49 +552,56 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
     crc = in.u64();
   }
   in.close();
+  if (partialFrames_ > surfaceFrames_.size() || (!lastFrame.empty() && !isRunOutput(lastFrame)))
+    in.fail("output: frames that the run did not write");
 
   if (!std::filesystem::is_directory(dir_))
     throw Error("cannot resume into " + dir_.string() + ": the folder of the run is gone");
-  lockFolder();
+  lockFolder("a run resumes once at a time, into its own folder: wait for the other to end");
   // Every frame up to the checkpoint must be there.
   std::vector<std::string> missing;
   auto need = [&](const Frames& frames) {
     for (const auto& f : frames)
-      if (!std::filesystem::exists(dir_ / f.second)) missing.push_back(f.second);
+      if (!f.second.empty() && !std::filesystem::exists(dir_ / f.second)) missing.push_back(f.second);
   };
   need(surfaceFrames_);
   need(borderFrames_);
   need(obstacleFrames_);
   for (const auto& [name, frames] : networkFrames_) need(frames);
+  if (settings_.obj)
+    for (std::size_t i = 0; i < surfaceFrames_.size(); ++i) {
+      const std::string obj = frameName("frame", i, ".obj");
+      if (!std::filesystem::exists(dir_ / obj)) missing.push_back(obj);
+    }
   if (!missing.empty())
     throw Error("cannot resume into " + dir_.string() + ": " + std::to_string(missing.size()) +
                 " frames of the run up to the checkpoint are missing (" + missing.front() + ", ...)");
+  if (!lastFrame.empty() && fileChecksum(dir_ / lastFrame) != std::optional<std::uint32_t>(std::uint32_t(lastCrc)))
+    throw Error("cannot resume into " + dir_.string() + ": its " + lastFrame +
+                " is not the frame the checkpoint's run wrote (another run wrote into the folder since)");
   // The CSV up to the checkpoint: the one being written, a partial one, or a finished one.
   if (settings_.csv) {
     csvTemp_ = dir_ / ".steps.csv.tmp";
     std::filesystem::path found;
-    const std::string header = csvHeader() + '\n';
     for (const char* name : {".steps.csv.tmp", "steps.partial.csv", "steps.csv"}) {
       const std::filesystem::path p = dir_ / name;
       std::error_code ec;
       const auto size = std::filesystem::file_size(p, ec);
-      if (ec || size < length || length < header.size()) continue;
-      const auto tail = tailChecksum(p, length, std::min(kCsvTail, length));
-      std::string first(header.size(), '\0');
-      std::ifstream f(p, std::ios::binary);
-      if (!tail || *tail != crc || !f.read(first.data(), std::streamsize(first.size())) || first != header) continue;
+      if (ec || size < length) continue;
+      if (fileChecksum(p, length) != std::optional<std::uint32_t>(std::uint32_t(crc))) continue;
       found = p;
       break;
     }
     if (found.empty())
       throw Error("cannot resume into " + dir_.string() + ": no steps.csv, steps.partial.csv or .steps.csv.tmp there holds "
-                  "the run's rows up to the checkpoint (" + std::to_string(length) + " bytes)");
+                  "the run's rows up to the checkpoint (" + std::to_string(length) + " bytes, byte for byte: changed or removed since)");
     std::error_code ec;
     std::filesystem::resize_file(found, length, ec);
     if (!ec && found != csvTemp_) std::filesystem::rename(found, csvTemp_, ec);
     if (ec) throw Error("cannot resume the CSV " + found.string() + ": " + ec.message());
     csv_.open(csvTemp_, std::ios::binary | std::ios::app);
     if (!csv_) throw Error("cannot open " + csvTemp_.string());
+    csvCrc_ = std::uint32_t(crc);
   }
   // What the run wrote after the checkpoint, and every collection (written again at the end).
   const std::size_t frames = surfaceFrames_.size();
@@ -588,6 +619,23 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
       std::error_code removeError;
       if (std::filesystem::remove(entry.path(), removeError)) ++replaced_;
     }
+  }
+  // The partial collections as the run last wrote them (a resumed run that fails before it
+  // writes them again leaves what the run made without a stop leaves).
+  if (settings_.vtk && partialFrames_ > 0) {
+    auto upTo = [&](const Frames& all) {
+      Frames listed;
+      for (const auto& f : all)
+        if (const auto k = frameNumber(f.second); k && *k < partialFrames_) listed.push_back(f);
+      return listed;
+    };
+    writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, upTo(surfaceFrames_)); });
+    writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, upTo(borderFrames_)); });
+    for (const auto& [series, all] : networkFrames_)
+      if (const Frames listed = upTo(all); !listed.empty())
+        writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, listed); });
+    if (const Frames listed = upTo(obstacleFrames_); !listed.empty())
+      writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, listed); });
   }
 }
 
@@ -674,7 +722,7 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
         row << ',' << num(k < m.obstacleNormal.size() ? m.obstacleNormal[k] : 0.0, obstacles_[k] + "_normal_force")
             << ',' << num(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0, obstacles_[k] + "_friction_force");
     }
-    csv_ << row.str() << '\n';
+    writeCsv(row.str() + '\n');
   }
   if ((r.step % settings_.every == 0 || last) && r.step != lastFrameStep_) writeFrame(sim, r);
 }
@@ -695,6 +743,7 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
     writeFileAtomically(dir_ / borders, [&](std::ostream& o) { writeBordersVtp(o, sim, originalBorder_); });
     borderFrames_.emplace_back(r.time, borders);
     if (partial) {
+      partialFrames_ = surfaceFrames_.size();
       writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
       writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
     }

@@ -178,6 +178,33 @@ cp -r "$tmp/good" "$tmp/othercsv"
 sed -i '3s/[0-9]/7/' "$tmp/othercsv/steps.partial.csv"
 expect "a CSV changed since the checkpoint" 1 "holds the run's rows up to the checkpoint" \
   "$CUTSIM" resume "$tmp/othercsv/checkpoint.ckpt"
+cp -r "$tmp/good" "$tmp/otherframe"
+"$CUTSIM" run "$CUTSIM_TEST_DATA_DIR/scenes/small.json" --out "$tmp/small" --quiet >/dev/null 2>&1
+cp "$tmp/small/surface_000002.vtp" "$tmp/otherframe/surface_000002.vtp"
+expect "a frame another run wrote" 1 "surface_000002.vtp is not the frame the checkpoint's run wrote" \
+  "$CUTSIM" resume "$tmp/otherframe/checkpoint.ckpt"
+expect "--stop-after before the checkpoint" 2 "--stop-after: 5 is not after the checkpoint's step 20" \
+  "$CUTSIM" resume "$ck" --stop-after 5
+expect "--html onto the run's own files" 2 "--html: .*checkpoint.ckpt is one of the run's own files" \
+  "$CUTSIM" run "$scene" --out "$tmp/html" --quiet --html "$tmp/html/checkpoint.ckpt"
+expect "a file that is not a regular file" 2 "not a regular file" "$CUTSIM" resume /dev/zero
+
+# ---- OBJ frames only, and what the run was asked for at its end (--html, --dump-final) ----
+sed -E 's/"output": \{[^}]*\}/"output": {"every": 5, "vtk": false, "obj": true}/' \
+  "$CUTSIM_TEST_DATA_DIR/scenes/small.json" >"$tmp/obj.json"
+"$CUTSIM" run "$tmp/obj.json" --out "$tmp/obj_ref" --quiet --dump-final "$tmp/obj_ref_dump" >/dev/null 2>&1
+"$CUTSIM" run "$tmp/obj.json" --out "$tmp/obj" --quiet --stop-after 12 --dump-final "$tmp/obj_dump" >/dev/null 2>&1
+cp -r "$tmp/obj" "$tmp/obj_noframe"
+"$CUTSIM" resume "$tmp/obj/checkpoint.ckpt" --quiet >/dev/null 2>"$tmp/err"
+code=$?
+check "OBJ frames only: resume exits with 0 ($(head -3 "$tmp/err"))" [ "$code" -eq 0 ]
+check "OBJ frames only: stopped and resumed, the outputs equal the run's without a stop" same_outputs "$tmp/obj_ref" "$tmp/obj"
+check "--dump-final given to the run is written by the resumed run" diff -r "$tmp/obj_ref_dump" "$tmp/obj_dump"
+rm "$tmp/obj_noframe/frame_000001.obj"
+expect "a folder missing an OBJ frame" 1 "missing \(frame_000001.obj" "$CUTSIM" resume "$tmp/obj_noframe/checkpoint.ckpt"
+"$CUTSIM" run "$scene" --out "$tmp/page" --quiet --stop-after 30 --html >/dev/null 2>&1
+"$CUTSIM" resume "$tmp/page/checkpoint.ckpt" --quiet >/dev/null 2>&1
+check "--html given to the run: the resumed run writes the player" [ -s "$tmp/page/player.html" ]
 
 # ---- a SOFA scene: its checkpoint holds its JSON translation ----
 sofa="$CUTSIM_TEST_DATA_DIR/sofa-scenes/FastTriangularBendingSprings.scn"

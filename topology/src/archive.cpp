@@ -137,6 +137,11 @@ ArchiveReader::ArchiveReader(const std::filesystem::path& path) : path_(path) {
   if (std::filesystem::is_directory(path, ec)) fail("is a folder, not a checkpoint");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InvalidInput(path.string(), "cannot open the checkpoint");
+  if (!std::filesystem::is_regular_file(path, ec)) fail("not a regular file, not a checkpoint");
+  // The magic first: a file that is not a checkpoint is not read whole.
+  char magic[8] = {};
+  if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0) fail("not a cutsim checkpoint (no CUTSIMCK header)");
+  in.seekg(0);
   std::ostringstream buffer;
   buffer << in.rdbuf();
   data_ = buffer.str();

@@ -102,9 +102,9 @@ class OutputWriter {
   /// The writer of a run resumed from a checkpoint (section "output", saveState): it takes the
   /// folder, keeps the frames written up to the checkpoint, removes the later ones and the
   /// collections, and continues the CSV cut back to its length at the checkpoint (the run's
-  /// steps.csv, steps.partial.csv or the CSV being written, whichever still holds those rows:
-  /// its header and its last bytes are checked). A folder that does not hold the run's outputs
-  /// up to the checkpoint: cutsim::Error naming what is missing.
+  /// steps.csv, steps.partial.csv or the CSV being written, whichever still holds those rows,
+  /// byte for byte). A folder that does not hold the run's outputs up to the checkpoint (a frame
+  /// missing, the last frame or the CSV not the run's): cutsim::Error naming what is wrong.
   OutputWriter(std::filesystem::path dir, OutputSettings settings,
                std::vector<std::string> fieldLabels, std::vector<std::string> graspNames, bool contact,
                std::vector<std::string> obstacleNames, topology::ArchiveReader& in);
@@ -136,8 +136,9 @@ class OutputWriter {
   static bool isRunOutput(const std::string& name);
   /// The CSV header line (without newline).
   std::string csvHeader() const;
-  /// Checkpoints: the section "output": the frames so far, the first frame's border, and the
-  /// CSV's length (flushed first) with a checksum of its last bytes.
+  /// Checkpoints: the section "output": the frames so far, the first frame's border, a checksum
+  /// of the last frame's file, and the CSV's length (flushed first) with the checksum of all its
+  /// bytes.
   void saveState(topology::ArchiveWriter& out);
 
  private:
@@ -146,7 +147,7 @@ class OutputWriter {
   OutputWriter(Columns, std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
                std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames);
   void writeFrame(Simulation& sim, const StepRecord& r);
-  void lockFolder();
+  void lockFolder(const char* hint);
   // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection
   // written whole with a suffix (".pvd", ".partial.pvd"), the CSV renamed, the lock released.
   void closeCsv();
@@ -170,6 +171,9 @@ class OutputWriter {
   std::map<std::string, std::vector<std::pair<double, std::string>>> networkFrames_;  // by series
   long lastFrameStep_ = -1;
   std::size_t nextPartial_ = 0;
+  std::size_t partialFrames_ = 0;  // frames the partial collections listed when last written
+  std::uint32_t csvCrc_ = 0;       // CRC-32 of the CSV's bytes so far (checkpoints)
+  void writeCsv(const std::string& text);
   int lockFd_ = -1;  // the folder's lock (flock on DIR/.cutsim.lock), held while the writer lives
   std::size_t replaced_ = 0;
 };
