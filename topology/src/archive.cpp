@@ -49,6 +49,7 @@ void ArchiveWriter::begin(std::string_view tag) {
 
 void ArchiveWriter::raw(const void* data, std::size_t n) {
   if (tag_.empty()) throw Error("archive: a value written outside any section");
+  if (n == 0) return;  // (an empty array's data() may be null)
   section_.append(static_cast<const char*>(data), n);
 }
 
@@ -203,6 +204,7 @@ void ArchiveReader::close() {
 void ArchiveReader::raw(void* data, std::size_t n) {
   if (tag_.empty()) fail("a value read outside any section");
   if (n > end_ - pos_) fail("a value runs past the section's end");
+  if (n == 0) return;  // (an empty array's data() may be null)
   std::memcpy(data, data_.data() + pos_, n);
   pos_ += n;
 }
