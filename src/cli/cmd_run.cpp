@@ -12,11 +12,10 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
-#include <vector>
-
-#include <zlib.h>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "cutsim/core/output.hpp"
@@ -135,27 +134,26 @@ struct RunSource {
   long checkpointEvery = 0;
   // What the run was asked to write at its end (a resumed run does the same unless told).
   bool htmlAuto = false;
-  std::string html, dumpFinal;
+  std::string html, dumpFinal;  ///< absolute paths
+  void remember(const RunOptions& o) {
+    htmlAuto = o.htmlAuto;
+    html = o.html.empty() ? "" : std::filesystem::absolute(o.html).string();
+    dumpFinal = o.dumpFinal.empty() ? "" : std::filesystem::absolute(o.dumpFinal).string();
+  }
 };
 
 /// The program's build, as a CRC-32 and size of its own executable: a checkpoint resumes, to the
 /// bit, only with the build that wrote it.
 std::string buildIdentity() {
   static const std::string id = [] {
-    std::ifstream f("/proc/self/exe", std::ios::binary);
-    uLong crc = ::crc32(0L, Z_NULL, 0);
-    std::uint64_t size = 0;
-    std::vector<char> buffer(1 << 16);
-    while (f) {
-      f.read(buffer.data(), std::streamsize(buffer.size()));
-      const std::streamsize got = f.gcount();
-      if (got <= 0) break;
-      crc = ::crc32(crc, reinterpret_cast<const Bytef*>(buffer.data()), uInt(got));
-      size += std::uint64_t(got);
-    }
+    const std::filesystem::path exe = "/proc/self/exe";
+    std::error_code ec;
+    const std::uintmax_t size = std::filesystem::file_size(exe, ec);
+    const std::optional<std::uint32_t> crc = topology::fileCrc32(exe);
+    if (ec || !crc) return std::string("unknown");
     char text[64];
-    std::snprintf(text, sizeof text, "%08lx-%llu", static_cast<unsigned long>(crc), static_cast<unsigned long long>(size));
-    return std::string(size > 0 ? text : "unknown");
+    std::snprintf(text, sizeof text, "%08x-%ju", unsigned(*crc), size);
+    return std::string(text);
   }();
   return id;
 }
@@ -182,8 +180,7 @@ void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& sourc
 }
 
 /// Why a run cannot be checkpointed ("" if it can).
-std::string whyNotCheckpointable(const RunSource& source, const core::SceneRunner& runner) {
-  if (source.sceneText.empty()) return "the scene's text could not be kept";
+std::string whyNotCheckpointable(const core::SceneRunner& runner) {
   std::string list;
   for (const std::string& m : runner.notCheckpointable()) list += (list.empty() ? "" : ", ") + m;
   return list.empty() ? "" : "its " + list + " cannot be saved yet";
@@ -194,7 +191,7 @@ std::string whyNotCheckpointable(const RunSource& source, const core::SceneRunne
 void play(const RunOptions& options, const core::Scene& scene, const RunSource& source, core::SceneRunner& runner,
           core::OutputWriter& writer, const std::filesystem::path& outDir, bool resumed,
           std::chrono::steady_clock::time_point start) {
-  const std::string notSaved = whyNotCheckpointable(source, runner);
+  const std::string notSaved = whyNotCheckpointable(runner);
   Progress progress(runner.numSteps(), !options.quiet);
   if (!resumed) {
     runner.start();
@@ -340,19 +337,11 @@ void runScene(const RunOptions& options) {
   RunSource source;
   source.sceneName = options.scene;
   source.checkpointEvery = options.checkpointEvery;
-  source.htmlAuto = options.htmlAuto;
-  source.html = options.html.empty() ? "" : std::filesystem::absolute(options.html).string();
-  source.dumpFinal = options.dumpFinal.empty() ? "" : std::filesystem::absolute(options.dumpFinal).string();
+  source.remember(options);
   const core::Scene scene = [&] {
     if (!isSofaScene(options.scene)) {
       // Read once: the checkpoints hold the text the run was made from.
-      std::error_code ec;
-      if (std::filesystem::is_directory(options.scene, ec)) return core::loadScene(options.scene);  // its message
-      std::ifstream in(options.scene, std::ios::binary);
-      if (!in) return core::loadScene(options.scene);
-      std::ostringstream text;
-      text << in.rdbuf();
-      source.sceneText = text.str();
+      source.sceneText = core::readSceneText(options.scene);
       source.baseDir = std::filesystem::absolute(std::filesystem::path(options.scene)).parent_path();
       return core::parseScene(source.sceneText, options.scene, std::filesystem::path(options.scene).parent_path());
     }
@@ -387,7 +376,7 @@ void runScene(const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   core::SceneRunner runner(scene);
   if (options.checkpointEvery > 0 || options.stopAfter > 0) {
-    const std::string why = whyNotCheckpointable(source, runner);
+    const std::string why = whyNotCheckpointable(runner);
     if (!why.empty())
       throw InvalidInput(options.checkpointEvery > 0 ? "--checkpoint-every" : "--stop-after",
                          "this run cannot be checkpointed: " + why);
@@ -442,10 +431,7 @@ void resumeRun(const ResumeOptions& options) {
     run.html = source.html;
   }
   if (!options.dumpGiven) run.dumpFinal = source.dumpFinal;
-  // (and the checkpoints this run writes remember what it was asked for)
-  source.htmlAuto = run.htmlAuto;
-  source.html = run.html.empty() ? "" : std::filesystem::absolute(run.html).string();
-  source.dumpFinal = run.dumpFinal.empty() ? "" : std::filesystem::absolute(run.dumpFinal).string();
+  source.remember(run);  // (the checkpoints this run writes remember what it was asked for)
   const core::Scene scene = core::parseScene(source.sceneText, source.sceneName, source.baseDir);
   const std::filesystem::path outDir = file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
   checkOutputOptions(run, scene, outDir);

@@ -11,7 +11,6 @@
 #include <cstring>
 #include <map>
 #include <optional>
-#include <zlib.h>
 
 #include <array>
 #include <charconv>
@@ -447,24 +446,7 @@ Frames loadFrames(topology::ArchiveReader& in, bool blank = false) {
   }
   return frames;
 }
-/// CRC-32 of the first `n` bytes of `file` (all of it: n = -1); nothing if it is shorter or
-/// cannot be read.
-std::optional<std::uint32_t> fileChecksum(const std::filesystem::path& file, std::uint64_t n = ~std::uint64_t(0)) {
-  std::ifstream f(file, std::ios::binary);
-  if (!f) return std::nullopt;
-  uLong crc = ::crc32(0L, Z_NULL, 0);
-  std::vector<char> buffer(1 << 16);
-  std::uint64_t left = n;
-  while (left > 0) {
-    f.read(buffer.data(), std::streamsize(std::min<std::uint64_t>(buffer.size(), left)));
-    const std::streamsize got = f.gcount();
-    if (got <= 0) break;
-    crc = ::crc32(crc, reinterpret_cast<const Bytef*>(buffer.data()), uInt(got));
-    left -= std::uint64_t(got);
-  }
-  if (n != ~std::uint64_t(0) && left > 0) return std::nullopt;
-  return std::uint32_t(crc);
-}
+using topology::fileCrc32;
 /// The number of a frame file ("surface_000012.vtp": 12), if the name has one.
 std::optional<std::size_t> frameNumber(const std::string& name) {
   const std::size_t dot = name.rfind('.'), bar = name.rfind('_', dot);
@@ -480,7 +462,7 @@ std::optional<std::size_t> frameNumber(const std::string& name) {
 
 void OutputWriter::writeCsv(const std::string& text) {
   csv_ << text;
-  csvCrc_ = std::uint32_t(::crc32(csvCrc_, reinterpret_cast<const Bytef*>(text.data()), uInt(text.size())));
+  csvCrc_ = topology::crc32Of(csvCrc_, text.data(), text.size());
 }
 
 void OutputWriter::saveState(topology::ArchiveWriter& out) {
@@ -506,7 +488,7 @@ void OutputWriter::saveState(topology::ArchiveWriter& out) {
                          : (settings_.obj ? frameName("frame", surfaceFrames_.size() - 1, ".obj") : "");
   out.str(last);
   if (!last.empty()) {
-    const auto crc = fileChecksum(dir_ / last);
+    const auto crc = fileCrc32(dir_ / last);
     if (!crc) throw Error("cannot read back " + (dir_ / last).string());
     out.u64(*crc);
   }
@@ -576,7 +558,7 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
   if (!missing.empty())
     throw Error("cannot resume into " + dir_.string() + ": " + std::to_string(missing.size()) +
                 " frames of the run up to the checkpoint are missing (" + missing.front() + ", ...)");
-  if (!lastFrame.empty() && fileChecksum(dir_ / lastFrame) != std::optional<std::uint32_t>(std::uint32_t(lastCrc)))
+  if (!lastFrame.empty() && fileCrc32(dir_ / lastFrame) != std::optional<std::uint32_t>(std::uint32_t(lastCrc)))
     throw Error("cannot resume into " + dir_.string() + ": its " + lastFrame +
                 " is not the frame the checkpoint's run wrote (another run wrote into the folder since)");
   // The CSV up to the checkpoint: the one being written, a partial one, or a finished one.
@@ -588,7 +570,7 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
       std::error_code ec;
       const auto size = std::filesystem::file_size(p, ec);
       if (ec || size < length) continue;
-      if (fileChecksum(p, length) != std::optional<std::uint32_t>(std::uint32_t(crc))) continue;
+      if (fileCrc32(p, length) != std::optional<std::uint32_t>(std::uint32_t(crc))) continue;
       found = p;
       break;
     }
@@ -622,21 +604,7 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
   }
   // The partial collections as the run last wrote them (a resumed run that fails before it
   // writes them again leaves what the run made without a stop leaves).
-  if (settings_.vtk && partialFrames_ > 0) {
-    auto upTo = [&](const Frames& all) {
-      Frames listed;
-      for (const auto& f : all)
-        if (const auto k = frameNumber(f.second); k && *k < partialFrames_) listed.push_back(f);
-      return listed;
-    };
-    writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, upTo(surfaceFrames_)); });
-    writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, upTo(borderFrames_)); });
-    for (const auto& [series, all] : networkFrames_)
-      if (const Frames listed = upTo(all); !listed.empty())
-        writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, listed); });
-    if (const Frames listed = upTo(obstacleFrames_); !listed.empty())
-      writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, listed); });
-  }
+  writeCollections(".partial.pvd", partialFrames_);
 }
 
 OutputWriter::~OutputWriter() {
@@ -805,15 +773,20 @@ void OutputWriter::closeCsv() {
   if (!ok) throw Error("cannot write " + csvTemp_.string());
 }
 
-void OutputWriter::writeCollections(const std::string& suffix) {
-  if (settings_.vtk && !surfaceFrames_.empty()) {
-    writeFileAtomically(dir_ / ("surface" + suffix), [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
-    writeFileAtomically(dir_ / ("borders" + suffix), [&](std::ostream& o) { writePvd(o, borderFrames_); });
-  }
-  if (!obstacleFrames_.empty())
-    writeFileAtomically(dir_ / ("obstacles" + suffix), [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
-  for (const auto& [series, frames] : networkFrames_)
-    writeFileAtomically(dir_ / (series + suffix), [&](std::ostream& o) { writePvd(o, frames); });
+void OutputWriter::writeCollections(const std::string& suffix, std::size_t frames) {
+  // Each collection lists its frames numbered below `frames` (a series may start late); an
+  // empty one is not written.
+  auto write = [&](const std::string& name, const Frames& all) {
+    Frames listed;
+    for (const auto& f : all)
+      if (const auto k = frameNumber(f.second); k && *k < frames) listed.push_back(f);
+    if (!listed.empty()) writeFileAtomically(dir_ / (name + suffix), [&](std::ostream& o) { writePvd(o, listed); });
+  };
+  if (!settings_.vtk) return;
+  write("surface", surfaceFrames_);
+  write("borders", borderFrames_);
+  write("obstacles", obstacleFrames_);
+  for (const auto& [series, all] : networkFrames_) write(series, all);
 }
 
 void OutputWriter::renameCsv(const std::string& name) {

@@ -261,18 +261,28 @@ void SceneRunner::runDueActions(double t) {
 
 // ---- checkpoints ----
 
-std::vector<std::string> SceneRunner::notCheckpointable() const {
-  std::vector<std::string> out;
+std::vector<std::string> SceneRunner::notSavableNow() const {
+  std::vector<std::string> out = sim_->notCheckpointable();
+  for (const Running& r : running_)
+    if (!r.action->checkpointable()) out.push_back("the " + r.spec->type + " action (" + r.spec->location.pointer + ")");
   if (rehearsal_) out.push_back("a rehearsal");
-  for (const std::string& s : sim_->notCheckpointable()) out.push_back(s);
-  for (const ActionSpec& a : scene_.timeline)
-    if (!a.build()->checkpointable()) out.push_back("the " + a.type + " action (" + a.location.pointer + ")");
   if (edited_) out.push_back("changes made while running (actions given, force fields replaced, constraints applied)");
   return out;
 }
 
+std::vector<std::string> SceneRunner::notCheckpointable() const {
+  std::vector<std::string> out = notSavableNow();
+  for (std::size_t i = nextAction_; i < scene_.timeline.size(); ++i) {
+    const ActionSpec& a = scene_.timeline[i];
+    if (!a.build()->checkpointable()) out.push_back("the " + a.type + " action (" + a.location.pointer + ")");
+  }
+  return out;
+}
+
 void SceneRunner::save(topology::ArchiveWriter& out) const {
-  const std::vector<std::string> missing = notCheckpointable();
+  // What is running now, not the actions still to come (notCheckpointable(), asked once before
+  // a run): a checkpoint every N steps builds no action.
+  const std::vector<std::string> missing = notSavableNow();
   if (!missing.empty()) {
     std::string list;
     for (const std::string& m : missing) list += (list.empty() ? "" : ", ") + m;

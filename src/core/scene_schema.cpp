@@ -811,6 +811,10 @@ Scene loadScene(const std::filesystem::path& file) {
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (ext == ".scn") return sceneFromSofa(importSofaScene(file));
   }
+  return parseScene(readSceneText(file), file.string(), file.parent_path());
+}
+
+std::string readSceneText(const std::filesystem::path& file) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec)) throw InvalidInput(file.string(), "is a folder, not a scene file");
   std::ifstream in(file, std::ios::binary);
@@ -818,7 +822,7 @@ Scene loadScene(const std::filesystem::path& file) {
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw InvalidInput(file.string(), "cannot read the scene file");
-  return parseScene(text.str(), file.string(), file.parent_path());
+  return text.str();
 }
 
 }  // namespace cutsim::core

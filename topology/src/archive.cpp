@@ -13,21 +13,41 @@
 
 namespace cutsim::topology {
 
+std::uint32_t crc32Of(std::uint32_t crc, const void* data, std::size_t n) {
+  uLong c = crc;
+  const auto* bytes = static_cast<const Bytef*>(data);
+  while (n > 0) {  // zlib takes lengths as uInt
+    const uInt chunk = uInt(std::min<std::size_t>(n, 1u << 30));
+    c = crc32(c, bytes, chunk);
+    bytes += chunk;
+    n -= chunk;
+  }
+  return std::uint32_t(c);
+}
+
+std::optional<std::uint32_t> fileCrc32(const std::filesystem::path& file, std::uint64_t n) {
+  std::ifstream f(file, std::ios::binary);
+  if (!f) return std::nullopt;
+  std::uint32_t c = 0;
+  std::vector<char> buffer(1 << 16);
+  std::uint64_t left = n;
+  while (left > 0) {
+    f.read(buffer.data(), std::streamsize(std::min<std::uint64_t>(buffer.size(), left)));
+    const std::streamsize got = f.gcount();
+    if (got <= 0) break;
+    c = crc32Of(c, buffer.data(), std::size_t(got));
+    left -= std::uint64_t(got);
+  }
+  if (n != ~std::uint64_t(0) && left > 0) return std::nullopt;
+  return c;
+}
+
 namespace {
 constexpr char kMagic[8] = {'C', 'U', 'T', 'S', 'I', 'M', 'C', 'K'};
 constexpr std::uint32_t kByteOrder = 0x01020304u;
 static_assert(std::endian::native == std::endian::little, "archives are written little-endian");
 
-std::uint32_t crc(const char* data, std::size_t n) {
-  uLong c = crc32(0L, Z_NULL, 0);
-  while (n > 0) {  // zlib takes lengths as uInt
-    const uInt chunk = uInt(std::min<std::size_t>(n, 1u << 30));
-    c = crc32(c, reinterpret_cast<const Bytef*>(data), chunk);
-    data += chunk;
-    n -= chunk;
-  }
-  return std::uint32_t(c);
-}
+std::uint32_t crc(const char* data, std::size_t n) { return crc32Of(0, data, n); }
 
 template <class T>
 void put(std::string& out, T v) {

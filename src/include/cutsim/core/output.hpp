@@ -151,7 +151,8 @@ class OutputWriter {
   // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection
   // written whole with a suffix (".pvd", ".partial.pvd"), the CSV renamed, the lock released.
   void closeCsv();
-  void writeCollections(const std::string& suffix);
+  /// Every collection under its name + suffix, listing the frames numbered below `frames`.
+  void writeCollections(const std::string& suffix, std::size_t frames = ~std::size_t(0));
   void renameCsv(const std::string& name);
   void releaseFolder();
   /// Whether the partial collections are rewritten after the frames-th frame.

@@ -149,7 +149,8 @@ struct Scene {
 /// the mesh. Throws InvalidInput "SOURCE:LINE: /pointer: message".
 Scene parseScene(std::string_view text, const std::string& sourceName,
                  const std::filesystem::path& baseDir);
-/// Reads and parses the file (a missing or unreadable file: InvalidInput "PATH: ...").
+/// The text of a scene file (a folder, a missing or unreadable file: InvalidInput "PATH: ...").
+std::string readSceneText(const std::filesystem::path& file);
 /// Reads and parses the file: a JSON scene, or a SOFA scene (.scn, read by sofa_scene.hpp's reader
 /// and checked as its JSON translation is). A missing or unreadable file: InvalidInput "PATH: ...".
 Scene loadScene(const std::filesystem::path& file);
@@ -245,6 +246,8 @@ class SceneRunner {
     std::unique_ptr<TimelineAction> action;
   };
   void runDueActions(double t);
+  /// notCheckpointable() without the actions still to come.
+  std::vector<std::string> notSavableNow() const;
   struct Rehearsal {};
   SceneRunner(const Scene& scene, Rehearsal);
   void build(bool physics, std::unique_ptr<topology::Topology> topology = nullptr);

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -25,6 +26,13 @@
 namespace cutsim::topology {
 
 inline constexpr std::uint32_t kArchiveFormat = 1;
+
+/// zlib's CRC-32 of n bytes, continuing from `crc` (0 to start): the archive's sections' checksum,
+/// also what ties a run's files to its checkpoint.
+std::uint32_t crc32Of(std::uint32_t crc, const void* data, std::size_t n);
+/// The CRC-32 of the first n bytes of a file (all of it by default); nothing if the file is
+/// shorter or cannot be read.
+std::optional<std::uint32_t> fileCrc32(const std::filesystem::path& file, std::uint64_t n = ~std::uint64_t(0));
 
 /// Writes one section at a time; save() writes the whole file atomically.
 class ArchiveWriter {
