@@ -172,7 +172,8 @@ py::dict incisionDict(const topology::IncisionResult& r) {
   return py::dict("path"_a = idArray(r.path), "copies"_a = idArray(r.copies),
                   "copied_from"_a = idArray(r.copiedFrom), "inserted"_a = idArray(r.insertedPoints),
                   "flips"_a = r.repair.flips, "collapses"_a = r.repair.collapses,
-                  "relocations"_a = r.repair.relocations, "min_angle_before"_a = r.repair.minAngleBefore,
+                  "relocations"_a = r.repair.relocations, "splits"_a = r.repair.splits,
+                  "insertions"_a = r.repair.insertions, "min_angle_before"_a = r.repair.minAngleBefore,
                   "min_angle_after"_a = r.repair.minAngleAfter);
 }
 

@@ -26,7 +26,9 @@ std::string vecText(const Vec3& p) {
 
 /// Whether a cut changed the mesh (one along the border opens nothing: it is not counted).
 bool opened(const topology::IncisionResult& r) {
-  return !r.copies.empty() || !r.insertedPoints.empty() || r.repair.flips + r.repair.collapses + r.repair.relocations > 0;
+  const topology::RepairReport& q = r.repair;
+  return !r.copies.empty() || !r.insertedPoints.empty() ||
+         q.flips + q.collapses + q.relocations + q.splits + q.insertions > 0;
 }
 
 class CutAction final : public TimelineAction {

@@ -1,6 +1,6 @@
-// Quality repair of the triangles around an operation (a cut, a tear, a removal): local edge
-// flips, edge collapses, vertex relocations and border splits, in rest coordinates, until every
-// triangle of the patch reaches the target smallest angle or nothing improves the worst one.
+// Quality repair of the triangles around an operation (a cut, a tear, a removal), in rest
+// coordinates: greedy local edge flips, edge collapses, vertex relocations and border splits,
+// then Delaunay refinement (Ruppert) of what they leave under the target smallest angle.
 //
 // Every change is made with the transaction's own primitives (detach and attach triangles, new
 // points with ancestry), so observers follow it through the usual events:
@@ -13,7 +13,8 @@
 //               transaction, whose data observers still hold until the transaction ends), so
 //               state interpolated at v' lies on the deformed surface where it was;
 //   split       a border edge split at the foot of a nearly flat triangle's apex (then the apex
-//               collapses onto it): the usual edge split.
+//               collapses onto it), or a segment split by refinement: the usual edge split;
+//   insertion   a point at a circumcentre (refinement): the usual triangle split, then flips.
 // The border never changes shape: a border point moves or disappears only where the border is
 // straight (its two border edges within 1e-6 rad of a straight angle), along the border; cut lips
 // stay on the cut path, a cut's tip and corners stay where they are. Locked points (fixed or
@@ -35,6 +36,9 @@ using Vector3 = Kernel::Vector_3;
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kStraight = 1e-6;   // rad: a border point whose border edges are this straight
 constexpr double kImprove = 1e-4;    // rad: a change must raise the local worst angle this much
+// Ruppert's refinement is proven to end for a smallest angle up to arcsin(1 / (2 sqrt 2)) =
+// 20.7 degrees; it aims no higher (above, it can refine without end).
+constexpr double kRefinable = 20.7 * std::numbers::pi / 180.0;
 
 double angleBetween(const Vector3& u, const Vector3& v) {
   return std::atan2(std::sqrt(CGAL::cross_product(u, v).squared_length()), u * v);
@@ -82,6 +86,7 @@ class Repairer {
       changed |= smoothPass();
       if (!changed) break;
     }
+    refine();
     report_.triangles = patchFaces().size();
     measure(report_.minAngleAfter, report_.meanMinAfter, report_.belowTargetAfter);
     return report_;
@@ -558,6 +563,298 @@ class Repairer {
     return true;
   }
 
+
+  // ---- Delaunay refinement (Ruppert's algorithm, on the flat parts of the patch) ----
+  //
+  // What the greedy passes leave under the target is refined: the patch is made Delaunay by
+  // flips, then each bad triangle gets a new point at its circumcentre, unless that point would
+  // lie beyond a segment or inside a segment's diametral circle, in which case the segment is
+  // split instead. Segments are the edges that must stay: the border (the sheet's and every
+  // cut's lips), and creases (edges whose two triangles are not flat within the tolerance).
+  // A segment meeting another at a corner is split on concentric shells around the corner
+  // (powers of two), so that refinement between two segments meeting at a small angle ends.
+  // Insertions never move a point; a new point's ancestors are the corners of the triangle (or
+  // the ends of the edge) holding it. A triangle whose small angle is fixed by the input (a
+  // border point whose whole fan is too narrow for the target) is left as it is.
+
+  bool isSegment(HI h) const {
+    if (m_.is_border(m_.edge(h))) return true;
+    return !aligned(normalOf(m_.face(h)), normalOf(m_.face(m_.opposite(h))), flat_);
+  }
+  /// The angle at corner v of triangle f.
+  double angleAt(FI f, VI v) const {
+    auto c = cornersOf(f);
+    int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+    return angleBetween(P(c[std::size_t((k + 1) % 3)]) - P(v), P(c[std::size_t((k + 2) % 3)]) - P(v));
+  }
+  /// The sum of the angles at v of its triangles.
+  double fan(VI v) const {
+    double s = 0;
+    for (FI f : facesAround(v)) s += angleAt(f, v);
+    return s;
+  }
+  /// The input fixes f's small angle: it lies at a border point whose fan is narrower than twice
+  /// the target, and it is at least a third of that fan.
+  bool excused(FI f, double goal) const {
+    for (VI v : cornersOf(f)) {
+      const double a = angleAt(f, v);
+      if (a >= goal) continue;
+      if (!isBorder(v)) return false;
+      const double w = fan(v);
+      if (!(w < 2 * goal && a >= w / 3 - 1e-9)) return false;
+    }
+    return true;
+  }
+
+  /// Flips the interior edge of h (no checks): the triangles (a, b, c) and (b, a, d) become
+  /// (c, a, d) and (d, b, c).
+  void flipNow(HI h) {
+    VI a = m_.source(h), b = m_.target(h), c = m_.target(m_.next(h));
+    VI d = m_.target(m_.next(m_.opposite(h)));
+    FI f1 = m_.face(h), f2 = m_.face(m_.opposite(h));
+    I_.detachFace(f1);
+    I_.detachFace(f2);
+    I_.attachFaces({{c, a, d}, {d, b, c}});
+    patch_.insert(c.idx());
+    patch_.insert(d.idx());
+    ++report_.flips;
+  }
+  /// The edge of h is not a segment, is not Delaunay (the angles opposite it sum to more than
+  /// pi), and can be flipped (the quadrilateral is convex, the other diagonal is no edge yet).
+  bool delaunayFlippable(HI h) const {
+    if (m_.is_border(m_.edge(h)) || isSegment(h)) return false;
+    VI a = m_.source(h), b = m_.target(h), c = m_.target(m_.next(h));
+    VI d = m_.target(m_.next(m_.opposite(h)));
+    if (c == d || I_.findHalfedge(c, d).is_valid()) return false;
+    const double opposite = angleBetween(P(a) - P(c), P(b) - P(c)) + angleBetween(P(a) - P(d), P(b) - P(d));
+    if (!(opposite > std::numbers::pi + 1e-9)) return false;
+    const Vector3 n = normalOf(m_.face(h)) + normalOf(m_.face(m_.opposite(h)));
+    return aligned(normal(P(c), P(a), P(d)), n, 60 * kDeg) && aligned(normal(P(d), P(b), P(c)), n, 60 * kDeg);
+  }
+  /// Lawson's flips until the link of every point in `around` is Delaunay (for a new point:
+  /// the edges opposite it, then those the flips expose).
+  void restoreDelaunay(std::vector<std::pair<VI, VI>> work) {
+    std::size_t guard = 0;
+    while (!work.empty() && ++guard < 100000) {
+      auto [u, w] = work.back();
+      work.pop_back();
+      HI h = I_.findHalfedge(u, w);
+      if (!h.is_valid() || m_.is_border(m_.edge(h))) continue;
+      if (!inPatch(u) && !inPatch(w)) continue;
+      if (!delaunayFlippable(h)) continue;
+      VI c = m_.target(m_.next(h)), d = m_.target(m_.next(m_.opposite(h)));
+      flipNow(h);
+      work.push_back({u, c});
+      work.push_back({c, w});
+      work.push_back({u, d});
+      work.push_back({d, w});
+    }
+  }
+  /// Every edge of the patch's triangles.
+  std::vector<std::pair<VI, VI>> patchEdges() const {
+    std::vector<std::pair<VI, VI>> out;
+    for (FI f : patchFaces()) {
+      auto c = cornersOf(f);
+      for (int k = 0; k < 3; ++k) out.push_back({c[std::size_t(k)], c[std::size_t((k + 1) % 3)]});
+    }
+    return out;
+  }
+  /// The edges opposite v in its star.
+  std::vector<std::pair<VI, VI>> linkOf(VI v) const {
+    std::vector<std::pair<VI, VI>> out;
+    for (FI f : facesAround(v)) {
+      auto c = cornersOf(f);
+      int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+      out.push_back({c[std::size_t((k + 1) % 3)], c[std::size_t((k + 2) % 3)]});
+    }
+    return out;
+  }
+
+  /// The centre of the circle through a, b and c; false for a (nearly) degenerate triangle.
+  static bool circumcentre(const Point3& a, const Point3& b, const Point3& c, Point3& out) {
+    const Vector3 ab = b - a, ac = c - a, n = CGAL::cross_product(ab, ac);
+    const double n2 = n.squared_length(), l2 = std::max(ab.squared_length(), ac.squared_length());
+    if (!(n2 > 1e-20 * l2 * l2)) return false;
+    const Vector3 num = ac.squared_length() * CGAL::cross_product(n, ab) + ab.squared_length() * CGAL::cross_product(ac, n);
+    out = a + num / (2.0 * n2);
+    return true;
+  }
+  /// Barycentric weights of p's projection on f's plane, in the order of cornersOf(f) (NaN for a
+  /// degenerate triangle).
+  std::array<double, 3> bary(FI f, const Point3& p) const {
+    auto c = cornersOf(f);
+    const Vector3 e0 = P(c[1]) - P(c[0]), e1 = P(c[2]) - P(c[0]), r = p - P(c[0]);
+    const double d00 = e0 * e0, d01 = e0 * e1, d11 = e1 * e1, d20 = r * e0, d21 = r * e1;
+    const double den = d00 * d11 - d01 * d01;
+    if (!(den > 1e-20 * d00 * d11)) return {std::nan(""), std::nan(""), std::nan("")};
+    const double wb = (d11 * d20 - d01 * d21) / den, wc = (d00 * d21 - d01 * d20) / den;
+    return {1.0 - wb - wc, wb, wc};
+  }
+  /// The halfedge of f from its corner k+1 to k+2 (opposite corner k).
+  HI oppositeEdge(FI f, int k) const {
+    auto c = cornersOf(f);
+    return I_.findHalfedge(c[std::size_t((k + 1) % 3)], c[std::size_t((k + 2) % 3)]);
+  }
+
+  /// A border point where the border turns (not straight), or a point on a crease that is not
+  /// straight either: segments meet there.
+  bool isCorner(VI v) const {
+    int segments = 0;
+    std::vector<VI> ends;
+    for (HI h : CGAL::halfedges_around_target(m_.halfedge(v), m_)) {
+      if (m_.is_border(h) || m_.is_border(m_.opposite(h)) || isSegment(h)) {
+        ++segments;
+        ends.push_back(m_.source(h));
+      }
+    }
+    if (segments == 0) return false;
+    if (segments != 2) return true;
+    return angleBetween(P(ends[0]) - P(v), P(ends[1]) - P(v)) < std::numbers::pi - kStraight;
+  }
+  /// Splits the segment a-b: at its midpoint, or, when one end is a corner, on the concentric
+  /// shell (a power of two away from that corner) nearest to the midpoint.
+  bool splitSegment(VI a, VI b) {
+    HI h = I_.findHalfedge(a, b);
+    if (!h.is_valid()) return false;
+    if (isLocked(a) && isLocked(b)) return false;  // a point between two held ones would be free
+    const double L = std::sqrt(CGAL::squared_distance(P(a), P(b)));
+    if (!(0.35 * L >= smallest_)) return false;  // no piece may be shorter than the floor
+    const bool ca = isCorner(a), cb = isCorner(b);
+    double t = 0.5;
+    if (ca != cb) {
+      const double shell = std::exp2(std::round(std::log2(0.5 * L)));
+      t = ca ? shell / L : 1.0 - shell / L;
+    }
+    if (!(t > 0.2 && t < 0.8)) t = 0.5;
+    VI m = I_.splitEdgeNoTxn(m_.edge(h), a, t);
+    patch_.insert(m.idx());
+    ++report_.splits;
+    restoreDelaunay(linkOf(m));
+    return true;
+  }
+
+  /// One step of refinement for the bad triangle f: a point at its circumcentre, or a split of
+  /// the segment that the circumcentre lies beyond or encroaches. False if neither can be done.
+  bool refineTriangle(FI f) {
+    auto c = cornersOf(f);
+    Point3 q;
+    if (!circumcentre(P(c[0]), P(c[1]), P(c[2]), q)) return false;
+    // Walk from f towards q over flat, non-segment edges.
+    FI cur = f;
+    std::array<double, 3> w{};
+    for (int steps = 0;; ++steps) {
+      if (steps > 200) return false;
+      w = bary(cur, q);
+      if (std::isnan(w[0])) return false;
+      int k = 0;
+      for (int j = 1; j < 3; ++j)
+        if (w[std::size_t(j)] < w[std::size_t(k)]) k = j;
+      if (w[std::size_t(k)] >= -1e-12) break;
+      HI h = oppositeEdge(cur, k);
+      if (!h.is_valid()) return false;
+      if (isSegment(h)) return splitSegment(m_.source(h), m_.target(h));
+      cur = m_.face(m_.opposite(h));
+    }
+    // The Delaunay cavity of q: no segment it reaches may be encroached by q.
+    std::vector<FI> cavity{cur}, todo{cur};
+    std::unordered_set<std::uint32_t> seen{cur.idx()};
+    while (!todo.empty()) {
+      FI g = todo.back();
+      todo.pop_back();
+      for (HI h : CGAL::halfedges_around_face(m_.halfedge(g), m_)) {
+        VI a = m_.source(h), b = m_.target(h);
+        if (isSegment(h)) {
+          const Point3 mid = CGAL::midpoint(P(a), P(b));
+          if (CGAL::squared_distance(q, mid) < 0.25 * CGAL::squared_distance(P(a), P(b)) * (1 - 1e-9))
+            return splitSegment(a, b);
+          continue;
+        }
+        FI n = m_.face(m_.opposite(h));
+        if (seen.count(n.idx())) continue;
+        auto nc = cornersOf(n);
+        Point3 o;
+        if (!circumcentre(P(nc[0]), P(nc[1]), P(nc[2]), o)) continue;
+        if (CGAL::squared_distance(q, o) < CGAL::squared_distance(P(nc[0]), o) * (1 - 1e-9)) {
+          seen.insert(n.idx());
+          todo.push_back(n);
+          cavity.push_back(n);
+        }
+      }
+    }
+    // No edge to the new point may be shorter than the floor (the cavity's corners become its
+    // neighbours).
+    auto cc = cornersOf(cur);
+    for (FI g : cavity)
+      for (VI v : cornersOf(g))
+        if (CGAL::squared_distance(P(v), q) < smallest_ * smallest_) return false;
+    int k = 0;
+    for (int j = 1; j < 3; ++j)
+      if (w[std::size_t(j)] < w[std::size_t(k)]) k = j;
+    VI nv;
+    if (w[std::size_t(k)] < 1e-6) {
+      // On the edge opposite corner k (an interior, non-segment edge): split it there.
+      HI h = oppositeEdge(cur, k);
+      if (!h.is_valid()) return false;
+      VI a = m_.source(h), b = m_.target(h);
+      const int ia = cc[0] == a ? 0 : cc[1] == a ? 1 : 2, ib = cc[0] == b ? 0 : cc[1] == b ? 1 : 2;
+      const double t = w[std::size_t(ib)] / (w[std::size_t(ia)] + w[std::size_t(ib)]);
+      if (!(t > 1e-3 && t < 1 - 1e-3)) return false;
+      nv = I_.splitEdgeNoTxn(m_.edge(h), a, t);
+    } else {
+      const double s = w[0] + w[1] + w[2];
+      nv = I_.splitFaceNoTxn(cur, cc, {w[0] / s, w[1] / s, w[2] / s});
+    }
+    patch_.insert(nv.idx());
+    ++report_.insertions;
+    restoreDelaunay(linkOf(nv));
+    return true;
+  }
+
+  /// Refines the patch's flat triangles under the target (see above). Bounded: at most a few
+  /// insertions per triangle of the patch.
+  void refine() {
+    const double goal = std::min(target_, kRefinable);
+    smallest_ = 0.01 * shortEdge_;
+    restoreDelaunay(patchEdges());
+    std::unordered_set<std::uint64_t> hopeless;  // triangles (by corners) that could not be refined
+    auto key = [&](FI f) {
+      auto c = cornersOf(f);
+      std::array<std::uint64_t, 3> k{c[0].idx(), c[1].idx(), c[2].idx()};
+      std::sort(k.begin(), k.end());
+      return (k[0] * 0x9E3779B97F4A7C15ull) ^ (k[1] * 0xC2B2AE3D27D4EB4Full) ^ k[2];
+    };
+    std::size_t budget = 8 * patchFaces().size() + 64;
+    while (budget > 0) {
+      // Segments of the patch encroached by a point: the angle opposite them exceeds a right one.
+      bool did = false;
+      for (FI f : patchFaces()) {
+        for (HI h : CGAL::halfedges_around_face(m_.halfedge(f), m_)) {
+          if (!isSegment(h)) continue;
+          VI a = m_.source(h), b = m_.target(h), o = m_.target(m_.next(h));
+          if (angleBetween(P(a) - P(o), P(b) - P(o)) <= 0.5 * std::numbers::pi + 1e-9) continue;
+          if (quality(f) >= goal) continue;  // only where it matters here
+          if (splitSegment(a, b)) { did = true; --budget; break; }
+        }
+        if (did) break;
+      }
+      if (did) continue;
+      FI bad;
+      double worst = goal;
+      for (FI f : patchFaces()) {
+        const double qf = quality(f);
+        if (qf >= worst || hopeless.count(key(f)) || excused(f, goal)) continue;
+        worst = qf;
+        bad = f;
+      }
+      if (!bad.is_valid()) break;
+      if (refineTriangle(bad)) {
+        --budget;
+      } else {
+        hopeless.insert(key(bad));
+      }
+    }
+  }
+
   Topology::Impl& I_;
   Mesh& m_;
   double target_, flat_;
@@ -567,6 +864,7 @@ class Repairer {
   RepairReport report_;
   double shortEdge_ = 0;   // edges shorter than this are collapsed even in good triangles
   bool sizeMode_ = false;  // collapse(): accept what keeps the target (not only improvements)
+  double smallest_ = 0;    // refinement makes no edge shorter than this (1/500 of the median)
 };
 
 Index follow(const std::unordered_map<Index, Index>& replaced, Index p) {
