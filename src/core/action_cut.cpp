@@ -100,6 +100,15 @@ class CutAction final : public TimelineAction {
     // (except a whole polyline that is shorter).
     if (s < total && total - s < minPiece_) s = total;
     if (s < total && s - done_ < minPiece_) return;
+    // A piece that would end within a quarter of a mean edge of a corner of the polyline ends at
+    // the corner: a tip just short of (or just past) a corner would leave, between the two, an
+    // edge a fraction of the mesh size long that the repair may not remove (the corner stays, and
+    // so does the tip while it is one), and such a tiny triangle sets the stable explicit time step.
+    for (std::size_t i = 1; i + 1 < arc_.size(); ++i)
+      if (std::abs(arc_[i] - s) < 0.5 * minPiece_ && arc_[i] - done_ >= 0.5 * minPiece_) {
+        s = arc_[i];
+        break;
+      }
     if (!(s > done_)) return;
     std::vector<Vec3> piece = pieceOf(done_, s);
     if (tip_) piece.front() = *tip_;

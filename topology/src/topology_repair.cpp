@@ -71,7 +71,8 @@ class Repairer {
   RepairReport run(const std::vector<VI>& seeds) {
     for (VI v : seeds) addWithRing(v);
     measure(report_.minAngleBefore, report_.meanMinBefore, report_.belowTargetBefore);
-    shortEdge_ = 0.2 * medianEdge();
+    median_ = medianEdge();
+    shortEdge_ = 0.2 * median_;
     for (int pass = 0; pass < 12; ++pass) {
       bool changed = false;
       for (FI f : worstFirst()) {
@@ -814,7 +815,7 @@ class Repairer {
   /// insertions per triangle of the patch.
   void refine() {
     const double goal = std::min(target_, kRefinable);
-    smallest_ = 0.01 * shortEdge_;
+    smallest_ = 0.002 * median_;
     restoreDelaunay(patchEdges());
     std::unordered_set<std::uint64_t> hopeless;  // triangles (by corners) that could not be refined
     auto key = [&](FI f) {
@@ -864,6 +865,7 @@ class Repairer {
   RepairReport report_;
   double shortEdge_ = 0;   // edges shorter than this are collapsed even in good triangles
   bool sizeMode_ = false;  // collapse(): accept what keeps the target (not only improvements)
+  double median_ = 0;      // the patch's median edge before the repair
   double smallest_ = 0;    // refinement makes no edge shorter than this (1/500 of the median)
 };
 
