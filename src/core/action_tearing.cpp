@@ -1,5 +1,6 @@
 // The "tearing" action: from its time on, after each step, tears the interior edges whose two
-// triangles are both strained across the edge above a threshold, the most strained first.
+// triangles are both strained across the edge above a threshold, the most strained first, each
+// tear followed by the quality repair around it.
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/archive.hpp"
 #include "tearing.hpp"
@@ -19,7 +20,8 @@ class TearingAction final : public TimelineAction {
   void afterStep(ActionContext& c) override {
     if (!on_) return;
     Simulation& sim = c.simulation();
-    c.countTorn(tearOverstrained(sim.topology(), sim.state().x(), p_.threshold, p_.maxPerStep));
+    c.countTorn(tearOverstrained(sim.topology(), sim.state().x(), p_.threshold, p_.maxPerStep,
+                                 repairOptions(sim, p_.minAngle)));
   }
 
  private:
@@ -32,13 +34,16 @@ const bool registered = ActionRegistry::instance().add({
     "from its time on, tears the edges strained across above a threshold after each step",
     {{"at", "time tearing starts"},
      {"threshold", "Green strain normal to an edge above which it tears, > 0 (required)"},
-     {"maxPerStep", "edges torn per step at most, >= 1 (default 4)"}},
+     {"maxPerStep", "edges torn per step at most, >= 1 (default 4)"},
+     {"minAngle", "smallest-angle target (degrees) of the quality repair after each tear, in "
+                  "[0, 60) (default 20; 0 turns it off)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       TearingParameters p;
       s.require("threshold");
       p.threshold = s.positive("threshold", 0.0);
       p.maxPerStep = int(s.integer("maxPerStep", 1, 1000000, p.maxPerStep));
+      p.minAngle = readMinAngle(s);
       return p;
     },
     [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {

@@ -129,7 +129,7 @@ std::vector<TearCandidate> tearCandidates(const topology::Topology& topology,
 }
 
 int tearOverstrained(topology::Topology& topology, std::span<const double> x, double threshold,
-                     int maxPerStep) {
+                     int maxPerStep, const topology::RepairOptions& repair) {
   // x is read only here: a tear creates points, which may move the state's storage.
   const std::vector<TearCandidate> candidates = tearCandidates(topology, x, threshold);
   int torn = 0;
@@ -137,7 +137,10 @@ int tearOverstrained(topology::Topology& topology, std::span<const double> x, do
     if (torn >= maxPerStep) break;
     if (!topology.isEdgeAlive(c.edge) || topology.isBoundaryEdge(c.edge)) continue;
     try {
-      topology.tear(c.edge);
+      if (repair.minAngle > 0)
+        topology.tear(c.edge, repair);
+      else
+        topology.tear(c.edge);
       ++torn;
     } catch (const TopologyError&) {
       // The topology refuses this edge (for example a cut that would leave it ill-formed): the

@@ -36,9 +36,10 @@ struct TearCandidate {
 std::vector<TearCandidate> tearCandidates(const topology::Topology& topology,
                                           std::span<const double> x, double threshold);
 
-/// Tears at most maxPerStep of the candidates (skipping edges that an earlier tear of this call
-/// destroyed or made a border edge, and edges the topology refuses to tear). Returns how many.
+/// Tears at most maxPerStep of the candidates (skipping edges that an earlier tear of this call,
+/// or its repair, destroyed or made a border edge, and edges the topology refuses to tear), each
+/// followed by the quality repair around it (`repair`; minAngle 0: none). Returns how many.
 int tearOverstrained(topology::Topology& topology, std::span<const double> x, double threshold,
-                     int maxPerStep);
+                     int maxPerStep, const topology::RepairOptions& repair = {});
 
 }  // namespace cutsim::core

@@ -248,6 +248,8 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
       {"\"timeline\": [{\"at\": 0.05, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.5, 0.5, "
        "0]], \"minAngle\": -1}]",
        "6: /timeline/0/minAngle: must be in [0, 60) degrees"},
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"tearing\", \"threshold\": 0.3, \"minAngle\": 75}]",
+       "6: /timeline/0/minAngle: must be in [0, 60) degrees"},
       {"\"timeline\": [{\"from\": 0.05, \"to\": 0.01, \"action\": \"cut\", \"polyline\": [[0, "
        "0.5, 0], [0.5, 0.5, 0]]}]",
        "6: /timeline/0/to: must be after \"from\""},

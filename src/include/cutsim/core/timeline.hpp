@@ -147,6 +147,7 @@ struct RemoveParameters {
 struct TearingParameters {
   double threshold = 0.0;  ///< Green strain normal to an edge above which it tears
   int maxPerStep = 4;      ///< edges torn per step at most
+  double minAngle = kDefaultMinAngle;  ///< quality repair target after each tear (degrees, 0: off)
 };
 struct FractureParameters {
   double criticalStrain = 0.0;  ///< averaged Green strain above which a crack advances
