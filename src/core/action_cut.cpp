@@ -104,8 +104,10 @@ class CutAction final : public TimelineAction {
     // the corner: a tip just short of (or just past) a corner would leave, between the two, an
     // edge a fraction of the mesh size long that the repair may not remove (the corner stays, and
     // so does the tip while it is one), and such a tiny triangle sets the stable explicit time step.
-    for (std::size_t i = 1; i + 1 < arc_.size(); ++i)
-      if (std::abs(arc_[i] - s) < 0.5 * minPiece_ && arc_[i] - done_ >= 0.5 * minPiece_) {
+    // Not the last piece, and no piece or remainder shorter than the smallest piece.
+    for (std::size_t i = 1; s < total && i + 1 < arc_.size(); ++i)
+      if (std::abs(arc_[i] - s) < 0.5 * minPiece_ && arc_[i] - done_ >= minPiece_ &&
+          total - arc_[i] >= minPiece_) {
         s = arc_[i];
         break;
       }

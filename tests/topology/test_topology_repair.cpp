@@ -363,6 +363,9 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
             << " triangles made, smallest angle " << worst << " deg, " << inserted
             << " points inserted at circumcentres, " << split << " edges split\n";
   EXPECT_GT(ops[0] * ops[1] * ops[2], 0u);
+  // The refinement ran: circumcentres were inserted and segments split.
+  EXPECT_GT(inserted, 0u);
+  EXPECT_GT(split, 0u);
 }
 
 }  // namespace

@@ -629,11 +629,16 @@ class Repairer {
     if (c == d || I_.findHalfedge(c, d).is_valid()) return false;
     const double opposite = angleBetween(P(a) - P(c), P(b) - P(c)) + angleBetween(P(a) - P(d), P(b) - P(d));
     if (!(opposite > std::numbers::pi + 1e-9)) return false;
+    // The other diagonal must be Delaunay itself: a quadrilateral that is not quite flat can fail
+    // the test both ways, and its flips would go back and forth.
+    const double across = angleBetween(P(c) - P(a), P(d) - P(a)) + angleBetween(P(c) - P(b), P(d) - P(b));
+    if (!(across < std::numbers::pi - 1e-9)) return false;
     const Vector3 n = normalOf(m_.face(h)) + normalOf(m_.face(m_.opposite(h)));
     return aligned(normal(P(c), P(a), P(d)), n, 60 * kDeg) && aligned(normal(P(d), P(b), P(c)), n, 60 * kDeg);
   }
   /// Lawson's flips until the link of every point in `around` is Delaunay (for a new point:
-  /// the edges opposite it, then those the flips expose).
+  /// the edges opposite it, then those the flips expose). Only edges with an end in the patch
+  /// flip; a flip's new diagonal joins the patch, so a chain of non-Delaunay edges is followed.
   void restoreDelaunay(std::vector<std::pair<VI, VI>> work) {
     std::size_t guard = 0;
     while (!work.empty() && ++guard < 100000) {
@@ -712,11 +717,13 @@ class Repairer {
     if (segments != 2) return true;
     return angleBetween(P(ends[0]) - P(v), P(ends[1]) - P(v)) < std::numbers::pi - kStraight;
   }
-  /// Splits the segment a-b: at its midpoint, or, when one end is a corner, on the concentric
-  /// shell (a power of two away from that corner) nearest to the midpoint.
+  /// Splits the border segment a-b: at its midpoint, or, when one end is a corner, on the
+  /// concentric shell (a power of two away from that corner) nearest to the midpoint. A crease is
+  /// not split: refinement stops there (splitting it would keep the angle beside it, again and
+  /// again, on a curved rest surface).
   bool splitSegment(VI a, VI b) {
     HI h = I_.findHalfedge(a, b);
-    if (!h.is_valid()) return false;
+    if (!h.is_valid() || !m_.is_border(m_.edge(h))) return false;
     if (isLocked(a) && isLocked(b)) return false;  // a point between two held ones would be free
     const double L = std::sqrt(CGAL::squared_distance(P(a), P(b)));
     if (!(0.35 * L >= smallest_)) return false;  // no piece may be shorter than the floor
@@ -800,6 +807,7 @@ class Repairer {
       const int ia = cc[0] == a ? 0 : cc[1] == a ? 1 : 2, ib = cc[0] == b ? 0 : cc[1] == b ? 1 : 2;
       const double t = w[std::size_t(ib)] / (w[std::size_t(ia)] + w[std::size_t(ib)]);
       if (!(t > 1e-3 && t < 1 - 1e-3)) return false;
+      if (isLocked(a) && isLocked(b)) return false;  // a point between two held ones would be free
       nv = I_.splitEdgeNoTxn(m_.edge(h), a, t);
     } else {
       const double s = w[0] + w[1] + w[2];
@@ -816,6 +824,10 @@ class Repairer {
   void refine() {
     const double goal = std::min(target_, kRefinable);
     smallest_ = 0.002 * median_;
+    // Nothing to refine: the mesh is left as the greedy passes left it.
+    bool needed = false;
+    for (FI f : patchFaces()) needed = needed || (quality(f) < goal && !excused(f, goal));
+    if (!needed) return;
     restoreDelaunay(patchEdges());
     std::unordered_set<std::uint64_t> hopeless;  // triangles (by corners) that could not be refined
     auto key = [&](FI f) {
@@ -826,33 +838,41 @@ class Repairer {
     };
     std::size_t budget = 8 * patchFaces().size() + 64;
     while (budget > 0) {
-      // Segments of the patch encroached by a point: the angle opposite them exceeds a right one.
+      // The patch's triangles under the goal, worst first.
+      std::vector<std::pair<double, FI>> bad;
+      for (FI f : patchFaces())
+        if (const double q = quality(f); q < goal) bad.emplace_back(q, f);
+      if (bad.empty()) break;
+      // Segments of those triangles encroached by a point: the angle opposite them exceeds a
+      // right one.
       bool did = false;
-      for (FI f : patchFaces()) {
+      for (const auto& [q, f] : bad) {
         for (HI h : CGAL::halfedges_around_face(m_.halfedge(f), m_)) {
           if (!isSegment(h)) continue;
           VI a = m_.source(h), b = m_.target(h), o = m_.target(m_.next(h));
           if (angleBetween(P(a) - P(o), P(b) - P(o)) <= 0.5 * std::numbers::pi + 1e-9) continue;
-          if (quality(f) >= goal) continue;  // only where it matters here
           if (splitSegment(a, b)) { did = true; --budget; break; }
         }
         if (did) break;
       }
       if (did) continue;
-      FI bad;
-      double worst = goal;
-      for (FI f : patchFaces()) {
-        const double qf = quality(f);
-        if (qf >= worst || hopeless.count(key(f)) || excused(f, goal)) continue;
-        worst = qf;
-        bad = f;
+      // The worst that can be refined (a failed attempt changes nothing; an excused triangle
+      // stays excused: its angles and its corners' fans do not change while it exists).
+      std::sort(bad.begin(), bad.end(), [](const auto& x, const auto& y) {
+        return x.first != y.first ? x.first < y.first : x.second < y.second;
+      });
+      bool refined = false;
+      for (const auto& [q, f] : bad) {
+        const std::uint64_t k = key(f);
+        if (hopeless.count(k)) continue;
+        if (!excused(f, goal) && refineTriangle(f)) {
+          refined = true;
+          --budget;
+          break;
+        }
+        hopeless.insert(k);
       }
-      if (!bad.is_valid()) break;
-      if (refineTriangle(bad)) {
-        --budget;
-      } else {
-        hopeless.insert(key(bad));
-      }
+      if (!refined) break;
     }
   }
 
