@@ -155,6 +155,8 @@ class Repairer {
     return {m_.source(h), m_.target(h), m_.target(m_.next(h))};
   }
   const Point3& P(VI v) const { return m_.point(v); }
+  /// Where v is among the corners c (0, 1 or 2; v must be one of them).
+  static int cornerIndex(const std::array<VI, 3>& c, VI v) { return c[0] == v ? 0 : c[1] == v ? 1 : 2; }
   double quality(FI f) const {
     auto c = cornersOf(f);
     return minAngle(P(c[0]), P(c[1]), P(c[2]));
@@ -312,10 +314,7 @@ class Repairer {
     const double before = std::min(quality(f1), quality(f2));
     const double after = std::min(minAngle(P(c), P(a), P(d)), minAngle(P(d), P(b), P(c)));
     if (!(after > before + kImprove)) return false;
-    I_.detachFace(f1);
-    I_.detachFace(f2);
-    I_.attachFaces({{c, a, d}, {d, b, c}});
-    ++report_.flips;
+    flipNow(h);
     return true;
   }
 
@@ -585,7 +584,7 @@ class Repairer {
   /// The angle at corner v of triangle f.
   double angleAt(FI f, VI v) const {
     auto c = cornersOf(f);
-    int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+    const int k = cornerIndex(c, v);
     return angleBetween(P(c[std::size_t((k + 1) % 3)]) - P(v), P(c[std::size_t((k + 2) % 3)]) - P(v));
   }
   /// The sum of the angles at v of its triangles.
@@ -616,8 +615,6 @@ class Repairer {
     I_.detachFace(f1);
     I_.detachFace(f2);
     I_.attachFaces({{c, a, d}, {d, b, c}});
-    patch_.insert(c.idx());
-    patch_.insert(d.idx());
     ++report_.flips;
   }
   /// The edge of h is not a segment, is not Delaunay (the angles opposite it sum to more than
@@ -650,6 +647,8 @@ class Repairer {
       if (!delaunayFlippable(h)) continue;
       VI c = m_.target(m_.next(h)), d = m_.target(m_.next(m_.opposite(h)));
       flipNow(h);
+      patch_.insert(c.idx());
+      patch_.insert(d.idx());
       work.push_back({u, c});
       work.push_back({c, w});
       work.push_back({u, d});
@@ -670,7 +669,7 @@ class Repairer {
     std::vector<std::pair<VI, VI>> out;
     for (FI f : facesAround(v)) {
       auto c = cornersOf(f);
-      int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+      const int k = cornerIndex(c, v);
       out.push_back({c[std::size_t((k + 1) % 3)], c[std::size_t((k + 2) % 3)]});
     }
     return out;
@@ -804,7 +803,7 @@ class Repairer {
       HI h = oppositeEdge(cur, k);
       if (!h.is_valid()) return false;
       VI a = m_.source(h), b = m_.target(h);
-      const int ia = cc[0] == a ? 0 : cc[1] == a ? 1 : 2, ib = cc[0] == b ? 0 : cc[1] == b ? 1 : 2;
+      const int ia = cornerIndex(cc, a), ib = cornerIndex(cc, b);
       const double t = w[std::size_t(ib)] / (w[std::size_t(ia)] + w[std::size_t(ib)]);
       if (!(t > 1e-3 && t < 1 - 1e-3)) return false;
       if (isLocked(a) && isLocked(b)) return false;  // a point between two held ones would be free
