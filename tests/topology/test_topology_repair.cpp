@@ -25,6 +25,14 @@ using topology::Vec3;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kDefaultTarget = 20.0;  // the scenes' default (core::kDefaultMinAngle)
+// How many random cuts and random sequences the quality tests run: 600 and 60 take 3 and 1.5 s in
+// a release build (the rim-of-the-patch escape and the refinement floor each failed only beyond
+// the first few hundred cuts or dozen sequences); under the sanitizers a fifth of that.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kRandomCuts = 120, kRandomSequences = 12;
+#else
+constexpr int kRandomCuts = 600, kRandomSequences = 60;
+#endif
 
 double angleAt(const Vec3& p, const Vec3& a, const Vec3& b) {
   Vec3 u{a[0] - p[0], a[1] - p[1], a[2] - p[2]}, v{b[0] - p[0], b[1] - p[1], b[2] - p[2]};
@@ -60,9 +68,9 @@ struct Quality {
 };
 
 /// Quality of the given triangles against a target (degrees). A corner under the target is
-/// excused where the input fixes it: at a border point whose whole fan spans less than twice the
-/// target (a cut meeting the border or turning more sharply than that), where it must still be at
-/// least a third of the fan's angle.
+/// excused only where the input fixes it: at a border point whose whole fan is that one corner
+/// (a cut meeting the border or turning more sharply than the target, kept at the input's angle).
+/// A sharp fan split into two thin triangles, or any thin corner inside, is a shortfall.
 Quality quality(const Topology& t, const std::vector<TriangleId>& tris, double target) {
   Quality q;
   double sum = 0;
@@ -76,7 +84,7 @@ Quality quality(const Topology& t, const std::vector<TriangleId>& tris, double t
       if (a >= target) continue;
       const PointId p = v[std::size_t(k)];
       const double fan = fanAngle(t, p) / kDeg;
-      if (t.isBoundaryPoint(p) && fan < 2 * target && a >= fan / 3) continue;
+      if (t.isBoundaryPoint(p) && a >= fan - 1e-6) continue;
       std::ostringstream s;
       s << "triangle " << f.index() << " (" << v[0].index() << ", " << v[1].index() << ", "
         << v[2].index() << ") angle " << a << " at " << p.index() << " (fan " << fan << ")";
@@ -224,7 +232,7 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
   int cuts = 0;
   std::size_t made = 0, short_ = 0;
   double worst = 180, worstBefore = 180, meanBefore = 0, meanAfter = 0;
-  for (int trial = 0; trial < 60; ++trial) {
+  for (int trial = 0; trial < kRandomCuts; ++trial) {
     const bool jagged = trial % 2 == 1;
     const double jitter = trial % 3 == 0 ? 0.0 : 0.2;
     const int n = 21;
@@ -247,8 +255,8 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
     const Quality& floor = q;
     worst = std::min(worst, q.minAngle);
     worstBefore = std::min(worstBefore, r.repair.minAngleBefore);
-    meanBefore += r.repair.meanMinBefore / 60;
-    meanAfter += r.repair.meanMinAfter / 60;
+    meanBefore += r.repair.meanMinBefore / kRandomCuts;
+    meanAfter += r.repair.meanMinAfter / kRandomCuts;
     made += q.triangles;
     short_ += q.shortfalls.size();
     if (std::getenv("CUTSIM_REPAIR_TRIALS"))
@@ -295,7 +303,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
   const double target = kDefaultTarget;
   std::size_t made = 0, ops[3] = {}, inserted = 0, split = 0;
   double worst = 180;
-  for (std::uint64_t seed : {21u, 22u, 23u, 24u, 25u, 26u}) {
+  for (std::uint64_t seed = 21; seed < 21 + kRandomSequences; ++seed) {
     const int n = 15;
     const double cell = 10.0 / (n - 1);
     Topology t(grid(n, 10.0, seed % 2 ? 0.2 : 0.0, seed));

@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <set>
 #include <unordered_set>
 
 #include "topology_impl.hpp"
@@ -115,6 +116,9 @@ class Repairer {
       if (FI f = m_.face(h); f.is_valid()) out.push_back(f);
     return out;
   }
+  /// The triangles around the patch's points, and every triangle made since the operation began
+  /// (a flip or a collapse on the patch's rim can make one with no corner in the patch; it is
+  /// measured and refined like the others, but does not widen the patch).
   std::vector<FI> patchFaces() const {
     std::unordered_set<std::uint32_t> seen;
     std::vector<FI> out;
@@ -124,6 +128,8 @@ class Repairer {
       for (FI f : facesAround(v))
         if (seen.insert(f.idx()).second) out.push_back(f);
     }
+    for (Index f = I_.fBefore; f < m_.num_faces(); ++f)
+      if (alive(FI(f)) && seen.insert(f).second) out.push_back(FI(f));  // madeHere
     std::sort(out.begin(), out.end());
     return out;
   }
@@ -451,14 +457,9 @@ class Repairer {
                     std::vector<std::pair<PointId, double>>& out) const {
     for (FI f : fs) {
       auto c = cornersOf(f);
-      const Vector3 e0 = P(c[1]) - P(c[0]), e1 = P(c[2]) - P(c[0]), r = p - P(c[0]);
-      const double d00 = e0 * e0, d01 = e0 * e1, d11 = e1 * e1, d20 = r * e0, d21 = r * e1;
-      const double den = d00 * d11 - d01 * d01;
-      if (!(den > 0)) continue;
-      const double wb = (d11 * d20 - d01 * d21) / den, wc = (d00 * d21 - d01 * d20) / den;
-      const double wa = 1.0 - wb - wc;
-      if (wa < -1e-12 || wb < -1e-12 || wc < -1e-12) continue;
-      std::array<double, 3> w{std::max(wa, 0.0), std::max(wb, 0.0), std::max(wc, 0.0)};
+      const std::array<double, 3> b = bary(f, p);
+      if (std::isnan(b[0]) || b[0] < -1e-12 || b[1] < -1e-12 || b[2] < -1e-12) continue;
+      std::array<double, 3> w{std::max(b[0], 0.0), std::max(b[1], 0.0), std::max(b[2], 0.0)};
       const double s = w[0] + w[1] + w[2];
       out.clear();
       for (int k = 0; k < 3; ++k)
@@ -593,15 +594,13 @@ class Repairer {
     for (FI f : facesAround(v)) s += angleAt(f, v);
     return s;
   }
-  /// The input fixes f's small angle: it lies at a border point whose fan is narrower than twice
-  /// the target, and it is at least a third of that fan.
+  /// The input fixes f's small angles: each lies at a border point whose whole fan f spans (a cut
+  /// meeting the border or itself more sharply than the target, kept at the input's angle).
   bool excused(FI f, double goal) const {
     for (VI v : cornersOf(f)) {
       const double a = angleAt(f, v);
       if (a >= goal) continue;
-      if (!isBorder(v)) return false;
-      const double w = fan(v);
-      if (!(w < 2 * goal && a >= w / 3 - 1e-9)) return false;
+      if (!isBorder(v) || !(a >= fan(v) - 1e-9)) return false;
     }
     return true;
   }
@@ -633,9 +632,11 @@ class Repairer {
     const Vector3 n = normalOf(m_.face(h)) + normalOf(m_.face(m_.opposite(h)));
     return aligned(normal(P(c), P(a), P(d)), n, 60 * kDeg) && aligned(normal(P(d), P(b), P(c)), n, 60 * kDeg);
   }
+  /// f was made since the operation began.
+  bool madeHere(FI f) const { return f.is_valid() && f.idx() >= I_.fBefore; }
   /// Lawson's flips until the link of every point in `around` is Delaunay (for a new point:
-  /// the edges opposite it, then those the flips expose). Only edges with an end in the patch
-  /// flip; a flip's new diagonal joins the patch, so a chain of non-Delaunay edges is followed.
+  /// the edges opposite it, then those the flips expose). Only edges with an end in the patch,
+  /// or on a triangle made since the operation began, flip; a flip's new diagonal joins the patch, so a chain of non-Delaunay edges is followed.
   void restoreDelaunay(std::vector<std::pair<VI, VI>> work) {
     std::size_t guard = 0;
     while (!work.empty() && ++guard < 100000) {
@@ -643,7 +644,7 @@ class Repairer {
       work.pop_back();
       HI h = I_.findHalfedge(u, w);
       if (!h.is_valid() || m_.is_border(m_.edge(h))) continue;
-      if (!inPatch(u) && !inPatch(w)) continue;
+      if (!inPatch(u) && !inPatch(w) && !madeHere(m_.face(h)) && !madeHere(m_.face(m_.opposite(h)))) continue;
       if (!delaunayFlippable(h)) continue;
       VI c = m_.target(m_.next(h)), d = m_.target(m_.next(m_.opposite(h)));
       flipNow(h);
@@ -822,56 +823,49 @@ class Repairer {
   /// insertions per triangle of the patch.
   void refine() {
     const double goal = std::min(target_, kRefinable);
-    smallest_ = 0.002 * median_;
+    smallest_ = 1e-5 * median_;
     // Nothing to refine: the mesh is left as the greedy passes left it.
     bool needed = false;
     for (FI f : patchFaces()) needed = needed || (quality(f) < goal && !excused(f, goal));
     if (!needed) return;
     restoreDelaunay(patchEdges());
-    std::unordered_set<std::uint64_t> hopeless;  // triangles (by corners) that could not be refined
-    auto key = [&](FI f) {
-      auto c = cornersOf(f);
-      std::array<std::uint64_t, 3> k{c[0].idx(), c[1].idx(), c[2].idx()};
-      std::sort(k.begin(), k.end());
-      return (k[0] * 0x9E3779B97F4A7C15ull) ^ (k[1] * 0xC2B2AE3D27D4EB4Full) ^ k[2];
-    };
+    // The triangles under the goal, worst first. Nothing moves during refinement, so a triangle's
+    // angles are fixed while it lives: the set only gains the triangles each step makes (fresh
+    // indices, at the end) and loses the dead ones.
+    std::set<std::pair<double, std::uint32_t>> bad;
+    std::unordered_set<std::uint32_t> hopeless;  // could not be refined (an attempt changes nothing)
+    for (FI f : patchFaces())
+      if (const double q = quality(f); q < goal) bad.emplace(q, f.idx());
     std::size_t budget = 8 * patchFaces().size() + 64;
-    while (budget > 0) {
-      // The patch's triangles under the goal, worst first.
-      std::vector<std::pair<double, FI>> bad;
-      for (FI f : patchFaces())
-        if (const double q = quality(f); q < goal) bad.emplace_back(q, f);
-      if (bad.empty()) break;
-      // Segments of those triangles encroached by a point: the angle opposite them exceeds a
-      // right one.
+    while (budget > 0 && !bad.empty()) {
+      const Index mark = Index(m_.num_faces());
+      // A segment of a bad triangle encroached by its opposite corner (the angle there exceeds a
+      // right one) is split first.
       bool did = false;
-      for (const auto& [q, f] : bad) {
+      for (auto it = bad.begin(); it != bad.end() && !did;) {
+        const FI f(it->second);
+        if (!alive(f)) { it = bad.erase(it); continue; }
         for (HI h : CGAL::halfedges_around_face(m_.halfedge(f), m_)) {
           if (!isSegment(h)) continue;
           VI a = m_.source(h), b = m_.target(h), o = m_.target(m_.next(h));
           if (angleBetween(P(a) - P(o), P(b) - P(o)) <= 0.5 * std::numbers::pi + 1e-9) continue;
-          if (splitSegment(a, b)) { did = true; --budget; break; }
+          if (splitSegment(a, b)) { did = true; break; }
         }
-        if (did) break;
+        ++it;
       }
-      if (did) continue;
-      // The worst that can be refined (a failed attempt changes nothing; an excused triangle
-      // stays excused: its angles and its corners' fans do not change while it exists).
-      std::sort(bad.begin(), bad.end(), [](const auto& x, const auto& y) {
-        return x.first != y.first ? x.first < y.first : x.second < y.second;
-      });
-      bool refined = false;
-      for (const auto& [q, f] : bad) {
-        const std::uint64_t k = key(f);
-        if (hopeless.count(k)) continue;
-        if (!excused(f, goal) && refineTriangle(f)) {
-          refined = true;
-          --budget;
-          break;
-        }
-        hopeless.insert(k);
+      // Otherwise the worst that can be refined (an excused triangle stays excused: its angles
+      // and its corners' fans do not change while it exists).
+      for (auto it = bad.begin(); it != bad.end() && !did; ++it) {
+        const FI f(it->second);
+        if (!alive(f) || hopeless.count(f.idx())) continue;
+        if (!excused(f, goal) && refineTriangle(f)) did = true;
+        else hopeless.insert(f.idx());
       }
-      if (!refined) break;
+      if (!did) break;
+      --budget;
+      for (Index f = mark; f < m_.num_faces(); ++f)
+        if (alive(FI(f)))
+          if (const double q = quality(FI(f)); q < goal) bad.emplace(q, f);
     }
   }
 
@@ -885,7 +879,7 @@ class Repairer {
   double shortEdge_ = 0;   // edges shorter than this are collapsed even in good triangles
   bool sizeMode_ = false;  // collapse(): accept what keeps the target (not only improvements)
   double median_ = 0;      // the patch's median edge before the repair
-  double smallest_ = 0;    // refinement makes no edge shorter than this (1/500 of the median)
+  double smallest_ = 0;    // refinement makes no edge shorter than this (1e-5 of the median)
 };
 
 Index follow(const std::unordered_map<Index, Index>& replaced, Index p) {
