@@ -29,6 +29,21 @@ def test_tearing_study(tmp_path):
     assert (tmp_path / "tearing_study.png").stat().st_size > 0
 
 
+def test_tearing_paths(tmp_path):
+    """The notched sheet run five ways (the scene, dt / 4, the other diagonals, h / 2, explicit):
+    each crack starts within 10% of the same time and stays within a cell of the notch axis."""
+    import csv
+    run("tearing_study.py", "--paths", "--quick", "--out", str(tmp_path))
+    rows = list(csv.DictReader((tmp_path / "tearing_paths.csv").open()))
+    assert [r["run"] for r in rows][-1].startswith("explicit") and len(rows) == 5
+    first = float(rows[0]["crack_start_s"])
+    for r in rows:
+        assert abs(float(r["crack_start_s"]) - first) <= 0.1 * first, r
+        assert float(r["largest_offset_cells"]) < 1.0, r
+        assert r["flagged_steps"] == "0", r
+    assert (tmp_path / "tearing_paths.png").stat().st_size > 0
+
+
 def test_scripted_surgery_as_documented(tmp_path):
     """The default run, with the figures docs/python.md quotes (within what another machine's
     rounding may move)."""
