@@ -186,6 +186,21 @@ struct Contact::Impl {
   std::vector<V3> sweptMotion;  // the displacements it searched with
   std::vector<char> fastPoint;  // per point slot: moved too far for the cache
   std::vector<double> moveLength;  // per point slot: its displacement's length
+  std::vector<double> pointSdf, pointReach;  // per point slot, for one analytic obstacle (scratch)
+
+  /// Every point's signed distance to analytic obstacle k at x, into pointSdf (a triangle's
+  /// corners are shared by about six triangles: measured once per point, not per corner).
+  void pointDistances(int k, std::span<const double> x) {
+    const std::size_t n = x.size() / 3;
+    pointSdf.resize(n);
+    V3 g;
+    for (std::size_t p = 0; p < n; ++p) pointSdf[p] = sdf(k, surfacePoint(x, std::uint32_t(p)), g);
+  }
+  /// The longest edge of the triangle with corners tv (every point of a triangle lies within it
+  /// of each corner).
+  static double longestEdge(const std::array<V3, 3>& tv) {
+    return std::sqrt(std::max({(tv[1] - tv[0]).squaredNorm(), (tv[2] - tv[1]).squaredNorm(), (tv[0] - tv[2]).squaredNorm()}));
+  }
   // The penalty's search by margins: a triangle's is the largest of its corners'; a pair of
   // triangles is examined when their boxes, each inflated by its margin, overlap, and a
   // primitive pair is kept within the sum of the margins (an obstacle's margin for its side).
@@ -740,6 +755,9 @@ struct Contact::Impl {
       // Two points: the pair is kept once (from the lower id for self pairs, from the surface's
       // point for obstacles), and when each is the other's closest feature.
       if (p.kind == Kind::OV || (p.kind == Kind::VT && c < p.id[0])) return false;
+      // Kept only from the corner's owner triangle (checked first: it is the cheap test, and the
+      // corner's other triangles, which the search also pairs with the point, all end here).
+      if (obstacleSide ? mesh->vertexOwner[c] != t : pointOwner[c] != t) return false;
       const V3 qc = obstacleSide ? obstaclePoint(p.obstacle, c) : surfacePoint(x, c);
       for (std::int32_t k = starStart[p.id[0]]; k < starStart[p.id[0] + 1]; ++k) {
         const auto& U = triV[std::size_t(star[std::size_t(k)])];
@@ -749,11 +767,9 @@ struct Contact::Impl {
         if ((qc - f).squaredNorm() < d2 * (1 - 1e-9) - 1e-300) return false;
       }
       if (obstacleSide) {
-        if (mesh->vertexOwner[c] != t) return false;
         for (int u : mesh->vertexTris[c])
           if (nearer(u)) return false;
       } else {
-        if (pointOwner[c] != t) return false;
         for (std::int32_t k = starStart[c]; k < starStart[c + 1]; ++k)
           if (holdsPoint(star[std::size_t(k)]) || nearer(star[std::size_t(k)])) return false;  // (neighbours: no pair)
       }
@@ -1027,14 +1043,13 @@ struct Contact::Impl {
       } else if (O[k].shape == Obstacle::Shape::Sphere || O[k].shape == Obstacle::Shape::Capsule) {
         // Each triangle's closest feature (its interior, an edge, a corner), each feature once.
         std::set<std::array<std::uint32_t, 3>> seen;
+        pointDistances(int(k), x);
         for (std::size_t t = 0; t < tris.size(); ++t) {
           const auto& T = triV[t];
           const double within = triMargin[t] + obstacleMargin[k];  // (the obstacle's motion included)
-          V3 g;
+          const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
           const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
-          const double smin = std::min({sdf(int(k), q[0], g), sdf(int(k), q[1], g), sdf(int(k), q[2], g)});
-          const double reach = std::max({(q[1] - q[0]).norm(), (q[2] - q[1]).norm(), (q[0] - q[2]).norm()});
-          if (smin - reach >= within) continue;
+          if (smin - longestEdge({q[0], q[1], q[2]}) >= within) continue;
           const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
           if (!(e.s < within)) continue;
           Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
@@ -1293,9 +1308,7 @@ struct Contact::Impl {
     V3 g;
     const double smin = std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)});
     if (smin <= 0) return -1.0;
-    // Every point of a triangle lies within its longest edge of each corner.
-    const double reach = std::max({(tv[1] - tv[0]).norm(), (tv[2] - tv[1]).norm(), (tv[0] - tv[2]).norm()});
-    if (smin - reach >= within) return kInf;
+    if (smin - longestEdge(tv) >= within) return kInf;
     double D = smin;
     const V3 c = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
     switch (o.shape) {
@@ -1341,12 +1354,20 @@ struct Contact::Impl {
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) continue;
       const V3& m = move[k];
+      // Per point: how far it travels relative to the obstacle, and its distance to it (the
+      // triangle test below is triangleObstacleDistance's, with its corners measured once).
+      pointDistances(int(k), x);
+      pointReach.resize(disp.size());
+      for (std::size_t p = 0; p < disp.size(); ++p) pointReach[p] = (at(p) - m).norm();
       for (std::size_t t = 0; t < tris.size(); ++t) {
         const auto& T = triV[t];
         // How far the triangle's points travel relative to the obstacle.
-        const double reach = std::max({(at(T[0]) - m).norm(), (at(T[1]) - m).norm(), (at(T[2]) - m).norm()});
+        const double reach = std::max({pointReach[T[0]], pointReach[T[1]], pointReach[T[2]]});
         if (!(reach > 0)) continue;
+        const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
+        if (smin <= 0) continue;  // a corner inside: as D = -1 below
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
+        if (smin - longestEdge(tv) >= reach) continue;  // surely farther than it travels
         const double D = triangleObstacleDistance(int(k), tv, reach);
         // Already touching or inside (a corner inside, or made so by a topology operation): not
         // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
