@@ -15,8 +15,9 @@ With --paths, the same sheet is run instead in five ways that must tear alike (t
 is; a time step 4 times smaller; the other diagonal pattern; a mesh twice as fine; explicit
 stepping at a time step 500 times smaller, under its stability limit through the parting) and the crack paths are drawn in the rest plane:
 DIR/tearing_paths.png (each run's cut lips, and their distance from the notch axis along the
-crack) and DIR/tearing_paths.csv (one row per run: crack start, parting time, the path's largest
-distance from the notch axis, in metres and in cells).
+crack) and DIR/tearing_paths.csv (one row per run: crack start, parting time, crack depth, the
+path's largest distance from the notch axis in metres and in cells, and its largest distance from
+the first run's path, band by band 5 cm deep, in the first run's cells).
 """
 import argparse
 import csv
@@ -145,12 +146,21 @@ def run_path(base, label, change, quick):
             start = sim.time
         if np.isnan(parted) and pieces(sim.num_slots, tri) >= 2:
             parted = sim.time
+    if not np.all(np.isfinite(sim.x[np.unique(sim.triangles())])):
+        raise SystemExit(f"{label}: positions are not finite at t = {sim.time}")
     a, c = crack_lips(sim.rest, sim.triangles(), notch_x)
     below = (np.minimum(a[:, 1], c[:, 1]) < notch_y - 1e-9)
     dev = np.abs(np.concatenate([a[below, 0], c[below, 0]]) - notch_x)
     cell = 1.0 / (n - 1)
+    # The path by bands 5 cm deep below the notch tip: the mean x of the crack's segment midpoints.
+    mid = 0.5 * (a[below] + c[below])
+    bands = {}
+    for x, y in mid[:, :2]:
+        bands.setdefault(int((notch_y - y) / 0.05), []).append(x)
     r = {"label": label, "crack_start": start, "parted_at": parted,
          "largest_offset_m": float(dev.max()) if dev.size else float("nan"), "cell": cell,
+         "crack_depth_m": float(notch_y - np.minimum(a[below, 1], c[below, 1]).min()) if below.any() else 0.0,
+         "bands": {b: float(np.mean(xs)) for b, xs in bands.items()},
          "lips": (a, c), "notch": (notch_x, notch_y), "flagged_steps": sim.solve_summary["flagged_steps"]}
     r["largest_offset_cells"] = r["largest_offset_m"] / cell
     return r
@@ -166,13 +176,22 @@ def paths(args):
         results.append(r)
         print(f"[{i + 1}/{len(PATH_RUNS)}] {label}: crack starts at t = {r['crack_start']:.3f} s, sheet parted at "
               f"t = {r['parted_at']:.3f} s, path at most {r['largest_offset_m'] * 1000:.1f} mm "
-              f"({r['largest_offset_cells']:.2f} cells) off the notch axis", file=sys.stderr)
+              f"({r['largest_offset_cells']:.2f} cells) off the notch axis, crack {r['crack_depth_m']:.3f} m deep",
+              file=sys.stderr)
+    # Each path against the first run's, band by band (in the first run's cells).
+    first = results[0]
+    for r in results:
+        common = sorted(set(r["bands"]) & set(first["bands"]))
+        gaps = [abs(r["bands"][b] - first["bands"][b]) for b in common]
+        r["gap_to_first_cells"] = max(gaps) / first["cell"] if gaps else float("nan")
+        r["bands_compared"] = len(common)
     with open(out / "tearing_paths.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["run", "crack_start_s", "parted_at_s", "largest_offset_m", "largest_offset_cells", "flagged_steps"])
+        w.writerow(["run", "crack_start_s", "parted_at_s", "crack_depth_m", "largest_offset_m", "largest_offset_cells",
+                    "gap_to_first_cells", "bands_compared", "flagged_steps"])
         for r in results:
-            w.writerow([r["label"], r["crack_start"], r["parted_at"], r["largest_offset_m"],
-                        r["largest_offset_cells"], r["flagged_steps"]])
+            w.writerow([r["label"], r["crack_start"], r["parted_at"], r["crack_depth_m"], r["largest_offset_m"],
+                        r["largest_offset_cells"], r["gap_to_first_cells"], r["bands_compared"], r["flagged_steps"]])
 
     import matplotlib
     matplotlib.use("Agg")

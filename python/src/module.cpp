@@ -174,7 +174,7 @@ py::dict incisionDict(const topology::IncisionResult& r) {
                   "flips"_a = r.repair.flips, "collapses"_a = r.repair.collapses,
                   "relocations"_a = r.repair.relocations, "splits"_a = r.repair.splits,
                   "insertions"_a = r.repair.insertions, "min_angle_before"_a = r.repair.minAngleBefore,
-                  "min_angle_after"_a = r.repair.minAngleAfter);
+                  "min_angle_after"_a = r.repair.minAngleAfter, "budget_spent"_a = r.repair.budgetSpent);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -31,15 +31,22 @@ def test_tearing_study(tmp_path):
 
 def test_tearing_paths(tmp_path):
     """The notched sheet run five ways (the scene, dt / 4, the other diagonals, h / 2, explicit):
-    each crack starts within 10% of the same time and stays within a cell of the notch axis."""
+    each crack starts within 10% of the same time, is as deep within a cell at the end, and its
+    path stays within a cell of the first run's (and of the notch axis)."""
     import csv
+    import math
     run("tearing_study.py", "--paths", "--quick", "--out", str(tmp_path))
     rows = list(csv.DictReader((tmp_path / "tearing_paths.csv").open()))
     assert [r["run"] for r in rows][-1].startswith("explicit") and len(rows) == 5
-    first = float(rows[0]["crack_start_s"])
+    first = rows[0]
+    cell = 1.0 / 25
     for r in rows:
-        assert abs(float(r["crack_start_s"]) - first) <= 0.1 * first, r
+        assert abs(float(r["crack_start_s"]) - float(first["crack_start_s"])) <= 0.1 * float(first["crack_start_s"]), r
+        assert float(r["crack_depth_m"]) > 3 * cell, r
+        assert abs(float(r["crack_depth_m"]) - float(first["crack_depth_m"])) < cell, r
         assert float(r["largest_offset_cells"]) < 1.0, r
+        assert int(r["bands_compared"]) >= 3 and float(r["gap_to_first_cells"]) < 1.0, r
+        assert all(math.isfinite(float(r[k])) for k in ("crack_start_s", "crack_depth_m", "gap_to_first_cells")), r
         assert r["flagged_steps"] == "0", r
     assert (tmp_path / "tearing_paths.png").stat().st_size > 0
 

@@ -28,7 +28,12 @@ constexpr double kDefaultTarget = 20.0;  // the scenes' default (core::kDefaultM
 // How many random cuts and random sequences the quality tests run: 600 and 60 take 3 and 1.5 s in
 // a release build (the rim-of-the-patch escape and the refinement floor each failed only beyond
 // the first few hundred cuts or dozen sequences); under the sanitizers a fifth of that.
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define CUTSIM_TEST_UNDER_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(CUTSIM_TEST_UNDER_ASAN)
 constexpr int kRandomCuts = 120, kRandomSequences = 12;
 #else
 constexpr int kRandomCuts = 600, kRandomSequences = 60;
@@ -265,6 +270,7 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
     topology::IncisionResult r;
     ASSERT_NO_THROW(r = t.cutPolyline(poly, options)) << "trial " << trial;
     ++cuts;
+    EXPECT_FALSE(r.repair.budgetSpent) << "trial " << trial << ": refinement stopped at its budget";
     ASSERT_TRUE(t.validate().ok()) << "trial " << trial << ": " << t.validate().summary();
     EXPECT_NEAR(totalArea(t), area, 1e-9 * area) << "trial " << trial;
     Quality q = quality(t, createdSince(t, before), target);
@@ -317,7 +323,7 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
 /// the triangles the operation made reaches the target except where the input excuses it.
 TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
   const double target = kDefaultTarget;
-  std::size_t made = 0, ops[3] = {}, inserted = 0, split = 0;
+  std::size_t made = 0, ops[3] = {}, inserted = 0, split = 0, spent = 0;
   double worst = 180;
   for (std::uint64_t seed = 21; seed < 21 + kRandomSequences; ++seed) {
     const int n = 15;
@@ -352,6 +358,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
           const auto r = t.cutPolyline(poly, options);
           inserted += r.repair.insertions;
           split += r.repair.splits;
+          spent += r.repair.budgetSpent;
         } else if (op == 1) {
           auto es = t.edges();
           const topology::EdgeId e = es[rng() % es.size()];
@@ -360,6 +367,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
           const auto r = t.tear(e, repair);
           inserted += r.repair.insertions;
           split += r.repair.splits;
+          spent += r.repair.budgetSpent;
         } else {
           auto ts = t.triangles();
           std::vector<TriangleId> rm{ts[rng() % ts.size()]};
@@ -367,6 +375,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
           const auto r = t.removeTriangles(rm, repair);
           inserted += r.insertions;
           split += r.splits;
+          spent += r.budgetSpent;
         }
         ++ops[op];
       } catch (const TopologyError&) {
@@ -390,6 +399,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
   // The refinement ran: circumcentres were inserted and segments split.
   EXPECT_GT(inserted, 0u);
   EXPECT_GT(split, 0u);
+  EXPECT_EQ(spent, 0u) << "operations whose refinement stopped at its budget";
 }
 
 }  // namespace

@@ -100,6 +100,10 @@ class Repairer {
   bool alive(FI f) const { return I_.faceAlive(f); }
   bool isLocked(VI v) const { return locked_.count(v.idx()) > 0; }
   bool inPatch(VI v) const { return patch_.count(v.idx()) > 0; }
+  /// v joins the patch (during refinement, noted so that its older triangles are looked at).
+  void join(VI v) {
+    if (patch_.insert(v.idx()).second && refining_) joined_.push_back(v);
+  }
   void addWithRing(VI v) {
     if (!live(v)) return;
     patch_.insert(v.idx());
@@ -118,7 +122,7 @@ class Repairer {
   }
   /// The triangles around the patch's points, and every triangle made since the operation began
   /// (a flip or a collapse on the patch's rim can make one with no corner in the patch; it is
-  /// measured and refined like the others, but does not widen the patch).
+  /// measured and refined like the others).
   std::vector<FI> patchFaces() const {
     std::unordered_set<std::uint32_t> seen;
     std::vector<FI> out;
@@ -648,8 +652,8 @@ class Repairer {
       if (!delaunayFlippable(h)) continue;
       VI c = m_.target(m_.next(h)), d = m_.target(m_.next(m_.opposite(h)));
       flipNow(h);
-      patch_.insert(c.idx());
-      patch_.insert(d.idx());
+      join(c);
+      join(d);
       work.push_back({u, c});
       work.push_back({c, w});
       work.push_back({u, d});
@@ -837,6 +841,8 @@ class Repairer {
     for (FI f : patchFaces())
       if (const double q = quality(f); q < goal) bad.emplace(q, f.idx());
     std::size_t budget = 8 * patchFaces().size() + 64;
+    refining_ = true;
+    joined_.clear();
     while (budget > 0 && !bad.empty()) {
       const Index mark = Index(m_.num_faces());
       // A segment of a bad triangle encroached by its opposite corner (the angle there exceeds a
@@ -866,6 +872,17 @@ class Repairer {
       for (Index f = mark; f < m_.num_faces(); ++f)
         if (alive(FI(f)))
           if (const double q = quality(FI(f)); q < goal) bad.emplace(q, f);
+      // Points the step's flips brought into the patch bring their older triangles.
+      for (VI v : joined_)
+        for (FI f : facesAround(v))
+          if (const double q = quality(f); q < goal) bad.emplace(q, f.idx());
+      joined_.clear();
+    }
+    refining_ = false;
+    if (budget == 0) {
+      // Spent: say so if anything is still to do.
+      for (const auto& [q, f] : bad)
+        if (alive(FI(f)) && !hopeless.count(f) && !excused(FI(f), goal)) report_.budgetSpent = true;
     }
   }
 
@@ -879,7 +896,9 @@ class Repairer {
   double shortEdge_ = 0;   // edges shorter than this are collapsed even in good triangles
   bool sizeMode_ = false;  // collapse(): accept what keeps the target (not only improvements)
   double median_ = 0;      // the patch's median edge before the repair
-  double smallest_ = 0;    // refinement makes no edge shorter than this (1e-5 of the median)
+  double smallest_ = 0;    // refinement's floor (1e-5 of the median edge; see refine())
+  bool refining_ = false;  // join() notes the points that join the patch
+  std::vector<VI> joined_;
 };
 
 Index follow(const std::unordered_map<Index, Index>& replaced, Index p) {

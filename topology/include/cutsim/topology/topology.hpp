@@ -58,6 +58,7 @@ struct RepairOptions {
 struct RepairReport {
   std::size_t flips = 0, collapses = 0, relocations = 0, splits = 0;
   std::size_t insertions = 0;         ///< points inserted at circumcentres (Delaunay refinement)
+  bool budgetSpent = false;           ///< refinement stopped at its budget, not when done
   std::size_t triangles = 0;          ///< triangles of the patch after the repair
   double minAngleBefore = 0.0, minAngleAfter = 0.0;    ///< smallest angle of the patch
   double meanMinBefore = 0.0, meanMinAfter = 0.0;      ///< mean of the triangles' smallest angles
