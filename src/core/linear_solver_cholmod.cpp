@@ -35,6 +35,10 @@ struct CholmodSolver::Impl {
     // CHOLMOD keeps it (only postordering its elimination tree, which changes no fill).
     cholmod.cholmod().nmethods = 1;
     cholmod.cholmod().method[0].ordering = CHOLMOD_NATURAL;
+    // CHOLMOD's own messages stay off stderr ("matrix not positive definite" in the middle of a
+    // progress display): the solver's status says it, and a step whose matrix was not positive
+    // definite is flagged (`indefinite`), counted and reported by the run.
+    cholmod.cholmod().print = 0;
   }
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
   SystemMatrix system;
