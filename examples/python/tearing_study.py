@@ -59,6 +59,30 @@ def pieces(num_slots, triangles):
     return len({find(p) for p in np.unique(triangles)})
 
 
+def simulate(scene):
+    """Runs the scene to its end, every 0.01 s recording the time, the crack's length (m), the
+    right grasp's pulling force (N) and the number of pieces; returns the simulation and the
+    series (an array, a row per record)."""
+    sim = cutsim.Simulation(scene)
+    sim.step(1)  # the notch is cut at t = 0
+    initial = boundary_length(sim.rest, sim.triangles())
+    series = []
+    every = max(1, int(round(0.01 / sim.time_step)))
+    while not sim.finished:
+        sim.step(every)
+        tri = sim.triangles()
+        crack = (boundary_length(sim.rest, tri) - initial) / 2  # two lips per length of crack
+        force = float(np.linalg.norm(sim.grasp_forces().get("right", np.zeros(3))))
+        series.append((sim.time, crack, force, pieces(sim.num_slots, tri)))
+    return sim, np.array(series)
+
+
+def first_time(series, column, above):
+    """The first recorded time at which the column exceeds `above` (NaN if never)."""
+    t = series[series[:, column] > above, 0]
+    return float(t[0]) if t.size else float("nan")
+
+
 def run_one(base, parameter, value, quick):
     scene = json.loads(json.dumps(base))
     fracture = next(a for a in scene["timeline"] if a["action"] == "fracture")
@@ -69,24 +93,11 @@ def run_one(base, parameter, value, quick):
     if quick:
         scene["mesh"]["grid"].update(nx=20, ny=20)
         scene["duration"] = 1.4
-    sim = cutsim.Simulation(scene)
-    sim.step(1)  # the notch is cut at t = 0
-    initial = boundary_length(sim.rest, sim.triangles())
-    series = []  # time, crack length (m), pulling force (N), pieces
-    every = max(1, int(round(0.01 / sim.time_step)))
-    while not sim.finished:
-        sim.step(every)
-        tri = sim.triangles()
-        crack = (boundary_length(sim.rest, tri) - initial) / 2  # two lips per length of crack
-        force = float(np.linalg.norm(sim.grasp_forces().get("right", np.zeros(3))))
-        series.append((sim.time, crack, force, pieces(sim.num_slots, tri)))
-    s = np.array(series)
-    started = s[s[:, 1] > 0.01, 0]
-    parted = s[s[:, 3] >= 2, 0]
+    sim, s = simulate(scene)
     return {
         "value": value,
-        "crack_start": float(started[0]) if started.size else float("nan"),
-        "parted_at": float(parted[0]) if parted.size else float("nan"),
+        "crack_start": first_time(s, 1, 0.01),
+        "parted_at": first_time(s, 3, 1.5),
         "crack_length": float(s[-1, 1]),
         "peak_force": float(s[:, 2].max()),
         "flagged_steps": sim.solve_summary["flagged_steps"],
@@ -104,7 +115,7 @@ PATH_RUNS = [
 ]
 
 
-def crack_lips(rest, triangles, notch_x):
+def crack_lips(rest, triangles):
     """The rest-plane segments of the border that are not the sheet's outer border: the notch and
     the crack (both lips, which coincide in the rest plane)."""
     e = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
@@ -134,26 +145,17 @@ def run_path(base, label, change, quick):
         scene.pop("linearSolver", None)
     notch = next(a for a in scene["timeline"] if a["action"] == "cut")["polyline"]
     notch_x, notch_y = notch[-1][0], notch[-1][1]
-    sim = cutsim.Simulation(scene)
-    every = max(1, int(round(0.01 / sim.time_step)))
-    start = parted = float("nan")
-    sim.step(1)
-    initial = boundary_length(sim.rest, sim.triangles())
-    while not sim.finished:
-        sim.step(every)
-        tri = sim.triangles()
-        if np.isnan(start) and boundary_length(sim.rest, tri) - initial > 0.02:
-            start = sim.time
-        if np.isnan(parted) and pieces(sim.num_slots, tri) >= 2:
-            parted = sim.time
+    sim, series = simulate(scene)
     if not np.all(np.isfinite(sim.x[np.unique(sim.triangles())])):
         raise SystemExit(f"{label}: positions are not finite at t = {sim.time}")
-    a, c = crack_lips(sim.rest, sim.triangles(), notch_x)
+    start, parted = first_time(series, 1, 0.01), first_time(series, 3, 1.5)
+    a, c = crack_lips(sim.rest, sim.triangles())
     below = (np.minimum(a[:, 1], c[:, 1]) < notch_y - 1e-9)
     dev = np.abs(np.concatenate([a[below, 0], c[below, 0]]) - notch_x)
     cell = 1.0 / (n - 1)
-    # The path by bands 5 cm deep below the notch tip: the mean x of the crack's segment midpoints.
-    mid = 0.5 * (a[below] + c[below])
+    # The crack's segments by their midpoints (both lips coincide in the rest plane, once each),
+    # and the path by bands 5 cm deep below the notch tip: the mean x of those midpoints.
+    mid = np.unique(np.round(0.5 * (a[below] + c[below]), 9), axis=0)
     bands = {}
     for x, y in mid[:, :2]:
         bands.setdefault(int((notch_y - y) / 0.05), []).append(x)
@@ -161,7 +163,7 @@ def run_path(base, label, change, quick):
          "largest_offset_m": float(dev.max()) if dev.size else float("nan"), "cell": cell,
          "crack_depth_m": float(notch_y - np.minimum(a[below, 1], c[below, 1]).min()) if below.any() else 0.0,
          "bands": {b: float(np.mean(xs)) for b, xs in bands.items()},
-         "lips": (a, c), "notch": (notch_x, notch_y), "flagged_steps": sim.solve_summary["flagged_steps"]}
+         "lips": (a, c), "mid": mid, "notch": (notch_x, notch_y), "flagged_steps": sim.solve_summary["flagged_steps"]}
     r["largest_offset_cells"] = r["largest_offset_m"] / cell
     return r
 
@@ -209,11 +211,8 @@ def paths(args):
         ax.set_title(f"{r['label']}\nstarts {r['crack_start']:.2f} s, parts {r['parted_at']:.2f} s", fontsize=9)
         for side in ax.spines.values():
             side.set_visible(False)
-        # The overlay: the crack's segments by their midpoints, top to bottom (both lips coincide).
-        below = np.minimum(a[:, 1], c[:, 1]) < ny - 1e-9
-        mid = 0.5 * (a[below] + c[below])
-        mid = np.unique(np.round(mid, 9), axis=0)
-        ys, xs = mid[:, 1], mid[:, 0] - nx
+        # The overlay: the crack's segments by their midpoints, top to bottom.
+        ys, xs = r["mid"][:, 1], r["mid"][:, 0] - nx
         order = np.argsort(-ys)
         axes[-1].plot(1000 * xs[order], ys[order], ".-", color=col, ms=2, lw=0.8, label=r["label"])
     cell = results[0]["cell"]

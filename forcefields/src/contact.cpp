@@ -1304,9 +1304,12 @@ struct Contact::Impl {
   /// surface through their triangles): 0 if they intersect, -1 if a corner is inside, infinity if
   /// it is surely farther than `within`.
   double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within) const {
-    const Obstacle& o = O[std::size_t(k)];
     V3 g;
-    const double smin = std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)});
+    return triangleObstacleDistance(k, tv, within, std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)}));
+  }
+  /// The same, given smin, the smallest of the corners' signed distances to the obstacle.
+  double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within, double smin) const {
+    const Obstacle& o = O[std::size_t(k)];
     if (smin <= 0) return -1.0;
     if (smin - longestEdge(tv) >= within) return kInf;
     double D = smin;
@@ -1354,8 +1357,8 @@ struct Contact::Impl {
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (meshLike(k)) continue;
       const V3& m = move[k];
-      // Per point: how far it travels relative to the obstacle, and its distance to it (the
-      // triangle test below is triangleObstacleDistance's, with its corners measured once).
+      // Per point: how far it travels relative to the obstacle, and its distance to it (each
+      // measured once, not once per triangle around the point).
       pointDistances(int(k), x);
       pointReach.resize(disp.size());
       for (std::size_t p = 0; p < disp.size(); ++p) pointReach[p] = (at(p) - m).norm();
@@ -1364,11 +1367,8 @@ struct Contact::Impl {
         // How far the triangle's points travel relative to the obstacle.
         const double reach = std::max({pointReach[T[0]], pointReach[T[1]], pointReach[T[2]]});
         if (!(reach > 0)) continue;
-        const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
-        if (smin <= 0) continue;  // a corner inside: as D = -1 below
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-        if (smin - longestEdge(tv) >= reach) continue;  // surely farther than it travels
-        const double D = triangleObstacleDistance(int(k), tv, reach);
+        const double D = triangleObstacleDistance(int(k), tv, reach, std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]}));
         // Already touching or inside (a corner inside, or made so by a topology operation): not
         // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
         if (D > 0 && D < kInf) items.push_back({int(k), t, D});

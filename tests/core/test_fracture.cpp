@@ -10,6 +10,7 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "cutsim/core/scene.hpp"
 #include "support/scene_text.hpp"
@@ -30,6 +31,20 @@ struct CrackRun {
 const std::string kImplicit = R"("integrator": {"type": "implicit-euler", "rayleighMass": 1.0},
   "linearSolver": {"type": "cg", "iterations": 400, "tolerance": 1e-6})";
 const std::string kExplicit = R"("integrator": {"type": "explicit-euler"})";
+
+/// The crack's points below the notch tip (y = 0.8), in rest coordinates: points that share their
+/// rest position with another point (the two lips).
+std::vector<topology::Vec3> crackPoints(const topology::Topology& t) {
+  std::map<std::pair<long, long>, int> count;
+  auto keyOf = [](const topology::Vec3& p) { return std::pair{std::lround(p[0] * 1e9), std::lround(p[1] * 1e9)}; };
+  for (topology::PointId p : t.points()) ++count[keyOf(t.restPosition(p))];
+  std::vector<topology::Vec3> out;
+  for (topology::PointId p : t.points()) {
+    const topology::Vec3 x = t.restPosition(p);
+    if (count[keyOf(x)] >= 2 && x[1] <= 0.8 - 1e-9) out.push_back(x);
+  }
+  return out;
+}
 
 /// The tearing demo's sheet (1 m, notch 0.2 m deep at x = 0.48), pulled apart at 0.125 m/s each
 /// way, with fracture (averaged strain 0.1 over 0.1 m, at most 1 m/s), run to t = `until`.
@@ -64,30 +79,16 @@ CrackRun notchedSheet(int n, double dt, const std::string& diagonals, double unt
     if (run.start < 0 && runner.cutsDone() > cuts0) run.start = runner.time();
     const int key = int(std::lround(runner.time() * 100));
     if (std::abs(runner.time() - key / 100.0) > 0.25 * dt) continue;
-    // The crack: points below the notch tip that share their rest position with another point
-    // (the two lips).
-    std::map<std::pair<long, long>, int> count;
-    auto keyOf = [](const topology::Vec3& p) {
-      return std::pair{std::lround(p[0] * 1e9), std::lround(p[1] * 1e9)};
-    };
-    for (topology::PointId p : t.points()) ++count[keyOf(t.restPosition(p))];
     double deepest = 0.8;
-    for (topology::PointId p : t.points()) {
-      const topology::Vec3 x = t.restPosition(p);
-      if (count[keyOf(x)] < 2 || x[1] > 0.8 - 1e-9) continue;
+    for (const topology::Vec3& x : crackPoints(t)) {
       deepest = std::min(deepest, x[1]);
       if (0.8 - x[1] > 2 * run.cell)
         run.worstAngle = std::max(run.worstAngle, std::atan2(std::abs(x[0] - 0.48), 0.8 - x[1]) * 180 / std::numbers::pi);
     }
     run.tornAt[key] = 0.8 - deepest;
   }
-  std::map<std::pair<long, long>, int> count;
-  auto keyOf = [](const topology::Vec3& p) { return std::pair{std::lround(p[0] * 1e9), std::lround(p[1] * 1e9)}; };
-  for (topology::PointId p : t.points()) ++count[keyOf(t.restPosition(p))];
   std::map<int, std::pair<double, int>> bands;
-  for (topology::PointId p : t.points()) {
-    const topology::Vec3 x = t.restPosition(p);
-    if (count[keyOf(x)] < 2 || x[1] > 0.8 - 1e-9) continue;
+  for (const topology::Vec3& x : crackPoints(t)) {
     auto& [sum, n] = bands[int((0.8 - x[1]) / 0.05)];
     sum += x[0];
     ++n;

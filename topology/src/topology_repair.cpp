@@ -132,8 +132,8 @@ class Repairer {
       for (FI f : facesAround(v))
         if (seen.insert(f.idx()).second) out.push_back(f);
     }
-    for (Index f = I_.fBefore; f < m_.num_faces(); ++f)
-      if (alive(FI(f)) && seen.insert(f).second) out.push_back(FI(f));  // madeHere
+    for (Index f = I_.fBefore; f < m_.num_faces(); ++f)  // made since the operation began
+      if (alive(FI(f)) && seen.insert(f).second) out.push_back(FI(f));
     std::sort(out.begin(), out.end());
     return out;
   }
@@ -640,7 +640,8 @@ class Repairer {
   bool madeHere(FI f) const { return f.is_valid() && f.idx() >= I_.fBefore; }
   /// Lawson's flips until the link of every point in `around` is Delaunay (for a new point:
   /// the edges opposite it, then those the flips expose). Only edges with an end in the patch,
-  /// or on a triangle made since the operation began, flip; a flip's new diagonal joins the patch, so a chain of non-Delaunay edges is followed.
+  /// or on a triangle made since the operation began, flip; a flip's new diagonal joins the
+  /// patch, so a chain of non-Delaunay edges is followed.
   void restoreDelaunay(std::vector<std::pair<VI, VI>> work) {
     std::size_t guard = 0;
     while (!work.empty() && ++guard < 100000) {
@@ -834,13 +835,14 @@ class Repairer {
     if (!needed) return;
     restoreDelaunay(patchEdges());
     // The triangles under the goal, worst first. Nothing moves during refinement, so a triangle's
-    // angles are fixed while it lives: the set only gains the triangles each step makes (fresh
-    // indices, at the end) and loses the dead ones.
+    // angles are fixed while it lives: the set gains the triangles each step makes (fresh
+    // indices, at the end) and those around points that join the patch, and loses the dead ones.
+    const std::vector<FI> faces = patchFaces();
     std::set<std::pair<double, std::uint32_t>> bad;
     std::unordered_set<std::uint32_t> hopeless;  // could not be refined (an attempt changes nothing)
-    for (FI f : patchFaces())
+    for (FI f : faces)
       if (const double q = quality(f); q < goal) bad.emplace(q, f.idx());
-    std::size_t budget = 8 * patchFaces().size() + 64;
+    std::size_t budget = 8 * faces.size() + 64;
     refining_ = true;
     joined_.clear();
     while (budget > 0 && !bad.empty()) {
