@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 #include <unordered_set>
+#include <utility>
 
 #include "contact_archive.hpp"
 #include "contact_bvh.hpp"
@@ -187,6 +188,7 @@ struct Contact::Impl {
   std::vector<char> fastPoint;  // per point slot: moved too far for the cache
   std::vector<double> moveLength;  // per point slot: its displacement's length
   std::vector<double> pointSdf, pointReach;  // per point slot, for one analytic obstacle (scratch)
+  std::vector<char> seenPoint, seenEdge;     // per point and edge slot (scratch)
 
   /// Every point's signed distance to analytic obstacle k at x, into pointSdf (a triangle's
   /// corners are shared by about six triangles: measured once per point, not per corner).
@@ -447,7 +449,11 @@ struct Contact::Impl {
   /// the whole step).
   template <class Dist>
   static double safeFraction(const Dist& dist, double lp) {
-    const double d0 = dist(0.0);
+    return safeFraction(dist, lp, dist(0.0));
+  }
+  /// The same, given d0 = dist(0).
+  template <class Dist>
+  static double safeFraction(const Dist& dist, double lp, double d0) {
     if (!(d0 > 0)) return 0.0;
     if (!(lp > 0)) return 1.0;
     const double floor = 0.1 * d0;
@@ -502,25 +508,46 @@ struct Contact::Impl {
   // most 2) and is not evaluated.
   std::vector<Eval> evals;
   std::vector<char> within;  // per pair: evaluated and closer than d
-  // The same, packed for the products of the solves: the penalty's Gauss-Newton stiffness
-  // -h (sum_i w_i n)(sum_j w_j n)^T, and friction's dF/du.
-  struct Penalty {
-    std::array<std::uint32_t, 4> id;
-    std::uint8_t surface;
-    double h;
-    std::array<double, 4> w;
-    V3 n;
-  };
-  struct Friction {
+  // The same, packed for the products of the solves at one (kFactor, bFactor) (CG asks for
+  // many at the same ones): df_i += w_i A (sum_j w_j dx_j), A the sum of the penalty's
+  // Gauss-Newton stiffness -kFactor h n n^T and friction's bFactor dF/du, one gather and one
+  // scatter per pair where the two share their weights (the linearised steps evaluate at the
+  // step's start, where they do).
+  struct Product {
     std::array<std::uint32_t, 4> id;
     std::uint8_t surface;
     std::array<double, 4> w;
-    V3 n0;
-    double fa, fb;
-    V3 ft;
+    std::array<double, 6> a;  // A's upper triangle: xx, xy, xz, yy, yz, zz
   };
-  std::vector<Penalty> penalties;
-  std::vector<Friction> frictions;
+  std::vector<Product> products;
+  double productK = 0.0, productB = 0.0;
+  bool productsValid = false;
+  void packProducts(double kFactor, double bFactor) {
+    if (productsValid && kFactor == productK && bFactor == productB) return;
+    products.clear();
+    const Law law{P.thickness, P.stiffness};
+    auto push = [&](const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& A) {
+      products.push_back({p.id, p.surface, w, {A(0, 0), A(0, 1), A(0, 2), A(1, 1), A(1, 2), A(2, 2)}});
+    };
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const Pair& p = pairs[i];
+      if (p.excluded) continue;
+      const bool penalty = within[i] && kFactor != 0.0, rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
+      if (!penalty && !rubs) continue;
+      const Eigen::Matrix3d K = penalty ? Eigen::Matrix3d((-kFactor * law.curvature(evals[i].s)) * (evals[i].n * evals[i].n.transpose()))
+                                        : Eigen::Matrix3d::Zero();
+      const Eigen::Matrix3d F = rubs ? Eigen::Matrix3d(bFactor * p.frictionMatrix()) : Eigen::Matrix3d::Zero();
+      if (penalty && rubs && evals[i].w == p.w0) {
+        push(p, p.w0, K + F);
+        continue;
+      }
+      if (penalty) push(p, evals[i].w, K);
+      if (rubs) push(p, p.w0, F);
+    }
+    productK = kFactor;
+    productB = bFactor;
+    productsValid = true;
+  }
   std::vector<double> evalX;
   bool evalValid = false;
 
@@ -545,20 +572,13 @@ struct Contact::Impl {
         for (int k = 0; k < 4; ++k)
           if ((p.surface >> k) & 1) m = std::max(m, moved[p.id[std::size_t(k)]]);
       if (p.s0 - 2 * m >= d) continue;
-      evals[i] = evaluate(p, x, true);
+      // At the step's start a pair is as the search measured it (but for a moving obstacle's,
+      // whose distance was taken again where the obstacle ends the step).
+      if (atStart && !(p.obstacle >= 0 && move[std::size_t(p.obstacle)] != V3::Zero())) evals[i] = Eval{p.s0, p.n0, p.w0};
+      else evals[i] = evaluate(p, x, true);
       within[i] = evals[i].s < d;
     }
-    penalties.clear();
-    frictions.clear();
-    const Law law{P.thickness, P.stiffness};
-    for (std::size_t i = 0; i < pairs.size(); ++i) {
-      const Pair& p = pairs[i];
-      if (p.excluded) continue;
-      const bool rubs = p.lambda > 0 && p.mu > 0;
-      if (!within[i] && !rubs) continue;
-      if (within[i]) penalties.push_back({p.id, p.surface, law.curvature(evals[i].s), evals[i].w, evals[i].n});
-      if (rubs) frictions.push_back({p.id, p.surface, p.w0, p.n0, p.fa, p.fb, p.ft});
-    }
+    productsValid = false;
     evalX.assign(x.begin(), x.end());
     evalValid = true;
   }
@@ -1041,8 +1061,10 @@ struct Contact::Impl {
       if (meshLike(k)) {
         continue;
       } else if (O[k].shape == Obstacle::Shape::Sphere || O[k].shape == Obstacle::Shape::Capsule) {
-        // Each triangle's closest feature (its interior, an edge, a corner), each feature once.
-        std::set<std::array<std::uint32_t, 3>> seen;
+        // Each triangle's closest feature (its interior, an edge, a corner), each feature once
+        // (from the first triangle that meets it).
+        seenPoint.assign(pointOwner.size(), 0);
+        seenEdge.assign(edgeOwner.size(), 0);
         pointDistances(int(k), x);
         for (std::size_t t = 0; t < tris.size(); ++t) {
           const auto& T = triV[t];
@@ -1061,9 +1083,12 @@ struct Contact::Impl {
               ++m;
             }
           if (m == 0) continue;
-          std::array<std::uint32_t, 3> key{pr.id[0], m > 1 ? pr.id[1] : kInvalidIndex, m > 2 ? pr.id[2] : kInvalidIndex};
-          std::sort(key.begin(), key.end());
-          if (!seen.insert(key).second) continue;
+          if (m == 1) {
+            if (std::exchange(seenPoint[pr.id[0]], 1)) continue;
+          } else if (m == 2) {
+            const int opposite = e.w[0] > 0 ? (e.w[1] > 0 ? 2 : 1) : 0;
+            if (std::exchange(seenEdge[triE[t][std::size_t(opposite)]], 1)) continue;
+          }
           pr.surface = std::uint8_t((1 << m) - 1);
           const Eval f = evaluate(pr, x);
           pr.s0 = f.s;
@@ -1311,12 +1336,21 @@ struct Contact::Impl {
   double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within, double smin) const {
     const Obstacle& o = O[std::size_t(k)];
     if (smin <= 0) return -1.0;
+    // (a plane's distance is linear over the triangle: the smallest corner's)
+    if (o.shape == Obstacle::Shape::Plane) return smin >= within ? kInf : smin;
     if (smin - longestEdge(tv) >= within) return kInf;
     double D = smin;
     const V3 c = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
     switch (o.shape) {
       case Obstacle::Shape::Plane: break;
-      case Obstacle::Shape::Sphere: D = pointTriangleDistance(c, tv[0], tv[1], tv[2]) - o.radius; break;
+      case Obstacle::Shape::Sphere: {
+        // The centre's distance to the triangle's plane is at most its distance to the triangle.
+        const V3 normal = (tv[1] - tv[0]).cross(tv[2] - tv[0]);
+        const double area2 = normal.norm();
+        if (area2 > 0 && std::abs(normal.dot(c - tv[0])) / area2 - o.radius >= within) return kInf;
+        D = pointTriangleDistance(c, tv[0], tv[1], tv[2]) - o.radius;
+        break;
+      }
       case Obstacle::Shape::Capsule: {
         const V3 b = V3(o.pointB[0], o.pointB[1], o.pointB[2]) + offset[std::size_t(k)];
         D = segmentTriangleDistance(c, b, tv[0], tv[1], tv[2]) - o.radius;
@@ -1484,7 +1518,7 @@ struct Contact::Impl {
                 const double D = triangleObstacleDistance(it.k, c, kInf);
                 return D < 0 ? 0.0 : D;
               },
-              lp);
+              lp, it.D);  // (its distance at the start: x and the obstacles' start do not change)
           if (safe >= 1.0) continue;
           for (std::uint32_t p : T) restrict(p, std::max(gamma * it.D, safe * (dx[p] - m).norm()), m, changed);
           continue;
@@ -1816,24 +1850,16 @@ void Contact::addDForce(std::span<const double> x, std::span<const double> dx, s
   I.evaluateAt(x);
   auto at = [&](std::uint32_t p) { return Eigen::Map<const V3>(dx.data() + 3 * std::size_t(p)); };
   auto to = [&](std::uint32_t p) { return Eigen::Map<V3>(df.data() + 3 * std::size_t(p)); };
-  if (kFactor != 0.0)
-    for (const Impl::Penalty& c : I.penalties) {
-      V3 u = V3::Zero();
-      for (int i = 0; i < 4; ++i)
-        if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
-      const V3 g = (kFactor * c.h * c.n.dot(u)) * c.n;
-      for (int i = 0; i < 4; ++i)
-        if ((c.surface >> i) & 1) to(c.id[std::size_t(i)]) -= c.w[std::size_t(i)] * g;
-    }
-  if (bFactor != 0.0)
-    for (const Impl::Friction& c : I.frictions) {
-      V3 u = V3::Zero();
-      for (int i = 0; i < 4; ++i)
-        if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
-      const V3 g = bFactor * (c.fa * (u - c.n0 * c.n0.dot(u)) + c.fb * c.ft * c.ft.dot(u));
-      for (int i = 0; i < 4; ++i)
-        if ((c.surface >> i) & 1) to(c.id[std::size_t(i)]) += c.w[std::size_t(i)] * g;
-    }
+  I.packProducts(kFactor, bFactor);
+  for (const Impl::Product& c : I.products) {
+    V3 u = V3::Zero();
+    for (int i = 0; i < 4; ++i)
+      if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
+    const auto& a = c.a;
+    const V3 g(a[0] * u[0] + a[1] * u[1] + a[2] * u[2], a[1] * u[0] + a[3] * u[1] + a[4] * u[2], a[2] * u[0] + a[4] * u[1] + a[5] * u[2]);
+    for (int i = 0; i < 4; ++i)
+      if ((c.surface >> i) & 1) to(c.id[std::size_t(i)]) += c.w[std::size_t(i)] * g;
+  }
 }
 
 double Contact::potentialEnergy(std::span<const double> x) const {
