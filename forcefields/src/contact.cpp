@@ -519,11 +519,25 @@ struct Contact::Impl {
     std::array<double, 4> w;
     std::array<double, 6> a;  // A's upper triangle: xx, xy, xz, yy, yz, zz
   };
-  std::vector<Product> products;
-  double productK = 0.0, productB = 0.0;
-  bool productsValid = false;
-  void packProducts(double kFactor, double bFactor) {
-    if (productsValid && kFactor == productK && bFactor == productB) return;
+  // Two packs (an implicit step asks at (1, 0) for its right-hand side, then at its own
+  // factors), each valid for the evaluation it was made from.
+  struct Products {
+    std::vector<Product> list;
+    double kFactor = 0.0, bFactor = 0.0;
+    std::uint64_t evaluation = 0;  // 0: none
+  };
+  std::array<Products, 2> packs;
+  std::size_t lastPack = 0;
+  std::uint64_t evaluation = 0;  // counts evaluateAt's evaluations
+  const std::vector<Product>& packProducts(double kFactor, double bFactor) {
+    for (std::size_t k = 0; k < packs.size(); ++k)
+      if (packs[k].evaluation == evaluation && packs[k].kFactor == kFactor && packs[k].bFactor == bFactor) {
+        lastPack = k;
+        return packs[k].list;
+      }
+    lastPack = 1 - lastPack;  // (replaces the pack used less recently)
+    Products& pack = packs[lastPack];
+    std::vector<Product>& products = pack.list;
     products.clear();
     const Law law{P.thickness, P.stiffness};
     auto push = [&](const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& A) {
@@ -544,9 +558,10 @@ struct Contact::Impl {
       if (penalty) push(p, evals[i].w, K);
       if (rubs) push(p, p.w0, F);
     }
-    productK = kFactor;
-    productB = bFactor;
-    productsValid = true;
+    pack.kFactor = kFactor;
+    pack.bFactor = bFactor;
+    pack.evaluation = evaluation;
+    return products;
   }
   std::vector<double> evalX;
   bool evalValid = false;
@@ -578,7 +593,7 @@ struct Contact::Impl {
       else evals[i] = evaluate(p, x, true);
       within[i] = evals[i].s < d;
     }
-    productsValid = false;
+    ++evaluation;
     evalX.assign(x.begin(), x.end());
     evalValid = true;
   }
@@ -709,6 +724,7 @@ struct Contact::Impl {
       const auto a = std::minmax(p.id[0], p.id[1]), b = std::minmax(p.id[2], p.id[3]);
       if (b < a) p.id = {p.id[2], p.id[3], p.id[0], p.id[1]};
     }
+    if (features && surelyDropped(p, x, t)) return;
     Eval e = evaluate(p, x);
     if (!(e.s < r)) return;
     if (features) {
@@ -724,6 +740,30 @@ struct Contact::Impl {
     p.n0 = e.n;
     p.w0 = e.w;
     out.push_back(p);
+  }
+
+  /// Whether the penalty's search drops the pair whatever its distance, told from its closest
+  /// points alone (most of the pairs it measures, which then need no distance, normal or
+  /// weights): two edges whose closest points are not inside both, a point whose closest
+  /// feature of a surface triangle is a corner or an edge that the triangle does not own (or a
+  /// corner the pair is kept from the other side). The same tests keepIfNear and toFeature make,
+  /// on the same numbers.
+  bool surelyDropped(const Pair& p, std::span<const double> x, int t) const {
+    if (p.kind == Kind::EE || p.kind == Kind::EO) {
+      const auto st = closestSegmentSegment(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3));
+      return !(st[0] > 0 && st[0] < 1 && st[1] > 0 && st[1] < 1);
+    }
+    if (p.kind != Kind::VT || p.shape != 3 || t < 0) return false;
+    const auto bw = closestOnTriangle(surfacePoint(x, p.id[0]), surfacePoint(x, p.id[1]), surfacePoint(x, p.id[2]), surfacePoint(x, p.id[3]));
+    int on[3], m = 0;
+    for (int c = 0; c < 3; ++c)
+      if (-bw[std::size_t(c)] != 0.0) on[m++] = c;
+    if (m == 1) {
+      const std::uint32_t c = p.id[std::size_t(on[0] + 1)];
+      return c < p.id[0] || pointOwner[c] != t;
+    }
+    if (m == 2) return edgeOwner[triE[std::size_t(t)][std::size_t(3 - on[0] - on[1])]] != t;
+    return false;
   }
 
   /// The point of a point-triangle pair (e: the pair evaluated at x; t: the triangle's index)
@@ -1850,8 +1890,7 @@ void Contact::addDForce(std::span<const double> x, std::span<const double> dx, s
   I.evaluateAt(x);
   auto at = [&](std::uint32_t p) { return Eigen::Map<const V3>(dx.data() + 3 * std::size_t(p)); };
   auto to = [&](std::uint32_t p) { return Eigen::Map<V3>(df.data() + 3 * std::size_t(p)); };
-  I.packProducts(kFactor, bFactor);
-  for (const Impl::Product& c : I.products) {
+  for (const Impl::Product& c : I.packProducts(kFactor, bFactor)) {
     V3 u = V3::Zero();
     for (int i = 0; i < 4; ++i)
       if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
@@ -1880,6 +1919,11 @@ namespace {
 /// instead (B is semi-definite: the lumped blocks bound the true ones in the same direction, by
 /// Cauchy-Schwarz), and says so.
 void addPairBlocks(const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& B, MatrixAccumulator& m) {
+  if (m.diagonalOnly()) {
+    for (int i = 0; i < 4; ++i)
+      if ((p.surface >> i) & 1) m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(i)]), (w[std::size_t(i)] * w[std::size_t(i)]) * B);
+    return;
+  }
   bool fits = true;
   double sum = 0.0;
   for (int i = 0; i < 4; ++i) {

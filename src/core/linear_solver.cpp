@@ -26,6 +26,7 @@ struct DiagonalAccumulator : forcefields::MatrixAccumulator {
     if (i != j) return;
     for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += s;
   }
+  bool diagonalOnly() const override { return true; }
   Vec diagonal;
 };
 

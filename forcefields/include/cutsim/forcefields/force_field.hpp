@@ -59,6 +59,9 @@ class MatrixAccumulator {
   virtual bool contains(PointId /*i*/, PointId /*j*/) const { return true; }
   /// Called by a field that lumped blocks onto the diagonal (see contains()).
   virtual void approximated() {}
+  /// Whether only the diagonal blocks (i, i) are kept (a preconditioner's diagonal): a field
+  /// may then skip computing the others.
+  virtual bool diagonalOnly() const { return false; }
 };
 
 /// Collects the blocks as Eigen triplets (duplicates are summed by toSparse).
