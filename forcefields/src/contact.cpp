@@ -716,15 +716,16 @@ struct Contact::Impl {
   /// With `features` (the penalty's pairs), a point and a triangle (t: the triangle's index in
   /// its surface or obstacle mesh) become a pair of the point and the triangle's closest
   /// feature, kept once for that feature (see toFeature), and two edges are kept only when their
-  /// closest points are inside both (else they are a point's pair).
+  /// closest points are inside both (else they are a point's pair). `screened`: surelyDropped
+  /// has already passed it.
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
-                  int t = -1) const {
+                  int t = -1, bool screened = false) const {
     if (features && p.kind == Kind::EE) {
       // The same classification whichever way the search met the two edges.
       const auto a = std::minmax(p.id[0], p.id[1]), b = std::minmax(p.id[2], p.id[3]);
       if (b < a) p.id = {p.id[2], p.id[3], p.id[0], p.id[1]};
     }
-    if (features && surelyDropped(p, x, t)) return;
+    if (features && !screened && surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t)) return;
     Eval e = evaluate(p, x);
     if (!(e.s < r)) return;
     if (features) {
@@ -735,6 +736,10 @@ struct Contact::Impl {
         if (!toFeature(p, e, x, t)) return;
         if (p.shape != 3) e = evaluate(p, x);
       }
+    }
+    if (cacheOut) {  // (the cache's build: its compact record only)
+      cacheOut->push_back({p.kind, p.surface, p.obstacle, p.tri, p.id, p.margins, e.s});
+      return;
     }
     p.s0 = e.s;
     p.n0 = e.n;
@@ -748,19 +753,27 @@ struct Contact::Impl {
   /// feature of a surface triangle is a corner or an edge that the triangle does not own (or a
   /// corner the pair is kept from the other side). The same tests keepIfNear and toFeature make,
   /// on the same numbers.
-  bool surelyDropped(const Pair& p, std::span<const double> x, int t) const {
-    if (p.kind == Kind::EE || p.kind == Kind::EO) {
-      const auto st = closestSegmentSegment(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3));
+  bool surelyDropped(Kind kind, std::uint8_t surface, std::int32_t obstacle, std::array<std::uint32_t, 4> id, std::uint8_t shape,
+                     std::span<const double> x, int t) const {
+    auto point = [&](int i) {
+      return (surface >> i) & 1 ? surfacePoint(x, id[std::size_t(i)]) : obstaclePoint(obstacle, id[std::size_t(i)]);
+    };
+    if (kind == Kind::EE || kind == Kind::EO) {
+      if (kind == Kind::EE) {  // (ordered as keepIfNear orders them)
+        const auto a = std::minmax(id[0], id[1]), b = std::minmax(id[2], id[3]);
+        if (b < a) id = {id[2], id[3], id[0], id[1]};
+      }
+      const auto st = closestSegmentSegment(point(0), point(1), point(2), point(3));
       return !(st[0] > 0 && st[0] < 1 && st[1] > 0 && st[1] < 1);
     }
-    if (p.kind != Kind::VT || p.shape != 3 || t < 0) return false;
-    const auto bw = closestOnTriangle(surfacePoint(x, p.id[0]), surfacePoint(x, p.id[1]), surfacePoint(x, p.id[2]), surfacePoint(x, p.id[3]));
+    if (kind != Kind::VT || shape != 3 || t < 0) return false;
+    const auto bw = closestOnTriangle(surfacePoint(x, id[0]), surfacePoint(x, id[1]), surfacePoint(x, id[2]), surfacePoint(x, id[3]));
     int on[3], m = 0;
     for (int c = 0; c < 3; ++c)
       if (-bw[std::size_t(c)] != 0.0) on[m++] = c;
     if (m == 1) {
-      const std::uint32_t c = p.id[std::size_t(on[0] + 1)];
-      return c < p.id[0] || pointOwner[c] != t;
+      const std::uint32_t c = id[std::size_t(on[0] + 1)];
+      return c < id[0] || pointOwner[c] != t;
     }
     if (m == 2) return edgeOwner[triE[std::size_t(t)][std::size_t(3 - on[0] - on[1])]] != t;
     return false;
@@ -1174,6 +1187,7 @@ struct Contact::Impl {
     }
   };
   std::vector<Cached> cache;
+  std::vector<Cached>* cacheOut = nullptr;  // while the cache is built: where keepIfNear keeps
   std::vector<double> cacheX;
   std::vector<V3> cacheOffset;
   std::uint64_t cacheRevision = 0;
@@ -1217,12 +1231,14 @@ struct Contact::Impl {
     obstacleMargin.assign(O.size(), 0.5 * r);
     prepare(x);
     cache.clear();
-    std::vector<Pair>& found = nearPairs;
-    found.clear();
-    searchPairs(x, found, false);
-    cache.reserve(found.size());
-    for (const Pair& p : found) cache.push_back({p.kind, p.surface, p.obstacle, p.tri, p.id, p.margins, p.s0});
-    found.clear();
+    cacheOut = &cache;
+    try {
+      searchPairs(x, nearPairs, false);
+    } catch (...) {
+      cacheOut = nullptr;
+      throw;
+    }
+    cacheOut = nullptr;
     pointMargin = savedPoint;
     obstacleMargin = savedObstacle;
     triangleMargins();
@@ -1705,7 +1721,8 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
     for (const Impl::Cached& c : I.cache) {
       const double within = I.searchMargin(c);
       if (c.s - I.cachedShrink(c) >= within) continue;  // (it cannot be within its margin)
-      I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri);
+      if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, c.tri)) continue;  // (as keepIfNear would)
+      I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri, true);
     }
     I.analyticPairs(x, I.pairs);
   } else {
