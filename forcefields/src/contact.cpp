@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <set>
@@ -566,11 +567,16 @@ struct Contact::Impl {
   std::vector<double> evalX;
   bool evalValid = false;
 
+  /// Whether x holds the same numbers, bit for bit, as y (the integrators ask at the same x
+  /// many times: compared as memory, which is several times faster than number by number).
+  static bool sameBits(std::span<const double> x, const std::vector<double>& y) {
+    return x.size() == y.size() && (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
+  }
   void evaluateAt(std::span<const double> x) {
-    if (evalValid && evalX.size() == x.size() && std::equal(x.begin(), x.end(), evalX.begin())) return;
+    if (evalValid && sameBits(x, evalX)) return;
     const double d = P.thickness;
     std::vector<double> moved;
-    const bool atStart = lastX.size() == x.size() && std::equal(x.begin(), x.end(), lastX.begin());
+    const bool atStart = sameBits(x, lastX);
     if (!atStart) {
       moved.assign(x.size() / 3, kInf);
       if (lastX.size() == x.size())
@@ -1066,8 +1072,21 @@ struct Contact::Impl {
   void nearFromCache(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
     // (a pair's reach is at most twice its points' largest displacement, doubled)
     moveLength.resize(sweep->size());
-    for (std::size_t p = 0; p < sweep->size(); ++p) moveLength[p] = (*sweep)[p].norm();
+    double largest = 0.0;  // of every point's and obstacle's displacement (infinity: one is not finite)
+    bool finite = true;
+    for (std::size_t p = 0; p < sweep->size(); ++p) {
+      moveLength[p] = (*sweep)[p].norm();
+      finite = finite && std::isfinite(moveLength[p]);
+      largest = std::max(largest, moveLength[p]);
+    }
+    for (const V3& m : move) {
+      finite = finite && std::isfinite(m.norm());
+      largest = std::max(largest, m.norm());
+    }
+    if (!finite) largest = kInf;
+    const double shrink = 2 * largestSinceCache;
     for (const Cached& c : cache) {
+      if (c.s - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
       bool slow = true;
       double largestMove = 0.0;
       for (int i = 0; i < 4; ++i) {
@@ -1125,6 +1144,7 @@ struct Contact::Impl {
           const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
           const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
           if (smin - longestEdge({q[0], q[1], q[2]}) >= within) continue;
+          if (O[k].shape == Obstacle::Shape::Sphere && planeSeparates(int(k), {q[0], q[1], q[2]}, within)) continue;
           const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
           if (!(e.s < within)) continue;
           Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
@@ -1143,7 +1163,8 @@ struct Contact::Impl {
             if (std::exchange(seenEdge[triE[t][std::size_t(opposite)]], 1)) continue;
           }
           pr.surface = std::uint8_t((1 << m) - 1);
-          const Eval f = evaluate(pr, x);
+          // (the triangle's interior: the pair is the triangle itself, as just measured)
+          const Eval f = m == 3 ? e : evaluate(pr, x);
           pr.s0 = f.s;
           pr.n0 = f.n;
           pr.w0 = f.w;
@@ -1195,6 +1216,7 @@ struct Contact::Impl {
   bool cacheBuilt = false;
   std::vector<double> sinceCache;  // per point slot: how far it moved since the cache's x
   std::vector<double> obstacleSinceCache;
+  double largestSinceCache = 0.0;  // the largest of the two above (a cached pair shrinks by at most twice it)
   std::size_t cacheUses = 0, cacheBuilds = 0;
   // A cache that was never reused before the points moved out of it cost more than the search
   // it replaced: then the next steps search plainly, for twice as many steps each time (up to
@@ -1217,9 +1239,11 @@ struct Contact::Impl {
     if (!(m < kInf)) return false;
     if (P.selfContact && !(cacheR - 2 * m >= rSelf)) return false;
     obstacleSinceCache.assign(O.size(), 0.0);
+    largestSinceCache = m;
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (!meshLike(k)) continue;
       obstacleSinceCache[k] = (offset[k] - cacheOffset[k]).norm();
+      largestSinceCache = std::max(largestSinceCache, obstacleSinceCache[k]);
       if (!(cacheR - m - obstacleSinceCache[k] >= rObstacle[k])) return false;
     }
     return true;
@@ -1381,6 +1405,15 @@ struct Contact::Impl {
     return p.obstacle < 0 && p.s0 <= P.thickness && restNeighbours(p) && !isReleased(p);
   }
 
+  /// Whether sphere k is farther than `within` from the triangle's plane, so from the triangle
+  /// (the centre's distance to the plane is at most its distance to the triangle).
+  bool planeSeparates(int k, const std::array<V3, 3>& tv, double within) const {
+    const Obstacle& o = O[std::size_t(k)];
+    const V3 c = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
+    const V3 normal = (tv[1] - tv[0]).cross(tv[2] - tv[0]);
+    const double area2 = normal.norm();
+    return area2 > 0 && std::abs(normal.dot(c - tv[0])) / area2 - o.radius >= within;
+  }
   /// Distance of a triangle to a plane, a sphere or a capsule (boxes and meshes meet the
   /// surface through their triangles): 0 if they intersect, -1 if a corner is inside, infinity if
   /// it is surely farther than `within`.
@@ -1400,10 +1433,7 @@ struct Contact::Impl {
     switch (o.shape) {
       case Obstacle::Shape::Plane: break;
       case Obstacle::Shape::Sphere: {
-        // The centre's distance to the triangle's plane is at most its distance to the triangle.
-        const V3 normal = (tv[1] - tv[0]).cross(tv[2] - tv[0]);
-        const double area2 = normal.norm();
-        if (area2 > 0 && std::abs(normal.dot(c - tv[0])) / area2 - o.radius >= within) return kInf;
+        if (planeSeparates(k, tv, within)) return kInf;
         D = pointTriangleDistance(c, tv[0], tv[1], tv[2]) - o.radius;
         break;
       }
