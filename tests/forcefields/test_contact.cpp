@@ -125,6 +125,53 @@ TEST(Contact, StiffnessIsSymmetricNegativeSemidefiniteAndEqualToItsMatrix) {
   }
 }
 
+TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
+  // The products the solves ask for (penalty and friction packed together per pair, two packs
+  // kept) against the assembled matrices kFactor K + bFactor B, asked with factors in turn as
+  // an implicit step does (its right-hand side at (1, 0), then its own, many times) and as
+  // others do; and a preconditioner's diagonal (only the diagonal blocks asked for) against the
+  // full matrices' diagonal.
+  struct Diagonal : MatrixAccumulator {
+    explicit Diagonal(std::size_t n) : d(Eigen::VectorXd::Zero(Eigen::Index(3 * n))) {}
+    void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
+      ASSERT_TRUE(i == j) << "a block off the diagonal was added for a diagonal only";
+      for (int a = 0; a < 3; ++a) d[3 * Eigen::Index(i) + a] += b(a, a);
+    }
+    bool diagonalOnly() const override { return true; }
+    Eigen::VectorXd d;
+  };
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    Crumpled c = crumpled(seed);
+    Contact contact(*c.topo, params(0.05, 1e3, 0.4), {});
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> g;
+    std::vector<double> v(c.x.size());
+    for (double& a : v) a = 0.05 * g(rng);  // sliding and sticking pairs
+    contact.beginStep(c.x, v, 0.0, 1e-3);
+    const std::size_t n = c.topo->pointCapacity();
+    TripletAccumulator k, b;
+    contact.addKToMatrix(c.x, k, 1.0);
+    contact.addBToMatrix(c.x, b, 1.0);
+    const Eigen::MatrixXd K(k.toSparse(topology::Index(n))), B(b.toSparse(topology::Index(n)));
+    ASSERT_GT(K.norm(), 0.0);
+    ASSERT_GT(B.norm(), 0.0);
+    for (const auto& [kf, bf] : std::vector<std::pair<double, double>>{{1, 0}, {-2e-6, -1e-3}, {-2e-6, -1e-3}, {1, 0},
+                                                                        {-2e-6, -1e-3}, {0, 1}, {3, 0.5}, {-2e-6, -1e-3}}) {
+      std::vector<double> dx(c.x.size()), df(c.x.size(), 0.0);
+      for (double& a : dx) a = g(rng);
+      contact.addDForce(c.x, dx, df, kf, bf);
+      const Eigen::VectorXd ref = (kf * K + bf * B) * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
+      EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm())
+          << "seed " << seed << ", factors " << kf << ", " << bf;
+    }
+    Diagonal dk(n), db(n);
+    contact.addKToMatrix(c.x, dk, 1.0);
+    contact.addBToMatrix(c.x, db, 1.0);
+    EXPECT_LT((dk.d - K.diagonal()).norm(), 1e-12 * K.diagonal().norm()) << "seed " << seed;
+    EXPECT_LT((db.d - B.diagonal()).norm(), 1e-12 * B.diagonal().norm()) << "seed " << seed;
+  }
+}
+
 TEST(Contact, StiffnessAgainstAPlaneIsExact) {
   // A point-plane pair has no curvature term: K is the exact derivative of the force.
   core::GridSpec g;
