@@ -2,7 +2,8 @@
 # Configures (once) and builds cutsim. Usage: scripts/build.sh [release|debug|sanitize] [targets...]
 # Build trees: build/release, build/debug, build/sanitize. Incremental on later runs.
 # The sanitizers' build keeps line tables only (-g1: file and line in their reports, about a fifth
-# less compile time on the CGAL-heavy files than -g).
+# less compile time on the CGAL-heavy files than -g). Flags are set when a tree is first
+# configured: remove build/sanitize for a tree made before to take them.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 config="${1:-release}"; shift || true

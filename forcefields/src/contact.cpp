@@ -508,7 +508,7 @@ struct Contact::Impl {
   // (s0 - d) / 2 from the step's start cannot be within d (the weights' magnitudes sum to at
   // most 2) and is not evaluated.
   std::vector<Eval> evals;
-  std::vector<char> within;  // per pair: evaluated and closer than d
+  std::vector<char> closerThanD;  // per pair: evaluated and closer than d
   // The same, packed for the products of the solves at one (kFactor, bFactor) (CG asks for
   // many at the same ones): df_i += w_i A (sum_j w_j dx_j), A the sum of the penalty's
   // Gauss-Newton stiffness -kFactor h n n^T and friction's bFactor dF/du, one gather and one
@@ -547,7 +547,7 @@ struct Contact::Impl {
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const Pair& p = pairs[i];
       if (p.excluded) continue;
-      const bool penalty = within[i] && kFactor != 0.0, rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
+      const bool penalty = closerThanD[i] && kFactor != 0.0, rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
       if (!penalty && !rubs) continue;
       const Eigen::Matrix3d K = penalty ? Eigen::Matrix3d((-kFactor * law.curvature(evals[i].s)) * (evals[i].n * evals[i].n.transpose()))
                                         : Eigen::Matrix3d::Zero();
@@ -584,7 +584,7 @@ struct Contact::Impl {
           moved[p] = (surfacePoint(x, std::uint32_t(p)) - surfacePoint(lastX, std::uint32_t(p))).norm();
     }
     evals.resize(pairs.size());
-    within.assign(pairs.size(), 0);
+    closerThanD.assign(pairs.size(), 0);
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const Pair& p = pairs[i];
       if (p.excluded) continue;
@@ -597,7 +597,7 @@ struct Contact::Impl {
       // whose distance was taken again where the obstacle ends the step).
       if (atStart && !(p.obstacle >= 0 && move[std::size_t(p.obstacle)] != V3::Zero())) evals[i] = Eval{p.s0, p.n0, p.w0};
       else evals[i] = evaluate(p, x, true);
-      within[i] = evals[i].s < d;
+      closerThanD[i] = evals[i].s < d;
     }
     ++evaluation;
     evalX.assign(x.begin(), x.end());
@@ -1255,11 +1255,15 @@ struct Contact::Impl {
     obstacleMargin.assign(O.size(), 0.5 * r);
     prepare(x);
     cache.clear();
+    cacheBuilt = false;
     cacheOut = &cache;
     try {
       searchPairs(x, nearPairs, false);
     } catch (...) {
       cacheOut = nullptr;
+      cache.clear();
+      pointMargin = savedPoint;
+      obstacleMargin = savedObstacle;
       throw;
     }
     cacheOut = nullptr;
@@ -1407,12 +1411,17 @@ struct Contact::Impl {
 
   /// Whether sphere k is farther than `within` from the triangle's plane, so from the triangle
   /// (the centre's distance to the plane is at most its distance to the triangle).
+  /// A sliver (its corners nearly in line: the cross product's direction is mostly rounding) is
+  /// never culled so, and the plane's distance is taken less a margin for rounding.
   bool planeSeparates(int k, const std::array<V3, 3>& tv, double within) const {
     const Obstacle& o = O[std::size_t(k)];
     const V3 c = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
-    const V3 normal = (tv[1] - tv[0]).cross(tv[2] - tv[0]);
+    const V3 e1 = tv[1] - tv[0], e2 = tv[2] - tv[0], r = c - tv[0];
+    const V3 normal = e1.cross(e2);
     const double area2 = normal.norm();
-    return area2 > 0 && std::abs(normal.dot(c - tv[0])) / area2 - o.radius >= within;
+    if (!(area2 >= 1e-6 * e1.norm() * e2.norm())) return false;
+    const double margin = 1e-9 * (r.norm() + e1.norm() + e2.norm());
+    return std::abs(normal.dot(r)) / area2 - margin - o.radius >= within;
   }
   /// Distance of a triangle to a plane, a sphere or a capsule (boxes and meshes meet the
   /// surface through their triangles): 0 if they intersect, -1 if a corner is inside, infinity if
@@ -1488,7 +1497,12 @@ struct Contact::Impl {
         const double reach = std::max({pointReach[T[0]], pointReach[T[1]], pointReach[T[2]]});
         if (!(reach > 0)) continue;
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-        const double D = triangleObstacleDistance(int(k), tv, reach, std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]}));
+        const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
+        if (smin > 0 && smin - longestEdge(tv) >= reach) continue;  // (surely farther than its reach)
+        // The finer culls (a plane's nearest corner, a sphere's distance to the triangle's plane)
+        // only drop a triangle at 1.25 times its reach or more, where the CCD below would take
+        // the whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
+        const double D = triangleObstacleDistance(int(k), tv, 1.25 * reach, smin);
         // Already touching or inside (a corner inside, or made so by a topology operation): not
         // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
         if (D > 0 && D < kInf) items.push_back({int(k), t, D});
@@ -1597,14 +1611,16 @@ struct Contact::Impl {
         if (!plain) {
           const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
           const double lp = std::max({(dx[T[0]] - m).norm(), (dx[T[1]] - m).norm(), (dx[T[2]] - m).norm()});
-          const double safe = safeFraction(
-              [&](double t) {
-                // Relative to the obstacle, which moves by `move` over the step.
-                const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m), c0[2] + t * (dx[T[2]] - m)};
-                const double D = triangleObstacleDistance(it.k, c, kInf);
-                return D < 0 ? 0.0 : D;
-              },
-              lp, it.D);  // (its distance at the start: x and the obstacles' start do not change)
+          const auto dist = [&](double t) {
+            // Relative to the obstacle, which moves by `move` over the step.
+            const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m), c0[2] + t * (dx[T[2]] - m)};
+            const double D = triangleObstacleDistance(it.k, c, kInf);
+            return D < 0 ? 0.0 : D;
+          };
+          // From its distance at the start (x and the obstacles' start do not change), unless a
+          // displacement is not finite (then measured: not finite, nothing of the step is safe).
+          const bool finite = dx[T[0]].allFinite() && dx[T[1]].allFinite() && dx[T[2]].allFinite();
+          const double safe = finite ? safeFraction(dist, lp, it.D) : safeFraction(dist, lp);
           if (safe >= 1.0) continue;
           for (std::uint32_t p : T) restrict(p, std::max(gamma * it.D, safe * (dx[p] - m).norm()), m, changed);
           continue;
@@ -1916,7 +1932,7 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v, std
     const Pair& p = I.pairs[pi];
     if (p.excluded) continue;
     const Eval& e = I.evals[pi];
-    if (I.within[pi]) {
+    if (I.closerThanD[pi]) {
       const double mag = law.force(e.s);
       for (int i = 0; i < 4; ++i)
         if ((p.surface >> i) & 1)
@@ -1955,7 +1971,7 @@ double Contact::potentialEnergy(std::span<const double> x) const {
   I.evaluateAt(x);
   for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
     const Eval& e = I.evals[pi];
-    if (I.within[pi]) E += law.energy(e.s);
+    if (I.closerThanD[pi]) E += law.energy(e.s);
   }
   return E;
 }
@@ -1999,7 +2015,7 @@ void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, doub
   I.evaluateAt(x);
   for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
     const Pair& p = I.pairs[pi];
-    if (!I.within[pi]) continue;
+    if (!I.closerThanD[pi]) continue;
     const Eval& e = I.evals[pi];
     const Eigen::Matrix3d nn = (-kFactor * law.curvature(e.s)) * (e.n * e.n.transpose());
     addPairBlocks(p, e.w, nn, m);
@@ -2030,7 +2046,7 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
     }
     const Eval& e = I.evals[pi];
     double fn = 0.0, ft = 0.0;
-    if (I.within[pi]) {
+    if (I.closerThanD[pi]) {
       ++m.active;
       fn = law.force(e.s);
     }

@@ -127,10 +127,14 @@ TEST(Contact, StiffnessIsSymmetricNegativeSemidefiniteAndEqualToItsMatrix) {
 
 TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
   // The products the solves ask for (penalty and friction packed together per pair, two packs
-  // kept) against the assembled matrices kFactor K + bFactor B, asked with factors in turn as
-  // an implicit step does (its right-hand side at (1, 0), then its own, many times) and as
-  // others do; and a preconditioner's diagonal (only the diagonal blocks asked for) against the
-  // full matrices' diagonal.
+  // kept) against the assembled matrices kFactor K + bFactor B:
+  // - at the step's start, with factors asked in turn as an implicit step does (its right-hand
+  //   side at (1, 0), then its own, many times) and as others do;
+  // - away from it (as Newton asks: the penalty's weights there differ from friction's, frozen
+  //   at the start, and the two are packed apart), then back at the start;
+  // - after the next step's start with other velocities (new friction);
+  // with every pair sticking, then every pair sliding; and a preconditioner's diagonal
+  // (only the diagonal blocks asked for) against the full matrices' diagonal.
   struct Diagonal : MatrixAccumulator {
     explicit Diagonal(std::size_t n) : d(Eigen::VectorXd::Zero(Eigen::Index(3 * n))) {}
     void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
@@ -142,33 +146,60 @@ TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
   };
   for (unsigned seed = 1; seed <= 3; ++seed) {
     Crumpled c = crumpled(seed);
-    Contact contact(*c.topo, params(0.05, 1e3, 0.4), {});
+    ContactParameters prm = params(0.05, 1e3, 0.4);
+    prm.stickVelocity = 1e-3;
+    Contact contact(*c.topo, prm, {});
     std::mt19937 rng(seed);
     std::normal_distribution<double> g;
-    std::vector<double> v(c.x.size());
-    for (double& a : v) a = 0.05 * g(rng);  // sliding and sticking pairs
-    contact.beginStep(c.x, v, 0.0, 1e-3);
     const std::size_t n = c.topo->pointCapacity();
-    TripletAccumulator k, b;
-    contact.addKToMatrix(c.x, k, 1.0);
-    contact.addBToMatrix(c.x, b, 1.0);
-    const Eigen::MatrixXd K(k.toSparse(topology::Index(n))), B(b.toSparse(topology::Index(n)));
+    // Still, every pair sticks (no relative velocity); moving at 5 cm/s, every pair slides.
+    auto velocities = [&](bool still) {
+      std::vector<double> v(c.x.size(), 0.0);
+      if (!still)
+        for (double& a : v) a = 0.05 * g(rng);
+      return v;
+    };
+    auto matrices = [&](std::span<const double> at) {
+      TripletAccumulator k, b;
+      contact.addKToMatrix(at, k, 1.0);
+      contact.addBToMatrix(at, b, 1.0);
+      return std::pair<Eigen::MatrixXd, Eigen::MatrixXd>(k.toSparse(topology::Index(n)), b.toSparse(topology::Index(n)));
+    };
+    auto check = [&](std::span<const double> at, const Eigen::MatrixXd& K, const Eigen::MatrixXd& B,
+                     const std::vector<std::pair<double, double>>& factors, const char* where) {
+      for (const auto& [kf, bf] : factors) {
+        std::vector<double> dx(c.x.size()), df(c.x.size(), 0.0);
+        for (double& a : dx) a = g(rng);
+        contact.addDForce(at, dx, df, kf, bf);
+        const Eigen::VectorXd ref = (kf * K + bf * B) * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
+        EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm())
+            << "seed " << seed << ", " << where << ", factors " << kf << ", " << bf;
+      }
+    };
+    const std::vector<std::pair<double, double>> implicit{{1, 0}, {-2e-6, -1e-3}, {-2e-6, -1e-3}, {1, 0},
+                                                          {-2e-6, -1e-3}, {0, 1}, {3, 0.5}, {-2e-6, -1e-3}};
+    contact.beginStep(c.x, velocities(true), 0.0, 1e-3);
+    const ContactMeasure m0 = contact.measure(c.x, std::vector<double>(c.x.size(), 0.0));
+    ASSERT_GT(m0.active, 10u);
+    const auto [K, B] = matrices(c.x);
     ASSERT_GT(K.norm(), 0.0);
     ASSERT_GT(B.norm(), 0.0);
-    for (const auto& [kf, bf] : std::vector<std::pair<double, double>>{{1, 0}, {-2e-6, -1e-3}, {-2e-6, -1e-3}, {1, 0},
-                                                                        {-2e-6, -1e-3}, {0, 1}, {3, 0.5}, {-2e-6, -1e-3}}) {
-      std::vector<double> dx(c.x.size()), df(c.x.size(), 0.0);
-      for (double& a : dx) a = g(rng);
-      contact.addDForce(c.x, dx, df, kf, bf);
-      const Eigen::VectorXd ref = (kf * K + bf * B) * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
-      EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm())
-          << "seed " << seed << ", factors " << kf << ", " << bf;
-    }
+    check(c.x, K, B, implicit, "at the start, sticking");
+    std::vector<double> moved = c.x;
+    for (double& a : moved) a += 2e-3 * g(rng);
+    const auto [K1, B1] = matrices(moved);
+    EXPECT_GT((K1 - K).norm(), 1e-6 * K.norm()) << "the stiffness must differ away from the start";
+    check(moved, K1, B1, {{-2e-6, -1e-3}, {1, 1}, {-2e-6, -1e-3}}, "away from the start");
+    check(c.x, K, B, {{-2e-6, -1e-3}, {1, 0}}, "back at the start");
+    contact.beginStep(c.x, velocities(false), 0.0, 1e-3);
+    const auto [K2, B2] = matrices(c.x);
+    EXPECT_GT((B2 - B).norm(), 1e-6 * B.norm()) << "sliding friction must differ from sticking";
+    check(c.x, K2, B2, implicit, "at the next step's start, sliding");
     Diagonal dk(n), db(n);
     contact.addKToMatrix(c.x, dk, 1.0);
     contact.addBToMatrix(c.x, db, 1.0);
-    EXPECT_LT((dk.d - K.diagonal()).norm(), 1e-12 * K.diagonal().norm()) << "seed " << seed;
-    EXPECT_LT((db.d - B.diagonal()).norm(), 1e-12 * B.diagonal().norm()) << "seed " << seed;
+    EXPECT_LT((dk.d - K2.diagonal()).norm(), 1e-12 * K2.diagonal().norm()) << "seed " << seed;
+    EXPECT_LT((db.d - B2.diagonal()).norm(), 1e-12 * B2.diagonal().norm()) << "seed " << seed;
   }
 }
 

@@ -60,7 +60,8 @@ class MatrixAccumulator {
   /// Called by a field that lumped blocks onto the diagonal (see contains()).
   virtual void approximated() {}
   /// Whether only the diagonal blocks (i, i) are kept (a preconditioner's diagonal): a field
-  /// may then skip computing the others.
+  /// may then skip computing the others. Such an accumulator must also have a place for every
+  /// block (contains() true), as the default does.
   virtual bool diagonalOnly() const { return false; }
 };
 
