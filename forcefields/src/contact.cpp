@@ -1498,10 +1498,8 @@ struct Contact::Impl {
         if (!(reach > 0)) continue;
         const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
         const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
-        if (smin > 0 && smin - longestEdge(tv) >= reach) continue;  // (surely farther than its reach)
-        // The finer culls (a plane's nearest corner, a sphere's distance to the triangle's plane)
-        // only drop a triangle at 1.25 times its reach or more, where the CCD below would take
-        // the whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
+        // Dropped only at 1.25 times its reach or more, where the CCD below would take the whole
+        // step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
         const double D = triangleObstacleDistance(int(k), tv, 1.25 * reach, smin);
         // Already touching or inside (a corner inside, or made so by a topology operation): not
         // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
