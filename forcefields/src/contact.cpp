@@ -595,7 +595,7 @@ struct Contact::Impl {
       if (p.s0 - 2 * m >= d) continue;
       // At the step's start a pair is as the search measured it (but for a moving obstacle's,
       // whose distance was taken again where the obstacle ends the step).
-      if (atStart && !(p.obstacle >= 0 && move[std::size_t(p.obstacle)] != V3::Zero())) evals[i] = Eval{p.s0, p.n0, p.w0};
+      if (atStart && !obstacleMoves(p)) evals[i] = Eval{p.s0, p.n0, p.w0};
       else evals[i] = evaluate(p, x, true);
       closerThanD[i] = evals[i].s < d;
     }
@@ -726,11 +726,7 @@ struct Contact::Impl {
   /// has already passed it.
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
                   int t = -1, bool screened = false) const {
-    if (features && p.kind == Kind::EE) {
-      // The same classification whichever way the search met the two edges.
-      const auto a = std::minmax(p.id[0], p.id[1]), b = std::minmax(p.id[2], p.id[3]);
-      if (b < a) p.id = {p.id[2], p.id[3], p.id[0], p.id[1]};
-    }
+    if (features && p.kind == Kind::EE) orderEdges(p.id);  // (the same classification whichever way they were met)
     if (features && !screened && surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t)) return;
     Eval e = evaluate(p, x);
     if (!(e.s < r)) return;
@@ -753,6 +749,14 @@ struct Contact::Impl {
     out.push_back(p);
   }
 
+  /// Two surface edges' points in one order, whichever edge comes first.
+  static void orderEdges(std::array<std::uint32_t, 4>& id) {
+    const auto a = std::minmax(id[0], id[1]), b = std::minmax(id[2], id[3]);
+    if (b < a) id = {id[2], id[3], id[0], id[1]};
+  }
+  /// Whether the pair's obstacle moves over the step.
+  bool obstacleMoves(const Pair& p) const { return p.obstacle >= 0 && move[std::size_t(p.obstacle)] != V3::Zero(); }
+
   /// Whether the penalty's search drops the pair whatever its distance, told from its closest
   /// points alone (most of the pairs it measures, which then need no distance, normal or
   /// weights): two edges whose closest points are not inside both, a point whose closest
@@ -765,10 +769,7 @@ struct Contact::Impl {
       return (surface >> i) & 1 ? surfacePoint(x, id[std::size_t(i)]) : obstaclePoint(obstacle, id[std::size_t(i)]);
     };
     if (kind == Kind::EE || kind == Kind::EO) {
-      if (kind == Kind::EE) {  // (ordered as keepIfNear orders them)
-        const auto a = std::minmax(id[0], id[1]), b = std::minmax(id[2], id[3]);
-        if (b < a) id = {id[2], id[3], id[0], id[1]};
-      }
+      if (kind == Kind::EE) orderEdges(id);  // (as keepIfNear orders them)
       const auto st = closestSegmentSegment(point(0), point(1), point(2), point(3));
       return !(st[0] > 0 && st[0] < 1 && st[1] > 0 && st[1] < 1);
     }
@@ -1776,7 +1777,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   }
   I.offset = endOffset;
   for (Pair& p : I.pairs)
-    if (p.obstacle >= 0 && I.move[std::size_t(p.obstacle)] != V3::Zero()) {
+    if (I.obstacleMoves(p)) {
       const Eval e = I.evaluate(p, x, true);
       p.s0 = e.s;
     }
