@@ -734,6 +734,7 @@ struct Contact::Impl {
       if (p.kind == Kind::EE || p.kind == Kind::EO) {
         const double a = e.w[1], b = -e.w[3];
         if (!(a > 0 && a < 1 && b > 0 && b < 1)) return;
+        if (!edgesNearerThanEnds(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3), e.s * e.s)) return;
       } else if (p.kind == Kind::VT || p.kind == Kind::VO || p.kind == Kind::OV) {
         if (!toFeature(p, e, x, t)) return;
         if (p.shape != 3) e = evaluate(p, x);
@@ -749,6 +750,15 @@ struct Contact::Impl {
     out.push_back(p);
   }
 
+  /// Whether two edges whose closest points are inside both, s2 apart squared, are nearer than
+  /// either edge is to the other's ends (by kFeatureTolerance): else they meet at an end, which
+  /// is that point's pair (two aligned layers, an edge over an edge).
+  static bool edgesNearerThanEnds(const V3& q0, const V3& q1, const V3& q2, const V3& q3, double s2) {
+    const double ends = std::min({pointSegmentDistance2(q0, q2, q3), pointSegmentDistance2(q1, q2, q3),
+                                  pointSegmentDistance2(q2, q0, q1), pointSegmentDistance2(q3, q0, q1)});
+    constexpr double shrink = (1 - kFeatureTolerance) * (1 - kFeatureTolerance);
+    return s2 < ends * shrink;
+  }
   /// Two surface edges' points in one order, whichever edge comes first.
   static void orderEdges(std::array<std::uint32_t, 4>& id) {
     const auto a = std::minmax(id[0], id[1]), b = std::minmax(id[2], id[3]);
@@ -770,11 +780,13 @@ struct Contact::Impl {
     };
     if (kind == Kind::EE || kind == Kind::EO) {
       if (kind == Kind::EE) orderEdges(id);  // (as keepIfNear orders them)
-      const auto st = closestSegmentSegment(point(0), point(1), point(2), point(3));
-      return !(st[0] > 0 && st[0] < 1 && st[1] > 0 && st[1] < 1);
+      const V3 q0 = point(0), q1 = point(1), q2 = point(2), q3 = point(3);
+      std::array<double, 2> st;
+      if (!closestInsideSegments(q0, q1, q2, q3, st)) return true;
+      return !edgesNearerThanEnds(q0, q1, q2, q3, ((q0 + st[0] * (q1 - q0)) - (q2 + st[1] * (q3 - q2))).squaredNorm());
     }
     if (kind != Kind::VT || shape != 3 || t < 0) return false;
-    const auto bw = closestOnTriangle(surfacePoint(x, id[0]), surfacePoint(x, id[1]), surfacePoint(x, id[2]), surfacePoint(x, id[3]));
+    const auto bw = closestFeatureOnTriangle(surfacePoint(x, id[0]), surfacePoint(x, id[1]), surfacePoint(x, id[2]), surfacePoint(x, id[3]));
     int on[3], m = 0;
     for (int c = 0; c < 3; ++c)
       if (-bw[std::size_t(c)] != 0.0) on[m++] = c;
@@ -793,13 +805,15 @@ struct Contact::Impl {
   /// kept only from its owner triangle, so that every feature the point meets counts once,
   /// whichever triangles the search pairs the point with. Returns false to drop the pair.
   bool toFeature(Pair& p, const Eval& e, std::span<const double> x, int t) const {
+    const V3 q = pointOf(p, x, 0);
+    // (at a corner or on an edge within kFeatureTolerance: aligned surfaces)
+    const auto w = snapToFeature(q, pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3), {-e.w[1], -e.w[2], -e.w[3]});
     int on[3], m = 0;
     for (int c = 0; c < 3; ++c)
-      if (e.w[std::size_t(c + 1)] != 0.0) on[m++] = c;
+      if (w[std::size_t(c)] != 0.0) on[m++] = c;
     if (m == 3 || m == 0) return true;
     const bool obstacleSide = p.kind == Kind::VO;  // the triangle is an obstacle's
     const MeshObstacle* mesh = obstacleSide ? &meshes[std::size_t(p.obstacle)] : nullptr;
-    const V3 q = pointOf(p, x, 0);
     const double d2 = e.s * e.s;
     // The squared distance from q to triangle u of the same side.
     auto dist2 = [&](int u) {
@@ -1765,7 +1779,8 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
     I.pairs.clear();
     for (const Impl::Cached& c : I.cache) {
       const double within = I.searchMargin(c);
-      if (c.s - I.cachedShrink(c) >= within) continue;  // (it cannot be within its margin)
+      // (it cannot be within its margin; the shrink is at most twice the largest motion)
+      if (c.s >= within && (c.s - 2 * I.largestSinceCache >= within || c.s - I.cachedShrink(c) >= within)) continue;
       if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, c.tri)) continue;  // (as keepIfNear would)
       I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri, true);
     }

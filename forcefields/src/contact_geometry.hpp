@@ -65,6 +65,57 @@ inline std::array<double, 3> closestOnTriangle(const V3& p, const V3& a, const V
   return {1 - v - w, v, w};
 }
 
+/// How near, relative to the distance, a closest point must be to a corner or an edge to count
+/// as at that corner or on that edge (and two edges' closest points as at an end). Where two
+/// surfaces are aligned (a point over a point, an edge over an edge) the closest points lie on
+/// the boundary between features, and rounding alone would put them on either side: a point
+/// over a corner would then also meet the corner's edges and triangles.
+inline constexpr double kFeatureTolerance = 1e-9;
+
+/// Barycentric weights w of p's closest point on triangle (a, b, c) (closestOnTriangle's), moved
+/// to a corner or onto an edge (weights exactly 1, or 0 off the edge) when that is within
+/// kFeatureTolerance of p's distance: the corners first, in order, then the edges.
+inline std::array<double, 3> snapToFeature(const V3& p, const V3& a, const V3& b, const V3& c, std::array<double, 3> w) {
+  const int m = (w[0] != 0.0) + (w[1] != 0.0) + (w[2] != 0.0);
+  if (m <= 1) return w;
+  constexpr double grow = (1 + kFeatureTolerance) * (1 + kFeatureTolerance);
+  const double lim = (p - (w[0] * a + w[1] * b + w[2] * c)).squaredNorm() * grow;
+  const V3* v[3] = {&a, &b, &c};
+  for (std::size_t k = 0; k < 3; ++k)
+    if ((p - *v[k]).squaredNorm() <= lim) {
+      std::array<double, 3> out{0, 0, 0};
+      out[k] = 1;
+      return out;
+    }
+  if (m == 3)
+    for (std::size_t k = 0; k < 3; ++k) {
+      const V3& s = *v[k];
+      const V3 e = *v[(k + 1) % 3] - s;
+      const double ee = e.squaredNorm();
+      const double t = ee > 0 ? std::clamp((p - s).dot(e) / ee, 0.0, 1.0) : 0.0;
+      if ((s + t * e - p).squaredNorm() <= lim) {
+        std::array<double, 3> out{0, 0, 0};
+        out[k] = 1 - t;
+        out[(k + 1) % 3] = t;
+        return out;
+      }
+    }
+  return w;
+}
+
+/// closestOnTriangle, at a corner or on an edge within kFeatureTolerance (snapToFeature).
+inline std::array<double, 3> closestFeatureOnTriangle(const V3& p, const V3& a, const V3& b, const V3& c) {
+  return snapToFeature(p, a, b, c, closestOnTriangle(p, a, b, c));
+}
+
+/// Squared distance from p to segment a-b.
+inline double pointSegmentDistance2(const V3& p, const V3& a, const V3& b) {
+  const V3 e = b - a;
+  const double ee = e.squaredNorm();
+  const double t = ee > 0 ? std::clamp((p - a).dot(e) / ee, 0.0, 1.0) : 0.0;
+  return (a + t * e - p).squaredNorm();
+}
+
 /// Closest points of segments p0-p1 and q0-q1: p0 + s (p1 - p0) and q0 + t (q1 - q0), s and t in
 /// [0, 1] (Ericson 5.1.9, with the parallel and degenerate cases).
 inline std::array<double, 2> closestSegmentSegment(const V3& p0, const V3& p1, const V3& q0,
@@ -95,6 +146,25 @@ inline std::array<double, 2> closestSegmentSegment(const V3& p0, const V3& p1, c
     s = std::clamp((b - c) / a, 0.0, 1.0);
   }
   return {s, t};
+}
+
+/// Whether closestSegmentSegment's closest points are inside both segments (0 < s, t < 1), and
+/// then s and t, the same numbers; told without a division for most segments that are not: the
+/// screening of edge pairs, most of which meet at an end.
+inline bool closestInsideSegments(const V3& p0, const V3& p1, const V3& q0, const V3& q1, std::array<double, 2>& st) {
+  const V3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm();
+  constexpr double tiny = 1e-300;
+  if (a <= tiny || e <= tiny) return false;  // (s or t is 0)
+  const double b = d1.dot(d2), denom = a * e - b * b;
+  if (!(denom > 1e-14 * a * e)) return false;  // (parallel: s is 0, or t is 0 or 1)
+  const double c = d1.dot(r), f = d2.dot(r), num = b * f - c * e;
+  // s = clamp(num / denom) is 0 or 1 here; a t outside [0, 1] then makes t 0 or 1.
+  if (!(num > 0 && num < denom)) return false;
+  const double s = std::clamp(num / denom, 0.0, 1.0), t = (b * s + f) / e;
+  if (!(t > 0 && t < 1 && s > 0 && s < 1)) return false;  // (t < 0 or t > 1: clamped to 0 or 1)
+  st = {s, t};
+  return true;
 }
 
 inline double pointTriangleDistance(const V3& p, const V3& a, const V3& b, const V3& c) {
