@@ -413,6 +413,45 @@ TEST(Contact, PairsEqualABruteForceWhereTwoLayersAreAligned) {
   }
 }
 
+TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
+  // Two copies of one grid, the upper s above the lower (s < d), each point over a point and
+  // each edge over an edge: each point meets the point under it once, so the penalty pushes it
+  // with the law's force at s, -E'(s) for E = k/3 (d - s)^3 / s (written out here), straight
+  // up; its edges and triangles add nothing. The upper points are moved sideways by about
+  // 1e-13 m, as rounding would place them (a fold's mirrored coordinates): exactly over, the
+  // closest points are exact; a rounding's width off, they must still be the corners (before
+  // the pairs were snapped to their features, a point then also met the corner's edges and
+  // triangles).
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> jitter(-1e-13, 1e-13);
+  const double d = 0.05, k = 2.0;
+  core::GridSpec g;
+  g.nx = g.ny = 9;
+  const MeshData one = core::makeGrid(g);
+  MeshData two = one;
+  const auto n = topology::Index(one.points.size());
+  for (const auto& t : one.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+  for (auto q : one.points) two.points.push_back({q[0], q[1], q[2] + 2 * d});  // (apart at rest: no exclusion)
+  Topology topo(two);
+  for (const double s : {0.2 * d, 0.6 * d}) {
+    std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
+    for (PointId p : topo.points())
+      for (int c = 0; c < 3; ++c)
+        x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] + (p < n ? 0.0 : c == 2 ? s - 2 * d : jitter(rng));
+    Contact contact(topo, params(d, k), {});
+    contact.beginStep(x, v, 0.0, 1e-3);
+    contact.addForce(x, v, f);
+    const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
+    for (PointId p : topo.points()) {
+      const double up = p >= n ? law : -law;
+      EXPECT_NEAR(f[3 * p + 2], up, 1e-9 * law) << "point " << p << ", s " << s;
+      EXPECT_NEAR(f[3 * p], 0.0, 1e-9 * law) << "point " << p << ", s " << s;
+      EXPECT_NEAR(f[3 * p + 1], 0.0, 1e-9 * law) << "point " << p << ", s " << s;
+    }
+    EXPECT_EQ(contact.measure(x, v).active, std::size_t(n)) << "s " << s;
+  }
+}
+
 TEST(Contact, TheSearchCacheGivesTheSamePairsAsASearch) {
   // A crumpled sheet jittered, then its folded layer brought down onto the other:
   // the penalty's pairs, forces and stiffness from the cache equal a fresh search's at every
