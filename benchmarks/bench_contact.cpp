@@ -5,8 +5,12 @@
 //          top it follows the ball to 70 degrees from the pole, leaves it along the tangent
 //          down to the table and lies on it, half the contact thickness off both (this is its
 //          rest shape: no elastic force, the penalty carries the weight) (obstacle contact);
-//   fold   the cloth folded over on itself, its two layers half the thickness apart
-//          (self-contact);
+//   fold   the cloth folded over on itself about its middle column, its two layers half the
+//          thickness apart (self-contact): each upper point is over a lower point and each edge
+//          over an edge, every pair at a feature's boundary;
+//   fold_shifted  the same with the upper layer moved by (h/3, h/5) in its plane (h: the grid's
+//          spacing), so that its points are over the lower layer's triangles, as a fold that
+//          fell into place would lie;
 //   cliff  a stress case: the cloth lifted onto the ball where the ball is below it and left
 //          on the table elsewhere, a 0.25 m step at the ball's rim (far from equilibrium: the
 //          solve proposes displacements of several edges, and the step splits).
@@ -51,7 +55,7 @@ struct Setup {
   std::vector<double> x, v;
 };
 
-enum class Shape { Drape, Fold, Cliff };
+enum class Shape { Drape, Fold, FoldShifted, Cliff };
 
 constexpr double kBallRadius = 0.25;
 
@@ -59,10 +63,13 @@ constexpr double kBallRadius = 0.25;
 std::array<double, 3> placed(Shape shape, double X, double Y) {
   const double R = kBallRadius, half = 0.5 * kThickness;
   double Z = 0;
-  if (shape == Shape::Fold) {
-    // The half x > 0 folded back over the other, half the thickness above it.
+  if (shape == Shape::Fold || shape == Shape::FoldShifted) {
+    // The half x > 0 folded back over the other, half the thickness above it (shifted: by a
+    // third and a fifth of the grid's spacing).
     if (X > 0) {
-      X = -X;
+      const double h = shape == Shape::FoldShifted ? 1.0 / (kSide - 1) : 0.0;
+      X = -X + h / 3;
+      Y += h / 5;
       Z = half;
     }
     Z += half;
@@ -96,7 +103,7 @@ std::array<double, 3> placed(Shape shape, double X, double Y) {
 
 Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.searchSlack,
            int cgMaxIterations = 20, double cgTolerance = 1e-12) {
-  const bool fold = shape == Shape::Fold;
+  const bool fold = shape == Shape::Fold || shape == Shape::FoldShifted;
   cutsim::core::GridSpec g;
   g.nx = g.ny = kSide;
   g.width = g.height = 1.0;
@@ -202,10 +209,13 @@ BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_without_contact, Shape::Drape, f
 BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_without_contact, Shape::Fold, false)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_with_contact, Shape::Fold, true)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_with_contact, Shape::FoldShifted, true)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactStep, drape_without_contact, Shape::Drape, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, fold_without_contact, Shape::Fold, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact, Shape::Fold, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_shifted_without_contact, Shape::FoldShifted, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_shifted_with_contact, Shape::FoldShifted, true)->Unit(benchmark::kMillisecond);
 // The same without the search's cache (searched at every step, as a cloth that keeps moving is).
 BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact_searched_every_step, Shape::Drape, true, 0.0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact_searched_every_step, Shape::Fold, true, 0.0)->Unit(benchmark::kMillisecond);
