@@ -209,6 +209,7 @@ BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_without_contact, Shape::Drape, f
 BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_without_contact, Shape::Fold, false)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_with_contact, Shape::Fold, true)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_without_contact, Shape::FoldShifted, false)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_with_contact, Shape::FoldShifted, true)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_ContactStep, drape_without_contact, Shape::Drape, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond);
