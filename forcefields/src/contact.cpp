@@ -732,9 +732,7 @@ struct Contact::Impl {
     if (!(e.s < r)) return;
     if (features) {
       if (p.kind == Kind::EE || p.kind == Kind::EO) {
-        const double a = e.w[1], b = -e.w[3];
-        if (!(a > 0 && a < 1 && b > 0 && b < 1)) return;
-        if (!edgesNearerThanEnds(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3), e.s * e.s)) return;
+        if (!edgePairKept(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3))) return;
       } else if (p.kind == Kind::VT || p.kind == Kind::VO || p.kind == Kind::OV) {
         if (!toFeature(p, e, x, t)) return;
         if (p.shape != 3) e = evaluate(p, x);
@@ -750,10 +748,15 @@ struct Contact::Impl {
     out.push_back(p);
   }
 
-  /// Whether two edges whose closest points are inside both, s2 apart squared, are nearer than
-  /// either edge is to the other's ends (by kFeatureTolerance): else they meet at an end, which
-  /// is that point's pair (two aligned layers, an edge over an edge).
-  static bool edgesNearerThanEnds(const V3& q0, const V3& q1, const V3& q2, const V3& q3, double s2) {
+  /// Whether the penalty keeps the pair of edges q0-q1 and q2-q3: their closest points are inside
+  /// both, and they are nearer than either edge is to the other's ends (by kFeatureTolerance),
+  /// else they meet at an end, which is that point's pair (two aligned layers, an edge over an
+  /// edge). One compiled copy, so that the screening and the classification get the same
+  /// numbers.
+  [[gnu::noinline]] static bool edgePairKept(const V3& q0, const V3& q1, const V3& q2, const V3& q3) {
+    std::array<double, 2> st;
+    if (!closestInsideSegments(q0, q1, q2, q3, st)) return false;
+    const double s2 = ((q0 + st[0] * (q1 - q0)) - (q2 + st[1] * (q3 - q2))).squaredNorm();
     const double ends = std::min({pointSegmentDistance2(q0, q2, q3), pointSegmentDistance2(q1, q2, q3),
                                   pointSegmentDistance2(q2, q0, q1), pointSegmentDistance2(q3, q0, q1)});
     constexpr double shrink = (1 - kFeatureTolerance) * (1 - kFeatureTolerance);
@@ -780,10 +783,7 @@ struct Contact::Impl {
     };
     if (kind == Kind::EE || kind == Kind::EO) {
       if (kind == Kind::EE) orderEdges(id);  // (as keepIfNear orders them)
-      const V3 q0 = point(0), q1 = point(1), q2 = point(2), q3 = point(3);
-      std::array<double, 2> st;
-      if (!closestInsideSegments(q0, q1, q2, q3, st)) return true;
-      return !edgesNearerThanEnds(q0, q1, q2, q3, ((q0 + st[0] * (q1 - q0)) - (q2 + st[1] * (q3 - q2))).squaredNorm());
+      return !edgePairKept(point(0), point(1), point(2), point(3));
     }
     if (kind != Kind::VT || shape != 3 || t < 0) return false;
     const auto bw = closestFeatureOnTriangle(surfacePoint(x, id[0]), surfacePoint(x, id[1]), surfacePoint(x, id[2]), surfacePoint(x, id[3]));
@@ -814,7 +814,13 @@ struct Contact::Impl {
     if (m == 3 || m == 0) return true;
     const bool obstacleSide = p.kind == Kind::VO;  // the triangle is an obstacle's
     const MeshObstacle* mesh = obstacleSide ? &meshes[std::size_t(p.obstacle)] : nullptr;
-    const double d2 = e.s * e.s;
+    // The feature's squared distance (a snapped feature's is up to (1 + kFeatureTolerance)^2 of
+    // the triangle's), and another triangle is nearer below (1 - kFeatureTolerance)^2 of it (as
+    // the brute force compares distances): then the triangle a point was snapped from is never
+    // nearer than the feature, and the feature's owner keeps the pair.
+    const double d2 = (q - (w[0] * pointOf(p, x, 1) + w[1] * pointOf(p, x, 2) + w[2] * pointOf(p, x, 3))).squaredNorm();
+    constexpr double shrink = (1 - kFeatureTolerance) * (1 - kFeatureTolerance);
+    const double near2 = d2 * shrink - 1e-300;
     // The squared distance from q to triangle u of the same side.
     auto dist2 = [&](int u) {
       std::array<V3, 3> c;
@@ -826,7 +832,7 @@ struct Contact::Impl {
     };
     // A triangle that holds the pair's own point (a self pair's neighbours) is not its contact.
     auto holdsPoint = [&](int u) { return p.kind == Kind::VT && shares(triV[std::size_t(u)], p.id[0]); };
-    auto nearer = [&](int u) { return u != t && !holdsPoint(u) && dist2(u) < d2 * (1 - 1e-9) - 1e-300; };
+    auto nearer = [&](int u) { return u != t && !holdsPoint(u) && dist2(u) < near2; };
     const std::uint32_t inv = kInvalidIndex;
     if (m == 2) {
       const int opposite = 3 - on[0] - on[1];
@@ -858,7 +864,7 @@ struct Contact::Impl {
         if (!obstacleSide && shares(U, c)) continue;
         const auto bw = closestOnTriangle(qc, surfacePoint(x, U[0]), surfacePoint(x, U[1]), surfacePoint(x, U[2]));
         const V3 f = bw[0] * surfacePoint(x, U[0]) + bw[1] * surfacePoint(x, U[1]) + bw[2] * surfacePoint(x, U[2]);
-        if ((qc - f).squaredNorm() < d2 * (1 - 1e-9) - 1e-300) return false;
+        if ((qc - f).squaredNorm() < near2) return false;
       }
       if (obstacleSide) {
         for (int u : mesh->vertexTris[c])

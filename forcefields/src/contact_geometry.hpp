@@ -74,12 +74,18 @@ inline constexpr double kFeatureTolerance = 1e-9;
 
 /// Barycentric weights w of p's closest point on triangle (a, b, c) (closestOnTriangle's), moved
 /// to a corner or onto an edge (weights exactly 1, or 0 off the edge) when that is within
-/// kFeatureTolerance of p's distance: the corners first, in order, then the edges.
+/// kFeatureTolerance of p's distance to the triangle's plane (or to the triangle, if less): the
+/// corners first, in order, then the edges. The plane, not the triangle: triangles in one plane
+/// around a corner or an edge then snap a point alike, whichever of them it is over, so that the
+/// feature's owner triangle makes the snap that the others leave to it.
 inline std::array<double, 3> snapToFeature(const V3& p, const V3& a, const V3& b, const V3& c, std::array<double, 3> w) {
   const int m = (w[0] != 0.0) + (w[1] != 0.0) + (w[2] != 0.0);
   if (m <= 1) return w;
   constexpr double grow = (1 + kFeatureTolerance) * (1 + kFeatureTolerance);
-  const double lim = (p - (w[0] * a + w[1] * b + w[2] * c)).squaredNorm() * grow;
+  const V3 n = (b - a).cross(c - a);
+  const double nn = n.squaredNorm(), h = n.dot(p - a);
+  const double toTriangle = (p - (w[0] * a + w[1] * b + w[2] * c)).squaredNorm();
+  const double lim = (nn > 0 ? std::min(h * h / nn, toTriangle) : toTriangle) * grow;
   const V3* v[3] = {&a, &b, &c};
   for (std::size_t k = 0; k < 3; ++k)
     if ((p - *v[k]).squaredNorm() <= lim) {

@@ -333,12 +333,16 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       const double dt = dist(P(p), tri);
       if (!(dt < within)) continue;
       ++all;
-      // Its closest feature: a corner, else an edge, else the interior.
+      // Its closest feature: a corner, else an edge, else the interior: the feature that holds
+      // the triangle's closest point (to rounding), or one within tol of the distance to the
+      // triangle's plane.
+      const double dp = std::min(dt, dist(P(p), tri.supporting_plane()));
+      auto snaps = [&](double df) { return df <= dt * (1 + 1e-12) || df <= dp * (1 + tol); };
       int corner = -1, edge = -1;
       for (int k = 0; k < 3 && corner < 0; ++k)
-        if (dist(P(p), P(T[t][std::size_t(k)])) <= dt * (1 + tol)) corner = k;
+        if (snaps(dist(P(p), P(T[t][std::size_t(k)])))) corner = k;
       for (int k = 0; k < 3 && corner < 0 && edge < 0; ++k)
-        if (dist(P(p), K::Segment_3(P(T[t][std::size_t(k)]), P(T[t][std::size_t((k + 1) % 3)]))) <= dt * (1 + tol)) edge = k;
+        if (snaps(dist(P(p), K::Segment_3(P(T[t][std::size_t(k)]), P(T[t][std::size_t((k + 1) % 3)]))))) edge = k;
       if (corner >= 0) cornerFeatures.insert({p, T[t][std::size_t(corner)]});
       else if (edge >= 0) edgeFeatures.insert({p, std::minmax(T[t][std::size_t(edge)], T[t][std::size_t((edge + 1) % 3)])});
       else ++features;
@@ -450,6 +454,44 @@ TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
     }
     EXPECT_EQ(contact.measure(x, v).active, std::size_t(n)) << "s " << s;
   }
+}
+
+TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheTolerance) {
+  // A point s above a flat square of two triangles, moved off their shared diagonal (or off a
+  // corner of it) by delta: inside the snapping's band (delta up to sqrt(2e-9) s, about 4.5e-5
+  // s, a feature within a relative 1e-9 of the distance), across its edge and beyond. Whichever
+  // triangle the point is over and whichever feature it is snapped to, it keeps one pair, pushed
+  // by the law's force at its distance. The point is a corner of a small upright triangle whose
+  // other corners are out of reach.
+  const double d = 0.05, k = 2.0, s = 0.5 * d;
+  MeshData m;
+  m.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.5, 2 * d}, {0.5, 0.5, 5 * d}, {0.52, 0.5, 5 * d}};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}, {4, 6, 5}};
+  Topology topo(m);
+  const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
+  const Eigen::Vector3d across = Eigen::Vector3d(1, -1, 0).normalized();  // (off the diagonal 0-2)
+  for (const bool corner : {false, true})
+    for (const double delta : {0.0, 1e-13, 2e-5, 3.2e-5, 3.9e-5, 4.4e-5, 4.6e-5, 6e-5, 1e-3}) {
+      for (const double side : {1.0, -1.0}) {
+        // Over the diagonal's middle, or near its corner 2 (inside the square).
+        Eigen::Vector3d at = corner ? Eigen::Vector3d(1 - 0.3 * delta * s, 1 - 0.7 * delta * s, s)
+                                    : Eigen::Vector3d(0.5, 0.5, s) + side * delta * s * across;
+        if (corner && side < 0) at = Eigen::Vector3d(1 - 0.7 * delta * s, 1 - 0.3 * delta * s, s);
+        std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
+        for (PointId p : topo.points())
+          for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
+        const Eigen::Vector3d shift = at - Eigen::Vector3d(0.5, 0.5, 2 * d);
+        for (PointId p : {PointId(4), PointId(5), PointId(6)})
+          for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] += shift[c];
+        Contact contact(topo, params(d, k), {});
+        contact.beginStep(x, v, 0.0, 1e-3);
+        contact.addForce(x, v, f);
+        const std::string where = std::string(corner ? "near the corner" : "off the diagonal") + ", delta " +
+                                  std::to_string(delta) + " s, side " + std::to_string(side);
+        EXPECT_EQ(contact.measure(x, v).active, 1u) << where;
+        EXPECT_NEAR(f[3 * 4 + 2], law, 1e-6 * law) << where;
+      }
+    }
 }
 
 TEST(Contact, TheSearchCacheGivesTheSamePairsAsASearch) {
