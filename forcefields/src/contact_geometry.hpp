@@ -69,8 +69,12 @@ inline std::array<double, 3> closestOnTriangle(const V3& p, const V3& a, const V
 /// as at that corner or on that edge (and two edges' closest points as at an end). Where two
 /// surfaces are aligned (a point over a point, an edge over an edge) the closest points lie on
 /// the boundary between features, and rounding alone would put them on either side: a point
-/// over a corner would then also meet the corner's edges and triangles.
-inline constexpr double kFeatureTolerance = 1e-9;
+/// over a corner would then also meet the corner's edges and triangles. Rounding errs by about
+/// 1e-16 m in coordinates of a metre, 5e-14 of a 2 mm gap and 3e-12 of a 40 micrometre one (a
+/// hundredth of a 4 mm thickness); sideways, 1e-11 of the distance is a band of about 4.5e-6 of
+/// it (sqrt(2e-11)), where triangles that meet at an angle, or a point near two edges, may
+/// still snap a point unlike each other (docs/contact.md, "Aligned surfaces").
+inline constexpr double kFeatureTolerance = 1e-11;
 
 /// Barycentric weights w of p's closest point on triangle (a, b, c) (closestOnTriangle's), moved
 /// to a corner or onto an edge (weights exactly 1, or 0 off the edge) when that is within
@@ -78,7 +82,8 @@ inline constexpr double kFeatureTolerance = 1e-9;
 /// corners first, in order, then the edges. The plane, not the triangle: triangles in one plane
 /// around a corner or an edge then snap a point alike, whichever of them it is over, so that the
 /// feature's owner triangle makes the snap that the others leave to it.
-inline std::array<double, 3> snapToFeature(const V3& p, const V3& a, const V3& b, const V3& c, std::array<double, 3> w) {
+/// (One compiled copy, so that the screening and the classification get the same numbers.)
+[[gnu::noinline]] inline std::array<double, 3> snapToFeature(const V3& p, const V3& a, const V3& b, const V3& c, std::array<double, 3> w) {
   const int m = (w[0] != 0.0) + (w[1] != 0.0) + (w[2] != 0.0);
   if (m <= 1) return w;
   constexpr double grow = (1 + kFeatureTolerance) * (1 + kFeatureTolerance);

@@ -297,7 +297,7 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
 ///   triangle beside it; a corner, when it is the closest feature of each triangle around it
 ///   and the point is the other's (counted once per two points); and two edges whose closest
 ///   points are inside both. Primitives of one triangle (a point and its triangle's edges, two
-///   points joined by an edge) make no pair. A closest point within a relative 1e-9 of the
+///   points joined by an edge) make no pair. A closest point within a relative 1e-11 of the
 ///   distance to a corner or an edge is at that corner or edge (as where two layers are
 ///   aligned, point over point: rounding must not make a point meet a corner's triangles and
 ///   edges besides the corner).
@@ -322,7 +322,7 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       around[T[t][std::size_t(k)]].push_back(t);
       beside[std::minmax(T[t][std::size_t(k)], T[t][std::size_t((k + 1) % 3)])].push_back(t);
     }
-  const double tol = 1e-9;
+  const double tol = 1e-11;  // (the code's kFeatureTolerance)
   std::size_t all = 0, features = 0;
   std::set<std::pair<PointId, std::pair<PointId, PointId>>> edgeFeatures;
   std::set<std::pair<PointId, PointId>> cornerFeatures;
@@ -458,8 +458,8 @@ TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
 
 TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheTolerance) {
   // A point s above a flat square of two triangles, moved off their shared diagonal (or off a
-  // corner of it) by delta: inside the snapping's band (delta up to sqrt(2e-9) s, about 4.5e-5
-  // s, a feature within a relative 1e-9 of the distance), across its edge and beyond. Whichever
+  // corner of it) by delta: inside the snapping's band (delta up to sqrt(2e-11) s, about 4.5e-6
+  // s, a feature within a relative 1e-11 of the distance), across its edge and beyond. Whichever
   // triangle the point is over and whichever feature it is snapped to, it keeps one pair, pushed
   // by the law's force at its distance. The point is a corner of a small upright triangle whose
   // other corners are out of reach.
@@ -471,7 +471,7 @@ TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheToleranc
   const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
   const Eigen::Vector3d across = Eigen::Vector3d(1, -1, 0).normalized();  // (off the diagonal 0-2)
   for (const bool corner : {false, true})
-    for (const double delta : {0.0, 1e-13, 2e-5, 3.2e-5, 3.9e-5, 4.4e-5, 4.6e-5, 6e-5, 1e-3}) {
+    for (const double delta : {0.0, 1e-13, 2e-6, 3.2e-6, 3.9e-6, 4.4e-6, 4.6e-6, 5.5e-6, 6e-6, 8e-6, 1e-4, 1e-3}) {
       for (const double side : {1.0, -1.0}) {
         // Over the diagonal's middle, or near its corner 2 (inside the square).
         Eigen::Vector3d at = corner ? Eigen::Vector3d(1 - 0.3 * delta * s, 1 - 0.7 * delta * s, s)
