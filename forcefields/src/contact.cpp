@@ -67,6 +67,9 @@ struct Pair {
     }
   }
   // Frozen at the step's start:
+  /// The share of the law a self edge-edge pair gets: 1 - (both edges' flatness), see
+  /// Impl::edgeFlat (1 for every other pair).
+  double scale = 1.0;
   double s0 = 0.0, lambda = 0.0, mu = 0.0;
   V3 n0 = V3::UnitZ();
   std::array<double, 4> w0{};
@@ -164,6 +167,9 @@ struct Contact::Impl {
   std::vector<std::int32_t> pointOwner, edgeOwner;  // index into tris, -1: none
   std::vector<std::array<std::int32_t, 2>> edgeTris;  // the (at most two) triangles of an edge
   std::vector<std::int32_t> starStart, star;         // the triangles around a point (CSR)
+  /// Per edge slot, at the step's start: how flat the surface is across the edge at the
+  /// thickness's scale (flatness()); a self pair of two edges gets 1 - the product of theirs.
+  mutable std::vector<double> edgeFlat;
   std::vector<Box> boxes;
   Bvh bvh;
 
@@ -549,7 +555,7 @@ struct Contact::Impl {
       if (p.excluded) continue;
       const bool penalty = closerThanD[i] && kFactor != 0.0, rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
       if (!penalty && !rubs) continue;
-      const Eigen::Matrix3d K = penalty ? Eigen::Matrix3d((-kFactor * law.curvature(evals[i].s)) * (evals[i].n * evals[i].n.transpose()))
+      const Eigen::Matrix3d K = penalty ? Eigen::Matrix3d((-kFactor * p.scale * law.curvature(evals[i].s)) * (evals[i].n * evals[i].n.transpose()))
                                         : Eigen::Matrix3d::Zero();
       const Eigen::Matrix3d F = rubs ? Eigen::Matrix3d(bFactor * p.frictionMatrix()) : Eigen::Matrix3d::Zero();
       if (penalty && rubs && evals[i].w == p.w0) {
@@ -651,6 +657,80 @@ struct Contact::Impl {
     meanEdge = count ? sum / double(count) : 0.0;
   }
 
+  /// Flat-on-flat contact, counted once. Where the surface is flat across an edge (its two
+  /// triangles in one plane), the distance from a straight edge of the other surface to it
+  /// changes linearly along that edge over the two triangles, so a crossing of two such edges
+  /// is never nearer than their ends or the bent edges around them, whose pairs are kept: the
+  /// pair of two edges that are both flat adds nothing but a second count of the same contact
+  /// (between two resting layers of cloth, 3.4 edge pairs a point besides its own). An edge's
+  /// flatness is 1 where its bend lifts the far corners of its triangles off each other's plane
+  /// by at most kFlatBelow d (h sin(theta), h the larger altitude over the edge, theta the bend),
+  /// 0 from kFlatAbove d on, with a border edge, a bend beyond 90 degrees or a degenerate
+  /// triangle, and a smooth step between; frozen at the step's start, as friction's normal
+  /// force is.
+  static constexpr double kFlatBelow = 0.05, kFlatAbove = 0.25;
+  static double flatness(const V3& a, const V3& b, const V3& c, const V3& e, double d) {
+    // (a, b: the edge; c, e: the far corners of its two triangles)
+    const V3 ab = b - a, n1 = ab.cross(c - a), n2 = (e - a).cross(ab);
+    const double l2 = ab.squaredNorm(), q1 = n1.squaredNorm(), q2 = n2.squaredNorm();
+    if (!(l2 > 0 && q1 > 0 && q2 > 0) || !(n1.dot(n2) > 0)) return 0.0;
+    // (h sin(theta))^2 = max(|n1|, |n2|)^2 / |ab|^2 * |n1 x n2|^2 / (|n1|^2 |n2|^2): no root
+    // but in the fade
+    const double lift2 = std::max(q1, q2) * n1.cross(n2).squaredNorm() / (l2 * q1 * q2);
+    const double lo = kFlatBelow * d, hi = kFlatAbove * d;
+    if (lift2 <= lo * lo) return 1.0;
+    if (!(lift2 < hi * hi)) return 0.0;
+    const double t = (hi - std::sqrt(lift2)) / (hi - lo);
+    return t * t * (3 - 2 * t);
+  }
+  // Measured when a pair first asks, once per edge and step (most edges meet no other).
+  std::uint64_t flatRevision = 0;  // the tables' revision edgeFlat is measured on
+  std::uint32_t flatGeneration = 0;
+  mutable std::vector<std::uint32_t> flatStamp;  // per edge slot: the generation it was measured in
+  /// At the step's start: the edges' flatness is measured afresh at x as pairs ask for it.
+  void resetFlatness() {
+    flatRevision = revision;
+    if (flatStamp.size() != edgeTris.size() || ++flatGeneration == 0) {
+      flatGeneration = 1;
+      flatStamp.assign(edgeTris.size(), 0);
+      edgeFlat.assign(edgeTris.size(), 0.0);
+    }
+  }
+  double flatnessOf(std::uint32_t e, std::span<const double> x) const {
+    if (flatStamp[e] == flatGeneration) return edgeFlat[e];
+    flatStamp[e] = flatGeneration;
+    const auto& et = edgeTris[e];
+    double f = 0.0;
+    if (et[0] >= 0 && et[1] >= 0) {
+      const auto& A = triV[std::size_t(et[0])];
+      const auto& B = triV[std::size_t(et[1])];
+      int k = 0;
+      while (k < 2 && triE[std::size_t(et[0])][std::size_t(k)] != e) ++k;
+      const std::uint32_t a = A[std::size_t((k + 1) % 3)], b = A[std::size_t((k + 2) % 3)];
+      std::uint32_t far = B[0];
+      for (int j = 0; j < 3; ++j)
+        if (B[std::size_t(j)] != a && B[std::size_t(j)] != b) far = B[std::size_t(j)];
+      f = flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness);
+    }
+    return edgeFlat[e] = f;
+  }
+  /// The edge of triangle t joining points a and b (t holds both).
+  std::uint32_t edgeOf(int t, std::uint32_t a, std::uint32_t b) const {
+    const auto& T = triV[std::size_t(t)];
+    int k = 0;
+    while (k < 2 && (T[std::size_t(k)] == a || T[std::size_t(k)] == b)) ++k;
+    return triE[std::size_t(t)][std::size_t(k)];
+  }
+  /// A self pair of two edges' share of the law (id: the first edge's points in triangle
+  /// margins[0], the second's in margins[1], as the search met them; x: the step's start):
+  /// 1 - both edges' flatness.
+  double edgePairScale(const std::array<std::uint32_t, 4>& id, const std::array<std::int32_t, 2>& margins,
+                       std::span<const double> x) const {
+    if (flatStamp.empty() || flatRevision != revision || margins[0] < 0 || margins[1] < 0) return 1.0;
+    const double fa = flatnessOf(edgeOf(margins[0], id[0], id[1]), x);
+    return fa == 0.0 ? 1.0 : 1.0 - fa * flatnessOf(edgeOf(margins[1], id[2], id[3]), x);
+  }
+
   void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
     out.resize(tris.size());
     for (std::size_t i = 0; i < tris.size(); ++i) {
@@ -726,7 +806,11 @@ struct Contact::Impl {
   /// has already passed it.
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
                   int t = -1, bool screened = false) const {
-    if (features && p.kind == Kind::EE) orderEdges(p.id);  // (the same classification whichever way they were met)
+    if (features && p.kind == Kind::EE) {
+      p.scale = edgePairScale(p.id, p.margins, x);
+      if (!(p.scale > 0)) return;  // (two flat edges: their ends' pairs hold the contact)
+      orderEdges(p.id);  // (the same classification whichever way they were met)
+    }
     if (features && !screened && surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t)) return;
     Eval e = evaluate(p, x);
     if (!(e.s < r)) return;
@@ -1725,6 +1809,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   // limitDisplacement and found at the next step).
   const std::size_t n = x.size() / 3;
   I.updateTables();
+  I.resetFlatness();
   // Margins: 0.75 d plus what the points may travel relative to the surface's mean motion (with
   // room to spare: 4 |v - mean| dt), so that Newton's iterations find the pairs they approach.
   V3 mean = V3::Zero();
@@ -1787,7 +1872,8 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
       const double within = I.searchMargin(c);
       // (it cannot be within its margin; the shrink is at most twice the largest motion)
       if (c.s >= within && (c.s - 2 * I.largestSinceCache >= within || c.s - I.cachedShrink(c) >= within)) continue;
-      if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, c.tri)) continue;  // (as keepIfNear would)
+      if (c.kind == Kind::EE && !(I.edgePairScale(c.id, c.margins, x) > 0)) continue;  // (as keepIfNear would)
+      if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, c.tri)) continue;
       I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri, true);
     }
     I.analyticPairs(x, I.pairs);
@@ -1831,7 +1917,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   // Frozen normal forces and friction coefficients.
   const Law law{P.thickness, P.stiffness};
   for (Pair& p : I.pairs) {
-    p.lambda = law.force(p.s0);
+    p.lambda = p.scale * law.force(p.s0);
     p.mu = p.obstacle < 0 ? P.friction : obstacles_[std::size_t(p.obstacle)].friction;
     if (p.lambda > 0 && p.mu > 0 && !p.excluded)
       frictionForce(p, P.stickVelocity, I.relativeVelocity(p, v), &p);
@@ -1953,7 +2039,7 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v, std
     if (p.excluded) continue;
     const Eval& e = I.evals[pi];
     if (I.closerThanD[pi]) {
-      const double mag = law.force(e.s);
+      const double mag = p.scale * law.force(e.s);
       for (int i = 0; i < 4; ++i)
         if ((p.surface >> i) & 1)
           for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += mag * e.w[std::size_t(i)] * e.n[c];
@@ -1991,7 +2077,7 @@ double Contact::potentialEnergy(std::span<const double> x) const {
   I.evaluateAt(x);
   for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
     const Eval& e = I.evals[pi];
-    if (I.closerThanD[pi]) E += law.energy(e.s);
+    if (I.closerThanD[pi]) E += I.pairs[pi].scale * law.energy(e.s);
   }
   return E;
 }
@@ -2037,7 +2123,7 @@ void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, doub
     const Pair& p = I.pairs[pi];
     if (!I.closerThanD[pi]) continue;
     const Eval& e = I.evals[pi];
-    const Eigen::Matrix3d nn = (-kFactor * law.curvature(e.s)) * (e.n * e.n.transpose());
+    const Eigen::Matrix3d nn = (-kFactor * p.scale * law.curvature(e.s)) * (e.n * e.n.transpose());
     addPairBlocks(p, e.w, nn, m);
   }
 }
@@ -2068,7 +2154,7 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
     double fn = 0.0, ft = 0.0;
     if (I.closerThanD[pi]) {
       ++m.active;
-      fn = law.force(e.s);
+      fn = p.scale * law.force(e.s);
     }
     if (p.lambda > 0 && p.mu > 0) ft = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v)).norm();
     if (p.obstacle < 0) {

@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <random>
+#include <unistd.h>
 #include <set>
 #include <sstream>
 #include <string>
@@ -100,6 +101,72 @@ TEST(ContactScenes, ASheetRestingOnAPlaneSettlesAtThePenaltyGap) {
   }
   const auto measure = sim.model().contact()->measure(sim.state().x(), sim.state().v());
   EXPECT_NEAR(measure.obstacleNormal[0], total * g, 0.01 * total * g);
+}
+
+TEST(ContactScenes, ASheetRestingOnAnotherSettlesAtThePenaltyGapOfItsPointsPairs) {
+  // Self-contact: a 9 x 9 sheet resting on a fixed 13 x 13 sheet of the same spacing h, moved
+  // by (h/3, h/5) in its plane (as a layer that fell into place lies: each point over a triangle
+  // of the other, the edges crossing). Away from its border, each upper point is carried by its
+  // own pair (it over a lower triangle) and by the pairs of the lower points under its
+  // triangles, whose weights give it exactly one pair's force (each cell holds one lower point,
+  // at the same place in it): at the gap s where the law's force is half its weight. The edges
+  // crossing each other add nothing there: two flat layers meet once (docs/contact.md). The
+  // summed normal force between the layers is the upper sheet's weight.
+  const double d = 0.01, k = 1.5, g = 9.81, h = 0.05;
+  const int nl = 13, nu = 9;
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("cutsim_layers_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream obj(dir / "layers.obj");
+    obj.precision(17);
+    auto grid = [&](int n, double x0, double y0, double z, int base) {
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) obj << "v " << x0 + i * h << ' ' << y0 + j * h << ' ' << z << '\n';
+      for (int j = 0; j + 1 < n; ++j)
+        for (int i = 0; i + 1 < n; ++i) {
+          const int a = base + j * n + i + 1, b = a + 1, c = a + n, e = a + n + 1;
+          obj << "f " << a << ' ' << b << ' ' << e << "\nf " << a << ' ' << e << ' ' << c << '\n';
+        }
+    };
+    grid(nl, 0.0, 0.0, 0.0, 0);
+    grid(nu, 2 * h + h / 3, 2 * h + h / 5, 2 * d, nl * nl);  // (2 d apart at rest: not neighbours)
+  }
+  std::ostringstream s;
+  s << R"({"mesh": {"file": ")" << (dir / "layers.obj").string() << R"("},
+    "mass": {"total": 0.1}, "gravity": [0, 0, -9.81],
+    "forceFields": [{"type": "StretchSprings", "stiffness": 10}],
+    "constraints": [{"type": "fixed", "box": [[-1, -1, -0.001], [1, 1, 0.001]]}],
+    "contact": {"thickness": )" << d << R"(, "stiffness": )" << k << R"(},
+    "integrator": {"type": "implicit-euler", "rayleighMass": 8},
+    "linearSolver": {"type": "cg", "iterations": 400, "tolerance": 1e-10},
+    "timeStep": 0.005, "duration": 3})";
+  SceneRunner runner(sceneOf(s.str()));
+  std::filesystem::remove_all(dir);
+  runner.start();
+  const auto m = runner.simulation().mass().perPoint();
+  const topology::PointId first(nl * nl);
+  const double interiorWeight = m[first + nu + 1] * g;
+  const double gap = restGap(d, k, 0.5 * interiorWeight);
+  for (topology::PointId p : runner.simulation().topology().points())
+    if (p >= first) runner.simulation().state().x()[3 * p + 2] = gap;
+  while (!runner.finished()) runner.advance();
+  const Simulation& sim = runner.simulation();
+  const auto x = sim.state().x();
+  double upper = 0;
+  int interior = 0;
+  for (topology::PointId p : sim.topology().points()) {
+    if (p < first) continue;
+    upper += m[p];
+    const int i = int(p - first) % nu, j = int(p - first) / nu;
+    if (i < 2 || j < 2 || i > nu - 3 || j > nu - 3) continue;  // (two rings from the border)
+    ++interior;
+    EXPECT_NEAR(m[p] * g, interiorWeight, 1e-12 * interiorWeight) << "point " << p;
+    EXPECT_NEAR(x[3 * p + 2], gap, 0.01 * gap) << "point " << p << " (" << i << ", " << j << ")";
+  }
+  EXPECT_EQ(interior, (nu - 4) * (nu - 4));
+  const auto measure = sim.model().contact()->measure(x, sim.state().v());
+  EXPECT_NEAR(measure.selfNormal, upper * g, 0.01 * upper * g);
+  EXPECT_EQ(crossingsNow(sim), "");
 }
 
 /// A sheet on a plane z = 0 under gravity tilted by theta about y (it slides along +x), friction

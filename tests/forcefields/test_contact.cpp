@@ -301,7 +301,7 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
 ///   distance to a corner or an edge is at that corner or edge (as where two layers are
 ///   aligned, point over point: rounding must not make a point meet a corner's triangles and
 ///   edges besides the corner).
-void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& what) {
+void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& what, bool expectFlatPairs = false) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   const double within = d;
   Contact contact(*c.topo, params(d), {});
@@ -362,7 +362,28 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
     for (std::size_t u : around[p]) kept = kept && (holds(u, q) || dist(P(q), triangle(u)) >= dq * (1 - tol));
     if (kept) ++features;
   }
+  // An edge is flat when its two triangles bend so little that each one's far corner is within
+  // 0.05 d of the other's plane (or lifts off it by at most that: the larger altitude over the
+  // edge times the sine of the bend); a pair of two flat edges is no pair (their ends' pairs
+  // hold that contact).
+  auto flat = [&](PointId p, PointId q) {
+    const auto& ts = beside[std::minmax(p, q)];
+    if (ts.size() != 2) return false;
+    std::array<K::Vector_3, 2> n;
+    double lift = 0;
+    for (int k = 0; k < 2; ++k) {
+      PointId far = p;
+      for (PointId r : T[ts[std::size_t(k)]])
+        if (r != p && r != q) far = r;
+      n[std::size_t(k)] = CGAL::cross_product(P(q) - P(p), P(far) - P(p));
+      lift = std::max(lift, dist(P(far), K::Line_3(P(p), P(q))));
+    }
+    n[1] = -n[1];  // (both up when the far corners lie on either side)
+    const double cs = CGAL::to_double(n[0] * n[1]) / std::sqrt(CGAL::to_double(n[0].squared_length() * n[1].squared_length()));
+    return cs > 0 && lift * std::sqrt(std::max(0.0, 1 - cs * cs)) <= 0.05 * d;
+  };
   const auto edges = c.topo->edges();
+  std::size_t flatPairs = 0;
   for (std::size_t i = 0; i < edges.size(); ++i) {
     const auto a = c.topo->edgeVertices(edges[i]);
     const K::Segment_3 sa(P(a[0]), P(a[1]));
@@ -374,9 +395,12 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       if (!(de < within)) continue;
       ++all;
       const double ends = std::min({dist(P(a[0]), sb), dist(P(a[1]), sb), dist(P(b[0]), sa), dist(P(b[1]), sa)});
-      if (de < ends * (1 - tol)) ++features;
+      if (!(de < ends * (1 - tol))) continue;
+      if (flat(a[0], a[1]) && flat(b[0], b[1])) ++flatPairs;
+      else ++features;
     }
   }
+  if (expectFlatPairs) EXPECT_GT(flatPairs, 0u) << what;
   EXPECT_GT(all, 100u) << what;
   EXPECT_GT(features, 50u) << what;
   EXPECT_LT(features, all) << what;
@@ -415,6 +439,29 @@ TEST(Contact, PairsEqualABruteForceWhereTwoLayersAreAligned) {
     }
     expectPairsEqualBruteForce(c, d, alternating ? "alternating diagonals" : "one way");
   }
+}
+
+TEST(Contact, PairsEqualABruteForceWhereTwoFlatLayersLieAcrossEachOther) {
+  // The fold above with its upper layer moved by (h/3, h/5) in its plane, as a fold that fell
+  // into place lies: each upper point over a lower triangle and the edges of the two layers
+  // crossing. Two flat edges make no pair; the fold's bent edges and the layers' borders keep
+  // theirs.
+  core::GridSpec g;
+  g.nx = g.ny = 11;
+  g.width = g.height = 1.0;
+  g.origin = {-0.5, -0.5, 0.0};
+  Crumpled c;
+  c.topo = std::make_unique<Topology>(core::makeGrid(g));
+  c.x.assign(3 * c.topo->pointCapacity(), 0.0);
+  const double d = 0.06, h = 0.1;
+  for (PointId p : c.topo->points()) {
+    const Vec3 r = c.topo->restPosition(p);
+    const bool upper = r[0] > 1e-9;
+    c.x[3 * p] = upper ? -r[0] + h / 3 : r[0];
+    c.x[3 * p + 1] = upper ? r[1] + h / 5 : r[1];
+    c.x[3 * p + 2] = upper ? d : 0.5 * d;
+  }
+  expectPairsEqualBruteForce(c, d, "shifted fold", true);
 }
 
 TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
