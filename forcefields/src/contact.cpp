@@ -662,7 +662,8 @@ struct Contact::Impl {
   /// changes linearly along that edge over the two triangles, so a crossing of two such edges
   /// is never nearer than their ends or the bent edges around them, whose pairs are kept: the
   /// pair of two edges that are both flat adds nothing but a second count of the same contact
-  /// (between two resting layers of cloth, 3.4 edge pairs a point besides its own). An edge's
+  /// (between two resting layers of cloth, 3.4 edge pairs a point besides its own), provided
+  /// those pairs can exist: the triangles beside the two edges share no point (apart()). An edge's
   /// flatness is 1 where its bend lifts the far corners of its triangles off each other's plane
   /// by at most kFlatBelow d (h sin(theta), h the larger altitude over the edge, theta the bend),
   /// 0 from kFlatAbove d on, with a border edge, a bend beyond 90 degrees or a degenerate
@@ -727,8 +728,22 @@ struct Contact::Impl {
   double edgePairScale(const std::array<std::uint32_t, 4>& id, const std::array<std::int32_t, 2>& margins,
                        std::span<const double> x) const {
     if (flatStamp.empty() || flatRevision != revision || margins[0] < 0 || margins[1] < 0) return 1.0;
-    const double fa = flatnessOf(edgeOf(margins[0], id[0], id[1]), x);
-    return fa == 0.0 ? 1.0 : 1.0 - fa * flatnessOf(edgeOf(margins[1], id[2], id[3]), x);
+    const std::uint32_t ea = edgeOf(margins[0], id[0], id[1]), eb = edgeOf(margins[1], id[2], id[3]);
+    const double fa = flatnessOf(ea, x);
+    if (fa == 0.0) return 1.0;
+    const double fb = flatnessOf(eb, x);
+    if (fb == 0.0 || !apart(ea, eb)) return 1.0;
+    return 1.0 - fa * fb;
+  }
+  /// Whether the triangles beside edge a share no point with those beside edge b: only then
+  /// can the pairs of their corners and of their other edges, which make the pair of a and b
+  /// redundant, be pairs at all (in a tight fold a few triangles wide they share points).
+  bool apart(std::uint32_t a, std::uint32_t b) const {
+    for (const std::int32_t ta : edgeTris[a])
+      for (const std::int32_t tb : edgeTris[b])
+        for (const std::uint32_t p : triV[std::size_t(ta)])
+          if (shares(triV[std::size_t(tb)], p)) return false;
+    return true;
   }
 
   void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
@@ -808,7 +823,7 @@ struct Contact::Impl {
                   int t = -1, bool screened = false) const {
     if (features && p.kind == Kind::EE) {
       p.scale = edgePairScale(p.id, p.margins, x);
-      if (!(p.scale > 0)) return;  // (two flat edges: their ends' pairs hold the contact)
+      if (!(p.scale > 0)) return;  // (two flat edges: their corners' pairs hold the contact)
       orderEdges(p.id);  // (the same classification whichever way they were met)
     }
     if (features && !screened && surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t)) return;
