@@ -55,6 +55,8 @@ struct Pair {
   /// the obstacle mesh); `margins`: the surface triangles whose margins the search added.
   std::int32_t tri = -1;
   std::array<std::int32_t, 2> margins{-1, -1};
+  /// EE self pairs: the edges (of id[0..1] and id[2..3] as the search met them).
+  std::array<std::int32_t, 2> edges{-1, -1};
   /// How many ids are in use.
   int points() const {
     switch (kind) {
@@ -168,8 +170,14 @@ struct Contact::Impl {
   std::vector<std::array<std::int32_t, 2>> edgeTris;  // the (at most two) triangles of an edge
   std::vector<std::int32_t> starStart, star;         // the triangles around a point (CSR)
   /// Per edge slot, at the step's start: how flat the surface is across the edge at the
-  /// thickness's scale (flatness()); a self pair of two edges gets 1 - the product of theirs.
-  mutable std::vector<double> edgeFlat;
+  /// thickness's scale (flatness()), and the points of the triangles beside it; a self pair of
+  /// two edges gets 1 - the product of theirs.
+  struct EdgeFlat {
+    std::uint32_t stamp = 0;  // the generation it was measured in
+    float flat = 0.0f;
+  };
+  mutable std::vector<EdgeFlat> edgeFlat;
+  mutable std::vector<std::array<std::uint32_t, 4>> edgePatch;  // its ends, then its triangles' far corners
   std::vector<Box> boxes;
   Bvh bvh;
 
@@ -687,63 +695,52 @@ struct Contact::Impl {
   // Measured when a pair first asks, once per edge and step (most edges meet no other).
   std::uint64_t flatRevision = 0;  // the tables' revision edgeFlat is measured on
   std::uint32_t flatGeneration = 0;
-  mutable std::vector<std::uint32_t> flatStamp;  // per edge slot: the generation it was measured in
   /// At the step's start: the edges' flatness is measured afresh at x as pairs ask for it.
   void resetFlatness() {
     flatRevision = revision;
-    if (flatStamp.size() != edgeTris.size() || ++flatGeneration == 0) {
+    if (edgeFlat.size() != edgeTris.size() || ++flatGeneration == 0) {
       flatGeneration = 1;
-      flatStamp.assign(edgeTris.size(), 0);
-      edgeFlat.assign(edgeTris.size(), 0.0);
+      edgeFlat.assign(edgeTris.size(), EdgeFlat{});
+      edgePatch.assign(edgeTris.size(), {});
     }
   }
-  double flatnessOf(std::uint32_t e, std::span<const double> x) const {
-    if (flatStamp[e] == flatGeneration) return edgeFlat[e];
-    flatStamp[e] = flatGeneration;
+  float flatnessOf(std::uint32_t e, std::span<const double> x) const {
+    const EdgeFlat& r = edgeFlat[e];
+    return r.stamp == flatGeneration ? r.flat : measureFlatness(e, x);
+  }
+  [[gnu::noinline]] float measureFlatness(std::uint32_t e, std::span<const double> x) const {
+    EdgeFlat& r = edgeFlat[e];
+    r.stamp = flatGeneration;
+    r.flat = 0.0f;
     const auto& et = edgeTris[e];
-    double f = 0.0;
-    if (et[0] >= 0 && et[1] >= 0) {
-      const auto& A = triV[std::size_t(et[0])];
-      const auto& B = triV[std::size_t(et[1])];
-      int k = 0;
-      while (k < 2 && triE[std::size_t(et[0])][std::size_t(k)] != e) ++k;
-      const std::uint32_t a = A[std::size_t((k + 1) % 3)], b = A[std::size_t((k + 2) % 3)];
-      std::uint32_t far = B[0];
-      for (int j = 0; j < 3; ++j)
-        if (B[std::size_t(j)] != a && B[std::size_t(j)] != b) far = B[std::size_t(j)];
-      f = flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness);
-    }
-    return edgeFlat[e] = f;
-  }
-  /// The edge of triangle t joining points a and b (t holds both).
-  std::uint32_t edgeOf(int t, std::uint32_t a, std::uint32_t b) const {
-    const auto& T = triV[std::size_t(t)];
+    if (et[0] < 0 || et[1] < 0) return r.flat;  // (a border: never flat)
+    const auto& A = triV[std::size_t(et[0])];
+    const auto& B = triV[std::size_t(et[1])];
     int k = 0;
-    while (k < 2 && (T[std::size_t(k)] == a || T[std::size_t(k)] == b)) ++k;
-    return triE[std::size_t(t)][std::size_t(k)];
+    while (k < 2 && triE[std::size_t(et[0])][std::size_t(k)] != e) ++k;
+    const std::uint32_t a = A[std::size_t((k + 1) % 3)], b = A[std::size_t((k + 2) % 3)];
+    std::uint32_t far = B[0];
+    for (int j = 0; j < 3; ++j)
+      if (B[std::size_t(j)] != a && B[std::size_t(j)] != b) far = B[std::size_t(j)];
+    edgePatch[e] = {a, b, A[std::size_t(k)], far};
+    r.flat = float(flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness));
+    return r.flat;
   }
-  /// A self pair of two edges' share of the law (id: the first edge's points in triangle
-  /// margins[0], the second's in margins[1], as the search met them; x: the step's start):
-  /// 1 - both edges' flatness.
-  double edgePairScale(const std::array<std::uint32_t, 4>& id, const std::array<std::int32_t, 2>& margins,
-                       std::span<const double> x) const {
-    if (flatStamp.empty() || flatRevision != revision || margins[0] < 0 || margins[1] < 0) return 1.0;
-    const std::uint32_t ea = edgeOf(margins[0], id[0], id[1]), eb = edgeOf(margins[1], id[2], id[3]);
-    const double fa = flatnessOf(ea, x);
-    if (fa == 0.0) return 1.0;
-    const double fb = flatnessOf(eb, x);
-    if (fb == 0.0 || !apart(ea, eb)) return 1.0;
-    return 1.0 - fa * fb;
-  }
-  /// Whether the triangles beside edge a share no point with those beside edge b: only then
-  /// can the pairs of their corners and of their other edges, which make the pair of a and b
-  /// redundant, be pairs at all (in a tight fold a few triangles wide they share points).
-  bool apart(std::uint32_t a, std::uint32_t b) const {
-    for (const std::int32_t ta : edgeTris[a])
-      for (const std::int32_t tb : edgeTris[b])
-        for (const std::uint32_t p : triV[std::size_t(ta)])
-          if (shares(triV[std::size_t(tb)], p)) return false;
-    return true;
+  /// A self pair of two edges' share of the law (x: the step's start): 1 - both edges'
+  /// flatness, when the triangles beside them share no point: only then can the pairs of their
+  /// corners and of their other edges, which make the pair of the two redundant, be pairs at
+  /// all (in a tight fold a few triangles wide they share points).
+  double edgePairScale(const std::array<std::int32_t, 2>& edges, std::span<const double> x) const {
+    if (edgeFlat.empty() || flatRevision != revision || edges[0] < 0 || edges[1] < 0) return 1.0;
+    const float fa = flatnessOf(std::uint32_t(edges[0]), x);
+    if (fa == 0.0f) return 1.0;
+    const float fb = flatnessOf(std::uint32_t(edges[1]), x);
+    if (fb == 0.0f) return 1.0;
+    const auto& a = edgePatch[std::size_t(edges[0])];
+    const auto& b = edgePatch[std::size_t(edges[1])];
+    for (const std::uint32_t p : a)
+      if (p == b[0] || p == b[1] || p == b[2] || p == b[3]) return 1.0;
+    return 1.0 - double(fa) * double(fb);
   }
 
   void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
@@ -822,7 +819,7 @@ struct Contact::Impl {
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
                   int t = -1, bool screened = false) const {
     if (features && p.kind == Kind::EE) {
-      p.scale = edgePairScale(p.id, p.margins, x);
+      p.scale = edgePairScale(p.edges, x);
       if (!(p.scale > 0)) return;  // (two flat edges: their corners' pairs hold the contact)
       orderEdges(p.id);  // (the same classification whichever way they were met)
     }
@@ -838,7 +835,8 @@ struct Contact::Impl {
       }
     }
     if (cacheOut) {  // (the cache's build: its compact record only)
-      cacheOut->push_back({p.kind, p.surface, p.obstacle, p.tri, p.id, p.margins, e.s});
+      const bool ee = p.kind == Kind::EE;
+      cacheOut->push_back({p.kind, p.surface, p.obstacle, ee ? p.edges[0] : p.tri, p.id, p.margins, ee ? p.edges[1] : -1, e.s});
       return;
     }
     p.s0 = e.s;
@@ -1097,6 +1095,7 @@ struct Contact::Impl {
         if (!sa.overlaps(boxesAtX.edge[eb])) continue;
         Pair p{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111};
         p.margins = {i, j};
+        p.edges = {std::int32_t(ea), std::int32_t(eb)};
         keepIfNear(p, x, r, out, features);
       }
     }
@@ -1205,8 +1204,9 @@ struct Contact::Impl {
     }
     if (!finite) largest = kInf;
     const double shrink = 2 * largestSinceCache;
-    for (const Cached& c : cache) {
-      if (c.s - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
+    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
+      if (double(cacheLow[ci]) - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
+      const Cached& c = cache[ci];
       bool slow = true;
       double largestMove = 0.0;
       for (int i = 0; i < 4; ++i) {
@@ -1316,17 +1316,21 @@ struct Contact::Impl {
   struct Cached {
     Kind kind;
     std::uint8_t surface;
-    std::int32_t obstacle, tri;
+    std::int32_t obstacle;
+    std::int32_t tri;  // VT, VO, OV: the triangle's index; EE self pairs: the first edge
     std::array<std::uint32_t, 4> id;
     std::array<std::int32_t, 2> margins;
+    std::int32_t edge2;  // EE self pairs: the second edge (in what was padding: 48 bytes a record)
     double s;  // the distance when the cache was built
     Pair pair() const {
       Pair p{kind, obstacle, id, surface};
-      p.tri = tri;
+      if (kind == Kind::EE) p.edges = {tri, edge2};
+      else p.tri = tri;
       p.margins = margins;
       return p;
     }
   };
+  static_assert(sizeof(Cached) == 48);
   std::vector<Cached> cache;
   std::vector<Cached>* cacheOut = nullptr;  // while the cache is built: where keepIfNear keeps
   std::vector<double> cacheX;
@@ -1390,12 +1394,25 @@ struct Contact::Impl {
     pointMargin = savedPoint;
     obstacleMargin = savedObstacle;
     triangleMargins();
+    cacheDistances();
     cacheX.assign(x.begin(), x.end());
     cacheOffset = offset;
     cacheRevision = topo.revision();
     cacheR = r;
     cacheBuilt = true;
     ++cacheBuilds;
+  }
+  /// The cached pairs' distances, each rounded down to a float, in an array of their own: the
+  /// displacement bound skips most pairs by their distance alone, reading 4 bytes a pair where
+  /// a record is 48.
+  std::vector<float> cacheLow;
+  void cacheDistances() {
+    cacheLow.resize(cache.size());
+    for (std::size_t i = 0; i < cache.size(); ++i) {
+      float f = float(cache[i].s);
+      if (double(f) > cache[i].s) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+      cacheLow[i] = f;
+    }
   }
   /// How far a cached pair's distance may have shrunk since the cache was built.
   double cachedShrink(const Cached& c) const {
@@ -1887,7 +1904,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
       const double within = I.searchMargin(c);
       // (it cannot be within its margin; the shrink is at most twice the largest motion)
       if (c.s >= within && (c.s - 2 * I.largestSinceCache >= within || c.s - I.cachedShrink(c) >= within)) continue;
-      if (c.kind == Kind::EE && !(I.edgePairScale(c.id, c.margins, x) > 0)) continue;  // (as keepIfNear would)
+      if (c.kind == Kind::EE && !(I.edgePairScale({c.tri, c.edge2}, x) > 0)) continue;  // (as keepIfNear would)
       if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, c.tri)) continue;
       I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri, true);
     }
@@ -2509,6 +2526,7 @@ void Contact::loadState(topology::ArchiveReader& in) {
   }
   I.lastX = in.f64s();
   loadRecords(in, I.cache, "cached pairs");
+  I.cacheDistances();
   I.cacheX = in.f64s();
   loadV3s(in, I.cacheOffset, "cached offsets");
   I.cacheRevision = in.u64();

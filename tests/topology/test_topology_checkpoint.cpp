@@ -105,7 +105,7 @@ TEST(Archive, DamagedForeignAndMisreadArchivesAreRefusedByName) {
   refused("{\"mesh\": {}}\n and more text to be long enough", "not a cutsim checkpoint");
   std::string version = good;
   version[8] = 9;
-  refused(version, "checkpoint format 9, this cutsim reads format 1");
+  refused(version, "checkpoint format 9, this cutsim reads format " + std::to_string(topology::kArchiveFormat));
   refused(good + "x", "holds data after its end mark");
   refused(good, "section 'state': a value runs past the section's end");
   // A section not read to its end.
