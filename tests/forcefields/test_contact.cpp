@@ -408,7 +408,9 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       if (bothFlat && !apart) ++touchingFlatPairs;
     }
   }
-  if (expectFlatPairs) EXPECT_GT(flatPairs, 0u) << what;
+  if (expectFlatPairs) {
+    EXPECT_GT(flatPairs, 0u) << what;
+  }
   if (touchingFlat) *touchingFlat = touchingFlatPairs;
   EXPECT_GT(all, 100u) << what;
   EXPECT_GT(features, 50u) << what;
@@ -424,28 +426,36 @@ TEST(Contact, PairsEqualABruteForceOverEveryPrimitivePair) {
   for (unsigned seed = 1; seed <= 3; ++seed) expectPairsEqualBruteForce(crumpled(seed, 11), 0.06, "seed " + std::to_string(seed));
 }
 
+/// An 11 x 11 grid of side 1 about the origin, its points x > 0 (the upper half) placed by
+/// place(rest position, upper) and the others by place too (a fold about the middle column).
+template <class Place>
+Crumpled foldedGrid(bool alternating, Place place) {
+  core::GridSpec g;
+  g.nx = g.ny = 11;
+  g.width = g.height = 1.0;
+  g.origin = {-0.5, -0.5, 0.0};
+  g.alternating = alternating;
+  Crumpled c;
+  c.topo = std::make_unique<Topology>(core::makeGrid(g));
+  c.x.assign(3 * c.topo->pointCapacity(), 0.0);
+  for (PointId p : c.topo->points()) {
+    const Vec3 r = c.topo->restPosition(p);
+    const std::array<double, 3> q = place(r, r[0] > 1e-9);
+    for (int k = 0; k < 3; ++k) c.x[3 * p + std::size_t(k)] = q[std::size_t(k)];
+  }
+  return c;
+}
+
 TEST(Contact, PairsEqualABruteForceWhereTwoLayersAreAligned) {
   // A grid folded flat onto itself about its middle column, d/2 above: each point of the upper
   // layer is over a point of the lower one and each edge over an edge, every pair at a feature's
   // boundary, where rounding decides which side of it the closest points fall. Each point must
   // still meet the point under it once (not also its triangles and edges), as in the brute force.
+  const double d = 0.06;
   for (const bool alternating : {true, false}) {  // (the diagonals over each other, or crossing)
-    core::GridSpec g;
-    g.nx = g.ny = 11;
-    g.width = g.height = 1.0;
-    g.origin = {-0.5, -0.5, 0.0};
-    g.alternating = alternating;
-    Crumpled c;
-    c.topo = std::make_unique<Topology>(core::makeGrid(g));
-    c.x.assign(3 * c.topo->pointCapacity(), 0.0);
-    const double d = 0.06;
-    for (PointId p : c.topo->points()) {
-      const Vec3 r = c.topo->restPosition(p);
-      const bool upper = r[0] > 1e-9;
-      c.x[3 * p] = upper ? -r[0] : r[0];
-      c.x[3 * p + 1] = r[1];
-      c.x[3 * p + 2] = upper ? d : 0.5 * d;
-    }
+    const Crumpled c = foldedGrid(alternating, [&](const Vec3& r, bool upper) {
+      return std::array<double, 3>{upper ? -r[0] : r[0], r[1], upper ? d : 0.5 * d};
+    });
     expectPairsEqualBruteForce(c, d, alternating ? "alternating diagonals" : "one way");
   }
 }
@@ -455,21 +465,10 @@ TEST(Contact, PairsEqualABruteForceWhereTwoFlatLayersLieAcrossEachOther) {
   // into place lies: each upper point over a lower triangle and the edges of the two layers
   // crossing. Two flat edges make no pair; the fold's bent edges and the layers' borders keep
   // theirs.
-  core::GridSpec g;
-  g.nx = g.ny = 11;
-  g.width = g.height = 1.0;
-  g.origin = {-0.5, -0.5, 0.0};
-  Crumpled c;
-  c.topo = std::make_unique<Topology>(core::makeGrid(g));
-  c.x.assign(3 * c.topo->pointCapacity(), 0.0);
   const double d = 0.06, h = 0.1;
-  for (PointId p : c.topo->points()) {
-    const Vec3 r = c.topo->restPosition(p);
-    const bool upper = r[0] > 1e-9;
-    c.x[3 * p] = upper ? -r[0] + h / 3 : r[0];
-    c.x[3 * p + 1] = upper ? r[1] + h / 5 : r[1];
-    c.x[3 * p + 2] = upper ? d : 0.5 * d;
-  }
+  const Crumpled c = foldedGrid(false, [&](const Vec3& r, bool upper) {
+    return upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, d} : std::array<double, 3>{r[0], r[1], 0.5 * d};
+  });
   expectPairsEqualBruteForce(c, d, "shifted fold", true);
 }
 
@@ -479,24 +478,13 @@ TEST(Contact, PairsEqualABruteForceInATightFold) {
   // their triangles share the fold's points: such a pair is kept (the pairs of their corners,
   // which would make it redundant, cannot exist between primitives that share points; in a
   // tight wrinkle of the drape_cut scene, dropping them let the cloth collapse between them).
+  const double d = 0.06, alpha = 0.2;
   std::size_t touching = 0;
   for (const bool alternating : {true, false}) {
-    core::GridSpec g;
-    g.nx = g.ny = 11;
-    g.width = g.height = 1.0;
-    g.origin = {-0.5, -0.5, 0.0};
-    g.alternating = alternating;
-    Crumpled c;
-    c.topo = std::make_unique<Topology>(core::makeGrid(g));
-    c.x.assign(3 * c.topo->pointCapacity(), 0.0);
-    const double d = 0.06, alpha = 0.2;
-    for (PointId p : c.topo->points()) {
-      const Vec3 r = c.topo->restPosition(p);
-      const bool upper = r[0] > 1e-9;
-      c.x[3 * p] = upper ? -r[0] * std::cos(alpha) : r[0];
-      c.x[3 * p + 1] = r[1];
-      c.x[3 * p + 2] = upper ? r[0] * std::sin(alpha) : 0.0;
-    }
+    const Crumpled c = foldedGrid(alternating, [&](const Vec3& r, bool upper) {
+      return upper ? std::array<double, 3>{-r[0] * std::cos(alpha), r[1], r[0] * std::sin(alpha)}
+                   : std::array<double, 3>{r[0], r[1], 0.0};
+    });
     std::size_t t = 0;
     expectPairsEqualBruteForce(c, d, alternating ? "alternating diagonals" : "one way", true, &t);
     touching += t;
