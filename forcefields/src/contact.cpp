@@ -55,7 +55,8 @@ struct Pair {
   /// the obstacle mesh); `margins`: the surface triangles whose margins the search added.
   std::int32_t tri = -1;
   std::array<std::int32_t, 2> margins{-1, -1};
-  /// EE self pairs: the edges (of id[0..1] and id[2..3] as the search met them).
+  /// EE self pairs: the edges (of id[0..1] and id[2..3] as the search met them; the
+  /// classification may put the ids in the other order after: the share is symmetric).
   std::array<std::int32_t, 2> edges{-1, -1};
   /// How many ids are in use.
   int points() const {
@@ -174,7 +175,7 @@ struct Contact::Impl {
   /// two edges gets 1 - the product of theirs.
   struct EdgeFlat {
     std::uint32_t stamp = 0;  // the generation it was measured in
-    float flat = 0.0f;
+    double flat = 0.0;
   };
   mutable std::vector<EdgeFlat> edgeFlat;
   mutable std::vector<std::array<std::uint32_t, 4>> edgePatch;  // its ends, then its triangles' far corners
@@ -204,6 +205,7 @@ struct Contact::Impl {
   std::vector<double> moveLength;  // per point slot: its displacement's length
   std::vector<double> pointSdf, pointReach;  // per point slot, for one analytic obstacle (scratch)
   std::vector<char> seenPoint, seenEdge;     // per point and edge slot (scratch)
+  std::vector<std::uint32_t> movingScratch, visitScratch;  // (nearFromCache)
 
   /// Every point's signed distance to analytic obstacle k at x, into pointSdf (a triangle's
   /// corners are shared by about six triangles: measured once per point, not per corner).
@@ -704,14 +706,14 @@ struct Contact::Impl {
       edgePatch.assign(edgeTris.size(), {});
     }
   }
-  float flatnessOf(std::uint32_t e, std::span<const double> x) const {
+  double flatnessOf(std::uint32_t e, std::span<const double> x) const {
     const EdgeFlat& r = edgeFlat[e];
     return r.stamp == flatGeneration ? r.flat : measureFlatness(e, x);
   }
-  [[gnu::noinline]] float measureFlatness(std::uint32_t e, std::span<const double> x) const {
+  [[gnu::noinline]] double measureFlatness(std::uint32_t e, std::span<const double> x) const {
     EdgeFlat& r = edgeFlat[e];
     r.stamp = flatGeneration;
-    r.flat = 0.0f;
+    r.flat = 0.0;
     const auto& et = edgeTris[e];
     if (et[0] < 0 || et[1] < 0) return r.flat;  // (a border: never flat)
     const auto& A = triV[std::size_t(et[0])];
@@ -723,7 +725,7 @@ struct Contact::Impl {
     for (int j = 0; j < 3; ++j)
       if (B[std::size_t(j)] != a && B[std::size_t(j)] != b) far = B[std::size_t(j)];
     edgePatch[e] = {a, b, A[std::size_t(k)], far};
-    r.flat = float(flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness));
+    r.flat = (flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness));
     return r.flat;
   }
   /// A self pair of two edges' share of the law (x: the step's start): 1 - both edges'
@@ -732,15 +734,15 @@ struct Contact::Impl {
   /// all (in a tight fold a few triangles wide they share points).
   double edgePairScale(const std::array<std::int32_t, 2>& edges, std::span<const double> x) const {
     if (edgeFlat.empty() || flatRevision != revision || edges[0] < 0 || edges[1] < 0) return 1.0;
-    const float fa = flatnessOf(std::uint32_t(edges[0]), x);
-    if (fa == 0.0f) return 1.0;
-    const float fb = flatnessOf(std::uint32_t(edges[1]), x);
-    if (fb == 0.0f) return 1.0;
+    const double fa = flatnessOf(std::uint32_t(edges[0]), x);
+    if (fa == 0.0) return 1.0;
+    const double fb = flatnessOf(std::uint32_t(edges[1]), x);
+    if (fb == 0.0) return 1.0;
     const auto& a = edgePatch[std::size_t(edges[0])];
     const auto& b = edgePatch[std::size_t(edges[1])];
     for (const std::uint32_t p : a)
       if (p == b[0] || p == b[1] || p == b[2] || p == b[3]) return 1.0;
-    return 1.0 - double(fa) * double(fb);
+    return 1.0 - fa * fb;
   }
 
   void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
@@ -1204,8 +1206,7 @@ struct Contact::Impl {
     }
     if (!finite) largest = kInf;
     const double shrink = 2 * largestSinceCache;
-    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
-      if (double(cacheLow[ci]) - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
+    auto visit = [&](std::size_t ci) {
       const Cached& c = cache[ci];
       bool slow = true;
       double largestMove = 0.0;
@@ -1218,12 +1219,42 @@ struct Contact::Impl {
           largestMove = std::max(largestMove, move[std::size_t(c.obstacle)].norm());
         }
       }
-      if (!slow) continue;  // (found around the fast points)
+      if (!slow) return;  // (found around the fast points)
       const double lower = c.s - cachedShrink(c);
-      if (lower >= 4 * largestMove) continue;
+      if (lower >= 4 * largestMove) return;
       const Pair p = c.pair();
       const double reach = reachOf(p);
       if (lower < reach) keepIfNear(p, x, reach, out);
+    };
+    // A pair is skipped below when its distance less its shrink is at least four times its
+    // points' largest motion. Every pair is at least cacheNearest apart at the cache's build:
+    // when only a few points move more than a quarter of cacheNearest - shrink (and no obstacle
+    // does), only their pairs can pass, and they are visited (in the cache's order, as the
+    // whole pass would).
+    const double still = 0.25 * (cacheNearest - shrink);
+    bool obstaclesStill = true;
+    for (const V3& m : move) obstaclesStill = obstaclesStill && m.norm() <= still;
+    std::vector<std::uint32_t>& moving = movingScratch;
+    moving.clear();
+    // (the index covers the points of the cache's pairs; a point beyond it is in none)
+    const bool indexed = still > 0 && obstaclesStill && !cacheByPointStart.empty() && cacheByPointStart.size() <= moveLength.size() + 1;
+    if (indexed)
+      for (std::size_t p = 0; p + 1 < cacheByPointStart.size(); ++p)
+        if (!(moveLength[p] <= still)) moving.push_back(std::uint32_t(p));
+    if (indexed && 16 * moving.size() < moveLength.size()) {
+      std::vector<std::uint32_t>& visits = visitScratch;
+      visits.clear();
+      for (const std::uint32_t p : moving)
+        for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k) visits.push_back(cacheByPoint[k]);
+      std::sort(visits.begin(), visits.end());
+      visits.erase(std::unique(visits.begin(), visits.end()), visits.end());
+      for (const std::uint32_t ci : visits)
+        if (!(double(cacheLow[ci]) - shrink >= 4 * largest)) visit(ci);
+      return;
+    }
+    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
+      if (double(cacheLow[ci]) - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
+      visit(ci);
     }
   }
 
@@ -1406,13 +1437,34 @@ struct Contact::Impl {
   /// displacement bound skips most pairs by their distance alone, reading 4 bytes a pair where
   /// a record is 48.
   std::vector<float> cacheLow;
+  double cacheNearest = kInf;  // the least of cacheLow
+  /// Per surface point slot, the cached pairs that hold it (CSR): when a few points move far,
+  /// the displacement bound looks only at their pairs (every other pair is farther apart than
+  /// four times its points' motion).
+  std::vector<std::uint32_t> cacheByPointStart, cacheByPoint;
   void cacheDistances() {
     cacheLow.resize(cache.size());
+    cacheNearest = kInf;
     for (std::size_t i = 0; i < cache.size(); ++i) {
       float f = float(cache[i].s);
       if (double(f) > cache[i].s) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
       cacheLow[i] = f;
+      cacheNearest = std::min(cacheNearest, double(f));
     }
+    std::size_t n = 0;
+    for (const Cached& c : cache)
+      for (int i = 0; i < 4; ++i)
+        if ((c.surface >> i) & 1) n = std::max<std::size_t>(n, c.id[std::size_t(i)] + 1);
+    cacheByPointStart.assign(n + 1, 0);
+    for (const Cached& c : cache)
+      for (int i = 0; i < 4; ++i)
+        if ((c.surface >> i) & 1) ++cacheByPointStart[c.id[std::size_t(i)] + 1];
+    for (std::size_t p = 0; p < n; ++p) cacheByPointStart[p + 1] += cacheByPointStart[p];
+    cacheByPoint.resize(cacheByPointStart.back());
+    std::vector<std::uint32_t> fill(cacheByPointStart.begin(), cacheByPointStart.end() - 1);
+    for (std::size_t ci = 0; ci < cache.size(); ++ci)
+      for (int i = 0; i < 4; ++i)
+        if ((cache[ci].surface >> i) & 1) cacheByPoint[fill[cache[ci].id[std::size_t(i)]]++] = std::uint32_t(ci);
   }
   /// How far a cached pair's distance may have shrunk since the cache was built.
   double cachedShrink(const Cached& c) const {
@@ -1905,8 +1957,9 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
       // (it cannot be within its margin; the shrink is at most twice the largest motion)
       if (c.s >= within && (c.s - 2 * I.largestSinceCache >= within || c.s - I.cachedShrink(c) >= within)) continue;
       if (c.kind == Kind::EE && !(I.edgePairScale({c.tri, c.edge2}, x) > 0)) continue;  // (as keepIfNear would)
-      if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, c.tri)) continue;
-      I.keepIfNear(c.pair(), x, within, I.pairs, true, c.tri, true);
+      const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
+      if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t)) continue;
+      I.keepIfNear(c.pair(), x, within, I.pairs, true, t, true);
     }
     I.analyticPairs(x, I.pairs);
   } else {
@@ -2553,6 +2606,13 @@ void Contact::loadState(topology::ArchiveReader& in) {
     checkPair(c.kind, c.obstacle, c.surface, c.id);
     if (I.cacheRevision == I.topo.revision() && (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)))
       in.fail("contact: a cached pair of a triangle that does not exist");
+    // (a self pair of edges holds its edges; a point's pair its triangle, of the surface or of
+    // an obstacle mesh)
+    const bool edgesOk = c.kind != Kind::EE || c.obstacle >= 0 ||
+                         (c.tri >= -1 && c.edge2 >= -1 && c.tri < std::int32_t(I.topo.edgeCapacity()) && c.edge2 < std::int32_t(I.topo.edgeCapacity()));
+    const bool triOk = c.kind == Kind::EE || c.tri < 0 || c.obstacle >= 0 || c.tri < std::int32_t(tris);
+    if (I.cacheRevision == I.topo.revision() && !(edgesOk && triOk))
+      in.fail("contact: a cached pair of an edge or a triangle that does not exist");
   }
   if (current && I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
   // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles
