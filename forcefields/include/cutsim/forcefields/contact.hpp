@@ -25,6 +25,11 @@
 //
 // with k in N/m: -E'(d/2) = 2/3 k d, -E'(d/100) ~ 3300 k d.
 //
+// A self pair of two edges gets a share 1 - f_a f_b of the law, f an edge's flatness at the
+// step's start (1 where its bend lifts a far corner off the neighbouring triangle's plane by at
+// most 0.05 d, 0 from 0.25 d on and at borders): two flat edges whose triangles share no point
+// add nothing their corners' pairs do not hold (flat-on-flat contact counted once).
+//
 // with n the unit direction from the second primitive's closest point to the first's and w_i the
 // closest points' barycentric weights (+ on the first primitive, - on the second). K is exact only
 // along n: stiffnessIsExact() is false. The energy is part of potentialEnergy().
