@@ -328,8 +328,10 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
   std::size_t all = 0, features = 0;
   // The law's force at distance s (E = k/3 (d - s)^3 / s, k = params' stiffness), summed over
   // the penalty's pairs, each times its share: the layers' normal force measure() reports.
-  const double k = params(d).stiffness;
-  auto law = [&](double s) { return s >= d ? 0.0 : k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s); };
+  const double stiffness = params(d).stiffness;
+  auto law = [&](double s) {
+    return s >= d ? 0.0 : stiffness * (d - s) * (d - s) / s + stiffness / 3 * std::pow(d - s, 3) / (s * s);
+  };
   double normal = 0.0;
   std::set<std::pair<PointId, std::pair<PointId, PointId>>> edgeFeatures;
   std::set<std::pair<PointId, PointId>> cornerFeatures;
@@ -526,6 +528,18 @@ TEST(Contact, PairsEqualABruteForceInATightFold) {
   EXPECT_GT(touching, 0u);
 }
 
+/// Two copies of a 9 x 9 grid (81 points each), the second moved by (dx, dy, dz).
+MeshData twoSheets(double dx, double dy, double dz) {
+  core::GridSpec g;
+  g.nx = g.ny = 9;
+  const MeshData one = core::makeGrid(g);
+  MeshData two = one;
+  const auto n = topology::Index(one.points.size());
+  for (const auto& t : one.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+  for (auto q : one.points) two.points.push_back({q[0] + dx, q[1] + dy, q[2] + dz});
+  return two;
+}
+
 TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
   // Two copies of one grid, the upper s above the lower (s < d), each point over a point and
   // each edge over an edge: each point meets the point under it once, so the penalty pushes it
@@ -538,14 +552,8 @@ TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> jitter(-1e-13, 1e-13);
   const double d = 0.05, k = 2.0;
-  core::GridSpec g;
-  g.nx = g.ny = 9;
-  const MeshData one = core::makeGrid(g);
-  MeshData two = one;
-  const auto n = topology::Index(one.points.size());
-  for (const auto& t : one.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
-  for (auto q : one.points) two.points.push_back({q[0], q[1], q[2] + 2 * d});  // (apart at rest: no exclusion)
-  Topology topo(two);
+  const auto n = topology::Index(81);
+  Topology topo(twoSheets(0.0, 0.0, 2 * d));  // (apart at rest: no exclusion)
   for (const double s : {0.2 * d, 0.6 * d}) {
     std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
     for (PointId p : topo.points())
@@ -655,14 +663,8 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
   // may find other pairs that the continuous collision detection cannot prove apart, and bound
   // a point a little differently, both safely.)
   const double d = 0.05;
-  core::GridSpec g;
-  g.nx = g.ny = 9;
-  const MeshData one = core::makeGrid(g);
-  MeshData two = one;
-  const auto n = topology::Index(one.points.size());
-  for (const auto& t : one.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
-  for (auto q : one.points) two.points.push_back({q[0] + 0.3 * d, q[1] + 0.2 * d, q[2] + 2 * d});
-  Topology topo(two);
+  const auto n = topology::Index(81);
+  Topology topo(twoSheets(0.3 * d, 0.2 * d, 2 * d));  // (apart at rest: no exclusion)
   std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0);
   for (PointId p : topo.points())
     for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] - (p >= n && c == 2 ? 1.9 * d : 0.0);
