@@ -817,11 +817,11 @@ struct Contact::Impl {
   /// its surface or obstacle mesh) become a pair of the point and the triangle's closest
   /// feature, kept once for that feature (see toFeature), and two edges are kept only when their
   /// closest points are inside both (else they are a point's pair). `screened`: surelyDropped
-  /// has already passed it.
+  /// has already passed it (and an edge pair's share is set).
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
                   int t = -1, bool screened = false) const {
     if (features && p.kind == Kind::EE) {
-      p.scale = edgePairScale(p.edges, x);
+      if (!screened) p.scale = edgePairScale(p.edges, x);  // (screened: the caller set it)
       if (!(p.scale > 0)) return;  // (two flat edges: their corners' pairs hold the contact)
       orderEdges(p.id);  // (the same classification whichever way they were met)
     }
@@ -1425,7 +1425,7 @@ struct Contact::Impl {
     pointMargin = savedPoint;
     obstacleMargin = savedObstacle;
     triangleMargins();
-    cacheDistances();
+    indexCache();
     cacheX.assign(x.begin(), x.end());
     cacheOffset = offset;
     cacheRevision = topo.revision();
@@ -1442,7 +1442,7 @@ struct Contact::Impl {
   /// the displacement bound looks only at their pairs (every other pair is farther apart than
   /// four times its points' motion).
   std::vector<std::uint32_t> cacheByPointStart, cacheByPoint;
-  void cacheDistances() {
+  void indexCache() {
     cacheLow.resize(cache.size());
     cacheNearest = kInf;
     for (std::size_t i = 0; i < cache.size(); ++i) {
@@ -1454,17 +1454,17 @@ struct Contact::Impl {
     std::size_t n = 0;
     for (const Cached& c : cache)
       for (int i = 0; i < 4; ++i)
-        if ((c.surface >> i) & 1) n = std::max<std::size_t>(n, c.id[std::size_t(i)] + 1);
+        if (((c.surface >> i) & 1) && c.id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) n = std::max<std::size_t>(n, c.id[std::size_t(i)] + 1);
     cacheByPointStart.assign(n + 1, 0);
     for (const Cached& c : cache)
       for (int i = 0; i < 4; ++i)
-        if ((c.surface >> i) & 1) ++cacheByPointStart[c.id[std::size_t(i)] + 1];
+        if (((c.surface >> i) & 1) && c.id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) ++cacheByPointStart[c.id[std::size_t(i)] + 1];
     for (std::size_t p = 0; p < n; ++p) cacheByPointStart[p + 1] += cacheByPointStart[p];
     cacheByPoint.resize(cacheByPointStart.back());
     std::vector<std::uint32_t> fill(cacheByPointStart.begin(), cacheByPointStart.end() - 1);
     for (std::size_t ci = 0; ci < cache.size(); ++ci)
       for (int i = 0; i < 4; ++i)
-        if ((cache[ci].surface >> i) & 1) cacheByPoint[fill[cache[ci].id[std::size_t(i)]]++] = std::uint32_t(ci);
+        if (((cache[ci].surface >> i) & 1) && cache[ci].id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) cacheByPoint[fill[cache[ci].id[std::size_t(i)]]++] = std::uint32_t(ci);
   }
   /// How far a cached pair's distance may have shrunk since the cache was built.
   double cachedShrink(const Cached& c) const {
@@ -1956,10 +1956,11 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
       const double within = I.searchMargin(c);
       // (it cannot be within its margin; the shrink is at most twice the largest motion)
       if (c.s >= within && (c.s - 2 * I.largestSinceCache >= within || c.s - I.cachedShrink(c) >= within)) continue;
-      if (c.kind == Kind::EE && !(I.edgePairScale({c.tri, c.edge2}, x) > 0)) continue;  // (as keepIfNear would)
+      Pair p = c.pair();
+      if (c.kind == Kind::EE && !((p.scale = I.edgePairScale(p.edges, x)) > 0)) continue;  // (as keepIfNear would)
       const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
       if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t)) continue;
-      I.keepIfNear(c.pair(), x, within, I.pairs, true, t, true);
+      I.keepIfNear(p, x, within, I.pairs, true, t, true);
     }
     I.analyticPairs(x, I.pairs);
   } else {
@@ -2579,7 +2580,6 @@ void Contact::loadState(topology::ArchiveReader& in) {
   }
   I.lastX = in.f64s();
   loadRecords(in, I.cache, "cached pairs");
-  I.cacheDistances();
   I.cacheX = in.f64s();
   loadV3s(in, I.cacheOffset, "cached offsets");
   I.cacheRevision = in.u64();
@@ -2614,6 +2614,7 @@ void Contact::loadState(topology::ArchiveReader& in) {
     if (I.cacheRevision == I.topo.revision() && !(edgesOk && triOk))
       in.fail("contact: a cached pair of an edge or a triangle that does not exist");
   }
+  I.indexCache();  // (by point: after the points are checked)
   if (current && I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
   // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles
   // (tables of the mesh before a change are replaced at the next step, unread).
