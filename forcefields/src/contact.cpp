@@ -4,11 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <limits>
 #include <map>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <unordered_set>
 #include <utility>
 
@@ -28,6 +31,49 @@ using topology::kInvalidIndex;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Runs body(k, begin, end) for k in [0, parts) over contiguous runs that cover [0, n) in
+/// order: the first run on this thread, each other on a thread of its own. Every thread is
+/// joined before it returns; then the first exception a run threw is thrown again.
+template <class Body>
+void inParts(std::size_t n, int parts, Body&& body) {
+  if (parts <= 1) {
+    body(0, std::size_t(0), n);
+    return;
+  }
+  std::vector<std::exception_ptr> failed(static_cast<std::size_t>(parts));
+  auto run = [&](int k) {
+    try {
+      body(k, n * std::size_t(k) / std::size_t(parts), n * std::size_t(k + 1) / std::size_t(parts));
+    } catch (...) {
+      failed[std::size_t(k)] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> others;
+  others.reserve(std::size_t(parts - 1));
+  for (int k = 1; k < parts; ++k) {
+    try {
+      others.emplace_back(run, k);
+    } catch (...) {  // (no thread to be had: the run here instead)
+      run(k);
+    }
+  }
+  run(0);
+  for (std::thread& t : others) t.join();
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
+}
+
+/// The threads contact's loops use when its parameters leave it to the machine: CUTSIM_THREADS
+/// when set (a whole number from 1), else the machine's hardware threads.
+int defaultThreads() {
+  if (const char* s = std::getenv("CUTSIM_THREADS")) {
+    char* end = nullptr;
+    const long v = std::strtol(s, &end, 10);
+    if (end != s && *end == '\0' && v >= 1 && v <= 256) return int(v);
+  }
+  return int(std::clamp<unsigned>(std::thread::hardware_concurrency(), 1, 256));
+}
 
 /// The kinds of pairs.
 enum class Kind : std::uint8_t {
@@ -588,8 +634,22 @@ struct Contact::Impl {
   static bool sameBits(std::span<const double> x, const std::vector<double>& y) {
     return x.size() == y.size() && (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
   }
+  /// The positions a solve's operator holds unchanged (ForceField::beginProducts), and where
+  /// the last evaluation read its x: an evaluation made at memory that is held since is still
+  /// that memory's, and needs no comparison.
+  std::vector<std::pair<const double*, std::size_t>> held;
+  const double* evalFrom = nullptr;
+  bool heldAt(std::span<const double> x) const {
+    for (const auto& h : held)
+      if (h.first == x.data() && h.second == x.size()) return true;
+    return false;
+  }
   void evaluateAt(std::span<const double> x) {
-    if (evalValid && sameBits(x, evalX)) return;
+    if (evalValid && evalFrom == x.data() && x.size() == evalX.size() && heldAt(x)) return;
+    if (evalValid && sameBits(x, evalX)) {
+      evalFrom = x.data();
+      return;
+    }
     const double d = P.thickness;
     std::vector<double> moved;
     const bool atStart = sameBits(x, lastX);
@@ -617,6 +677,7 @@ struct Contact::Impl {
     }
     ++evaluation;
     evalX.assign(x.begin(), x.end());
+    evalFrom = x.data();
     evalValid = true;
   }
 
@@ -1483,6 +1544,57 @@ struct Contact::Impl {
     return c.obstacle < 0 ? a + triMargin[std::size_t(c.margins[1])] : a + obstacleMargin[std::size_t(c.obstacle)];
   }
 
+  /// The step's self and obstacle-mesh pairs from the cache: each cached pair that may be within
+  /// its margin, classified as the search does (its features, the edge pairs' shares). A large
+  /// cache is classified on several threads, each over a contiguous run of records, its pairs
+  /// appended in the cache's order: the same pairs in the same order whatever the threads.
+  void pairsFromCache(std::span<const double> x, std::vector<Pair>& out) {
+    auto classify = [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
+      for (std::size_t ci = begin; ci < end; ++ci) {
+        const Cached& c = cache[ci];
+        const double within = searchMargin(c);
+        // (it cannot be within its margin; the shrink is at most twice the largest motion)
+        if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within)) continue;
+        Pair p = c.pair();
+        if (c.kind == Kind::EE && !((p.scale = edgePairScale(p.edges, x)) > 0)) continue;  // (as keepIfNear would)
+        const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
+        if (surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t)) continue;
+        keepIfNear(p, x, within, to, true, t, true);
+      }
+    };
+    const int parts = partsFor(cache.size(), kRecordsPerThread);
+    if (parts <= 1) {
+      classify(0, cache.size(), out);
+      return;
+    }
+    // (an edge's flatness is measured once per step where a pair first asks for it: here every
+    // edge's beforehand, each by one thread, so that no two threads write one edge's record)
+    measureAllFlatness(x, parts);
+    partPairs.resize(std::size_t(parts));
+    inParts(cache.size(), parts, [&](int k, std::size_t begin, std::size_t end) {
+      std::vector<Pair>& to = partPairs[std::size_t(k)];
+      to.clear();
+      classify(begin, end, to);
+    });
+    for (const std::vector<Pair>& part : partPairs) out.insert(out.end(), part.begin(), part.end());
+  }
+  std::vector<std::vector<Pair>> partPairs;  // (pairsFromCache's, per thread)
+  static constexpr std::size_t kRecordsPerThread = 16384;
+  /// How many threads work on n items, each given at least `least` of them.
+  int partsFor(std::size_t n, std::size_t least) const {
+    const std::size_t most = std::max<std::size_t>(1, n / std::max<std::size_t>(1, least));
+    return int(std::min<std::size_t>(std::size_t(threads), most));
+  }
+  int threads = 1;  // the threads contact's loops may use (Contact's constructor sets it)
+  /// Every edge's flatness at x (an edge beside no triangle: 0), on `parts` threads.
+  void measureAllFlatness(std::span<const double> x, int parts) const {
+    if (edgeFlat.empty() || flatRevision != revision) return;
+    inParts(edgeFlat.size(), parts, [&](int, std::size_t begin, std::size_t end) {
+      for (std::size_t e = begin; e < end; ++e)
+        if (edgeFlat[e].stamp != flatGeneration) measureFlatness(std::uint32_t(e), x);
+    });
+  }
+
   /// Brings the tables up to date (a topology change rebuilds them).
   void updateTables() {
     if (!built || revision != topo.revision()) {
@@ -1842,6 +1954,7 @@ Contact::Contact(topology::Topology& topology, ContactParameters parameters, std
     if (o.name.empty()) o.name = o.shapeName() + std::to_string(k);
   }
   impl_ = std::make_unique<Impl>(topology, parameters_, obstacles_);
+  impl_->threads = parameters_.threads > 0 ? parameters_.threads : defaultThreads();
   impl_->buildObstacleMeshes();
   impl_->offset.assign(obstacles_.size(), V3::Zero());
   impl_->velocity.assign(obstacles_.size(), V3::Zero());
@@ -1952,16 +2065,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   }
   if (fromCache) {
     I.pairs.clear();
-    for (const Impl::Cached& c : I.cache) {
-      const double within = I.searchMargin(c);
-      // (it cannot be within its margin; the shrink is at most twice the largest motion)
-      if (c.s >= within && (c.s - 2 * I.largestSinceCache >= within || c.s - I.cachedShrink(c) >= within)) continue;
-      Pair p = c.pair();
-      if (c.kind == Kind::EE && !((p.scale = I.edgePairScale(p.edges, x)) > 0)) continue;  // (as keepIfNear would)
-      const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
-      if (I.surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t)) continue;
-      I.keepIfNear(p, x, within, I.pairs, true, t, true);
-    }
+    I.pairsFromCache(x, I.pairs);
     I.analyticPairs(x, I.pairs);
   } else {
     I.prepare(x);
@@ -2137,6 +2241,21 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v, std
           for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * ff[c];
     }
   }
+}
+
+void Contact::beginProducts(std::span<const double> x) const {
+  // (evaluated now, with a full comparison: from here on the held memory is what it was)
+  impl_->evaluateAt(x);
+  impl_->held.emplace_back(x.data(), x.size());
+}
+
+void Contact::endProducts(std::span<const double> x) const {
+  auto& held = impl_->held;
+  for (std::size_t k = held.size(); k-- > 0;)
+    if (held[k].first == x.data() && held[k].second == x.size()) {
+      held.erase(held.begin() + std::ptrdiff_t(k));
+      return;
+    }
 }
 
 void Contact::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df, double kFactor,

@@ -21,6 +21,7 @@ void ContactParameters::validate() const {
     throw InvalidInput("splitAbove", "must be in [0, 1], got " + describeNumber(splitAbove));
   if (maxSplits < 0 || maxSplits > 20) throw InvalidInput("maxSplits", "must be in [0, 20]");
   requireFiniteNonNegative("searchSlack", searchSlack);
+  if (threads < 0 || threads > 256) throw InvalidInput("threads", "must be in [0, 256] (0: as many as the machine has)");
 }
 
 Vec3 Obstacle::offsetAt(double t) const {

@@ -47,6 +47,18 @@ SystemOperator::SystemOperator(std::span<forcefields::ForceField* const> fields,
       revision_(revision) {
   if (x.size() != 3 * mass_.size() || constrained.size() != mass_.size())
     throw InvalidInput("linear system", "x, mass and constraint flags must cover the same point slots");
+  for (std::size_t k = 0; k < fields_.size(); ++k) {
+    try {
+      fields_[k]->beginProducts(x_);
+    } catch (...) {
+      while (k-- > 0) fields_[k]->endProducts(x_);
+      throw;
+    }
+  }
+}
+
+SystemOperator::~SystemOperator() {
+  for (auto* f : fields_) f->endProducts(x_);
 }
 
 void SystemOperator::apply(const Vec& p, Vec& out) const {

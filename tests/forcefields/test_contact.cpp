@@ -11,6 +11,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <random>
 #include <set>
@@ -691,6 +692,103 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
     // cache's index shows in this test failing when the index misses pairs)
     EXPECT_EQ(a.searches(), 1u);
   }
+}
+
+TEST(Contact, ThreadsChangeNothingBitForBit) {
+  // A 61 x 61 grid folded onto itself with its upper layer shifted (h/3, h/5), jittered and
+  // brought down step by step: a search cache of some 10^5 pairs, which one thread and two
+  // classify (in two runs of records, their pairs appended in order). Pairs, forces, products
+  // and bounds must be equal, bit for bit, at every step.
+  core::GridSpec g;
+  g.nx = g.ny = 61;
+  g.width = g.height = 1.0;
+  g.origin = {-0.5, -0.5, 0.0};
+  const double h = 1.0 / 60, d = 0.6 * h;
+  Topology topo(core::makeGrid(g));
+  std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0);
+  for (PointId p : topo.points()) {
+    const Vec3 r = topo.restPosition(p);
+    const bool upper = r[0] > 1e-9;
+    const std::array<double, 3> q = upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, 1.5 * d}
+                                          : std::array<double, 3>{r[0], r[1], 0.5 * d};
+    for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = q[std::size_t(c)];
+  }
+  ContactParameters one = params(d, 1e3, 0.3), two = one;
+  one.threads = 1;
+  two.threads = 2;
+  Contact a(topo, one, {}), b(topo, two, {});
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n;
+  for (double& q : v) q = 0.02 * n(rng);
+  auto same = [](const std::vector<double>& p, const std::vector<double>& q) {
+    return p.size() == q.size() && std::memcmp(p.data(), q.data(), p.size() * sizeof(double)) == 0;
+  };
+  std::size_t largest = 0;
+  for (int step = 0; step < 12; ++step) {
+    a.beginStep(x, v, 0.0, 1e-3);
+    b.beginStep(x, v, 0.0, 1e-3);
+    const ContactMeasure ma = a.measure(x, v), mb = b.measure(x, v);
+    ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
+    ASSERT_EQ(ma.active, mb.active) << "step " << step;
+    ASSERT_EQ(ma.selfNormal, mb.selfNormal) << "step " << step;
+    ASSERT_EQ(ma.selfFriction, mb.selfFriction) << "step " << step;
+    largest = std::max(largest, ma.candidates);
+    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0), db(x.size(), 0.0);
+    a.addForce(x, v, fa);
+    b.addForce(x, v, fb);
+    ASSERT_TRUE(same(fa, fb)) << "forces, step " << step;
+    for (double& q : dx) q = n(rng);
+    a.addDForce(x, dx, da, 1.0, 1.0);
+    b.addDForce(x, dx, db, 1.0, 1.0);
+    ASSERT_TRUE(same(da, db)) << "products, step " << step;
+    // The solve's proposal: every point down by a quarter of d, jittered; bounded alike.
+    std::vector<double> xa = x, va(x.size(), 0.0), vb(x.size(), 0.0);
+    for (std::size_t i = 0; i < x.size(); ++i) xa[i] += (i % 3 == 2 ? -0.25 * d : 0.0) + 0.05 * d * n(rng);
+    std::vector<double> xb = xa;
+    ASSERT_EQ(a.limitDisplacement(x, xa, va, 1e-3, {}), b.limitDisplacement(x, xb, vb, 1e-3, {})) << "step " << step;
+    ASSERT_TRUE(same(xa, xb) && same(va, vb)) << "bounded positions, step " << step;
+    // On: the upper layer comes down by a tenth of d a step, everything jittered a little.
+    for (double& q : x) q += 1e-3 * d * n(rng);
+    for (PointId p : topo.points())
+      if (topo.restPosition(p)[0] > 1e-9) x[3 * p + 2] -= 0.1 * d;
+  }
+  EXPECT_GT(largest, 2000u) << "the layers must be in contact";
+  EXPECT_GT(a.searchesReused(), 3u) << "the pairs must come from the cache";
+}
+
+TEST(Contact, ASolvesHeldPositionsAreEvaluatedAgainOnceReleased) {
+  // Between beginProducts(x) and endProducts(x) the products skip comparing x; after it, x
+  // changed in place must be evaluated again (as a fresh contact at the new x is), and an
+  // operator built at other positions meanwhile must not stand for x's.
+  const Crumpled c = crumpled(2, 11);
+  const double d = 0.06;
+  Contact a(*c.topo, params(d, 1e3, 0.3), {});
+  std::vector<double> x = c.x, v(x.size(), 0.0), dx(x.size());
+  std::mt19937 rng(9);
+  std::normal_distribution<double> n;
+  for (double& q : dx) q = n(rng);
+  a.beginStep(x, v, 0.0, 1e-3);
+  auto product = [&](const Contact& k, const std::vector<double>& at) {
+    std::vector<double> out(at.size(), 0.0);
+    k.addDForce(at, dx, out, 1.0, 0.0);
+    return out;
+  };
+  a.beginProducts(x);
+  const std::vector<double> held = product(a, x);
+  std::vector<double> y = x;  // (another operator's positions, nested)
+  for (double& q : y) q += 0.2 * d * n(rng);
+  a.beginProducts(y);
+  const std::vector<double> atY = product(a, y);
+  a.endProducts(y);
+  EXPECT_EQ(product(a, x), held) << "x, held, after an evaluation elsewhere";
+  a.endProducts(x);
+  for (double& q : x) q += 0.2 * d * n(rng);  // (in place: the same memory)
+  const std::vector<double> moved = product(a, x);
+  Contact fresh(*c.topo, params(d, 1e3, 0.3), {});
+  fresh.beginStep(c.x, v, 0.0, 1e-3);
+  EXPECT_EQ(moved, product(fresh, x)) << "x, changed in place after its release";
+  EXPECT_NE(moved, held) << "the change must change the products";
+  EXPECT_EQ(atY, product(fresh, y));
 }
 
 TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {

@@ -90,6 +90,11 @@ struct ContactParameters {
   /// and reuses them while no point has moved far enough to bring another pair within reach
   /// (a Verlet list): resting contact is not searched anew at every step. 0: search every time.
   double searchSlack = 0.25;
+  /// The threads contact's largest loops may share (the classification of a large search
+  /// cache's pairs): 0 takes CUTSIM_THREADS from the environment when it is set, else the
+  /// machine's hardware threads. The pairs, forces and steps are the same, bit for bit, whatever
+  /// the count. >= 0.
+  int threads = 0;
   /// Throws InvalidInput (where = the parameter's name) for a value out of range.
   void validate() const;
 };
@@ -193,6 +198,9 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   void addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const override;
   void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
                  double kFactor, double bFactor) const override;
+  /// Evaluates the pairs at x once for the solve; its products then skip comparing x.
+  void beginProducts(std::span<const double> x) const override;
+  void endProducts(std::span<const double> x) const override;
   double potentialEnergy(std::span<const double> x) const override;
   void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
   void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;

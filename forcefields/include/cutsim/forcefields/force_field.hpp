@@ -97,6 +97,14 @@ class ForceField {
   virtual void addDForce(std::span<const double> x, std::span<const double> dx,
                          std::span<double> df, double kFactor, double bFactor) const = 0;
 
+  /// A linear solve's products at x follow (core::SystemOperator calls these around its life):
+  /// from beginProducts(x) to the matching endProducts(x), x (the same memory) does not change,
+  /// so every addDForce that passes it may skip checking whether x is still what it was. A
+  /// field whose products depend on x through a cache (Contact) prepares them here. Calls may
+  /// nest (one solve's operator built before another's is gone). Default: nothing.
+  virtual void beginProducts(std::span<const double> /*x*/) const {}
+  virtual void endProducts(std::span<const double> /*x*/) const {}
+
   /// The potential energy at x.
   virtual double potentialEnergy(std::span<const double> x) const = 0;
 

@@ -34,6 +34,11 @@ class SystemOperator {
   SystemOperator(std::span<forcefields::ForceField* const> fields, std::span<const double> x,
                  std::span<const double> diagonalMass, std::span<const char> constrained,
                  double kFactor, double bFactor, std::uint64_t revision);
+  /// x must not change while the operator lives: the fields are told so
+  /// (ForceField::beginProducts) and may skip checking it at every product.
+  ~SystemOperator();
+  SystemOperator(const SystemOperator&) = delete;
+  SystemOperator& operator=(const SystemOperator&) = delete;
 
   std::size_t numSlots() const { return mass_.size(); }
   Eigen::Index size() const { return Eigen::Index(3 * mass_.size()); }
