@@ -216,6 +216,7 @@ struct Contact::Impl {
   std::vector<std::int32_t> pointOwner, edgeOwner;  // index into tris, -1: none
   std::vector<std::array<std::int32_t, 2>> edgeTris;  // the (at most two) triangles of an edge
   std::vector<std::int32_t> starStart, star;         // the triangles around a point (CSR)
+  std::vector<V3> restX;                              // per point slot: its rest position
   /// Per edge slot, at the step's start: how flat the surface is across the edge at the
   /// thickness's scale (flatness()), and the points of the triangles beside it; a self pair of
   /// two edges gets 1 - the product of theirs.
@@ -627,6 +628,7 @@ struct Contact::Impl {
     return products;
   }
   std::vector<double> evalX;
+  std::vector<double> movedScratch;  // (evaluateAt's: per point slot, how far it is from lastX)
   bool evalValid = false;
 
   /// Whether x holds the same numbers, bit for bit, as y (the integrators ask at the same x
@@ -651,7 +653,7 @@ struct Contact::Impl {
       return;
     }
     const double d = P.thickness;
-    std::vector<double> moved;
+    std::vector<double>& moved = movedScratch;
     const bool atStart = sameBits(x, lastX);
     if (!atStart) {
       moved.assign(x.size() / 3, kInf);
@@ -714,6 +716,11 @@ struct Contact::Impl {
       std::vector<std::int32_t> fill(starStart.begin(), starStart.end() - 1);
       for (std::size_t i = 0; i < tris.size(); ++i)
         for (int k = 0; k < 3; ++k) star[std::size_t(fill[triV[i][std::size_t(k)]]++)] = std::int32_t(i);
+    }
+    restX.assign(topo.pointCapacity(), V3::Zero());
+    for (PointId p : topo.points()) {
+      const Vec3 r = topo.restPosition(p);
+      restX[Index(p)] = V3(r[0], r[1], r[2]);
     }
     built = true;
     revision = topo.revision();
@@ -1267,7 +1274,7 @@ struct Contact::Impl {
     }
     if (!finite) largest = kInf;
     const double shrink = 2 * largestSinceCache;
-    auto visit = [&](std::size_t ci) {
+    auto visit = [&](std::size_t ci, std::vector<Pair>& to) {
       const Cached& c = cache[ci];
       bool slow = true;
       double largestMove = 0.0;
@@ -1285,7 +1292,25 @@ struct Contact::Impl {
       if (lower >= 4 * largestMove) return;
       const Pair p = c.pair();
       const double reach = reachOf(p);
-      if (lower < reach) keepIfNear(p, x, reach, out);
+      if (lower < reach) keepIfNear(p, x, reach, to);
+    };
+    // (visited on several threads when there are many: each over a contiguous run of the
+    // visits, their pairs appended in order, as one thread would have found them)
+    auto visitAll = [&](std::size_t n, auto&& which) {
+      const int parts = partsFor(n, kRecordsPerThread);
+      if (parts <= 1) {
+        for (std::size_t k = 0; k < n; ++k)
+          if (const std::size_t ci = which(k); ci != kNone) visit(ci, out);
+        return;
+      }
+      partPairs.resize(std::size_t(parts));
+      inParts(n, parts, [&](int part, std::size_t begin, std::size_t end) {
+        std::vector<Pair>& to = partPairs[std::size_t(part)];
+        to.clear();
+        for (std::size_t k = begin; k < end; ++k)
+          if (const std::size_t ci = which(k); ci != kNone) visit(ci, to);
+      });
+      for (const std::vector<Pair>& part : partPairs) out.insert(out.end(), part.begin(), part.end());
     };
     // A pair is skipped below when its distance less its shrink is at least four times its
     // points' largest motion. Every pair is at least cacheNearest apart at the cache's build:
@@ -1309,15 +1334,17 @@ struct Contact::Impl {
         for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k) visits.push_back(cacheByPoint[k]);
       std::sort(visits.begin(), visits.end());
       visits.erase(std::unique(visits.begin(), visits.end()), visits.end());
-      for (const std::uint32_t ci : visits)
-        if (!(double(cacheLow[ci]) - shrink >= 4 * largest)) visit(ci);
+      visitAll(visits.size(), [&](std::size_t k) -> std::size_t {
+        const std::uint32_t ci = visits[k];
+        return double(cacheLow[ci]) - shrink >= 4 * largest ? kNone : ci;
+      });
       return;
     }
-    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
-      if (double(cacheLow[ci]) - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
-      visit(ci);
-    }
+    visitAll(cache.size(), [&](std::size_t ci) -> std::size_t {
+      return double(cacheLow[ci]) - shrink >= 4 * largest ? kNone : ci;  // (the test below, with bounds for every pair)
+    });
   }
+  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 
   /// The displacement bound's pairs that hold a fast point (prepareSwept first): each triangle
   /// with a fast corner against the triangles and obstacle triangles its swept box meets.
@@ -1504,6 +1531,8 @@ struct Contact::Impl {
   /// four times its points' motion).
   std::vector<std::uint32_t> cacheByPointStart, cacheByPoint;
   void indexCache() {
+    cacheApart.clear();
+    cacheEdgePairs = std::size_t(std::count_if(cache.begin(), cache.end(), [](const Cached& c) { return c.kind == Kind::EE; }));
     cacheLow.resize(cache.size());
     cacheNearest = kInf;
     for (std::size_t i = 0; i < cache.size(); ++i) {
@@ -1549,9 +1578,22 @@ struct Contact::Impl {
   /// cache is classified on several threads, each over a contiguous run of records, its pairs
   /// appended in the cache's order: the same pairs in the same order whatever the threads.
   void pairsFromCache(std::span<const double> x, std::vector<Pair>& out) {
+    // Between flat layers most cached pairs are of two edges that are both flat (their share is
+    // 0: edgePairScale): such a pair is dropped first, from its record's apart bit and the two
+    // edges' flatness (exactly 1).
+    const bool flatFirst = cacheEdgePairs > 0 && !edgeFlat.empty() && flatRevision == revision;
+    if (flatFirst && cacheApart.size() != cache.size()) markApart();
+    const int parts = partsFor(cache.size(), kRecordsPerThread);
+    // (an edge's flatness is measured where a pair first asks for it; on several threads, that
+    // of every edge of the cache's edge pairs beforehand, each by one thread, so that no two
+    // threads write one edge's record)
+    if (parts > 1 && flatFirst) measureCacheFlatness(x, parts);
     auto classify = [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
       for (std::size_t ci = begin; ci < end; ++ci) {
         const Cached& c = cache[ci];
+        if (flatFirst && c.kind == Kind::EE && cacheApart[ci] && flatnessOf(std::uint32_t(c.tri), x) == 1.0 &&
+            flatnessOf(std::uint32_t(c.edge2), x) == 1.0)
+          continue;
         const double within = searchMargin(c);
         // (it cannot be within its margin; the shrink is at most twice the largest motion)
         if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within)) continue;
@@ -1562,14 +1604,10 @@ struct Contact::Impl {
         keepIfNear(p, x, within, to, true, t, true);
       }
     };
-    const int parts = partsFor(cache.size(), kRecordsPerThread);
     if (parts <= 1) {
       classify(0, cache.size(), out);
       return;
     }
-    // (an edge's flatness is measured once per step where a pair first asks for it: here every
-    // edge's beforehand, each by one thread, so that no two threads write one edge's record)
-    measureAllFlatness(x, parts);
     partPairs.resize(std::size_t(parts));
     inParts(cache.size(), parts, [&](int k, std::size_t begin, std::size_t end) {
       std::vector<Pair>& to = partPairs[std::size_t(k)];
@@ -1579,6 +1617,42 @@ struct Contact::Impl {
     for (const std::vector<Pair>& part : partPairs) out.insert(out.end(), part.begin(), part.end());
   }
   std::vector<std::vector<Pair>> partPairs;  // (pairsFromCache's, per thread)
+  std::size_t cacheEdgePairs = 0;     // the cache's self pairs of two edges (indexCache)
+  std::vector<std::uint32_t> cacheEdges;  // their edges, each once, ascending (markApart)
+  /// Per cached pair of two edges, whether the triangles beside the one and the other share no
+  /// point (edgePairScale's condition; a property of the mesh, kept with the cache); empty
+  /// until a step needs it.
+  std::vector<std::uint8_t> cacheApart;
+  void markApart() {
+    cacheApart.assign(cache.size(), 0);
+    cacheEdges.clear();
+    for (const Cached& c : cache)
+      if (c.kind == Kind::EE) {
+        cacheEdges.push_back(std::uint32_t(c.tri));
+        cacheEdges.push_back(std::uint32_t(c.edge2));
+      }
+    std::sort(cacheEdges.begin(), cacheEdges.end());
+    cacheEdges.erase(std::unique(cacheEdges.begin(), cacheEdges.end()), cacheEdges.end());
+    auto patch = [&](std::int32_t e, std::array<std::uint32_t, 6>& out) {
+      out.fill(std::uint32_t(kInvalidIndex));
+      int m = 0;
+      if (e < 0 || std::size_t(e) >= edgeTris.size()) return false;
+      for (const std::int32_t t : edgeTris[std::size_t(e)]) {
+        if (t < 0) return false;  // (a border: never flat)
+        for (const std::uint32_t q : triV[std::size_t(t)]) out[std::size_t(m++)] = q;
+      }
+      return true;
+    };
+    std::array<std::uint32_t, 6> a, b;
+    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
+      const Cached& c = cache[ci];
+      if (c.kind != Kind::EE || !patch(c.tri, a) || !patch(c.edge2, b)) continue;
+      bool apart = true;
+      for (const std::uint32_t q : a)
+        apart = apart && std::find(b.begin(), b.end(), q) == b.end();
+      cacheApart[ci] = apart;
+    }
+  }
   static constexpr std::size_t kRecordsPerThread = 16384;
   /// How many threads work on n items, each given at least `least` of them.
   int partsFor(std::size_t n, std::size_t least) const {
@@ -1586,12 +1660,14 @@ struct Contact::Impl {
     return int(std::min<std::size_t>(std::size_t(threads), most));
   }
   int threads = 1;  // the threads contact's loops may use (Contact's constructor sets it)
-  /// Every edge's flatness at x (an edge beside no triangle: 0), on `parts` threads.
-  void measureAllFlatness(std::span<const double> x, int parts) const {
+  /// The flatness at x of every edge of the cache's self pairs of two edges, on `parts` threads.
+  void measureCacheFlatness(std::span<const double> x, int parts) const {
     if (edgeFlat.empty() || flatRevision != revision) return;
-    inParts(edgeFlat.size(), parts, [&](int, std::size_t begin, std::size_t end) {
-      for (std::size_t e = begin; e < end; ++e)
-        if (edgeFlat[e].stamp != flatGeneration) measureFlatness(std::uint32_t(e), x);
+    inParts(cacheEdges.size(), parts, [&](int, std::size_t begin, std::size_t end) {
+      for (std::size_t k = begin; k < end; ++k) {
+        const std::uint32_t e = cacheEdges[k];
+        if (e < edgeFlat.size() && edgeFlat[e].stamp != flatGeneration) measureFlatness(e, x);
+      }
     });
   }
 
@@ -1692,10 +1768,20 @@ struct Contact::Impl {
   bool restNeighbours(const Pair& p) const {
     std::array<V3, 4> rest;
     rest.fill(V3::Zero());
-    for (int i = 0; i < p.points(); ++i) {
-      const Vec3 r = topo.restPosition(PointId(p.id[std::size_t(i)]));
-      rest[std::size_t(i)] = V3(r[0], r[1], r[2]);
+    const int count = p.points(), split = (p.kind == Kind::EE || p.kind == Kind::EO) ? 2 : 1;
+    for (int i = 0; i < count; ++i) rest[std::size_t(i)] = restX[p.id[std::size_t(i)]];
+    // (primitives whose boxes are farther apart than d along an axis are: most pairs, between
+    // layers of a fold that are far apart in the material)
+    V3 loA = rest[0], hiA = rest[0], loB = rest[std::size_t(split)], hiB = rest[std::size_t(split)];
+    for (int i = 1; i < split; ++i) {
+      loA = loA.cwiseMin(rest[std::size_t(i)]);
+      hiA = hiA.cwiseMax(rest[std::size_t(i)]);
     }
+    for (int i = split + 1; i < count; ++i) {
+      loB = loB.cwiseMin(rest[std::size_t(i)]);
+      hiB = hiB.cwiseMax(rest[std::size_t(i)]);
+    }
+    if (((loB - hiA).maxCoeff() > P.thickness) || ((loA - hiB).maxCoeff() > P.thickness)) return false;
     return evaluatePoints(p, rest).s <= P.thickness;
   }
   bool isReleased(const Pair& p) const {

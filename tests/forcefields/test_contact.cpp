@@ -697,8 +697,9 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
 TEST(Contact, ThreadsChangeNothingBitForBit) {
   // A 61 x 61 grid folded onto itself with its upper layer shifted (h/3, h/5), jittered and
   // brought down step by step: a search cache of some 10^5 pairs, which one thread and two
-  // classify (in two runs of records, their pairs appended in order). Pairs, forces, products
-  // and bounds must be equal, bit for bit, at every step.
+  // classify (in two runs of records, their pairs appended in order), and which the bound scans
+  // in two runs when every point moves. Pairs, forces, products and bounds must be equal, bit
+  // for bit, at every step.
   core::GridSpec g;
   g.nx = g.ny = 61;
   g.width = g.height = 1.0;
