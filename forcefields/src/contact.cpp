@@ -251,7 +251,10 @@ struct Contact::Impl {
   std::vector<char> fastPoint;  // per point slot: moved too far for the cache
   std::vector<double> moveLength;  // per point slot: its displacement's length
   std::vector<double> pointSdf, pointReach;  // per point slot, for one analytic obstacle (scratch)
-  std::vector<char> seenPoint, seenEdge;     // per point and edge slot (scratch)
+  std::vector<char> seenFeature;             // per point, then edge slot (scratch)
+  std::vector<std::uint32_t> featureKeys;    // (scratch)
+  std::vector<std::vector<char>> partSeen;   // (analyticPairs', per thread)
+  std::vector<std::vector<std::uint32_t>> partKeys;
   std::vector<std::uint32_t> movingScratch, visitScratch;  // (nearFromCache)
 
   /// Every point's signed distance to analytic obstacle k at x, into pointSdf (a triangle's
@@ -1373,41 +1376,74 @@ struct Contact::Impl {
         continue;
       } else if (O[k].shape == Obstacle::Shape::Sphere || O[k].shape == Obstacle::Shape::Capsule) {
         // Each triangle's closest feature (its interior, an edge, a corner), each feature once
-        // (from the first triangle that meets it).
-        seenPoint.assign(pointOwner.size(), 0);
-        seenEdge.assign(edgeOwner.size(), 0);
+        // (from the first triangle that meets it). On several threads when there are many
+        // triangles: each over a contiguous run of them, each feature once within its run; the
+        // runs' pairs are then appended in order, each feature once, so from the first triangle
+        // that meets it, as one thread would.
         pointDistances(int(k), x);
-        for (std::size_t t = 0; t < tris.size(); ++t) {
-          const auto& T = triV[t];
-          const double within = triMargin[t] + obstacleMargin[k];  // (the obstacle's motion included)
-          const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
-          const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
-          if (smin - longestEdge({q[0], q[1], q[2]}) >= within) continue;
-          if (O[k].shape == Obstacle::Shape::Sphere && planeSeparates(int(k), {q[0], q[1], q[2]}, within)) continue;
-          const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
-          if (!(e.s < within)) continue;
-          Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
-          int m = 0;
-          for (int c = 0; c < 3; ++c)
-            if (e.w[std::size_t(c)] > 0) {
-              pr.id[std::size_t(m)] = T[std::size_t(c)];
-              pr.w0[std::size_t(m)] = e.w[std::size_t(c)];
-              ++m;
+        // (a feature's key: a corner's point id, or an edge's id + the number of point slots)
+        auto run = [&](std::size_t begin, std::size_t end, std::vector<char>& seen, std::vector<Pair>& to,
+                       std::vector<std::uint32_t>& keys) {
+          for (std::size_t t = begin; t < end; ++t) {
+            const auto& T = triV[t];
+            const double within = triMargin[t] + obstacleMargin[k];  // (the obstacle's motion included)
+            const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
+            const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
+            if (smin - longestEdge({q[0], q[1], q[2]}) >= within) continue;
+            if (O[k].shape == Obstacle::Shape::Sphere && planeSeparates(int(k), {q[0], q[1], q[2]}, within)) continue;
+            const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
+            if (!(e.s < within)) continue;
+            Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
+            int m = 0;
+            for (int c = 0; c < 3; ++c)
+              if (e.w[std::size_t(c)] > 0) {
+                pr.id[std::size_t(m)] = T[std::size_t(c)];
+                pr.w0[std::size_t(m)] = e.w[std::size_t(c)];
+                ++m;
+              }
+            if (m == 0) continue;
+            std::uint32_t key = std::uint32_t(kInvalidIndex);
+            if (m == 1) {
+              key = pr.id[0];
+            } else if (m == 2) {
+              const int opposite = e.w[0] > 0 ? (e.w[1] > 0 ? 2 : 1) : 0;
+              key = std::uint32_t(pointOwner.size()) + triE[t][std::size_t(opposite)];
             }
-          if (m == 0) continue;
-          if (m == 1) {
-            if (std::exchange(seenPoint[pr.id[0]], 1)) continue;
-          } else if (m == 2) {
-            const int opposite = e.w[0] > 0 ? (e.w[1] > 0 ? 2 : 1) : 0;
-            if (std::exchange(seenEdge[triE[t][std::size_t(opposite)]], 1)) continue;
+            if (m < 3 && std::exchange(seen[key], 1)) continue;
+            pr.surface = std::uint8_t((1 << m) - 1);
+            // (the triangle's interior: the pair is the triangle itself, as just measured)
+            const Eval f = m == 3 ? e : evaluate(pr, x);
+            pr.s0 = f.s;
+            pr.n0 = f.n;
+            pr.w0 = f.w;
+            to.push_back(pr);
+            keys.push_back(key);
           }
-          pr.surface = std::uint8_t((1 << m) - 1);
-          // (the triangle's interior: the pair is the triangle itself, as just measured)
-          const Eval f = m == 3 ? e : evaluate(pr, x);
-          pr.s0 = f.s;
-          pr.n0 = f.n;
-          pr.w0 = f.w;
-          out.push_back(pr);
+        };
+        const std::size_t slots = pointOwner.size() + edgeOwner.size();
+        const int parts = partsFor(tris.size(), kTrianglesPerThread);
+        if (parts <= 1) {
+          seenFeature.assign(slots, 0);
+          featureKeys.clear();
+          run(0, tris.size(), seenFeature, out, featureKeys);
+        } else {
+          partPairs.resize(std::size_t(parts));
+          partSeen.resize(std::size_t(parts));
+          partKeys.resize(std::size_t(parts));
+          inParts(tris.size(), parts, [&](int j, std::size_t begin, std::size_t end) {
+            const std::size_t u = std::size_t(j);
+            partSeen[u].assign(slots, 0);
+            partPairs[u].clear();
+            partKeys[u].clear();
+            run(begin, end, partSeen[u], partPairs[u], partKeys[u]);
+          });
+          seenFeature.assign(slots, 0);
+          for (std::size_t u = 0; u < partPairs.size(); ++u)
+            for (std::size_t i = 0; i < partPairs[u].size(); ++i) {
+              const std::uint32_t key = partKeys[u][i];
+              if (key != std::uint32_t(kInvalidIndex) && std::exchange(seenFeature[key], 1)) continue;
+              out.push_back(partPairs[u][i]);
+            }
         }
       } else {
         for (std::uint32_t p = 0; p < pointOwner.size(); ++p) {
@@ -1653,7 +1689,7 @@ struct Contact::Impl {
       cacheApart[ci] = apart;
     }
   }
-  static constexpr std::size_t kRecordsPerThread = 16384;
+  static constexpr std::size_t kRecordsPerThread = 16384, kTrianglesPerThread = 8192;
   /// How many threads work on n items, each given at least `least` of them.
   int partsFor(std::size_t n, std::size_t least) const {
     const std::size_t most = std::max<std::size_t>(1, n / std::max<std::size_t>(1, least));
