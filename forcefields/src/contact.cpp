@@ -1914,20 +1914,31 @@ struct Contact::Impl {
       pointDistances(int(k), x);
       pointReach.resize(disp.size());
       for (std::size_t p = 0; p < disp.size(); ++p) pointReach[p] = (at(p) - m).norm();
-      for (std::size_t t = 0; t < tris.size(); ++t) {
-        const auto& T = triV[t];
-        // How far the triangle's points travel relative to the obstacle.
-        const double reach = std::max({pointReach[T[0]], pointReach[T[1]], pointReach[T[2]]});
-        if (!(reach > 0)) continue;
-        const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-        const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
-        // Dropped only at 1.25 times its reach or more, where the CCD below would take the whole
-        // step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
-        const double D = triangleObstacleDistance(int(k), tv, 1.25 * reach, smin);
-        // Already touching or inside (a corner inside, or made so by a topology operation): not
-        // bounded, the penalty pushes it out; bounding it at zero would freeze it there.
-        if (D > 0 && D < kInf) items.push_back({int(k), t, D});
+      auto run = [&](std::size_t begin, std::size_t end, std::vector<TriangleItem>& to) {
+        for (std::size_t t = begin; t < end; ++t) {
+          const auto& T = triV[t];
+          // How far the triangle's points travel relative to the obstacle.
+          const double reach = std::max({pointReach[T[0]], pointReach[T[1]], pointReach[T[2]]});
+          if (!(reach > 0)) continue;
+          const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
+          const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
+          // Dropped only at 1.25 times its reach or more, where the CCD below would take the
+          // whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
+          const double D = triangleObstacleDistance(int(k), tv, 1.25 * reach, smin);
+          // Already touching or inside (a corner inside, or made so by a topology operation):
+          // not bounded, the penalty pushes it out; bounding it at zero would freeze it there.
+          if (D > 0 && D < kInf) to.push_back({int(k), t, D});
+        }
+      };
+      // (on several threads over a large surface: runs of triangles, appended in order)
+      const int parts = partsFor(tris.size(), kTrianglesPerThread);
+      if (parts <= 1) {
+        run(0, tris.size(), items);
+        continue;
       }
+      std::vector<std::vector<TriangleItem>> partItems(static_cast<std::size_t>(parts));
+      inParts(tris.size(), parts, [&](int j, std::size_t begin, std::size_t end) { run(begin, end, partItems[std::size_t(j)]); });
+      for (const auto& part : partItems) items.insert(items.end(), part.begin(), part.end());
     }
     std::vector<const Pair*> pairsToCheck;
     for (const Pair& p : near) {

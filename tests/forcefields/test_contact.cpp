@@ -760,8 +760,8 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
 TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
   // A 92 x 92 sheet (16,562 triangles, measured against the ball in two runs of triangles, each
   // feature kept once, from the first triangle that meets it) draped over a ball half the
-  // thickness off it where it is over the ball, flat beyond: the ball's pairs, forces and
-  // products with one thread and with two must be equal, bit for bit.
+  // thickness off it where it is over the ball, flat beyond: the ball's pairs, forces, products
+  // and bounds with one thread and with two must be equal, bit for bit.
   core::GridSpec g;
   g.nx = g.ny = 92;
   g.width = g.height = 1.0;
@@ -810,6 +810,19 @@ TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
     a.addDForce(x, dx, da, 1.0, 1.0);
     b.addDForce(x, dx, db, 1.0, 1.0);
     ASSERT_TRUE(same(da, db)) << "products, step " << step;
+    // The solve's proposal: every point a third of d towards the ball's centre, jittered;
+    // bounded alike (the ball's triangles, measured in two runs).
+    std::vector<double> xa = x, va(x.size(), 0.0), vb(x.size(), 0.0);
+    for (std::size_t i = 0; i < x.size(); i += 3) {
+      const Eigen::Vector3d q(x[i], x[i + 1], x[i + 2]);
+      const Eigen::Vector3d dxp = -d / 3 * q.normalized() + 0.05 * d * Eigen::Vector3d(n(rng), n(rng), n(rng));
+      for (int c = 0; c < 3; ++c) xa[i + std::size_t(c)] += dxp[c];
+    }
+    std::vector<double> xb = xa;
+    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {}), cb = b.limitDisplacement(x, xb, vb, 1e-3, {});
+    ASSERT_EQ(ca, cb) << "step " << step;
+    EXPECT_GT(ca, 100u) << "the ball must bound points";
+    ASSERT_TRUE(same(xa, xb) && same(va, vb)) << "bounded positions, step " << step;
     for (double& q : x) q += 1e-3 * d * n(rng);
   }
 }
