@@ -65,12 +65,16 @@ void inParts(std::size_t n, int parts, Body&& body) {
 }
 
 /// The threads contact's loops use when its parameters leave it to the machine: CUTSIM_THREADS
-/// when set (a whole number from 1), else the machine's hardware threads.
+/// when set (a whole number in [1, 256]; InvalidInput otherwise), else the machine's hardware
+/// threads.
 int defaultThreads() {
   if (const char* s = std::getenv("CUTSIM_THREADS")) {
     char* end = nullptr;
     const long v = std::strtol(s, &end, 10);
-    if (end != s && *end == '\0' && v >= 1 && v <= 256) return int(v);
+    if (end == s || *end != '\0' || v < 1 || v > 256)
+      throw InvalidInput("CUTSIM_THREADS", "must be a whole number in [1, 256] (the threads contact may use), got \"" +
+                                               std::string(s) + "\"");
+    return int(v);
   }
   return int(std::clamp<unsigned>(std::thread::hardware_concurrency(), 1, 256));
 }
@@ -1652,7 +1656,8 @@ struct Contact::Impl {
     });
     for (const std::vector<Pair>& part : partPairs) out.insert(out.end(), part.begin(), part.end());
   }
-  std::vector<std::vector<Pair>> partPairs;  // (pairsFromCache's, per thread)
+  // (per thread: pairsFromCache's, nearFromCache's and analyticPairs', which never run at once)
+  std::vector<std::vector<Pair>> partPairs;
   std::size_t cacheEdgePairs = 0;     // the cache's self pairs of two edges (indexCache)
   std::vector<std::uint32_t> cacheEdges;  // their edges, each once, ascending (markApart)
   /// Per cached pair of two edges, whether the triangles beside the one and the other share no
@@ -2120,6 +2125,7 @@ void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double 
 }
 
 const std::vector<double>& Contact::bounds() const { return impl_->bound; }
+std::size_t Contact::cachedPairs() const { return impl_->cacheBuilt ? impl_->cache.size() : 0; }
 std::size_t Contact::searches() const { return impl_->cacheBuilds + impl_->plainSearches; }
 std::size_t Contact::searchesReused() const { return impl_->cacheUses; }
 

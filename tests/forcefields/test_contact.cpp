@@ -696,10 +696,10 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
 
 TEST(Contact, ThreadsChangeNothingBitForBit) {
   // A 61 x 61 grid folded onto itself with its upper layer shifted (h/3, h/5), jittered and
-  // brought down step by step: a search cache of some 10^5 pairs, which one thread and two
-  // classify (in two runs of records, their pairs appended in order), and which the bound scans
-  // in two runs when every point moves. Pairs, forces, products and bounds must be equal, bit
-  // for bit, at every step.
+  // brought down step by step: a search cache of some 10^5 pairs, which one thread, two and
+  // three classify (in runs of records, their pairs appended in order), and which the bound
+  // scans so when every point moves. Pairs, forces, products and bounds must be equal, bit for
+  // bit, at every step.
   core::GridSpec g;
   g.nx = g.ny = 61;
   g.width = g.height = 1.0;
@@ -714,46 +714,60 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
                                           : std::array<double, 3>{r[0], r[1], 0.5 * d};
     for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = q[std::size_t(c)];
   }
-  ContactParameters one = params(d, 1e3, 0.3), two = one;
+  ContactParameters one = params(d, 1e3, 0.3), two = one, three = one;
   one.threads = 1;
   two.threads = 2;
-  Contact a(topo, one, {}), b(topo, two, {});
+  three.threads = 3;
+  Contact a(topo, one, {}), b(topo, two, {}), c3(topo, three, {});
   std::mt19937 rng(5);
   std::normal_distribution<double> n;
   for (double& q : v) q = 0.02 * n(rng);
   auto same = [](const std::vector<double>& p, const std::vector<double>& q) {
     return p.size() == q.size() && std::memcmp(p.data(), q.data(), p.size() * sizeof(double)) == 0;
   };
-  std::size_t largest = 0;
+  std::size_t largest = 0, cached = 0;
   for (int step = 0; step < 12; ++step) {
     a.beginStep(x, v, 0.0, 1e-3);
     b.beginStep(x, v, 0.0, 1e-3);
-    const ContactMeasure ma = a.measure(x, v), mb = b.measure(x, v);
-    ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
-    ASSERT_EQ(ma.active, mb.active) << "step " << step;
-    ASSERT_EQ(ma.selfNormal, mb.selfNormal) << "step " << step;
-    ASSERT_EQ(ma.selfFriction, mb.selfFriction) << "step " << step;
+    c3.beginStep(x, v, 0.0, 1e-3);
+    cached = std::max(cached, a.cachedPairs());
+    const ContactMeasure ma = a.measure(x, v);
+    for (const Contact* o : {&b, &c3}) {
+      const ContactMeasure mb = o->measure(x, v);
+      ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
+      ASSERT_EQ(ma.active, mb.active) << "step " << step;
+      ASSERT_EQ(ma.selfNormal, mb.selfNormal) << "step " << step;
+      ASSERT_EQ(ma.selfFriction, mb.selfFriction) << "step " << step;
+    }
     largest = std::max(largest, ma.candidates);
-    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0), db(x.size(), 0.0);
+    std::vector<double> fa(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0);
     a.addForce(x, v, fa);
-    b.addForce(x, v, fb);
-    ASSERT_TRUE(same(fa, fb)) << "forces, step " << step;
     for (double& q : dx) q = n(rng);
     a.addDForce(x, dx, da, 1.0, 1.0);
-    b.addDForce(x, dx, db, 1.0, 1.0);
-    ASSERT_TRUE(same(da, db)) << "products, step " << step;
+    for (const Contact* o : {&b, &c3}) {
+      std::vector<double> fb(x.size(), 0.0), db(x.size(), 0.0);
+      o->addForce(x, v, fb);
+      ASSERT_TRUE(same(fa, fb)) << "forces, step " << step;
+      o->addDForce(x, dx, db, 1.0, 1.0);
+      ASSERT_TRUE(same(da, db)) << "products, step " << step;
+    }
     // The solve's proposal: every point down by a quarter of d, jittered; bounded alike.
-    std::vector<double> xa = x, va(x.size(), 0.0), vb(x.size(), 0.0);
+    std::vector<double> xa = x, va(x.size(), 0.0);
     for (std::size_t i = 0; i < x.size(); ++i) xa[i] += (i % 3 == 2 ? -0.25 * d : 0.0) + 0.05 * d * n(rng);
-    std::vector<double> xb = xa;
-    ASSERT_EQ(a.limitDisplacement(x, xa, va, 1e-3, {}), b.limitDisplacement(x, xb, vb, 1e-3, {})) << "step " << step;
-    ASSERT_TRUE(same(xa, xb) && same(va, vb)) << "bounded positions, step " << step;
+    const std::vector<double> proposal = xa;
+    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {});
+    for (const Contact* o : {&b, &c3}) {
+      std::vector<double> xb = proposal, vb(x.size(), 0.0);
+      ASSERT_EQ(ca, o->limitDisplacement(x, xb, vb, 1e-3, {})) << "step " << step;
+      ASSERT_TRUE(same(xa, xb) && same(va, vb)) << "bounded positions, step " << step;
+    }
     // On: the upper layer comes down by a tenth of d a step, everything jittered a little.
     for (double& q : x) q += 1e-3 * d * n(rng);
     for (PointId p : topo.points())
       if (topo.restPosition(p)[0] > 1e-9) x[3 * p + 2] -= 0.1 * d;
   }
   EXPECT_GT(largest, 2000u) << "the layers must be in contact";
+  EXPECT_GE(cached, 3u * 16384u) << "the cache must be long enough for three runs";
   EXPECT_GT(a.searchesReused(), 3u) << "the pairs must come from the cache";
 }
 

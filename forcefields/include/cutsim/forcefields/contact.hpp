@@ -90,10 +90,11 @@ struct ContactParameters {
   /// and reuses them while no point has moved far enough to bring another pair within reach
   /// (a Verlet list): resting contact is not searched anew at every step. 0: search every time.
   double searchSlack = 0.25;
-  /// The threads contact's largest loops may share (the classification of a large search
-  /// cache's pairs): 0 takes CUTSIM_THREADS from the environment when it is set, else the
-  /// machine's hardware threads. The pairs, forces and steps are the same, bit for bit, whatever
-  /// the count. >= 0.
+  /// The most threads contact's long loops may share (the classification and the bound's scan
+  /// of a large search cache, a round obstacle's or the bound's obstacle triangles over a large
+  /// surface: docs/contact.md): 0 takes CUTSIM_THREADS from the environment when it is set (a
+  /// whole number in [1, 256]; anything else is refused), else the machine's hardware threads.
+  /// The pairs, forces and steps are the same, bit for bit, whatever the count. In [0, 256].
   int threads = 0;
   /// Throws InvalidInput (where = the parameter's name) for a value out of range.
   void validate() const;
@@ -176,6 +177,8 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// measure() at the end of a step (the simulation calls it after committing the step; the
   /// CSV reports it, also for a step after which a cut changed the mesh).
   void recordStep(std::span<const double> x, std::span<const double> v) { last_ = measure(x, v); }
+  /// How many primitive pairs the search's cache holds (0: none).
+  std::size_t cachedPairs() const;
   /// How many times the pairs were searched, and how many steps reused the search's cache.
   std::size_t searches() const;
   std::size_t searchesReused() const;
