@@ -1182,12 +1182,10 @@ struct Contact::Impl {
   /// point-triangle and edge-edge pair whose points' swept boxes overlap and whose distance
   /// is less than its reach.
   void sweptTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out) const {
-    sweptTrianglePair(i, j, x, out, boxes[std::size_t(i)], boxes[std::size_t(j)]);
-  }
-  /// The same with the two triangles' swept boxes given.
-  void sweptTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out, const Box& ba, const Box& bb) const {
     const auto& A = triV[std::size_t(i)];
     const auto& B = triV[std::size_t(j)];
+    const Box& ba = boxes[std::size_t(i)];
+    const Box& bb = boxes[std::size_t(j)];
     auto keep = [&](const Pair& p) { keepIfNear(p, x, reachOf(p), out); };
     auto vt = [&](std::uint32_t v, int t, const Box& box) {
       const auto& T = triV[std::size_t(t)];
@@ -1374,86 +1372,6 @@ struct Contact::Impl {
           meshes[k].bvh.query(boxes[i], [&](int j) { meshTrianglePair(int(k), int(i), j, x, out, false); });
     }
   }
-
-  /// searchAround without the swept boxes of every triangle and the hierarchy's refit, when few
-  /// triangles hold a fast point: a slow triangle's swept box (its points moved less than a
-  /// quarter of the cache's reach since the cache's x, displacement included) lies inside its
-  /// box at the cache's x grown by half the reach, so the fast triangles are searched in a
-  /// hierarchy of those boxes (built once per cache), and among themselves in one of their own.
-  /// The pairs are the same, in the same order: each fast triangle's candidates are taken in the
-  /// order the refitted hierarchy would visit them (its structure is the one a refit keeps), and
-  /// measured with the same swept boxes. Returns false, doing nothing, when it does not apply.
-  bool searchAroundFew(std::span<const double> x, const std::vector<V3>& dx, const std::vector<char>& fast, std::vector<Pair>& out) {
-    if (!fewFastSearch || !bvhBuilt || bvh.size() != tris.size() || bvh.empty() || !cacheBuilt || cacheX.size() != x.size())
-      return false;
-    auto hasFast = [&](std::size_t t) { return fast[triV[t][0]] || fast[triV[t][1]] || fast[triV[t][2]]; };
-    std::vector<std::uint32_t>& few = fewScratch;
-    few.clear();
-    for (std::size_t t = 0; t < tris.size(); ++t)
-      if (hasFast(t)) few.push_back(std::uint32_t(t));
-    if (8 * few.size() > tris.size()) return false;
-    if (!cacheBvhBuilt) {
-      std::vector<Box> grown(tris.size());
-      for (std::size_t t = 0; t < tris.size(); ++t) {
-        Box b;
-        for (const std::uint32_t q : triV[t]) b.add(surfacePoint(cacheX, q));
-        b.inflate(0.5 * cacheR);
-        grown[t] = b;
-      }
-      cacheBvh.build(grown);
-      cacheBvhBuilt = true;
-    }
-    const double eps = 1e-9 * std::max(meanEdge, 1e-300);
-    auto swept = [&](std::size_t t) {  // (as prepareSwept makes it)
-      Box b;
-      for (const std::uint32_t q : triV[t]) b.add(surfacePoint(x, q));
-      for (const std::uint32_t q : triV[t]) b.add(surfacePoint(x, q) + dx[q]);
-      b.inflate(eps);
-      return b;
-    };
-    std::vector<Box>& fewBoxes = fewBoxScratch;
-    fewBoxes.resize(few.size());
-    for (std::size_t a = 0; a < few.size(); ++a) fewBoxes[a] = swept(few[a]);
-    Bvh fewBvh;
-    if (P.selfContact) fewBvh.build(fewBoxes);
-    const std::vector<std::int32_t>& rank = bvh.visitOrder();
-    for (std::size_t k = 0; k < O.size(); ++k)
-      if (meshLike(k)) refitObstacle(k);
-    struct Candidate {
-      std::int32_t rank, j, a;  // a: its index in few, -1 for a slow triangle
-      bool operator<(const Candidate& o) const { return rank < o.rank; }
-    };
-    std::vector<Candidate> found;
-    for (std::size_t a = 0; a < few.size(); ++a) {
-      const std::size_t i = few[a];
-      const Box& bi = fewBoxes[a];
-      if (P.selfContact) {
-        found.clear();
-        cacheBvh.query(bi, [&](int j) {
-          if (!hasFast(std::size_t(j))) found.push_back({rank[std::size_t(j)], j, -1});
-        });
-        // (two fast triangles: from the lower index, as searchAround)
-        fewBvh.query(bi, [&](int b) {
-          if (few[std::size_t(b)] > i) found.push_back({rank[few[std::size_t(b)]], std::int32_t(few[std::size_t(b)]), b});
-        });
-        std::sort(found.begin(), found.end());
-        for (const Candidate& c : found) {
-          const Box bj = c.a >= 0 ? fewBoxes[std::size_t(c.a)] : swept(std::size_t(c.j));
-          if (!bj.overlaps(bi)) continue;  // (the refitted hierarchy's own test)
-          sweptTrianglePair(int(i), c.j, x, out, bi, bj);
-        }
-      }
-      for (std::size_t k = 0; k < O.size(); ++k)
-        if (meshLike(k))
-          meshes[k].bvh.query(bi, [&](int j) { meshTrianglePair(int(k), int(i), j, x, out, false); });
-    }
-    return true;
-  }
-  bool fewFastSearch = true;  // (setFewFastSearch)
-  Bvh cacheBvh;  // the triangles' boxes at the cache's x grown by half its reach (searchAroundFew)
-  bool cacheBvhBuilt = false;  // (reset with every new or loaded cache: indexCache)
-  std::vector<std::uint32_t> fewScratch;
-  std::vector<Box> fewBoxScratch;
 
   /// The pairs with planes, spheres and capsules.
   void analyticPairs(std::span<const double> x, std::vector<Pair>& out) {
@@ -1654,7 +1572,6 @@ struct Contact::Impl {
   std::vector<std::uint32_t> cacheByPointStart, cacheByPoint;
   void indexCache() {
     cacheApart.clear();
-    cacheBvhBuilt = false;
     cacheEdgePairs = std::size_t(std::count_if(cache.begin(), cache.end(), [](const Cached& c) { return c.kind == Kind::EE; }));
     cacheLow.resize(cache.size());
     cacheNearest = kInf;
@@ -2208,7 +2125,6 @@ void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double 
 }
 
 const std::vector<double>& Contact::bounds() const { return impl_->bound; }
-void Contact::setFewFastSearch(bool on) { impl_->fewFastSearch = on; }
 std::size_t Contact::cachedPairs() const { return impl_->cacheBuilt ? impl_->cache.size() : 0; }
 std::size_t Contact::searches() const { return impl_->cacheBuilds + impl_->plainSearches; }
 std::size_t Contact::searchesReused() const { return impl_->cacheUses; }
@@ -2409,7 +2325,7 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     }
     if (cached) {
       I.nearFromCache(x0, fast, near);
-      if (fastCount > 0 && !I.searchAroundFew(x0, dx, fast, near)) {
+      if (fastCount > 0) {
         I.prepareSwept(x0, dx);
         I.searchAround(x0, fast, near);
       }

@@ -11,7 +11,6 @@ namespace cutsim::forcefields::contact {
 
 void Bvh::build(const std::vector<Box>& boxes, int leafSize) {
   boxes_ = boxes;
-  rank_.clear();
   nodes_.clear();
   order_.resize(boxes.size());
   std::iota(order_.begin(), order_.end(), 0);
@@ -138,26 +137,6 @@ void Bvh::query(const Box& b, const std::function<void(int)>& f) const {
   }
 }
 
-const std::vector<std::int32_t>& Bvh::visitOrder() const {
-  if (rank_.size() == order_.size() && !order_.empty()) return rank_;
-  // (query's traversal, every node visited)
-  rank_.assign(order_.size(), 0);
-  std::int32_t next = 0;
-  if (nodes_.empty()) return rank_;
-  std::vector<std::int32_t> stack{0};
-  while (!stack.empty()) {
-    const Node& n = nodes_[std::size_t(stack.back())];
-    stack.pop_back();
-    if (n.left < 0) {
-      for (std::int32_t i = n.first; i < n.first + n.count; ++i) rank_[std::size_t(order_[std::size_t(i)])] = next++;
-    } else {
-      stack.push_back(n.left);
-      stack.push_back(n.right);
-    }
-  }
-  return rank_;
-}
-
 void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problems) const {
   std::vector<int> seen(boxes.size(), 0);
   if (boxes.size() != boxes_.size()) {
@@ -197,7 +176,6 @@ void Bvh::save(topology::ArchiveWriter& out) const {
 }
 
 void Bvh::load(topology::ArchiveReader& in) {
-  rank_.clear();
   loadRecords(in, nodes_, "BVH nodes");
   loadRecords(in, order_, "BVH order");
   loadRecords(in, boxes_, "BVH boxes");

@@ -28,9 +28,6 @@ class Bvh {
   void crossPairs(const Bvh& other, const std::function<void(int, int)>& f) const;
   /// Calls f(i) for every element whose box overlaps b.
   void query(const Box& b, const std::function<void(int)>& f) const;
-  /// Per element, its place in the order query() visits elements (query visits those it calls
-  /// f for in that order, whatever the box): the same until the next build or load.
-  const std::vector<std::int32_t>& visitOrder() const;
 
   /// Problems of the hierarchy against the boxes it was last given: every element in exactly one
   /// leaf, every node's box the union of its children's.
@@ -54,7 +51,6 @@ class Bvh {
   std::vector<Node> nodes_;
   std::vector<std::int32_t> order_;  // element indices, leaves' ranges
   std::vector<Box> boxes_;           // the elements' boxes of the last build / refit
-  mutable std::vector<std::int32_t> rank_;  // visitOrder's (empty: not yet)
 };
 
 }  // namespace cutsim::forcefields::contact

@@ -876,47 +876,6 @@ TEST(Contact, ASolvesHeldPositionsAreEvaluatedAgainOnceReleased) {
   EXPECT_EQ(atY, product(fresh, y));
 }
 
-TEST(Contact, TheBoundAroundAFewFastPointsEqualsTheBoundAfterARefit) {
-  // Two sheets 0.1 d apart, every point moving a little, three points of the upper one moving
-  // down through the lower one (0.9 d), and the three under them coming up as far or staying:
-  // too far for the cache, so the bound searches around their triangles, in a hierarchy of the
-  // cache's boxes (the slow triangles) and one of their own (the fast ones among themselves).
-  // Its pairs, in their order, and so its bounds, must be those of a search in the whole
-  // hierarchy refitted to the swept boxes (setFewFastSearch(false)), bit for bit.
-  const double d = 0.05;
-  const auto n = topology::Index(81);
-  Topology topo(twoSheets(0.3 * d, 0.2 * d, 2 * d));  // (apart at rest: no exclusion)
-  std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0);
-  for (PointId p : topo.points())
-    for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] - (p >= n && c == 2 ? 1.9 * d : 0.0);
-  std::mt19937 rng(12);
-  std::normal_distribution<double> jitter;
-  auto same = [](const std::vector<double>& p, const std::vector<double>& q) {
-    return p.size() == q.size() && std::memcmp(p.data(), q.data(), p.size() * sizeof(double)) == 0;
-  };
-  for (const std::array<topology::Index, 3> far : {std::array<topology::Index, 3>{20, 40, 41}, {10, 11, 70}, {30, 31, 39}})
-  for (const bool below : {true, false}) {
-    Contact a(topo, params(d), {}), b(topo, params(d), {});
-    b.setFewFastSearch(false);
-    a.beginStep(x, v, 0.0, 1e-3);
-    b.beginStep(x, v, 0.0, 1e-3);
-    std::vector<double> xa = x, va(x.size(), 0.0), vb(x.size(), 0.0);
-    for (double& q : xa) q += 1e-4 * d * jitter(rng);
-    for (const topology::Index p : far) {
-      xa[3 * (n + p) + 2] -= 0.9 * d;
-      if (below) xa[3 * p + 2] += 0.9 * d;
-    }
-    std::vector<double> xb = xa;
-    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {}), cb = b.limitDisplacement(x, xb, vb, 1e-3, {});
-    EXPECT_GE(ca, below ? 6u : 3u) << "points " << far[0] << ", " << far[1] << ", " << far[2];
-    EXPECT_EQ(ca, cb) << "points " << far[0] << ", " << far[1] << ", " << far[2];
-    EXPECT_TRUE(same(xa, xb) && same(va, vb)) << "points " << far[0] << ", " << far[1] << ", " << far[2];
-    // (every pair of the two sheets stays apart: the moving points were clamped)
-    for (topology::Index p = 0; p < n; ++p) EXPECT_LT(xa[3 * p + 2], xa[3 * (n + p) + 2]) << "point " << p;
-    EXPECT_GT(a.cachedPairs(), 0u);
-  }
-}
-
 TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {
   Crumpled c = crumpled(5, 13);
   Contact contact(*c.topo, params(0.04), {});

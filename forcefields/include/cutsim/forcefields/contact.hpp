@@ -177,10 +177,6 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// measure() at the end of a step (the simulation calls it after committing the step; the
   /// CSV reports it, also for a step after which a cut changed the mesh).
   void recordStep(std::span<const double> x, std::span<const double> v) { last_ = measure(x, v); }
-  /// Whether the displacement bound searches around a few points that moved too far for the
-  /// search's cache in a hierarchy of the cache's boxes (true, the default), or refits the
-  /// whole hierarchy to the swept boxes first: the same pairs in the same order (for tests).
-  void setFewFastSearch(bool on);
   /// How many primitive pairs the search's cache holds (0: none).
   std::size_t cachedPairs() const;
   /// How many times the pairs were searched, and how many steps reused the search's cache.
