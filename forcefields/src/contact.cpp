@@ -64,6 +64,24 @@ void inParts(std::size_t n, int parts, Body&& body) {
     if (e) std::rethrow_exception(e);
 }
 
+/// run(begin, end, to) over [0, n) in `parts` contiguous runs (inParts), each into a vector of
+/// its own in `scratch`, appended to `out` in the runs' order: what one run over [0, n) into
+/// `out` appends.
+template <class T, class Run>
+void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratch, std::vector<T>& out, Run&& run) {
+  if (parts <= 1) {
+    run(std::size_t(0), n, out);
+    return;
+  }
+  scratch.resize(static_cast<std::size_t>(parts));
+  inParts(n, parts, [&](int k, std::size_t begin, std::size_t end) {
+    std::vector<T>& to = scratch[std::size_t(k)];
+    to.clear();
+    run(begin, end, to);
+  });
+  for (const std::vector<T>& part : scratch) out.insert(out.end(), part.begin(), part.end());
+}
+
 /// The threads contact's loops use when its parameters leave it to the machine: CUTSIM_THREADS
 /// when set (a whole number in [1, 256]; InvalidInput otherwise), else the machine's hardware
 /// threads.
@@ -229,7 +247,6 @@ struct Contact::Impl {
     double flat = 0.0;
   };
   mutable std::vector<EdgeFlat> edgeFlat;
-  mutable std::vector<std::array<std::uint32_t, 4>> edgePatch;  // its ends, then its triangles' far corners
   std::vector<Box> boxes;
   Bvh bvh;
 
@@ -778,7 +795,6 @@ struct Contact::Impl {
     if (edgeFlat.size() != edgeTris.size() || ++flatGeneration == 0) {
       flatGeneration = 1;
       edgeFlat.assign(edgeTris.size(), EdgeFlat{});
-      edgePatch.assign(edgeTris.size(), {});
     }
   }
   double flatnessOf(std::uint32_t e, std::span<const double> x) const {
@@ -799,7 +815,6 @@ struct Contact::Impl {
     std::uint32_t far = B[0];
     for (int j = 0; j < 3; ++j)
       if (B[std::size_t(j)] != a && B[std::size_t(j)] != b) far = B[std::size_t(j)];
-    edgePatch[e] = {a, b, A[std::size_t(k)], far};
     r.flat = (flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness));
     return r.flat;
   }
@@ -813,11 +828,25 @@ struct Contact::Impl {
     if (fa == 0.0) return 1.0;
     const double fb = flatnessOf(std::uint32_t(edges[1]), x);
     if (fb == 0.0) return 1.0;
-    const auto& a = edgePatch[std::size_t(edges[0])];
-    const auto& b = edgePatch[std::size_t(edges[1])];
-    for (const std::uint32_t p : a)
-      if (p == b[0] || p == b[1] || p == b[2] || p == b[3]) return 1.0;
-    return 1.0 - fa * fb;
+    return edgesApart(edges[0], edges[1]) ? 1.0 - fa * fb : 1.0;
+  }
+  /// Whether two inner edges' triangles (both beside each) share no point (false for a border
+  /// edge, which is never flat): a property of the mesh.
+  bool edgesApart(std::int32_t e1, std::int32_t e2) const {
+    auto patch = [&](std::int32_t e, std::array<std::uint32_t, 6>& out) {
+      if (e < 0 || std::size_t(e) >= edgeTris.size()) return false;
+      int m = 0;
+      for (const std::int32_t t : edgeTris[std::size_t(e)]) {
+        if (t < 0) return false;
+        for (const std::uint32_t q : triV[std::size_t(t)]) out[std::size_t(m++)] = q;
+      }
+      return true;
+    };
+    std::array<std::uint32_t, 6> a, b;
+    if (!patch(e1, a) || !patch(e2, b)) return false;
+    for (const std::uint32_t q : a)
+      if (std::find(b.begin(), b.end(), q) != b.end()) return false;
+    return true;
   }
 
   void surfaceBoxes(std::span<const double> x, std::vector<Box>& out) const {
@@ -1301,24 +1330,8 @@ struct Contact::Impl {
       const double reach = reachOf(p);
       if (lower < reach) keepIfNear(p, x, reach, to);
     };
-    // (visited on several threads when there are many: each over a contiguous run of the
-    // visits, their pairs appended in order, as one thread would have found them)
-    auto visitAll = [&](std::size_t n, auto&& which) {
-      const int parts = partsFor(n, kRecordsPerThread);
-      if (parts <= 1) {
-        for (std::size_t k = 0; k < n; ++k)
-          if (const std::size_t ci = which(k); ci != kNone) visit(ci, out);
-        return;
-      }
-      partPairs.resize(std::size_t(parts));
-      inParts(n, parts, [&](int part, std::size_t begin, std::size_t end) {
-        std::vector<Pair>& to = partPairs[std::size_t(part)];
-        to.clear();
-        for (std::size_t k = begin; k < end; ++k)
-          if (const std::size_t ci = which(k); ci != kNone) visit(ci, to);
-      });
-      for (const std::vector<Pair>& part : partPairs) out.insert(out.end(), part.begin(), part.end());
-    };
+    // (visited on several threads when there are many: runs of the visits, their pairs
+    // appended in order, as one thread would have found them)
     // A pair is skipped below when its distance less its shrink is at least four times its
     // points' largest motion. Every pair is at least cacheNearest apart at the cache's build:
     // when only a few points move more than a quarter of cacheNearest - shrink (and no obstacle
@@ -1341,17 +1354,21 @@ struct Contact::Impl {
         for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k) visits.push_back(cacheByPoint[k]);
       std::sort(visits.begin(), visits.end());
       visits.erase(std::unique(visits.begin(), visits.end()), visits.end());
-      visitAll(visits.size(), [&](std::size_t k) -> std::size_t {
-        const std::uint32_t ci = visits[k];
-        return double(cacheLow[ci]) - shrink >= 4 * largest ? kNone : ci;
-      });
+      gatherInParts(visits.size(), partsFor(visits.size(), kRecordsPerThread), partPairs, out,
+                    [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
+                      for (std::size_t k = begin; k < end; ++k)
+                        if (!(double(cacheLow[visits[k]]) - shrink >= 4 * largest)) visit(visits[k], to);
+                    });
       return;
     }
-    visitAll(cache.size(), [&](std::size_t ci) -> std::size_t {
-      return double(cacheLow[ci]) - shrink >= 4 * largest ? kNone : ci;  // (the test below, with bounds for every pair)
-    });
+    gatherInParts(cache.size(), partsFor(cache.size(), kRecordsPerThread), partPairs, out,
+                  [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
+                    for (std::size_t ci = begin; ci < end; ++ci) {
+                      if (double(cacheLow[ci]) - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
+                      visit(ci, to);
+                    }
+                  });
   }
-  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 
   /// The displacement bound's pairs that hold a fast point (prepareSwept first): each triangle
   /// with a fast corner against the triangles and obstacle triangles its swept box meets.
@@ -1644,17 +1661,7 @@ struct Contact::Impl {
         keepIfNear(p, x, within, to, true, t, true);
       }
     };
-    if (parts <= 1) {
-      classify(0, cache.size(), out);
-      return;
-    }
-    partPairs.resize(std::size_t(parts));
-    inParts(cache.size(), parts, [&](int k, std::size_t begin, std::size_t end) {
-      std::vector<Pair>& to = partPairs[std::size_t(k)];
-      to.clear();
-      classify(begin, end, to);
-    });
-    for (const std::vector<Pair>& part : partPairs) out.insert(out.end(), part.begin(), part.end());
+    gatherInParts(cache.size(), parts, partPairs, out, classify);
   }
   // (per thread: pairsFromCache's, nearFromCache's and analyticPairs', which never run at once)
   std::vector<std::vector<Pair>> partPairs;
@@ -1674,25 +1681,8 @@ struct Contact::Impl {
       }
     std::sort(cacheEdges.begin(), cacheEdges.end());
     cacheEdges.erase(std::unique(cacheEdges.begin(), cacheEdges.end()), cacheEdges.end());
-    auto patch = [&](std::int32_t e, std::array<std::uint32_t, 6>& out) {
-      out.fill(std::uint32_t(kInvalidIndex));
-      int m = 0;
-      if (e < 0 || std::size_t(e) >= edgeTris.size()) return false;
-      for (const std::int32_t t : edgeTris[std::size_t(e)]) {
-        if (t < 0) return false;  // (a border: never flat)
-        for (const std::uint32_t q : triV[std::size_t(t)]) out[std::size_t(m++)] = q;
-      }
-      return true;
-    };
-    std::array<std::uint32_t, 6> a, b;
-    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
-      const Cached& c = cache[ci];
-      if (c.kind != Kind::EE || !patch(c.tri, a) || !patch(c.edge2, b)) continue;
-      bool apart = true;
-      for (const std::uint32_t q : a)
-        apart = apart && std::find(b.begin(), b.end(), q) == b.end();
-      cacheApart[ci] = apart;
-    }
+    for (std::size_t ci = 0; ci < cache.size(); ++ci)
+      if (cache[ci].kind == Kind::EE) cacheApart[ci] = edgesApart(cache[ci].tri, cache[ci].edge2);
   }
   static constexpr std::size_t kRecordsPerThread = 16384, kTrianglesPerThread = 8192;
   /// How many threads work on n items, each given at least `least` of them.
@@ -1936,14 +1926,8 @@ struct Contact::Impl {
         }
       };
       // (on several threads over a large surface: runs of triangles, appended in order)
-      const int parts = partsFor(tris.size(), kTrianglesPerThread);
-      if (parts <= 1) {
-        run(0, tris.size(), items);
-        continue;
-      }
-      std::vector<std::vector<TriangleItem>> partItems(static_cast<std::size_t>(parts));
-      inParts(tris.size(), parts, [&](int j, std::size_t begin, std::size_t end) { run(begin, end, partItems[std::size_t(j)]); });
-      for (const auto& part : partItems) items.insert(items.end(), part.begin(), part.end());
+      std::vector<std::vector<TriangleItem>> partItems;
+      gatherInParts(tris.size(), partsFor(tris.size(), kTrianglesPerThread), partItems, items, run);
     }
     std::vector<const Pair*> pairsToCheck;
     for (const Pair& p : near) {
