@@ -4,8 +4,10 @@
     benchmarks/compare.py OLD_BINARY NEW_BINARY FILTER [--rounds 7] [--min-time 0.3]
 
 Runs OLD and NEW in turn (old, new, old, new, ...) with the same filter, reads each run's JSON,
-and prints per benchmark the median CPU time of each side over the rounds and the median of the
-round-by-round ratios new/old (so a drift of the shared machine's speed cancels out).
+and prints per benchmark the median wall-clock time of each side over the rounds and the median
+of the round-by-round ratios new/old (so a drift of the shared machine's speed cancels out).
+Wall-clock time, not CPU time: Google Benchmark's CPU time is the benchmark thread's own, which
+leaves out the work of any other thread it waits for.
 """
 import argparse
 import json
@@ -17,7 +19,7 @@ import sys
 def run(binary, flt, min_time):
     out = subprocess.run([binary, f"--benchmark_filter={flt}", f"--benchmark_min_time={min_time}",
                           "--benchmark_format=json"], check=True, capture_output=True, text=True).stdout
-    return {b["name"]: b["cpu_time"] for b in json.loads(out)["benchmarks"] if b.get("run_type") != "aggregate"}
+    return {b["name"]: b["real_time"] for b in json.loads(out)["benchmarks"] if b.get("run_type") != "aggregate"}
 
 
 def main():

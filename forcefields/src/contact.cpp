@@ -3,6 +3,7 @@
 #include "cutsim/forcefields/contact.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -64,9 +65,9 @@ void inParts(std::size_t n, int parts, Body&& body) {
     if (e) std::rethrow_exception(e);
 }
 
-/// run(begin, end, to) over [0, n) in `parts` contiguous runs (inParts), each into a vector of
-/// its own in `scratch`, appended to `out` in the runs' order: what one run over [0, n) into
-/// `out` appends.
+/// run(begin, end, to) over [0, n) in `parts` contiguous runs (inParts), the first into `out`,
+/// each other into a vector of its own in `scratch`, appended to `out` in the runs' order: what
+/// one run over [0, n) into `out` appends.
 template <class T, class Run>
 void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratch, std::vector<T>& out, Run&& run) {
   if (parts <= 1) {
@@ -75,11 +76,22 @@ void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratc
   }
   scratch.resize(static_cast<std::size_t>(parts));
   inParts(n, parts, [&](int k, std::size_t begin, std::size_t end) {
-    std::vector<T>& to = scratch[std::size_t(k)];
-    to.clear();
+    std::vector<T>& to = k == 0 ? out : scratch[std::size_t(k)];
+    if (k > 0) to.clear();
     run(begin, end, to);
   });
-  for (const std::vector<T>& part : scratch) out.insert(out.end(), part.begin(), part.end());
+  for (std::size_t k = 1; k < scratch.size(); ++k) out.insert(out.end(), scratch[k].begin(), scratch[k].end());
+}
+
+/// Record indices, each once and ascending (what sorting them and dropping repeats gives), from
+/// a bitset over the records: each(mark) marks them, then they are appended to `out`.
+template <class Each>
+void ascendingOnce(std::size_t records, std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out, Each&& each) {
+  bits.assign((records + 63) / 64, 0);
+  each([&](std::uint32_t i) { bits[i >> 6] |= std::uint64_t(1) << (i & 63); });
+  out.clear();
+  for (std::size_t w = 0; w < bits.size(); ++w)
+    for (std::uint64_t b = bits[w]; b != 0; b &= b - 1) out.push_back(std::uint32_t(64 * w + std::size_t(std::countr_zero(b))));
 }
 
 /// The threads contact's loops use when its parameters leave it to the machine: CUTSIM_THREADS
@@ -416,6 +428,16 @@ struct Contact::Impl {
   }
 
   /// The same from the pair's points.
+  /// A point q[0] and a triangle q[1..3] whose closest point has barycentric weights bw (one
+  /// compiled copy: evaluatePoints and the screened classification get the same numbers).
+  [[gnu::noinline]] static Eval pointTriangleEval(const std::array<V3, 4>& q, const std::array<double, 3>& bw, const V3& n0) {
+    Eval e;
+    const V3 d = q[0] - (bw[0] * q[1] + bw[1] * q[2] + bw[2] * q[3]);
+    e.s = d.norm();
+    e.n = e.s > 1e-300 ? V3(d / e.s) : n0;
+    e.w = {1, -bw[0], -bw[1], -bw[2]};
+    return e;
+  }
   Eval evaluatePoints(const Pair& p, const std::array<V3, 4>& q) const {
     Eval e;
     switch (p.kind) {
@@ -446,12 +468,7 @@ struct Contact::Impl {
           e.w = {1, -1, 0, 0};
           return e;
         }
-        const auto bw = closestOnTriangle(q[0], q[1], q[2], q[3]);
-        const V3 d = q[0] - (bw[0] * q[1] + bw[1] * q[2] + bw[2] * q[3]);
-        e.s = d.norm();
-        e.n = e.s > 1e-300 ? V3(d / e.s) : p.n0;
-        e.w = {1, -bw[0], -bw[1], -bw[2]};
-        return e;
+        return pointTriangleEval(q, closestOnTriangle(q[0], q[1], q[2], q[3]), p.n0);
       }
       case Kind::EE:
       case Kind::EO: {
@@ -916,27 +933,42 @@ struct Contact::Impl {
     return t[0] == p || t[1] == p || t[2] == p;
   }
 
+  /// What surelyDropped measured of a point-triangle pair it did not drop: the weights of the
+  /// point's closest point on the triangle and their snap to a feature, which keepIfNear and
+  /// toFeature then take as they are (set: it measured them).
+  struct Screen {
+    bool set = false;
+    std::array<double, 3> closest{}, snapped{};
+  };
   /// Keeps the pair if it is closer than r at x, with its distance, normal and weights there.
   /// With `features` (the penalty's pairs), a point and a triangle (t: the triangle's index in
   /// its surface or obstacle mesh) become a pair of the point and the triangle's closest
   /// feature, kept once for that feature (see toFeature), and two edges are kept only when their
   /// closest points are inside both (else they are a point's pair). `screened`: surelyDropped
-  /// has already passed it (and an edge pair's share is set).
+  /// has already passed it (and an edge pair's share is set), and `screen` holds what it
+  /// measured.
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
-                  int t = -1, bool screened = false) const {
+                  int t = -1, bool screened = false, const Screen* screen = nullptr) const {
     if (features && p.kind == Kind::EE) {
       if (!screened) p.scale = edgePairScale(p.edges, x);  // (screened: the caller set it)
       if (!(p.scale > 0)) return;  // (two flat edges: their corners' pairs hold the contact)
       orderEdges(p.id);  // (the same classification whichever way they were met)
     }
-    if (features && !screened && surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t)) return;
-    Eval e = evaluate(p, x);
+    Screen own;
+    if (features && !screened) {
+      if (surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t, &own)) return;
+      screen = &own;
+    }
+    // (a point and a triangle that the screening measured: its closest point, as evaluate's)
+    const bool measured = features && screen && screen->set && p.kind == Kind::VT && p.shape == 3;
+    Eval e = measured ? pointTriangleEval({pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3)}, screen->closest, p.n0)
+                      : evaluate(p, x);
     if (!(e.s < r)) return;
     if (features) {
       if (p.kind == Kind::EE || p.kind == Kind::EO) {
         if (!edgePairKept(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3))) return;
       } else if (p.kind == Kind::VT || p.kind == Kind::VO || p.kind == Kind::OV) {
-        if (!toFeature(p, e, x, t)) return;
+        if (!toFeature(p, e, x, t, measured ? &screen->snapped : nullptr)) return;
         if (p.shape != 3) e = evaluate(p, x);
       }
     }
@@ -980,7 +1012,7 @@ struct Contact::Impl {
   /// corner the pair is kept from the other side). The same tests keepIfNear and toFeature make,
   /// on the same numbers.
   bool surelyDropped(Kind kind, std::uint8_t surface, std::int32_t obstacle, std::array<std::uint32_t, 4> id, std::uint8_t shape,
-                     std::span<const double> x, int t) const {
+                     std::span<const double> x, int t, Screen* screen = nullptr) const {
     auto point = [&](int i) {
       return (surface >> i) & 1 ? surfacePoint(x, id[std::size_t(i)]) : obstaclePoint(obstacle, id[std::size_t(i)]);
     };
@@ -989,7 +1021,10 @@ struct Contact::Impl {
       return !edgePairKept(point(0), point(1), point(2), point(3));
     }
     if (kind != Kind::VT || shape != 3 || t < 0) return false;
-    const auto bw = closestFeatureOnTriangle(surfacePoint(x, id[0]), surfacePoint(x, id[1]), surfacePoint(x, id[2]), surfacePoint(x, id[3]));
+    const V3 q0 = surfacePoint(x, id[0]), q1 = surfacePoint(x, id[1]), q2 = surfacePoint(x, id[2]), q3 = surfacePoint(x, id[3]);
+    const auto closest = closestOnTriangle(q0, q1, q2, q3);
+    const auto bw = snapToFeature(q0, q1, q2, q3, closest);  // (closestFeatureOnTriangle)
+    if (screen) *screen = Screen{true, closest, bw};
     int on[3], m = 0;
     for (int c = 0; c < 3; ++c)
       if (-bw[std::size_t(c)] != 0.0) on[m++] = c;
@@ -1007,10 +1042,11 @@ struct Contact::Impl {
   /// around it (the point is in its Voronoi region: no triangle beside it is nearer), and is
   /// kept only from its owner triangle, so that every feature the point meets counts once,
   /// whichever triangles the search pairs the point with. Returns false to drop the pair.
-  bool toFeature(Pair& p, const Eval& e, std::span<const double> x, int t) const {
+  bool toFeature(Pair& p, const Eval& e, std::span<const double> x, int t, const std::array<double, 3>* snapped = nullptr) const {
     const V3 q = pointOf(p, x, 0);
-    // (at a corner or on an edge within kFeatureTolerance: aligned surfaces)
-    const auto w = snapToFeature(q, pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3), {-e.w[1], -e.w[2], -e.w[3]});
+    // (at a corner or on an edge within kFeatureTolerance: aligned surfaces; `snapped`: the
+    // screening's snap of the same weights)
+    const auto w = snapped ? *snapped : snapToFeature(q, pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3), {-e.w[1], -e.w[2], -e.w[3]});
     int on[3], m = 0;
     for (int c = 0; c < 3; ++c)
       if (w[std::size_t(c)] != 0.0) on[m++] = c;
@@ -1349,11 +1385,10 @@ struct Contact::Impl {
         if (!(moveLength[p] <= still)) moving.push_back(std::uint32_t(p));
     if (indexed && 16 * moving.size() < moveLength.size()) {
       std::vector<std::uint32_t>& visits = visitScratch;
-      visits.clear();
-      for (const std::uint32_t p : moving)
-        for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k) visits.push_back(cacheByPoint[k]);
-      std::sort(visits.begin(), visits.end());
-      visits.erase(std::unique(visits.begin(), visits.end()), visits.end());
+      ascendingOnce(cache.size(), recordBits, visits, [&](auto&& mark) {
+        for (const std::uint32_t p : moving)
+          for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k) mark(cacheByPoint[k]);
+      });
       gatherInParts(visits.size(), partsFor(visits.size(), kRecordsPerThread), partPairs, out,
                     [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
                       for (std::size_t k = begin; k < end; ++k)
@@ -1637,32 +1672,52 @@ struct Contact::Impl {
   void pairsFromCache(std::span<const double> x, std::vector<Pair>& out) {
     // Between flat layers most cached pairs are of two edges that are both flat (their share is
     // 0: edgePairScale): such a pair is dropped first, from its record's apart bit and the two
-    // edges' flatness (exactly 1).
+    // edges' flatness (exactly 1), and is found without reading it: only the records of the
+    // edges that are not flat are looked up.
     const bool flatFirst = cacheEdgePairs > 0 && !edgeFlat.empty() && flatRevision == revision;
-    if (flatFirst && cacheApart.size() != cache.size()) markApart();
-    const int parts = partsFor(cache.size(), kRecordsPerThread);
-    // (an edge's flatness is measured where a pair first asks for it; on several threads, that
-    // of every edge of the cache's edge pairs beforehand, each by one thread, so that no two
-    // threads write one edge's record)
-    if (parts > 1 && flatFirst) measureCacheFlatness(x, parts);
-    auto classify = [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
-      for (std::size_t ci = begin; ci < end; ++ci) {
-        const Cached& c = cache[ci];
-        if (flatFirst && c.kind == Kind::EE && cacheApart[ci] && flatnessOf(std::uint32_t(c.tri), x) == 1.0 &&
-            flatnessOf(std::uint32_t(c.edge2), x) == 1.0)
-          continue;
-        const double within = searchMargin(c);
-        // (it cannot be within its margin; the shrink is at most twice the largest motion)
-        if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within)) continue;
-        Pair p = c.pair();
-        if (c.kind == Kind::EE && !((p.scale = edgePairScale(p.edges, x)) > 0)) continue;  // (as keepIfNear would)
-        const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
-        if (surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t)) continue;
-        keepIfNear(p, x, within, to, true, t, true);
-      }
-    };
-    gatherInParts(cache.size(), parts, partPairs, out, classify);
+    if (!flatFirst) {
+      gatherInParts(cache.size(), partsFor(cache.size(), kRecordsPerThread), partPairs, out,
+                    [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
+                      for (std::size_t ci = begin; ci < end; ++ci) classifyCached(ci, false, x, to);
+                    });
+      return;
+    }
+    if (cacheApart.size() != cache.size()) markApart();
+    // The records visited, ascending: every record but the apart edge pairs (cacheOthers), and
+    // those apart edge pairs that hold an edge that is not flat now; the others, dropped first
+    // below, are not read at all.
+    measureCacheFlatness(x, partsFor(cacheEdges.size(), kRecordsPerThread));
+    ascendingOnce(cache.size(), recordBits, cacheVisitExtra, [&](auto&& mark) {
+      for (const std::uint32_t e : cacheEdges)
+        if (flatnessOf(e, x) != 1.0)
+          for (std::uint32_t k = apartByEdgeStart[e]; k < apartByEdgeStart[e + 1]; ++k) mark(apartByEdge[k]);
+    });
+    cacheVisit.resize(cacheOthers.size() + cacheVisitExtra.size());
+    std::merge(cacheOthers.begin(), cacheOthers.end(), cacheVisitExtra.begin(), cacheVisitExtra.end(), cacheVisit.begin());
+    gatherInParts(cacheVisit.size(), partsFor(cacheVisit.size(), kRecordsPerThread), partPairs, out,
+                  [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
+                    for (std::size_t k = begin; k < end; ++k) classifyCached(cacheVisit[k], true, x, to);
+                  });
   }
+  /// Classifies cached record ci at x into `to`, as the search would (flatFirst: its edges'
+  /// flatness is measured, and an apart pair of two flat edges is dropped first).
+  void classifyCached(std::size_t ci, bool flatFirst, std::span<const double> x, std::vector<Pair>& to) const {
+    const Cached& c = cache[ci];
+    if (flatFirst && c.kind == Kind::EE && cacheApart[ci] && flatnessOf(std::uint32_t(c.tri), x) == 1.0 &&
+        flatnessOf(std::uint32_t(c.edge2), x) == 1.0)
+      return;
+    const double within = searchMargin(c);
+    // (it cannot be within its margin; the shrink is at most twice the largest motion)
+    if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within)) return;
+    Pair p = c.pair();
+    if (c.kind == Kind::EE && !((p.scale = edgePairScale(p.edges, x)) > 0)) return;  // (as keepIfNear would)
+    const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
+    Screen screen;
+    if (surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t, &screen)) return;
+    keepIfNear(p, x, within, to, true, t, true, &screen);
+  }
+  std::vector<std::uint32_t> cacheVisit, cacheVisitExtra;  // (pairsFromCache's)
+  std::vector<std::uint64_t> recordBits;  // (ascendingOnce's, for pairsFromCache and nearFromCache)
   // (per thread: pairsFromCache's, nearFromCache's and analyticPairs', which never run at once)
   std::vector<std::vector<Pair>> partPairs;
   std::size_t cacheEdgePairs = 0;     // the cache's self pairs of two edges (indexCache)
@@ -1671,6 +1726,10 @@ struct Contact::Impl {
   /// point (edgePairScale's condition; a property of the mesh, kept with the cache); empty
   /// until a step needs it.
   std::vector<std::uint8_t> cacheApart;
+  /// The records that are not apart pairs of two edges, ascending (markApart).
+  std::vector<std::uint32_t> cacheOthers;
+  /// Per edge (CSR over the edge slots), the apart pairs of two edges that hold it (markApart).
+  std::vector<std::uint32_t> apartByEdgeStart, apartByEdge;
   void markApart() {
     cacheApart.assign(cache.size(), 0);
     cacheEdges.clear();
@@ -1681,8 +1740,26 @@ struct Contact::Impl {
       }
     std::sort(cacheEdges.begin(), cacheEdges.end());
     cacheEdges.erase(std::unique(cacheEdges.begin(), cacheEdges.end()), cacheEdges.end());
+    cacheOthers.clear();
+    apartByEdgeStart.assign(edgeTris.size() + 1, 0);
+    for (std::size_t ci = 0; ci < cache.size(); ++ci) {
+      const Cached& c = cache[ci];
+      if (c.kind == Kind::EE) cacheApart[ci] = edgesApart(c.tri, c.edge2);
+      if (!cacheApart[ci]) {
+        cacheOthers.push_back(std::uint32_t(ci));
+        continue;
+      }
+      ++apartByEdgeStart[std::size_t(c.tri) + 1];
+      ++apartByEdgeStart[std::size_t(c.edge2) + 1];
+    }
+    for (std::size_t e = 0; e + 1 < apartByEdgeStart.size(); ++e) apartByEdgeStart[e + 1] += apartByEdgeStart[e];
+    apartByEdge.resize(apartByEdgeStart.back());
+    std::vector<std::uint32_t> fill(apartByEdgeStart.begin(), apartByEdgeStart.end() - 1);
     for (std::size_t ci = 0; ci < cache.size(); ++ci)
-      if (cache[ci].kind == Kind::EE) cacheApart[ci] = edgesApart(cache[ci].tri, cache[ci].edge2);
+      if (cacheApart[ci]) {
+        apartByEdge[fill[std::size_t(cache[ci].tri)]++] = std::uint32_t(ci);
+        apartByEdge[fill[std::size_t(cache[ci].edge2)]++] = std::uint32_t(ci);
+      }
   }
   static constexpr std::size_t kRecordsPerThread = 16384, kTrianglesPerThread = 8192;
   /// How many threads work on n items, each given at least `least` of them.
@@ -1691,7 +1768,8 @@ struct Contact::Impl {
     return int(std::min<std::size_t>(std::size_t(threads), most));
   }
   int threads = 1;  // the threads contact's loops may use (Contact's constructor sets it)
-  /// The flatness at x of every edge of the cache's self pairs of two edges, on `parts` threads.
+  /// The flatness at x of every edge of the cache's self pairs of two edges, on `parts` threads
+  /// (each edge by one thread: no two threads write one edge's record).
   void measureCacheFlatness(std::span<const double> x, int parts) const {
     if (edgeFlat.empty() || flatRevision != revision) return;
     inParts(cacheEdges.size(), parts, [&](int, std::size_t begin, std::size_t end) {
