@@ -75,11 +75,17 @@ void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratc
     return;
   }
   scratch.resize(static_cast<std::size_t>(parts));
-  inParts(n, parts, [&](int k, std::size_t begin, std::size_t end) {
-    std::vector<T>& to = k == 0 ? out : scratch[std::size_t(k)];
-    if (k > 0) to.clear();
-    run(begin, end, to);
-  });
+  const std::size_t before = out.size();
+  try {
+    inParts(n, parts, [&](int k, std::size_t begin, std::size_t end) {
+      std::vector<T>& to = k == 0 ? out : scratch[std::size_t(k)];
+      if (k > 0) to.clear();
+      run(begin, end, to);
+    });
+  } catch (...) {
+    out.resize(before);  // (as it was: nothing appended)
+    throw;
+  }
   for (std::size_t k = 1; k < scratch.size(); ++k) out.insert(out.end(), scratch[k].begin(), scratch[k].end());
 }
 
@@ -427,9 +433,9 @@ struct Contact::Impl {
     return evaluatePoints(p, q);
   }
 
-  /// The same from the pair's points.
   /// A point q[0] and a triangle q[1..3] whose closest point has barycentric weights bw (one
-  /// compiled copy: evaluatePoints and the screened classification get the same numbers).
+  /// compiled copy: evaluatePoints and the screened classification get the same numbers from
+  /// the same weights).
   [[gnu::noinline]] static Eval pointTriangleEval(const std::array<V3, 4>& q, const std::array<double, 3>& bw, const V3& n0) {
     Eval e;
     const V3 d = q[0] - (bw[0] * q[1] + bw[1] * q[2] + bw[2] * q[3]);
@@ -438,6 +444,7 @@ struct Contact::Impl {
     e.w = {1, -bw[0], -bw[1], -bw[2]};
     return e;
   }
+  /// The same from the pair's points.
   Eval evaluatePoints(const Pair& p, const std::array<V3, 4>& q) const {
     Eval e;
     switch (p.kind) {
@@ -803,7 +810,8 @@ struct Contact::Impl {
     const double t = (hi - std::sqrt(lift2)) / (hi - lo);
     return t * t * (3 - 2 * t);
   }
-  // Measured when a pair first asks, once per edge and step (most edges meet no other).
+  // Measured once per edge and step: when a pair first asks, or beforehand for every edge of the
+  // cache's edge pairs (measureCacheFlatness).
   std::uint64_t flatRevision = 0;  // the tables' revision edgeFlat is measured on
   std::uint32_t flatGeneration = 0;
   /// At the step's start: the edges' flatness is measured afresh at x as pairs ask for it.
@@ -1688,7 +1696,7 @@ struct Contact::Impl {
     // below, are not read at all.
     measureCacheFlatness(x, partsFor(cacheEdges.size(), kRecordsPerThread));
     ascendingOnce(cache.size(), recordBits, cacheVisitExtra, [&](auto&& mark) {
-      for (const std::uint32_t e : cacheEdges)
+      for (const std::uint32_t e : apartEdges)
         if (flatnessOf(e, x) != 1.0)
           for (std::uint32_t k = apartByEdgeStart[e]; k < apartByEdgeStart[e + 1]; ++k) mark(apartByEdge[k]);
     });
@@ -1728,8 +1736,10 @@ struct Contact::Impl {
   std::vector<std::uint8_t> cacheApart;
   /// The records that are not apart pairs of two edges, ascending (markApart).
   std::vector<std::uint32_t> cacheOthers;
-  /// Per edge (CSR over the edge slots), the apart pairs of two edges that hold it (markApart).
-  std::vector<std::uint32_t> apartByEdgeStart, apartByEdge;
+  /// Per edge (CSR over the edge slots), the apart pairs of two edges that hold it, and the
+  /// edges that hold one, ascending (markApart; edgesApart has checked they are edges: a
+  /// restored cache may hold edge pairs whose edges are not).
+  std::vector<std::uint32_t> apartByEdgeStart, apartByEdge, apartEdges;
   void markApart() {
     cacheApart.assign(cache.size(), 0);
     cacheEdges.clear();
@@ -1752,7 +1762,11 @@ struct Contact::Impl {
       ++apartByEdgeStart[std::size_t(c.tri) + 1];
       ++apartByEdgeStart[std::size_t(c.edge2) + 1];
     }
-    for (std::size_t e = 0; e + 1 < apartByEdgeStart.size(); ++e) apartByEdgeStart[e + 1] += apartByEdgeStart[e];
+    apartEdges.clear();
+    for (std::size_t e = 0; e + 1 < apartByEdgeStart.size(); ++e) {
+      if (apartByEdgeStart[e + 1] > 0) apartEdges.push_back(std::uint32_t(e));
+      apartByEdgeStart[e + 1] += apartByEdgeStart[e];
+    }
     apartByEdge.resize(apartByEdgeStart.back());
     std::vector<std::uint32_t> fill(apartByEdgeStart.begin(), apartByEdgeStart.end() - 1);
     for (std::size_t ci = 0; ci < cache.size(); ++ci)
