@@ -952,18 +952,17 @@ struct Contact::Impl {
   /// With `features` (the penalty's pairs), a point and a triangle (t: the triangle's index in
   /// its surface or obstacle mesh) become a pair of the point and the triangle's closest
   /// feature, kept once for that feature (see toFeature), and two edges are kept only when their
-  /// closest points are inside both (else they are a point's pair). `screened`: surelyDropped
-  /// has already passed it (and an edge pair's share is set), and `screen` holds what it
-  /// measured.
+  /// closest points are inside both (else they are a point's pair). `screen`: surelyDropped has
+  /// already passed it, with what it measured (and an edge pair's share is set).
   void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
-                  int t = -1, bool screened = false, const Screen* screen = nullptr) const {
+                  int t = -1, const Screen* screen = nullptr) const {
     if (features && p.kind == Kind::EE) {
-      if (!screened) p.scale = edgePairScale(p.edges, x);  // (screened: the caller set it)
+      if (!screen) p.scale = edgePairScale(p.edges, x);  // (screened: the caller set it)
       if (!(p.scale > 0)) return;  // (two flat edges: their corners' pairs hold the contact)
       orderEdges(p.id);  // (the same classification whichever way they were met)
     }
     Screen own;
-    if (features && !screened) {
+    if (features && !screen) {
       if (surelyDropped(p.kind, p.surface, p.obstacle, p.id, p.shape, x, t, &own)) return;
       screen = &own;
     }
@@ -1631,7 +1630,7 @@ struct Contact::Impl {
   /// four times its points' motion).
   std::vector<std::uint32_t> cacheByPointStart, cacheByPoint;
   void indexCache() {
-    cacheApart.clear();
+    apartIndexed = false;
     cacheEdgePairs = std::size_t(std::count_if(cache.begin(), cache.end(), [](const Cached& c) { return c.kind == Kind::EE; }));
     cacheLow.resize(cache.size());
     cacheNearest = kInf;
@@ -1678,22 +1677,21 @@ struct Contact::Impl {
   /// cache is classified on several threads, each over a contiguous run of records, its pairs
   /// appended in the cache's order: the same pairs in the same order whatever the threads.
   void pairsFromCache(std::span<const double> x, std::vector<Pair>& out) {
-    // Between flat layers most cached pairs are of two edges that are both flat (their share is
-    // 0: edgePairScale): such a pair is dropped first, from its record's apart bit and the two
-    // edges' flatness (exactly 1), and is found without reading it: only the records of the
-    // edges that are not flat are looked up.
+    // Between flat layers most cached pairs are of two edges that are both flat, whose triangles
+    // share no point (their share is 0: edgePairScale drops them). Such a pair is not read at
+    // all: of the apart pairs of two edges (markApart), only the records of the edges that are
+    // not flat now (flatness below exactly 1) are visited.
     const bool flatFirst = cacheEdgePairs > 0 && !edgeFlat.empty() && flatRevision == revision;
     if (!flatFirst) {
       gatherInParts(cache.size(), partsFor(cache.size(), kRecordsPerThread), partPairs, out,
                     [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
-                      for (std::size_t ci = begin; ci < end; ++ci) classifyCached(ci, false, x, to);
+                      for (std::size_t ci = begin; ci < end; ++ci) classifyCached(ci, x, to);
                     });
       return;
     }
-    if (cacheApart.size() != cache.size()) markApart();
+    if (!apartIndexed) markApart();
     // The records visited, ascending: every record but the apart edge pairs (cacheOthers), and
-    // those apart edge pairs that hold an edge that is not flat now; the others, dropped first
-    // below, are not read at all.
+    // those apart edge pairs that hold an edge that is not flat now.
     measureCacheFlatness(x, partsFor(cacheEdges.size(), kRecordsPerThread));
     ascendingOnce(cache.size(), recordBits, cacheVisitExtra, [&](auto&& mark) {
       for (const std::uint32_t e : apartEdges)
@@ -1704,16 +1702,12 @@ struct Contact::Impl {
     std::merge(cacheOthers.begin(), cacheOthers.end(), cacheVisitExtra.begin(), cacheVisitExtra.end(), cacheVisit.begin());
     gatherInParts(cacheVisit.size(), partsFor(cacheVisit.size(), kRecordsPerThread), partPairs, out,
                   [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
-                    for (std::size_t k = begin; k < end; ++k) classifyCached(cacheVisit[k], true, x, to);
+                    for (std::size_t k = begin; k < end; ++k) classifyCached(cacheVisit[k], x, to);
                   });
   }
-  /// Classifies cached record ci at x into `to`, as the search would (flatFirst: its edges'
-  /// flatness is measured, and an apart pair of two flat edges is dropped first).
-  void classifyCached(std::size_t ci, bool flatFirst, std::span<const double> x, std::vector<Pair>& to) const {
+  /// Classifies cached record ci at x into `to`, as the search would.
+  void classifyCached(std::size_t ci, std::span<const double> x, std::vector<Pair>& to) const {
     const Cached& c = cache[ci];
-    if (flatFirst && c.kind == Kind::EE && cacheApart[ci] && flatnessOf(std::uint32_t(c.tri), x) == 1.0 &&
-        flatnessOf(std::uint32_t(c.edge2), x) == 1.0)
-      return;
     const double within = searchMargin(c);
     // (it cannot be within its margin; the shrink is at most twice the largest motion)
     if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within)) return;
@@ -1722,7 +1716,7 @@ struct Contact::Impl {
     const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
     Screen screen;
     if (surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t, &screen)) return;
-    keepIfNear(p, x, within, to, true, t, true, &screen);
+    keepIfNear(p, x, within, to, true, t, &screen);
   }
   std::vector<std::uint32_t> cacheVisit, cacheVisitExtra;  // (pairsFromCache's)
   std::vector<std::uint64_t> recordBits;  // (ascendingOnce's, for pairsFromCache and nearFromCache)
@@ -1730,10 +1724,10 @@ struct Contact::Impl {
   std::vector<std::vector<Pair>> partPairs;
   std::size_t cacheEdgePairs = 0;     // the cache's self pairs of two edges (indexCache)
   std::vector<std::uint32_t> cacheEdges;  // their edges, each once, ascending (markApart)
-  /// Per cached pair of two edges, whether the triangles beside the one and the other share no
-  /// point (edgePairScale's condition; a property of the mesh, kept with the cache); empty
-  /// until a step needs it.
-  std::vector<std::uint8_t> cacheApart;
+  /// Whether markApart has indexed the cache's apart pairs of two edges: those whose triangles,
+  /// beside the one edge and the other, share no point (edgePairScale's condition; a property of
+  /// the mesh, kept with the cache until it is built again).
+  bool apartIndexed = false;
   /// The records that are not apart pairs of two edges, ascending (markApart).
   std::vector<std::uint32_t> cacheOthers;
   /// Per edge (CSR over the edge slots), the apart pairs of two edges that hold it, and the
@@ -1741,7 +1735,7 @@ struct Contact::Impl {
   /// restored cache may hold edge pairs whose edges are not).
   std::vector<std::uint32_t> apartByEdgeStart, apartByEdge, apartEdges;
   void markApart() {
-    cacheApart.assign(cache.size(), 0);
+    std::vector<std::uint8_t> apart(cache.size(), 0);
     cacheEdges.clear();
     for (const Cached& c : cache)
       if (c.kind == Kind::EE) {
@@ -1754,8 +1748,8 @@ struct Contact::Impl {
     apartByEdgeStart.assign(edgeTris.size() + 1, 0);
     for (std::size_t ci = 0; ci < cache.size(); ++ci) {
       const Cached& c = cache[ci];
-      if (c.kind == Kind::EE) cacheApart[ci] = edgesApart(c.tri, c.edge2);
-      if (!cacheApart[ci]) {
+      if (c.kind == Kind::EE) apart[ci] = edgesApart(c.tri, c.edge2);
+      if (!apart[ci]) {
         cacheOthers.push_back(std::uint32_t(ci));
         continue;
       }
@@ -1770,10 +1764,11 @@ struct Contact::Impl {
     apartByEdge.resize(apartByEdgeStart.back());
     std::vector<std::uint32_t> fill(apartByEdgeStart.begin(), apartByEdgeStart.end() - 1);
     for (std::size_t ci = 0; ci < cache.size(); ++ci)
-      if (cacheApart[ci]) {
+      if (apart[ci]) {
         apartByEdge[fill[std::size_t(cache[ci].tri)]++] = std::uint32_t(ci);
         apartByEdge[fill[std::size_t(cache[ci].edge2)]++] = std::uint32_t(ci);
       }
+    apartIndexed = true;
   }
   static constexpr std::size_t kRecordsPerThread = 16384, kTrianglesPerThread = 8192;
   /// How many threads work on n items, each given at least `least` of them.
