@@ -32,6 +32,7 @@
 #include <memory>
 #include <vector>
 
+#include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/contact.hpp"
@@ -152,7 +153,7 @@ Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.s
       table.friction = 0.4;
       obstacles = {ball, table};
     }
-    sim.model().setContact(std::make_unique<cutsim::forcefields::Contact>(sim.topology(), c, obstacles));
+    cutsim::core::addContact(sim, std::make_unique<cutsim::forcefields::Contact>(sim.topology(), c, obstacles));
   }
   SolverSettings st;
   st.kind = SolverSettings::Kind::ImplicitCG;
@@ -182,7 +183,7 @@ void BM_ContactStep(benchmark::State& state, Shape shape, bool contact, double s
     clamped += st.clamped;
     benchmark::DoNotOptimize(s.sim->state().x().data());
   }
-  if (const auto* c = s.sim->model().contact()) active = long(c->lastStep().active);
+  if (const auto* c = cutsim::core::findContact(*s.sim)) active = long(c->lastStep().active);
   state.counters["clamped_per_step"] = double(clamped) / double(state.iterations());
   state.counters["pairs_in_contact"] = double(active);
   state.counters["vertices"] = double(kSide * kSide);

@@ -24,7 +24,7 @@
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/core/state.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/mirror_observer.hpp"

@@ -19,7 +19,7 @@
 #include "contact_archive.hpp"
 #include "contact_bvh.hpp"
 #include "contact_geometry.hpp"
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/registry.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -2773,11 +2773,11 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
 // ---- checkpoints ----
 
 namespace {
-void saveV3s(topology::ArchiveWriter& out, const std::vector<V3>& v) { contact::saveRecords(out, v); }
-void loadV3s(topology::ArchiveReader& in, std::vector<V3>& v, const char* what) { contact::loadRecords(in, v, what); }
+void saveV3s(ArchiveWriter& out, const std::vector<V3>& v) { contact::saveRecords(out, v); }
+void loadV3s(ArchiveReader& in, std::vector<V3>& v, const char* what) { contact::loadRecords(in, v, what); }
 }  // namespace
 
-void Contact::saveState(topology::ArchiveWriter& out) const {
+void Contact::saveState(ArchiveWriter& out) const {
   const Impl& I = *impl_;
   using contact::saveRecords;
   out.u64(obstacles_.size());
@@ -2837,7 +2837,7 @@ void Contact::saveState(topology::ArchiveWriter& out) const {
   for (std::size_t v : {I.cacheUses, I.cacheBuilds, I.usesSinceBuild, I.plainSteps, I.backoff, I.plainSearches}) out.u64(v);
 }
 
-void Contact::loadState(topology::ArchiveReader& in) {
+void Contact::loadState(ArchiveReader& in) {
   Impl& I = *impl_;
   using contact::loadRecords;
   if (in.u64() != obstacles_.size()) in.fail("contact: the saved run has another number of obstacles");

@@ -7,19 +7,19 @@
 #include <type_traits>
 #include <vector>
 
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 namespace cutsim::forcefields::contact {
 
 template <class T>
-void saveRecords(topology::ArchiveWriter& out, const std::vector<T>& v) {
+void saveRecords(ArchiveWriter& out, const std::vector<T>& v) {
   static_assert(std::is_standard_layout_v<T> && std::is_trivially_destructible_v<T>);
   out.u64(v.size());
   out.raw(v.data(), v.size() * sizeof(T));
 }
 
 template <class T>
-void loadRecords(topology::ArchiveReader& in, std::vector<T>& v, const char* what) {
+void loadRecords(ArchiveReader& in, std::vector<T>& v, const char* what) {
   static_assert(std::is_standard_layout_v<T> && std::is_trivially_destructible_v<T>);
   const std::uint64_t n = in.u64();
   if (n > in.remaining() / sizeof(T)) in.fail(std::string("contact: ") + what + ": a count of " + std::to_string(n));

@@ -169,13 +169,13 @@ void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problem
                          " leaves");
 }
 
-void Bvh::save(topology::ArchiveWriter& out) const {
+void Bvh::save(ArchiveWriter& out) const {
   saveRecords(out, nodes_);
   saveRecords(out, order_);
   saveRecords(out, boxes_);
 }
 
-void Bvh::load(topology::ArchiveReader& in) {
+void Bvh::load(ArchiveReader& in) {
   loadRecords(in, nodes_, "BVH nodes");
   loadRecords(in, order_, "BVH order");
   loadRecords(in, boxes_, "BVH boxes");

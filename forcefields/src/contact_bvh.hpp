@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "contact_geometry.hpp"
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 namespace cutsim::forcefields::contact {
 
@@ -34,8 +34,8 @@ class Bvh {
   void check(const std::vector<Box>& boxes, std::vector<std::string>& problems) const;
 
   /// Checkpoints: the hierarchy as built (its shape follows the boxes it was built with).
-  void save(topology::ArchiveWriter& out) const;
-  void load(topology::ArchiveReader& in);
+  void save(ArchiveWriter& out) const;
+  void load(ArchiveReader& in);
 
  private:
   struct Node {

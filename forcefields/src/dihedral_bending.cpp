@@ -1,5 +1,5 @@
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 
 #include <algorithm>
@@ -539,11 +539,11 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<DihedralBending>(t, std::any_cast<const DihedralBendingParameters&>(p));
     }});
 }  // namespace
-void DihedralBending::saveState(topology::ArchiveWriter& out) const {
+void DihedralBending::saveState(ArchiveWriter& out) const {
   out.boolean(params_.exactHessian);
   saveTable(out);
 }
-void DihedralBending::loadState(topology::ArchiveReader& in) {
+void DihedralBending::loadState(ArchiveReader& in) {
   setExactStiffness(in.boolean());
   loadTable(in, *topology_);
 }

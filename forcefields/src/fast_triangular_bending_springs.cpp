@@ -1,5 +1,5 @@
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 
 #include <algorithm>
@@ -294,7 +294,7 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<FastTriangularBendingSprings>(t, std::any_cast<const BendingParameters&>(p));
     }});
 }  // namespace
-void FastTriangularBendingSprings::saveState(topology::ArchiveWriter& out) const { saveTable(out); }
-void FastTriangularBendingSprings::loadState(topology::ArchiveReader& in) { loadTable(in, *topology_); }
+void FastTriangularBendingSprings::saveState(ArchiveWriter& out) const { saveTable(out); }
+void FastTriangularBendingSprings::loadState(ArchiveReader& in) { loadTable(in, *topology_); }
 
 }  // namespace cutsim::forcefields

@@ -1,31 +1,9 @@
 #include "cutsim/forcefields/force_field.hpp"
 
-#include <charconv>
-#include <cmath>
-
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::forcefields {
-
-std::string describeNumber(double v) {
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, res.ptr);
-}
-
-void requireFiniteNonNegative(const char* name, double v) {
-  if (!std::isfinite(v)) {
-    throw InvalidInput(name, "must be a finite number >= 0, got " + describeNumber(v));
-  }
-  if (v < 0.0) throw InvalidInput(name, "must be >= 0, got " + describeNumber(v));
-}
-
-void requireFinitePositive(const char* name, double v) {
-  if (!std::isfinite(v) || !(v > 0.0)) {
-    throw InvalidInput(name, "must be a finite number > 0, got " + describeNumber(v));
-  }
-}
 
 MatrixAccumulator::~MatrixAccumulator() = default;
 
@@ -57,10 +35,10 @@ Eigen::SparseMatrix<double> TripletAccumulator::toSparse(Index numPoints) const 
 
 ForceField::~ForceField() = default;
 
-void ForceField::saveState(topology::ArchiveWriter&) const {
+void ForceField::saveState(ArchiveWriter&) const {
   throw Error("checkpoints: the " + typeName() + " force field cannot be saved");
 }
-void ForceField::loadState(topology::ArchiveReader&) {
+void ForceField::loadState(ArchiveReader&) {
   throw Error("checkpoints: the " + typeName() + " force field cannot be restored");
 }
 

@@ -46,12 +46,12 @@ auto recordPerLiveEdge(const topology::Topology& t, MakeRecord make) {
 // The table
 
 template <class F, class T>
-void HingeTable<F, T>::saveTable(topology::ArchiveWriter& out) const {
+void HingeTable<F, T>::saveTable(ArchiveWriter& out) const {
   table_.save(out);
 }
 
 template <class F, class T>
-void HingeTable<F, T>::loadTable(topology::ArchiveReader& in, const topology::Topology& topology) {
+void HingeTable<F, T>::loadTable(ArchiveReader& in, const topology::Topology& topology) {
   table_.load(in);
   counters_ = recount();
   eventProblems_.clear();

@@ -3,8 +3,8 @@
 #include <numbers>
 
 #include "cutsim/forcefields/contact.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::forcefields {
 

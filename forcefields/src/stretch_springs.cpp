@@ -1,5 +1,5 @@
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 
 #include <algorithm>
@@ -421,11 +421,11 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<StretchSprings>(t, std::any_cast<const StretchParameters&>(p));
     }});
 }  // namespace
-void StretchSprings::saveState(topology::ArchiveWriter& out) const {
+void StretchSprings::saveState(ArchiveWriter& out) const {
   out.boolean(params_.stableJacobian);
   table_.save(out);
 }
-void StretchSprings::loadState(topology::ArchiveReader& in) {
+void StretchSprings::loadState(ArchiveReader& in) {
   params_.stableJacobian = in.boolean();
   table_.load(in);
   linValid_ = false;

@@ -5,7 +5,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/registry.hpp"
 
 namespace cutsim::forcefields {

@@ -1,5 +1,5 @@
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/forcefields/registry.hpp"
 
@@ -523,12 +523,12 @@ const bool registered = ForceFieldRegistry::instance().add({
       return std::make_unique<TriangularFEM>(t, std::any_cast<const TriangularFEMParameters&>(p));
     }});
 }  // namespace
-void TriangularFEM::saveState(topology::ArchiveWriter& out) const {
+void TriangularFEM::saveState(ArchiveWriter& out) const {
   out.boolean(params_.exactHessian);
   out.u64(numDegenerate_);
   table_.save(out);
 }
-void TriangularFEM::loadState(topology::ArchiveReader& in) {
+void TriangularFEM::loadState(ArchiveReader& in) {
   params_.exactHessian = in.boolean();
   numDegenerate_ = std::size_t(in.u64());
   table_.load(in);

@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "cutsim/forcefields/registry.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::forcefields {
 namespace {

@@ -25,12 +25,13 @@
 #include <vector>
 
 #include "cutsim/core/output.hpp"
+#include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/core/version.hpp"
 #include "cutsim/forcefields/contact.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace py = pybind11;
@@ -605,7 +606,7 @@ class Simulation {
   }
   void moveObstacle(const std::string& name, const py::handle& delta, double duration) {
     requireMutable("move_obstacle");
-    forcefields::Contact* c = sim().model().contact();
+    forcefields::Contact* c = core::findContact(sim());
     if (!c) throw InvalidInput("move_obstacle", "the scene has no contact section (and so no obstacles)");
     const auto& obstacles = c->obstacles();
     for (std::size_t k = 0; k < obstacles.size(); ++k)
@@ -703,7 +704,7 @@ class Simulation {
   /// The contact's settings, obstacles and last step's figures; None without contact.
   py::object contact() {
     requireReadable("contact");
-    const forcefields::Contact* c = sim().model().contact();
+    const forcefields::Contact* c = core::findContact(sim());
     if (!c) return py::none();
     const auto& p = c->parameters();
     py::list obstacles;
@@ -728,7 +729,7 @@ class Simulation {
   /// of a scene): (description, distance), at most `limit`.
   std::vector<std::pair<std::string, double>> intersections(std::size_t limit) {
     requireReadable("intersections");
-    const forcefields::Contact* c = sim().model().contact();
+    const forcefields::Contact* c = core::findContact(sim());
     if (!c) throw InvalidInput("intersections", "the scene has no contact section");
     std::vector<std::pair<std::string, double>> out;
     for (const auto& p : c->intersections(sim().state().x(), limit)) out.emplace_back(p.what, p.distance);

@@ -7,7 +7,7 @@
 #include "commands.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::cli {
 namespace {

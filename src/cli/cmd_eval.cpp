@@ -10,7 +10,7 @@
 
 #include "commands.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 

@@ -6,7 +6,7 @@
 
 #include "commands.hpp"
 #include "cutsim/core/sofa_scene.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::cli {
 namespace {

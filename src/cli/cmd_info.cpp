@@ -10,7 +10,7 @@
 
 #include "commands.hpp"
 #include "cutsim/core/mesh_info.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
 namespace cutsim::cli {

@@ -8,7 +8,7 @@
 
 #include "commands.hpp"
 #include "cutsim/core/sofa_regression.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::cli {
 namespace {

@@ -22,8 +22,8 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/core/version.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace cutsim::cli {
@@ -149,7 +149,7 @@ std::string buildIdentity() {
     const std::filesystem::path exe = "/proc/self/exe";
     std::error_code ec;
     const std::uintmax_t size = std::filesystem::file_size(exe, ec);
-    const std::optional<std::uint32_t> crc = topology::fileCrc32(exe);
+    const std::optional<std::uint32_t> crc = fileCrc32(exe);
     if (ec || !crc) return std::string("unknown");
     char text[64];
     std::snprintf(text, sizeof text, "%08x-%ju", unsigned(*crc), size);
@@ -163,7 +163,7 @@ constexpr const char* kCheckpointName = "checkpoint.ckpt";
 /// Writes OUT/checkpoint.ckpt atomically (the previous one stays whole until the new one is).
 void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& source, const core::SceneRunner& runner,
                      core::OutputWriter& writer) {
-  topology::ArchiveWriter w;
+  ArchiveWriter w;
   w.begin("cutsim");
   w.str(core::version());
   w.str(source.sceneText);
@@ -403,7 +403,7 @@ void resumeRun(const ResumeOptions& options) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec))
     throw InvalidInput(file.string(), "is a folder: give its " + std::string(kCheckpointName));
-  topology::ArchiveReader in(file);
+  ArchiveReader in(file);
   in.open("cutsim");
   const std::string written = in.str();
   RunSource source;

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "commands.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace cutsim::cli {

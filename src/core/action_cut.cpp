@@ -7,16 +7,15 @@
 #include <optional>
 
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
 #include "cutsim/topology/triangle_grid.hpp"
 
 namespace cutsim::core {
 namespace {
 
-using forcefields::describeNumber;
 using topology::geometry::closestOnTriangle;
 using topology::geometry::dist2;
 
@@ -68,7 +67,7 @@ class CutAction final : public TimelineAction {
   }
 
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override {
+  void saveState(ArchiveWriter& out) const override {
     out.f64(done_);
     out.boolean(started_);
     out.boolean(finished_);
@@ -76,7 +75,7 @@ class CutAction final : public TimelineAction {
     out.boolean(tip_.has_value());
     if (tip_) out.raw(tip_->data(), sizeof(double) * 3);
   }
-  void loadState(topology::ArchiveReader& in, const Simulation&) override {
+  void loadState(ArchiveReader& in, const Simulation&) override {
     done_ = in.f64();
     started_ = in.boolean();
     finished_ = in.boolean();

@@ -26,9 +26,9 @@
 #include <unordered_set>
 
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
 #include "tearing.hpp"
 
@@ -89,8 +89,8 @@ class FractureAction final : public TimelineAction {
   void start(ActionContext& c) override {
     const double edge = c.meanRestEdge();
     if (p_.length < 1.5 * edge)
-      c.fail("fracture: length " + forcefields::describeNumber(p_.length) +
-             " is shorter than 1.5 mean rest edges (" + forcefields::describeNumber(1.5 * edge) +
+      c.fail("fracture: length " + describeNumber(p_.length) +
+             " is shorter than 1.5 mean rest edges (" + describeNumber(1.5 * edge) +
              "): the mesh cannot resolve the disc the strain is averaged over");
     piece_ = std::max(0.5 * edge, 1e-12);
     on_ = true;
@@ -124,7 +124,7 @@ class FractureAction final : public TimelineAction {
   }
 
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override {
+  void saveState(ArchiveWriter& out) const override {
     out.boolean(on_);
     out.f64(piece_);
     out.u64(revision_);
@@ -135,7 +135,7 @@ class FractureAction final : public TimelineAction {
       out.f64(t.budget);
     }
   }
-  void loadState(topology::ArchiveReader& in, const Simulation& sim) override {
+  void loadState(ArchiveReader& in, const Simulation& sim) override {
     on_ = in.boolean();
     piece_ = in.f64();
     revision_ = in.u64();

@@ -1,7 +1,7 @@
 // The "grasp" and "release" actions: points that follow a displacement path from where they are
 // when grasped, and the end of that.
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/numbers.hpp"
 
 namespace cutsim::core {
 namespace {

@@ -1,6 +1,6 @@
 // The "remove" action: carves out the triangles whose rest centroid lies in a sphere or a box.
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 namespace {

@@ -2,7 +2,7 @@
 // triangles are both strained across the edge above a threshold, the most strained first, each
 // tear followed by the quality repair around it.
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 #include "tearing.hpp"
 
 namespace cutsim::core {
@@ -15,8 +15,8 @@ class TearingAction final : public TimelineAction {
   bool rehearsed() const override { return false; }  // at rest nothing tears
   void start(ActionContext&) override { on_ = true; }
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override { out.boolean(on_); }
-  void loadState(topology::ArchiveReader& in, const Simulation&) override { on_ = in.boolean(); }
+  void saveState(ArchiveWriter& out) const override { out.boolean(on_); }
+  void loadState(ArchiveReader& in, const Simulation&) override { on_ = in.boolean(); }
   void afterStep(ActionContext& c) override {
     if (!on_) return;
     Simulation& sim = c.simulation();

@@ -96,7 +96,7 @@ const bool registered =
     registerImplicitIntegrator<BDF2>("bdf2", "second-order backward differentiation, linearised once per step (Choi and Ko)");
 }  // namespace
 
-void BDF2::saveState(topology::ArchiveWriter& out) const {
+void BDF2::saveState(ArchiveWriter& out) const {
   ImplicitIntegrator::saveState(out);
   for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) checkpoint::saveVector(out, *v);
   out.f64(dtLast_);
@@ -105,7 +105,7 @@ void BDF2::saveState(topology::ArchiveWriter& out) const {
   out.i64(restarts_);
 }
 
-void BDF2::loadState(topology::ArchiveReader& in) {
+void BDF2::loadState(ArchiveReader& in) {
   ImplicitIntegrator::loadState(in);
   for (Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) *v = checkpoint::loadVector(in);
   dtLast_ = in.f64();

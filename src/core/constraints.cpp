@@ -4,7 +4,7 @@
 
 #include "checkpoint_io.hpp"
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
@@ -127,11 +127,11 @@ Vec3 Grasp::target(PointId p, double t) const {
   return {a[0] + d[0], a[1] + d[1], a[2] + d[2]};
 }
 
-void PointSet::saveState(topology::ArchiveWriter& out) const {
+void PointSet::saveState(ArchiveWriter& out) const {
   checkpoint::saveValues(out, flags_.values());
   checkpoint::saveValues(out, data_.values());
 }
-void PointSet::loadState(topology::ArchiveReader& in) {
+void PointSet::loadState(ArchiveReader& in) {
   checkpoint::loadValues(in, flags_.values(), name_ + ": members");
   checkpoint::loadValues(in, data_.values(), name_ + ": data");
   count_ = 0;

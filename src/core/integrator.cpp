@@ -1,13 +1,14 @@
 // What the integrators share: step flags, the failure policy, the implicit base, the shorthand
 // settings of the first scenes (integrator.hpp).
 #include "cutsim/core/integrator.hpp"
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 #include <cmath>
 #include <sstream>
 
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/core/registries.hpp"
 
 namespace cutsim::core {
 
@@ -45,15 +46,15 @@ SolveFailurePolicy parseSolveFailurePolicy(std::string_view name) {
 }
 
 void ImplicitSettings::validate() const {
-  forcefields::requireFiniteNonNegative("rayleighMass", rayleighMass);
-  forcefields::requireFiniteNonNegative("rayleighStiffness", rayleighStiffness);
-  forcefields::requireFinitePositive("fallbackAbove", fallbackAbove);
+  requireFiniteNonNegative("rayleighMass", rayleighMass);
+  requireFiniteNonNegative("rayleighStiffness", rayleighStiffness);
+  requireFinitePositive("fallbackAbove", fallbackAbove);
 }
 
 void NewtonSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("maxIterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  forcefields::requireFinitePositive("tolerance", tolerance);
+  requireFinitePositive("tolerance", tolerance);
 }
 
 ImplicitIntegrator::ImplicitIntegrator(ImplicitSettings settings, std::unique_ptr<LinearSolver> solver)
@@ -135,7 +136,7 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   // A capped solve that got close is kept (flagged); non-positive curvature always falls back.
   if (!far && !r.indefinite) return;
   if (solver_->direct()) throw StepFailure{describe(*solver_, r), r.indefinite};
-  if (!fallback_) fallback_ = std::make_unique<CholmodSolver>();
+  if (!fallback_) fallback_ = makeFallbackSolver(settings_.fallbackSolver);
   dv = guess;
   const SolveReport f = fallback_->solve(A, b, dv);
   stats.iterations += f.iterations;
@@ -153,10 +154,10 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
 void SolverSettings::validate() const {
   if (cgMaxIterations < 1)
     throw InvalidInput("solver.iterations", "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
-  forcefields::requireFinitePositive("solver.tolerance", cgTolerance);
-  forcefields::requireFiniteNonNegative("solver.rayleighMass", rayleighMass);
-  forcefields::requireFiniteNonNegative("solver.rayleighStiffness", rayleighStiffness);
-  forcefields::requireFinitePositive("solver.fallbackAbove", fallbackAbove);
+  requireFinitePositive("solver.tolerance", cgTolerance);
+  requireFiniteNonNegative("solver.rayleighMass", rayleighMass);
+  requireFiniteNonNegative("solver.rayleighStiffness", rayleighStiffness);
+  requireFinitePositive("solver.fallbackAbove", fallbackAbove);
 }
 
 std::string_view toString(SolverSettings::Kind kind) {
@@ -192,19 +193,21 @@ std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& s) {
   return std::make_unique<ImplicitEuler>(is, std::move(ls));
 }
 
-}  // namespace cutsim::core
-
 // ---- registration: the keys the implicit integrators share ----
-#include "cutsim/core/registries.hpp"
-
-namespace cutsim::core {
 
 std::vector<KeyInfo> implicitKeys() {
   return {{"rayleighMass", "mass-proportional damping factor, >= 0 (default 0)"},
           {"rayleighStiffness", "stiffness-proportional damping factor, >= 0 (default 0)"},
           {"onSolveFailure",
            "warn, fail or fallback (default): what a linear solve that misses its tolerance does"},
-          {"fallbackAbove", "relative residual above which fallback re-solves with CHOLMOD (default 1e-3)"}};
+          {"fallbackAbove", "relative residual above which fallback re-solves with the fallbackSolver (default 1e-3)"},
+          {"fallbackSolver", "the linear solver that re-solves, by name, with its defaults (default cholmod)"}};
+}
+
+std::unique_ptr<LinearSolver> makeFallbackSolver(const std::string& name) {
+  const auto* entry = LinearSolverRegistry::instance().find(name);
+  if (!entry) throw InvalidInput("fallbackSolver", "unknown linear solver \"" + name + "\"");
+  return entry->build(entry->read(ScalarParameters("fallbackSolver")));
 }
 
 ImplicitSettings readImplicitSettings(const ParameterSource& s) {
@@ -213,28 +216,37 @@ ImplicitSettings readImplicitSettings(const ParameterSource& s) {
   p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
   p.onSolveFailure = parseSolveFailurePolicy(s.choice("onSolveFailure", "fallback", {"warn", "fail", "fallback"}));
   p.fallbackAbove = s.positive("fallbackAbove", p.fallbackAbove);
-  if (s.has("fallbackAbove") && p.onSolveFailure != SolveFailurePolicy::Fallback)
-    s.fail("fallbackAbove", "is used only with \"onSolveFailure\": \"fallback\" (here \"" +
-                                std::string(toString(p.onSolveFailure)) + "\")");
+  for (const char* key : {"fallbackAbove", "fallbackSolver"})
+    if (s.has(key) && p.onSolveFailure != SolveFailurePolicy::Fallback)
+      s.fail(key, "is used only with \"onSolveFailure\": \"fallback\" (here \"" +
+                      std::string(toString(p.onSolveFailure)) + "\")");
+  if (s.has("fallbackSolver")) {
+    p.fallbackSolver = s.string("fallbackSolver");
+    if (!LinearSolverRegistry::instance().find(p.fallbackSolver)) {
+      std::string names;
+      for (const std::string& n : LinearSolverRegistry::instance().names()) names += (names.empty() ? "" : ", ") + n;
+      s.fail("fallbackSolver", "unknown linear solver \"" + p.fallbackSolver + "\" (" + names + ")");
+    }
+  }
   s.check([&] { p.validate(); });
   return p;
 }
 
 
-void ImplicitIntegrator::saveState(topology::ArchiveWriter& out) const {
+void ImplicitIntegrator::saveState(ArchiveWriter& out) const {
   out.str(solver_->name());
   solver_->saveState(out);
   out.boolean(fallback_ != nullptr);
   if (fallback_) fallback_->saveState(out);
 }
 
-void ImplicitIntegrator::loadState(topology::ArchiveReader& in) {
+void ImplicitIntegrator::loadState(ArchiveReader& in) {
   const std::string name = in.str();
   if (name != solver_->name())
     in.fail("the saved linear solver is " + name + ", the scene's " + std::string(solver_->name()));
   solver_->loadState(in);
   if (in.boolean()) {
-    fallback_ = std::make_unique<CholmodSolver>();
+    fallback_ = makeFallbackSolver(settings_.fallbackSolver);
     fallback_->loadState(in);
   }
 }

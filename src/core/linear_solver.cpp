@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "checkpoint_io.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
@@ -109,7 +109,7 @@ Vec SystemOperator::freeRhs(const Vec& b, const Vec& dv) const {
 void CGSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("iterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  forcefields::requireFinitePositive("tolerance", tolerance);
+  requireFinitePositive("tolerance", tolerance);
 }
 
 ConjugateGradient::ConjugateGradient(CGSettings settings) : settings_(settings) { settings_.validate(); }
@@ -198,7 +198,7 @@ const bool registered = LinearSolverRegistry::instance().add({
 using checkpoint::loadVector;
 using checkpoint::saveVector;
 
-void ConjugateGradient::saveState(topology::ArchiveWriter& out) const { saveVector(out, warm_); }
-void ConjugateGradient::loadState(topology::ArchiveReader& in) { warm_ = loadVector(in); }
+void ConjugateGradient::saveState(ArchiveWriter& out) const { saveVector(out, warm_); }
+void ConjugateGradient::loadState(ArchiveReader& in) { warm_ = loadVector(in); }
 
 }  // namespace cutsim::core

@@ -1,12 +1,12 @@
 // CholmodSolver: supernodal Cholesky of the system assembled in place (linear_solver.hpp).
 #include <dlfcn.h>
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCore>
 
 #include "cutsim/core/linear_solver.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "system_matrix.hpp"
 
 namespace cutsim::core {
@@ -188,7 +188,7 @@ const bool registered = LinearSolverRegistry::instance().add({
       return std::make_unique<CholmodSolver>(std::any_cast<const CholmodSettings&>(p));
     }});
 }  // namespace
-void CholmodSolver::saveState(topology::ArchiveWriter& out) const {
+void CholmodSolver::saveState(ArchiveWriter& out) const {
   const Impl& S = *impl_;
   const bool built = S.system.built() || S.restored;
   out.boolean(built);
@@ -198,7 +198,7 @@ void CholmodSolver::saveState(topology::ArchiveWriter& out) const {
   out.i64(S.solvesOnPattern);
 }
 
-void CholmodSolver::loadState(topology::ArchiveReader& in) {
+void CholmodSolver::loadState(ArchiveReader& in) {
   Impl& S = *impl_;
   S.restored = in.boolean();
   const std::uint64_t ordering = in.u64();

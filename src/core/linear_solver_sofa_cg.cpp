@@ -3,8 +3,8 @@
 
 #include "cutsim/core/linear_solver.hpp"
 #include "checkpoint_io.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
@@ -13,8 +13,8 @@ using Vec = Eigen::VectorXd;
 void SofaCGSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("iterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  forcefields::requireFinitePositive("tolerance", tolerance);
-  forcefields::requireFiniteNonNegative("threshold", threshold);
+  requireFinitePositive("tolerance", tolerance);
+  requireFiniteNonNegative("threshold", threshold);
 }
 
 SofaConjugateGradient::SofaConjugateGradient(SofaCGSettings settings) : settings_(settings) { settings_.validate(); }
@@ -115,7 +115,7 @@ using checkpoint::loadVector;
 using checkpoint::saveVector;
 
 // (lastStop() describes the last solve only: not kept.)
-void SofaConjugateGradient::saveState(topology::ArchiveWriter& out) const { saveVector(out, warm_); }
-void SofaConjugateGradient::loadState(topology::ArchiveReader& in) { warm_ = loadVector(in); }
+void SofaConjugateGradient::saveState(ArchiveWriter& out) const { saveVector(out, warm_); }
+void SofaConjugateGradient::loadState(ArchiveReader& in) { warm_ = loadVector(in); }
 
 }  // namespace cutsim::core

@@ -5,8 +5,8 @@
 #include "checkpoint_io.hpp"
 #include <numeric>
 
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
@@ -23,7 +23,7 @@ double LumpedMass::triangleArea(const topology::Topology& t, topology::TriangleI
 }
 
 double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass) {
-  forcefields::requireFinitePositive("mass.total", totalMass);
+  requireFinitePositive("mass.total", totalMass);
   double area = 0;
   for (auto f : t.triangles()) area += triangleArea(t, f);
   if (!(area > 0)) throw InvalidInput("mass.total", "the mesh has no area to spread a total mass over");
@@ -37,7 +37,7 @@ LumpedMass::LumpedMass(topology::Topology& t, MassLaw law)
       density_(law.kind == MassLaw::Kind::AreaDensity ? law.value : 0.0),
       mass_(t, "mass per point"),
       triangleArea_(t, "mass: triangle rest areas") {
-  forcefields::requireFinitePositive(law.kind == MassLaw::Kind::AreaDensity ? "mass.density" : "mass.perPoint", law.value);
+  requireFinitePositive(law.kind == MassLaw::Kind::AreaDensity ? "mass.density" : "mass.perPoint", law.value);
   for (auto f : t.triangles()) {
     double a = triangleArea(t, f);
     triangleArea_[f] = a;
@@ -95,12 +95,12 @@ void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>&
                          " != rebuilt " + std::to_string(expected[p]));
 }
 
-void LumpedMass::saveState(topology::ArchiveWriter& out) const {
+void LumpedMass::saveState(ArchiveWriter& out) const {
   out.f64(density_);
   checkpoint::saveValues(out, mass_.values());
   checkpoint::saveValues(out, triangleArea_.values());
 }
-void LumpedMass::loadState(topology::ArchiveReader& in) {
+void LumpedMass::loadState(ArchiveReader& in) {
   density_ = in.f64();
   if (!(density_ >= 0) || !std::isfinite(density_)) in.fail("mass: a density of " + std::to_string(density_));
   checkpoint::loadValues(in, mass_.values(), "masses");

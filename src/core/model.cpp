@@ -1,13 +1,12 @@
 // Model: topology, state, mass, force fields, gravity and constraints (model.hpp).
 #include "cutsim/core/model.hpp"
 
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "cutsim/forcefields/contact.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
@@ -49,21 +48,13 @@ forcefields::ForceField& Model::addForceField(std::unique_ptr<forcefields::Force
 void Model::replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceField> field) {
   if (i >= fields_.size()) throw InvalidInput("forceFields", "no force field " + std::to_string(i));
   if (!field) throw InvalidInput(labels_[i], "no force field");
-  if (fields_[i].get() == static_cast<forcefields::ForceField*>(contact_))
-    throw InvalidInput(labels_[i], "the contact cannot be replaced");
+  if (!fields_[i]->replaceable())
+    throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() + " cannot be replaced (a step hook holds it)");
   if (field->typeName() != fields_[i]->typeName())
     throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() + " can only be replaced by another (got a " +
                                        field->typeName() + ")");
   fields_[i] = std::move(field);
   fieldPointers_[i] = fields_[i].get();
-}
-
-forcefields::Contact& Model::setContact(std::unique_ptr<forcefields::Contact> contact, std::string label) {
-  if (!contact) throw InvalidInput("contact", "no contact");
-  if (contact_) throw InvalidInput("contact", "the model has contact already");
-  contact_ = contact.get();
-  addForceField(std::move(contact), std::move(label));
-  return *contact_;
 }
 
 Grasp& Model::addGrasp(const std::string& name, std::span<const PointId> points,
@@ -188,7 +179,7 @@ std::vector<std::string> Model::notCheckpointable() const {
   return out;
 }
 
-void Model::saveState(topology::ArchiveWriter& out) const {
+void Model::saveState(ArchiveWriter& out) const {
   out.begin("state");
   state_->saveState(out);
   out.begin("mass");
@@ -214,7 +205,7 @@ void Model::saveState(topology::ArchiveWriter& out) const {
   }
 }
 
-void Model::loadState(topology::ArchiveReader& in) {
+void Model::loadState(ArchiveReader& in) {
   std::vector<std::string> problems;
   auto check = [&](const char* what) {
     if (!problems.empty()) in.fail(std::string(what) + ": " + problems.front());

@@ -19,10 +19,11 @@
 #include <ostream>
 #include <sstream>
 
+#include "cutsim/core/contact_step.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 #include "tearing.hpp"
 
 namespace cutsim::core {
@@ -426,7 +427,7 @@ void OutputWriter::lockFolder(const char* hint) {
 
 namespace {
 using Frames = std::vector<std::pair<double, std::string>>;
-void saveFrames(topology::ArchiveWriter& out, const Frames& frames) {
+void saveFrames(ArchiveWriter& out, const Frames& frames) {
   out.u64(frames.size());
   for (const auto& [t, name] : frames) {
     out.f64(t);
@@ -434,7 +435,7 @@ void saveFrames(topology::ArchiveWriter& out, const Frames& frames) {
   }
 }
 /// `blank`: a list of times without files (the surface's frames when only OBJ frames are written).
-Frames loadFrames(topology::ArchiveReader& in, bool blank = false) {
+Frames loadFrames(ArchiveReader& in, bool blank = false) {
   const std::uint64_t n = in.u64();
   if (n > in.remaining()) in.fail("output: a count of " + std::to_string(n) + " frames");
   Frames frames(n);
@@ -446,7 +447,6 @@ Frames loadFrames(topology::ArchiveReader& in, bool blank = false) {
   }
   return frames;
 }
-using topology::fileCrc32;
 /// The number of a frame file ("surface_000012.vtp": 12), if the name has one.
 std::optional<std::size_t> frameNumber(const std::string& name) {
   const std::size_t dot = name.rfind('.'), bar = name.rfind('_', dot);
@@ -462,10 +462,10 @@ std::optional<std::size_t> frameNumber(const std::string& name) {
 
 void OutputWriter::writeCsv(const std::string& text) {
   csv_ << text;
-  csvCrc_ = topology::crc32Of(csvCrc_, text.data(), text.size());
+  csvCrc_ = crc32Of(csvCrc_, text.data(), text.size());
 }
 
-void OutputWriter::saveState(topology::ArchiveWriter& out) {
+void OutputWriter::saveState(ArchiveWriter& out) {
   out.begin("output");
   saveFrames(out, surfaceFrames_);
   saveFrames(out, borderFrames_);
@@ -503,7 +503,7 @@ void OutputWriter::saveState(topology::ArchiveWriter& out) {
 
 OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
                            std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames,
-                           topology::ArchiveReader& in)
+                           ArchiveReader& in)
     : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels), std::move(graspNames), contact,
                    std::move(obstacleNames)) {
   in.open("output");
@@ -680,7 +680,7 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
       row << ',' << num(f[0], g + "_fx") << ',' << num(f[1], g + "_fy") << ',' << num(f[2], g + "_fz");
     }
     if (contact_) {
-      const forcefields::Contact* c = sim.model().contact();
+      const forcefields::Contact* c = findContact(sim);
       forcefields::ContactMeasure m;
       if (c) m = c->lastStep();
       row << ',' << m.candidates << ',' << m.active << ',' << m.excluded << ',' << r.stats.clamped << ','
@@ -735,7 +735,7 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
           writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
       }
     }
-    const forcefields::Contact* c = sim.model().contact();
+    const forcefields::Contact* c = findContact(sim);
     if (c && !c->obstacles().empty()) {
       // Planes are drawn as squares three times the size of the surface's rest extent.
       double extent = 0.0;

@@ -17,7 +17,7 @@
 
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/registry.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core::detail {
 

@@ -5,10 +5,11 @@
 
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
+#include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
 
 namespace cutsim::core {
@@ -53,7 +54,7 @@ class SceneRunner::Context final : public ActionContext {
   }
   std::string located(const std::string& message) const {
     const SceneLocation& where = current->location;
-    return (where.pointer.empty() ? "/" : where.pointer) + ": at t = " + forcefields::describeNumber(r_.time()) + " " +
+    return (where.pointer.empty() ? "/" : where.pointer) + ": at t = " + describeNumber(r_.time()) + " " +
            message;
   }
   void countCut() override { ++r_.cutsDone_; }
@@ -105,9 +106,8 @@ void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) 
     sim_->addForceField(entry->build(f.parameters, sim_->topology()), labels[i]);
   }
   if (physics && scene_.contact)
-    sim_->model().setContact(
-        std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
-        labels.back());
+    addContact(*sim_, std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
+               labels.back());
   for (const ConstraintSpec& c : scene_.constraints) {
     const auto* entry = ConstraintRegistry::instance().find(c.type);
     if (!entry) throw InvalidInput(c.location.where(scene_.file.string()), "unknown constraint type \"" + c.type + "\"");
@@ -137,12 +137,12 @@ double SceneRunner::time() const {
 }
 
 void SceneRunner::setTimeStep(double dt) {
-  forcefields::requireFinitePositive("timeStep", dt);
+  requireFinitePositive("timeStep", dt);
   const double now = time();
   // The steps of dt that reach the duration (as Scene::numSteps rounds), after those taken.
   const double n = std::max(0.0, (scene_.duration - now) / dt);
   if (n > 1e12)
-    throw InvalidInput("timeStep", "more than 1e12 steps of " + forcefields::describeNumber(dt) + " to the end of the scene");
+    throw InvalidInput("timeStep", "more than 1e12 steps of " + describeNumber(dt) + " to the end of the scene");
   const double r = std::round(n);
   numSteps_ = step_ + (std::abs(n - r) <= 1e-9 * std::max(1.0, r) ? long(r) : long(std::ceil(n)));
   timeBase_ = now;
@@ -279,7 +279,7 @@ std::vector<std::string> SceneRunner::notCheckpointable() const {
   return out;
 }
 
-void SceneRunner::save(topology::ArchiveWriter& out) const {
+void SceneRunner::save(ArchiveWriter& out) const {
   // What is running now, not the actions still to come (notCheckpointable(), asked once before
   // a run): a checkpoint every N steps builds no action.
   const std::vector<std::string> missing = notSavableNow();
@@ -309,7 +309,7 @@ void SceneRunner::save(topology::ArchiveWriter& out) const {
   }
 }
 
-SceneRunner::SceneRunner(const Scene& scene, topology::ArchiveReader& in)
+SceneRunner::SceneRunner(const Scene& scene, ArchiveReader& in)
     : scene_(scene), context_(std::make_unique<Context>(*this)) {
   auto topo = std::make_unique<topology::Topology>(topology::Topology::load(in));
   build(true, std::move(topo));

@@ -5,10 +5,9 @@
 #include <cmath>
 #include <sstream>
 
-#include "cutsim/forcefields/contact.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
@@ -22,6 +21,14 @@ Simulation::Simulation(std::unique_ptr<topology::Topology> topology, MassLaw mas
 
 Simulation::~Simulation() = default;
 
+StepHook::~StepHook() = default;
+
+StepHook& Simulation::addStepHook(std::unique_ptr<StepHook> hook) {
+  if (!hook) throw InvalidInput("stepHooks", "no step hook");
+  hooks_.push_back(std::move(hook));
+  return *hooks_.back();
+}
+
 void Simulation::setIntegrator(std::unique_ptr<Integrator> integrator) {
   if (!integrator) throw InvalidInput("integrator", "no integrator");
   integrator_ = std::move(integrator);
@@ -30,14 +37,14 @@ void Simulation::setIntegrator(std::unique_ptr<Integrator> integrator) {
 void Simulation::setSolver(const SolverSettings& s) { setIntegrator(makeIntegrator(s)); }
 
 StepStats Simulation::step(double dt) {
-  forcefields::requireFinitePositive("timeStep", dt);
+  requireFinitePositive("timeStep", dt);
   if (!model_->hasMass()) throw SolverError("the simulation has no mass: give a density or a total mass");
   StepStats stats;
   stats.substeps = 0;
   const double t0 = time_;
-  // With contact a step may be taken in parts: a failing part leaves the state as at the start.
+  // With step hooks a step may be taken in parts: a failing part leaves the state as at the start.
   std::vector<double> x0, v0;
-  if (model_->contact()) {
+  if (!hooks_.empty()) {
     x0.assign(model_->state().x().begin(), model_->state().x().end());
     v0.assign(model_->state().v().begin(), model_->state().v().end());
   }
@@ -74,12 +81,12 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
     s << "step " << steps_ + 1 << " (t = " << time_ << "): ";
     return s.str();
   };
-  forcefields::Contact* contact = model_->contact();
   const std::size_t n = model_->numSlots();
   std::vector<double> x0;
-  if (contact) {
+  if (!hooks_.empty()) {
     x0.assign(model_->state().x().begin(), model_->state().x().end());
-    contact->beginStep(model_->state().x(), model_->state().v(), time_, h);
+    const StepStart start{*model_, time_, h};
+    for (const auto& hook : hooks_) hook->beginStep(start);
   }
   const StepConstraints constraints = model_->constraints(time_ + h);
   StepInput in{h, &constraints, model_->topology().revision()};
@@ -99,19 +106,27 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
   } catch (const StepFailure& e) {
     throw SolverError(stepName() + e.message);
   }
-  if (contact) {
-    const std::size_t clamped = contact->limitDisplacement(
-        x0, std::span<double>(out.x.data(), std::size_t(out.x.size())),
-        std::span<double>(out.v.data(), std::size_t(out.v.size())), h, constraints.constrained);
-    const auto& P = contact->parameters();
-    const double live = double(model_->topology().numPoints());
-    if (clamped > 0 && double(clamped) > P.splitAbove * live && depth < P.maxSplits) {
-      ++stats.splits;
-      advance(h / 2, depth + 1, stats);
-      advance(h / 2, depth + 1, stats);
-      return;
+  if (!hooks_.empty()) {
+    const StepProposal proposal{*model_,
+                                time_,
+                                h,
+                                depth,
+                                x0,
+                                std::span<double>(out.x.data(), std::size_t(out.x.size())),
+                                std::span<double>(out.v.data(), std::size_t(out.v.size())),
+                                constraints.constrained};
+    std::size_t limited = 0;
+    for (const auto& hook : hooks_) {
+      const StepVerdict verdict = hook->afterSolve(proposal);
+      if (verdict.split) {  // the proposal is discarded: the later hooks are not asked
+        ++stats.splits;
+        advance(h / 2, depth + 1, stats);
+        advance(h / 2, depth + 1, stats);
+        return;
+      }
+      limited += verdict.limited;
     }
-    stats.clamped += int(clamped);
+    stats.clamped += int(limited);
   }
   ++stats.substeps;
   // Dead points and points without mass (isolated) do not move.
@@ -134,8 +149,9 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
         for (int c = 0; c < 3; ++c) r[c] += out.reaction[Eigen::Index(3 * p + c)];
     grasp.setReaction(r);
   }
-  if (contact) contact->recordStep(model_->state().x(), model_->state().v());
   time_ += h;
+  const StepEnd end{*model_, time_};
+  for (const auto& hook : hooks_) hook->endStep(end);
 }
 
 std::vector<std::string> Simulation::notCheckpointable() const {
@@ -148,7 +164,7 @@ std::vector<std::string> Simulation::notCheckpointable() const {
   return out;
 }
 
-void Simulation::saveState(topology::ArchiveWriter& out) const {
+void Simulation::saveState(ArchiveWriter& out) const {
   out.begin("sim");
   out.f64(time_);
   out.i64(steps_);
@@ -165,7 +181,7 @@ void Simulation::saveState(topology::ArchiveWriter& out) const {
   model_->saveState(out);
 }
 
-void Simulation::loadState(topology::ArchiveReader& in) {
+void Simulation::loadState(ArchiveReader& in) {
   in.open("sim");
   time_ = in.f64();
   steps_ = long(in.i64());

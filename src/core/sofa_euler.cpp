@@ -8,12 +8,12 @@
 #include <memory>
 
 #include "cutsim/core/integrator.hpp"
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/core/linear_solver.hpp"
 #include "cutsim/core/model.hpp"
 #include "cutsim/core/registries.hpp"
-#include "cutsim/forcefields/parameters.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -43,12 +43,12 @@ class SofaEuler final : public Integrator {
   std::string_view name() const override { return "sofa-euler"; }
   LinearSolver* linearSolver() const override { return solver_.get(); }
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override {
+  void saveState(ArchiveWriter& out) const override {
     solver_->saveState(out);
     out.i64(solves_);
     out.f64s(warm_);
   }
-  void loadState(topology::ArchiveReader& in) override {
+  void loadState(ArchiveReader& in) override {
     solver_->loadState(in);
     solves_ = long(in.i64());
     warm_ = in.f64s();

@@ -10,7 +10,7 @@
 
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "sofa_text.hpp"
 
 namespace cutsim::core {

@@ -14,7 +14,7 @@
 #include <set>
 #include <sstream>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "sofa_text.hpp"
 #include "scene_json.hpp"
 

@@ -53,12 +53,12 @@ void MechanicalState::validate(const topology::Topology& t, std::vector<std::str
   }
 }
 
-void MechanicalState::saveState(topology::ArchiveWriter& out) const {
+void MechanicalState::saveState(ArchiveWriter& out) const {
   checkpoint::saveValues(out, x());
   checkpoint::saveValues(out, v());
   checkpoint::saveValues(out, rest());  // interpolated for new points: within rounding of the topology's
 }
-void MechanicalState::loadState(topology::ArchiveReader& in) {
+void MechanicalState::loadState(ArchiveReader& in) {
   checkpoint::loadValues(in, x(), "positions");
   checkpoint::loadValues(in, v(), "velocities");
   checkpoint::loadValues(in, rest_.values(), "rest positions");

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 namespace {

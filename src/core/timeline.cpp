@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "cutsim/forcefields/parameters.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/topology/geometry.hpp"
 
 namespace cutsim::core {
@@ -133,7 +133,7 @@ double readMinAngle(const ParameterSource& s) {
   const double a = s.number("minAngle");
   if (!(a >= 0.0 && a < 60.0))
     s.fail("minAngle", "must be in [0, 60) degrees (0 turns the quality repair off); got " +
-                           forcefields::describeNumber(a));
+                           describeNumber(a));
   return a;
 }
 

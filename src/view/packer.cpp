@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "cutsim/core/output.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace cutsim::view {

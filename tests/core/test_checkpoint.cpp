@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "cutsim/core/scene.hpp"
-#include "cutsim/topology/archive.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/scene_text.hpp"
 
@@ -54,11 +54,11 @@ void resumeAndCompare(const Scene& scene, long stop, const std::filesystem::path
   a.start();
   while (a.currentStep() < stop) a.advance();
   {
-    topology::ArchiveWriter w;
+    ArchiveWriter w;
     a.save(w);
     w.save(file);
   }
-  topology::ArchiveReader in(file);
+  ArchiveReader in(file);
   SceneRunner b(scene, in);
   ASSERT_EQ(b.currentStep(), stop);
   ASSERT_EQ(b.time(), a.time());
@@ -191,7 +191,7 @@ TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   edited.schedule(parseActionEntry(R"({"at": 0.05, "action": "cut", "polyline": [[0, 0.5, 0], [0.5, 0.5, 0]]})", "typed", 0.0));
   ASSERT_EQ(edited.notCheckpointable().size(), 1u);
   EXPECT_NE(edited.notCheckpointable().front().find("changes made while running"), std::string::npos);
-  topology::ArchiveWriter w;
+  ArchiveWriter w;
   try {
     edited.save(w);
     FAIL() << "an edited run was saved";
@@ -207,13 +207,13 @@ TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   a.start();
   for (int i = 0; i < 12; ++i) a.advance();
   {
-    topology::ArchiveWriter out;
+    ArchiveWriter out;
     a.save(out);
     out.save(file);
   }
   auto refusal = [&](const Scene& other) -> std::string {
     try {
-      topology::ArchiveReader in(file);
+      ArchiveReader in(file);
       SceneRunner b(other, in);
     } catch (const InvalidInput& e) {
       return e.what();

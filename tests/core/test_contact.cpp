@@ -19,6 +19,7 @@
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
+#include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/topology/topology.hpp"
@@ -49,7 +50,7 @@ void obstacleSoup(const Simulation& sim, std::vector<std::array<double, 3>>& pts
                   std::vector<std::array<std::size_t, 3>>& tris) {
   pts.clear();
   tris.clear();
-  const forcefields::Contact* c = sim.model().contact();
+  const forcefields::Contact* c = findContact(sim);
   if (!c) return;
   for (const auto& o : c->obstacles()) {
     std::vector<topology::Vec3> p;
@@ -99,7 +100,7 @@ TEST(ContactScenes, ASheetRestingOnAPlaneSettlesAtThePenaltyGap) {
     EXPECT_NEAR(x[3 * p + 2], gap, 0.01 * gap) << "point " << p << " (mass " << m[p] << ")";
     total += m[p];
   }
-  const auto measure = sim.model().contact()->measure(sim.state().x(), sim.state().v());
+  const auto measure = findContact(sim)->measure(sim.state().x(), sim.state().v());
   EXPECT_NEAR(measure.obstacleNormal[0], total * g, 0.01 * total * g);
 }
 
@@ -166,7 +167,7 @@ TEST(ContactScenes, ASheetRestingOnAnotherSettlesAtThePenaltyGapOfItsPointsPairs
     EXPECT_NEAR(x[3 * p + 2], gap, 0.01 * gap) << "point " << p << " (" << i << ", " << j << ")";
   }
   EXPECT_EQ(interior, (nu - 6) * (nu - 6));
-  const auto measure = sim.model().contact()->measure(x, sim.state().v());
+  const auto measure = findContact(sim)->measure(x, sim.state().v());
   EXPECT_NEAR(measure.selfNormal, upper * g, 0.01 * upper * g);
   EXPECT_EQ(crossingsNow(sim), "");
 }
@@ -328,7 +329,7 @@ std::vector<double> hangingCut(bool contact) {
     const StepStats st = runner.advance();
     EXPECT_EQ(st.clamped, 0);
     if (contact) {
-      const auto m = runner.simulation().model().contact()->measure(runner.simulation().state().x(),
+      const auto m = findContact(runner.simulation())->measure(runner.simulation().state().x(),
                                                                       runner.simulation().state().v());
       EXPECT_EQ(m.active, 0u) << "t = " << runner.time();
       excludedSeen += long(m.excluded);
@@ -573,7 +574,7 @@ TEST(ContactScenes, AClothOnAMovingMeshObstacleStaysClearOfIt) {
     runner.advance();
     const std::string crossing = crossingsNow(runner.simulation());
     ASSERT_EQ(crossing, "") << "t = " << runner.time();
-    pushed = std::max(pushed, runner.simulation().model().contact()->lastStep().obstacleNormal[0]);
+    pushed = std::max(pushed, findContact(runner.simulation())->lastStep().obstacleNormal[0]);
   }
   EXPECT_GT(pushed, 0.0) << "the ball must have carried the cloth";
 }
@@ -604,7 +605,7 @@ TEST_P(ContactEveryIntegrator, KeepsADroppedClothClearOfAPlate) {
     runner.advance();
     const std::string crossing = crossingsNow(runner.simulation());
     ASSERT_EQ(crossing, "") << "t = " << runner.time();
-    carried = runner.simulation().model().contact()->lastStep().obstacleNormal[0];
+    carried = findContact(runner.simulation())->lastStep().obstacleNormal[0];
   }
   EXPECT_GT(carried, 0.0) << "the plate must carry the cloth at the end";
 }

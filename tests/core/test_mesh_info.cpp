@@ -6,7 +6,7 @@
 #include <string>
 
 #include "cutsim/core/mesh_info.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
 namespace cutsim::core {

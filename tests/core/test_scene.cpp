@@ -17,7 +17,7 @@
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "support/scene_text.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/topology.hpp"
 
 namespace cutsim::core {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "cutsim/core/scene.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "support/scene_text.hpp"
 
 namespace cutsim::test {

@@ -14,7 +14,7 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_regression.hpp"
 #include "cutsim/core/sofa_scene.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 

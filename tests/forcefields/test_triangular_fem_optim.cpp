@@ -9,7 +9,7 @@
 
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/forcefields/triangular_fem_optim.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"

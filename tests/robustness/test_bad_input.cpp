@@ -15,7 +15,7 @@
 #include "cutsim/core/scene.hpp"
 #include "support/scene_text.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 

@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <string>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/scene.hpp"
 
 namespace cutsim::test {

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
 namespace cutsim::topology {

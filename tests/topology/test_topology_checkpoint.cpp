@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/fixtures.hpp"
 #include "support/mirror_observer.hpp"
@@ -21,8 +21,6 @@
 namespace cutsim::test {
 namespace {
 
-using topology::ArchiveReader;
-using topology::ArchiveWriter;
 using topology::Topology;
 
 std::filesystem::path tempFile(const std::string& name) {
@@ -105,7 +103,7 @@ TEST(Archive, DamagedForeignAndMisreadArchivesAreRefusedByName) {
   refused("{\"mesh\": {}}\n and more text to be long enough", "not a cutsim checkpoint");
   std::string version = good;
   version[8] = 9;
-  refused(version, "checkpoint format 9, this cutsim reads format " + std::to_string(topology::kArchiveFormat));
+  refused(version, "checkpoint format 9, this cutsim reads format " + std::to_string(kArchiveFormat));
   refused(good + "x", "holds data after its end mark");
   refused(good, "section 'state': a value runs past the section's end");
   // A section not read to its end.

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <set>
 
+#include "cutsim/base/union_find.hpp"
 #include "support/fixtures.hpp"
 #include "support/mirror_observer.hpp"
 
@@ -38,15 +39,13 @@ struct Watched {
 };
 
 std::size_t components(const Topology& t) {
-  std::vector<topology::Index> parent(t.triangleCapacity());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](topology::Index i) { while (parent[i] != i) i = parent[i] = parent[parent[i]]; return i; };
+  UnionFind sets(t.triangleCapacity());
   for (auto e : t.edges()) {
     auto tt = t.edgeTriangles(e);
-    if (tt[0] != kInvalidIndex && tt[1] != kInvalidIndex) parent[find(tt[0])] = find(tt[1]);
+    if (tt[0] != kInvalidIndex && tt[1] != kInvalidIndex) sets.unite(tt[0], tt[1]);
   }
   std::size_t n = 0;
-  for (auto f : t.triangles()) n += find(f) == f ? 1 : 0;
+  for (auto f : t.triangles()) n += sets.find(f) == f ? 1 : 0;
   return n;
 }
 

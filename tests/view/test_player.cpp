@@ -16,7 +16,7 @@
 
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace {

@@ -17,7 +17,8 @@
 #include <utility>
 #include <vector>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
+#include "cutsim/base/union_find.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
 namespace cutsim::topology {
@@ -65,25 +66,6 @@ struct EdgeUse {
   std::array<std::uint8_t, 2> corner{};      ///< local index of the edge's first vertex in each
 };
 
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  std::size_t find(std::size_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  void unite(std::size_t a, std::size_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::size_t> parent_;
-};
 
 }  // namespace
 

@@ -22,7 +22,7 @@
 #include <system_error>
 #include <vector>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::topology {
 namespace {

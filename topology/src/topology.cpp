@@ -2,6 +2,8 @@
 // compaction. Operations are in topology_ops.cpp and topology_cut.cpp.
 #include "topology_impl.hpp"
 
+#include "cutsim/base/union_find.hpp"
+
 #include <CGAL/boost/graph/Euler_operations.h>
 
 #include <algorithm>
@@ -540,12 +542,7 @@ std::vector<std::vector<FI>> Topology::Impl::fansAround(
     if (FI f = mesh.face(h); f.is_valid()) faces.push_back(f);
   std::sort(faces.begin(), faces.end());
   faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-  std::vector<std::size_t> parent(faces.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](std::size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
+  UnionFind fans(faces.size());
   auto slot = [&](FI f) {
     return std::size_t(std::lower_bound(faces.begin(), faces.end(), f) - faces.begin());
   };
@@ -553,13 +550,12 @@ std::vector<std::vector<FI>> Topology::Impl::fansAround(
     FI a = mesh.face(h), b = mesh.face(mesh.opposite(h));
     if (!a.is_valid() || !b.is_valid()) continue;
     if (isSeparator && isSeparator(mesh.edge(h))) continue;
-    parent[find(slot(a))] = find(slot(b));
+    fans.unite(slot(a), slot(b));
   }
   std::vector<std::vector<FI>> groups;
   std::unordered_map<std::size_t, std::size_t> rootToGroup;
   for (std::size_t i = 0; i < faces.size(); ++i) {
-    std::size_t r = find(i);
-    auto [it, inserted] = rootToGroup.emplace(r, groups.size());
+    auto [it, inserted] = rootToGroup.emplace(fans.find(i), groups.size());
     if (inserted) groups.emplace_back();
     groups[it->second].push_back(faces[i]);
   }
@@ -892,7 +888,7 @@ void Topology::validateOrThrow() const {
 // ------------------------------------------------------------------------------------------
 // Checkpoints
 
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 namespace cutsim::topology {
 

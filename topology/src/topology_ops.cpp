@@ -11,6 +11,8 @@
 
 #include "topology_impl.hpp"
 
+#include "cutsim/base/union_find.hpp"
+
 namespace cutsim::topology {
 
 namespace {
@@ -70,17 +72,15 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
         for (PointId x : tv) if (x != v) o[k++] = x;
         around.push_back(o);
       }
-    std::vector<std::size_t> parent(around.size());
-    std::iota(parent.begin(), parent.end(), 0);
-    auto find = [&](std::size_t i) { while (parent[i] != i) i = parent[i] = parent[parent[i]]; return i; };
+    UnionFind fans(around.size());
     std::unordered_map<Index, std::size_t> byNeighbour;
     for (std::size_t i = 0; i < around.size(); ++i)
       for (Index w : around[i]) {
         auto [it, ins] = byNeighbour.emplace(w, i);
-        if (!ins) parent[find(i)] = find(it->second);
+        if (!ins) fans.unite(i, it->second);
       }
     std::size_t roots = 0;
-    for (std::size_t i = 0; i < around.size(); ++i) roots += find(i) == i ? 1 : 0;
+    for (std::size_t i = 0; i < around.size(); ++i) roots += fans.find(i) == i ? 1 : 0;
     if (roots > 1)
       throw TopologyError("addTriangles: point " + pt(v) + " would join " + std::to_string(roots) +
                           " separate fans of triangles (a non-manifold vertex)");

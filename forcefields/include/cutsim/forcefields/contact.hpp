@@ -208,6 +208,8 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
   void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
   bool stiffnessIsExact() const override { return false; }
+  /// Its step hook (core::ContactStep) holds it.
+  bool replaceable() const override { return false; }
 
   // ---- TopologyObserver ----
   void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
@@ -218,8 +220,8 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// its schedule, the step's pairs and bounds, the obstacles' paths and poses (what the next
   /// steps depend on; the per-topology tables are rebuilt, as they are after every change).
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
 
   struct Impl;
 

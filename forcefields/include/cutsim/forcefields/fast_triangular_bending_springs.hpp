@@ -149,8 +149,8 @@ class FastTriangularBendingSprings
   /// One segment per active spring, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
 
   // ---- the table (spec section 6: its events are detail::HingeTable's) ----
   // validate() compares the table with buildFromScratch: statuses per edge, active hinges as

@@ -29,11 +29,8 @@
 #include <vector>
 
 #include "cutsim/topology/types.hpp"
+#include "cutsim/base/fwd.hpp"
 
-namespace cutsim::topology {
-class ArchiveWriter;
-class ArchiveReader;
-}  // namespace cutsim::topology
 
 namespace cutsim::forcefields {
 
@@ -127,6 +124,10 @@ class ForceField {
   /// default. Returns false, changing nothing, when the field has no exact K to offer.
   virtual bool setExactStiffness(bool exact) { return !exact || stiffnessIsExact(); }
 
+  /// Whether the model may replace this field by another of its type (new parameters between
+  /// steps): false for a field that a step hook holds by reference (Contact).
+  virtual bool replaceable() const { return true; }
+
   /// Checkpoints (cutsim run --checkpoint-every, docs/robustness.md): whether the field saves
   /// and restores everything its continuation depends on beyond the topology and its parameters,
   /// its tables in their order (the order of its sums) included. A run with a field that does
@@ -134,10 +135,10 @@ class ForceField {
   virtual bool checkpointable() const { return false; }
   /// Writes that state into the open section of `out` (a field that is not checkpointable:
   /// cutsim::Error).
-  virtual void saveState(topology::ArchiveWriter& out) const;
+  virtual void saveState(ArchiveWriter& out) const;
   /// Replaces the state of a field just built on the checkpoint's topology by the saved one,
   /// refusing (ArchiveReader::fail) what does not fit that topology.
-  virtual void loadState(topology::ArchiveReader& in);
+  virtual void loadState(ArchiveReader& in);
 };
 
 }  // namespace cutsim::forcefields

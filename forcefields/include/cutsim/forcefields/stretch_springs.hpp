@@ -110,8 +110,8 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   /// One segment per spring.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
   /// !parameters().stableJacobian (see the top of this file).
   bool stiffnessIsExact() const override { return !params_.stableJacobian; }
   /// exact: stableJacobian = false; otherwise the stableJacobian given at construction. Drops

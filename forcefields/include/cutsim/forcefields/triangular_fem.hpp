@@ -146,8 +146,8 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
   /// The three edges of every element.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
   /// parameters().exactHessian.
   bool stiffnessIsExact() const override { return params_.exactHessian; }
   /// Sets parameters().exactHessian = exact; returns true (both are available).

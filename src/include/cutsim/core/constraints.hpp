@@ -9,11 +9,8 @@
 
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "cutsim/base/fwd.hpp"
 
-namespace cutsim::topology {
-class ArchiveWriter;
-class ArchiveReader;
-}  // namespace cutsim::topology
 
 namespace cutsim::core {
 
@@ -40,8 +37,8 @@ class PointSet : public topology::TopologyObserver {
   std::string observerName() const override { return "PointSet '" + name_ + "'"; }
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
   /// Checkpoints: the members and their data as stored.
-  void saveState(topology::ArchiveWriter& out) const;
-  void loadState(topology::ArchiveReader& in);
+  void saveState(ArchiveWriter& out) const;
+  void loadState(ArchiveReader& in);
 
  private:
   std::string name_;

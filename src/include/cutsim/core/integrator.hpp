@@ -75,6 +75,8 @@ struct ImplicitSettings {
   double rayleighStiffness = 0.0;  ///< stiffness-proportional damping factor (>= 0)
   SolveFailurePolicy onSolveFailure = SolveFailurePolicy::Fallback;
   double fallbackAbove = 1e-3;     ///< relative residual above which "fallback" re-solves (> 0)
+  /// The linear solver that re-solves, by its registered name, with its default settings.
+  std::string fallbackSolver = "cholmod";
   void validate() const;
 };
 
@@ -123,8 +125,8 @@ class Integrator {
   /// Checkpoints: whether the method (with its solvers) saves what its next steps depend on (a
   /// previous step, a warm start); saveState and loadState write and read it in the open section.
   virtual bool checkpointable() const { return false; }
-  virtual void saveState(topology::ArchiveWriter& /*out*/) const {}
-  virtual void loadState(topology::ArchiveReader& /*in*/) {}
+  virtual void saveState(ArchiveWriter& /*out*/) const {}
+  virtual void loadState(ArchiveReader& /*in*/) {}
 };
 
 class ExplicitEuler final : public Integrator {
@@ -144,8 +146,8 @@ class ImplicitIntegrator : public Integrator {
   const ImplicitSettings& settings() const { return settings_; }
   bool checkpointable() const override { return solver_->checkpointable(); }
   /// The solver's state, and the CHOLMOD fallback's if it was made.
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
 
  protected:
   /// Solves A dv = b with the linear solver and applies the failure policy; records the solve in
@@ -161,7 +163,7 @@ class ImplicitIntegrator : public Integrator {
 
   ImplicitSettings settings_;
   std::unique_ptr<LinearSolver> solver_;
-  std::unique_ptr<LinearSolver> fallback_;  // CHOLMOD, made on first use
+  std::unique_ptr<LinearSolver> fallback_;  // settings_.fallbackSolver, made on first use
   std::vector<double> diagonalMass_;       // scratch for systemOperator()
 };
 
@@ -179,8 +181,8 @@ class BDF2 final : public ImplicitIntegrator {
   void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
   /// Steps taken as implicit Euler (the first, and after each restart).
   long restarts() const { return restarts_; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
 
  private:
   bool historyValid(const Model& model, const StepInput& in) const;

@@ -95,8 +95,8 @@ class LinearSolver {
   /// Checkpoints: whether the solver saves what its next solves depend on (a warm start, the
   /// ordering of a kept pattern); saveState and loadState write and read it in the open section.
   virtual bool checkpointable() const { return false; }
-  virtual void saveState(topology::ArchiveWriter& /*out*/) const {}
-  virtual void loadState(topology::ArchiveReader& /*in*/) {}
+  virtual void saveState(ArchiveWriter& /*out*/) const {}
+  virtual void loadState(ArchiveReader& /*in*/) {}
 };
 
 /// Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver, with a
@@ -117,8 +117,8 @@ class ConjugateGradient final : public LinearSolver {
   bool direct() const override { return false; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
   const CGSettings& settings() const { return settings_; }
 
  private:
@@ -148,8 +148,8 @@ class SofaConjugateGradient final : public LinearSolver {
   bool direct() const override { return false; }
   SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
   const SofaCGSettings& settings() const { return settings_; }
   /// How the last solve ended: "tolerance", "threshold", "iterations" (the cap), "zero-denominator",
   /// "zero-rhs".
@@ -183,8 +183,8 @@ class CholmodSolver final : public LinearSolver {
   /// Saves the kept pattern's ordering, revision and age: restored, the pattern is built again
   /// in that ordering at the next solve (the factorisation, and so the rounding, are the same).
   bool checkpointable() const override { return true; }
-  void saveState(topology::ArchiveWriter& out) const override;
-  void loadState(topology::ArchiveReader& in) override;
+  void saveState(ArchiveWriter& out) const override;
+  void loadState(ArchiveReader& in) override;
   /// Symbolic analyses done so far, for tests of the reuse policy.
   long analyses() const;
 

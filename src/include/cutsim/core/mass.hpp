@@ -13,11 +13,8 @@
 
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "cutsim/base/fwd.hpp"
 
-namespace cutsim::topology {
-class ArchiveWriter;
-class ArchiveReader;
-}  // namespace cutsim::topology
 
 namespace cutsim::core {
 
@@ -53,8 +50,8 @@ class LumpedMass : public topology::TopologyObserver {
   std::string observerName() const override { return "LumpedMass"; }
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
   /// Checkpoints: the density and the per-slot masses and areas as stored (as they were summed).
-  void saveState(topology::ArchiveWriter& out) const;
-  void loadState(topology::ArchiveReader& in);
+  void saveState(ArchiveWriter& out) const;
+  void loadState(ArchiveReader& in);
 
   static double triangleArea(const topology::Topology& t, topology::TriangleId f);
 

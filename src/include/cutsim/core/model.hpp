@@ -15,10 +15,6 @@
 #include "cutsim/forcefields/force_field.hpp"
 #include "cutsim/topology/topology.hpp"
 
-namespace cutsim::forcefields {
-class Contact;
-}
-
 namespace cutsim::core {
 
 /// Thrown by the model's and the integrators' checks when a value stops being finite; the
@@ -64,7 +60,7 @@ class Model {
   /// The model owns its force fields; they were built on topology(). Labels default to the type.
   forcefields::ForceField& addForceField(std::unique_ptr<forcefields::ForceField> field,
                                          std::string label = "");
-  /// Replaces force field i (not the contact) by `field`, built on topology(), under its label:
+  /// Replaces force field i (one that is replaceable()) by `field`, built on topology(), under its label:
   /// a change of parameters between steps. The new field builds its tables from the mesh as it
   /// is now (which the old field's incremental tables equal).
   void replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceField> field);
@@ -74,12 +70,6 @@ class Model {
   const std::string& forceFieldLabel(std::size_t i) const { return labels_[i]; }
   /// The fields, for SystemOperator.
   std::span<forcefields::ForceField* const> fields() const { return fieldPointers_; }
-
-  /// Contact (self-contact and obstacles): one per model, a force field labelled "contact" that
-  /// the simulation also asks for its displacement bound after each solve.
-  forcefields::Contact& setContact(std::unique_ptr<forcefields::Contact> contact,
-                                   std::string label = "contact");
-  forcefields::Contact* contact() const { return contact_; }
 
   PointSet& fixed() { return *fixed_; }
   const PointSet& fixed() const { return *fixed_; }
@@ -117,10 +107,10 @@ class Model {
   /// The labels of the force fields that cannot be saved (empty: the model can).
   std::vector<std::string> notCheckpointable() const;
   /// Writes the sections "state", "mass", "fixed", "grasps" and "field<i>" per force field.
-  void saveState(topology::ArchiveWriter& out) const;
+  void saveState(ArchiveWriter& out) const;
   /// Reads them into a model built as the saved one was, on the checkpoint's topology: the
   /// state, mass, fixed points and fields replaced, the grasps made again; each part validated.
-  void loadState(topology::ArchiveReader& in);
+  void loadState(ArchiveReader& in);
 
  private:
   std::unique_ptr<topology::Topology> topology_;
@@ -131,7 +121,6 @@ class Model {
   std::vector<std::unique_ptr<forcefields::ForceField>> fields_;
   std::vector<forcefields::ForceField*> fieldPointers_;
   std::vector<std::string> labels_;
-  forcefields::Contact* contact_ = nullptr;
   Vec3 gravity_{0, 0, 0};
 };
 

@@ -107,7 +107,7 @@ class OutputWriter {
   /// missing, the last frame or the CSV not the run's): cutsim::Error naming what is wrong.
   OutputWriter(std::filesystem::path dir, OutputSettings settings,
                std::vector<std::string> fieldLabels, std::vector<std::string> graspNames, bool contact,
-               std::vector<std::string> obstacleNames, topology::ArchiveReader& in);
+               std::vector<std::string> obstacleNames, ArchiveReader& in);
   ~OutputWriter();
   OutputWriter(const OutputWriter&) = delete;
   OutputWriter& operator=(const OutputWriter&) = delete;
@@ -139,7 +139,7 @@ class OutputWriter {
   /// Checkpoints: the section "output": the frames so far, the first frame's border, a checksum
   /// of the last frame's file, and the CSV's length (flushed first) with the checksum of all its
   /// bytes.
-  void saveState(topology::ArchiveWriter& out);
+  void saveState(ArchiveWriter& out);
 
  private:
   struct Columns {};

@@ -16,6 +16,9 @@ using IntegratorRegistry = Registry<Integrator, std::unique_ptr<LinearSolver>>;
 /// fallbackAbove), and reading them.
 std::vector<KeyInfo> implicitKeys();
 ImplicitSettings readImplicitSettings(const ParameterSource& s);
+/// The linear solver registered under `name`, with its default settings (InvalidInput at
+/// "fallbackSolver" for an unknown name).
+std::unique_ptr<LinearSolver> makeFallbackSolver(const std::string& name);
 
 /// Registers an implicit integrator T(ImplicitSettings, linear solver) that reads only the shared
 /// implicit keys (implicit Euler, BDF2).

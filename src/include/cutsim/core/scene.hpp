@@ -232,12 +232,12 @@ class SceneRunner {
   /// index history), the simulation's (Simulation::saveState) and "runner" (the clock, the
   /// timeline's progress and each started action's state). Throws cutsim::Error naming what
   /// cannot be saved.
-  void save(topology::ArchiveWriter& out) const;
+  void save(ArchiveWriter& out) const;
   /// The runner of `scene` as save() left it: the topology read back exactly, every component
   /// built on it as the scene asks, then given its saved state, each validated. The scene must be
   /// the one the checkpoint was written for. A checkpoint that does not fit: InvalidInput naming
   /// the checkpoint and the section.
-  SceneRunner(const Scene& scene, topology::ArchiveReader& in);
+  SceneRunner(const Scene& scene, ArchiveReader& in);
 
  private:
   class Context;

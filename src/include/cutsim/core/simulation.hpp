@@ -1,8 +1,8 @@
 #pragma once
 // A simulation: a Model (what is simulated: topology, state, mass, force fields, gravity,
 // constraints) stepped by an Integrator (how: explicit, implicit Euler, BDF2, Newton, each with
-// its linear solver), with the clock, the non-finite guard and the step statistics. It
-// instantiates only what it is given.
+// its linear solver) and its step hooks (what knows time: step_hook.hpp), with the clock, the
+// non-finite guard and the step statistics. It instantiates only what it is given.
 #include <memory>
 #include <span>
 #include <string>
@@ -10,6 +10,7 @@
 
 #include "cutsim/core/integrator.hpp"
 #include "cutsim/core/model.hpp"
+#include "cutsim/core/step_hook.hpp"
 
 namespace cutsim::core {
 
@@ -69,12 +70,16 @@ class Simulation {
   const Integrator& integrator() const { return *integrator_; }
   /// The shorthand of the first scenes: setIntegrator(makeIntegrator(s)).
   void setSolver(const SolverSettings& s);
+  /// Adds a step hook, called after those added before it (step_hook.hpp).
+  StepHook& addStepHook(std::unique_ptr<StepHook> hook);
+  std::size_t numStepHooks() const { return hooks_.size(); }
+  StepHook& stepHook(std::size_t i) { return *hooks_[i]; }
+  const StepHook& stepHook(std::size_t i) const { return *hooks_[i]; }
 
   /// Advances by dt (> 0). Throws SolverError naming the step, the component and the point if a
   /// force, velocity or position becomes non-finite, or if a solve fails under the integrator's
-  /// failure policy (the state is then left as before the step). With contact, the step's
-  /// displacements are bounded (forcefields::Contact::limitDisplacement) and a step that clamps
-  /// more than the contact's splitAbove fraction of the points is redone as two half steps.
+  /// failure policy (the state is then left as before the step). The step hooks may limit the
+  /// step's displacements and have it redone as two half steps (step_hook.hpp).
   StepStats step(double dt);
   double time() const { return time_; }
   /// Advances the time by dt without moving anything (the scene check's rehearsal of a timeline).
@@ -90,9 +95,9 @@ class Simulation {
   std::vector<std::string> notCheckpointable() const;
   /// Writes the sections "sim" (clock, counters), "integr" (the integrator's history) and the
   /// model's (Model::saveState).
-  void saveState(topology::ArchiveWriter& out) const;
+  void saveState(ArchiveWriter& out) const;
   /// Reads them into a simulation built as the saved one was, on the checkpoint's topology.
-  void loadState(topology::ArchiveReader& in);
+  void loadState(ArchiveReader& in);
 
   // ---- energies (at the current state) ----
   double kineticEnergy() const { return model_->kineticEnergy(); }
@@ -103,12 +108,13 @@ class Simulation {
   std::vector<double> totalForce() const { return model_->totalForce(); }
 
  private:
-  /// One integrator step of h (with the contact's bound), or two of h / 2 when the bound clamps
-  /// too many points.
+  /// One integrator step of h (its proposal limited by the step hooks), or two of h / 2 when a
+  /// hook asks for a split.
   void advance(double h, int depth, StepStats& stats);
 
   std::unique_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
+  std::vector<std::unique_ptr<StepHook>> hooks_;
   SolveSummary summary_;
   double time_ = 0.0;
   long steps_ = 0;

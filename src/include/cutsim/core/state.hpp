@@ -11,11 +11,8 @@
 
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "cutsim/base/fwd.hpp"
 
-namespace cutsim::topology {
-class ArchiveWriter;
-class ArchiveReader;
-}  // namespace cutsim::topology
 
 namespace cutsim::core {
 
@@ -41,8 +38,8 @@ class MechanicalState : public topology::TopologyObserver {
   /// Sizes match the topology; rest equals the topology's rest positions; dead slots are zero.
   void validate(const topology::Topology&, std::vector<std::string>& problems) const override;
   /// Checkpoints: x, v and rest as stored; loadState refuses values for another number of slots.
-  void saveState(topology::ArchiveWriter& out) const;
-  void loadState(topology::ArchiveReader& in);
+  void saveState(ArchiveWriter& out) const;
+  void loadState(ArchiveReader& in);
 
  private:
   using PointVectors = topology::SlotData<topology::PointId, double, 3>;

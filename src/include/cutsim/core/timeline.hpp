@@ -116,8 +116,8 @@ class TimelineAction {
   /// restored simulation, which it checks what it read against). An action that is done once
   /// started keeps nothing.
   virtual bool checkpointable() const { return false; }
-  virtual void saveState(topology::ArchiveWriter& /*out*/) const {}
-  virtual void loadState(topology::ArchiveReader& /*in*/, const Simulation& /*simulation*/) {}
+  virtual void saveState(ArchiveWriter& /*out*/) const {}
+  virtual void loadState(ArchiveReader& /*in*/, const Simulation& /*simulation*/) {}
 };
 using ActionRegistry = Registry<TimelineAction, const ActionTiming&>;
 

@@ -50,7 +50,7 @@
 #include <utility>
 #include <vector>
 
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/topology.hpp"
 

@@ -7,7 +7,7 @@
 // journal; docs/topology-events.md, "Failures").
 #include <cstdint>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
 namespace cutsim::topology {
 

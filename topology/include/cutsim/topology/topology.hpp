@@ -8,16 +8,15 @@
 #include <string>
 #include <vector>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/types.hpp"
+#include "cutsim/base/fwd.hpp"
 
 namespace cutsim::topology {
 
 class Topology;
-class ArchiveWriter;
-class ArchiveReader;
 
 /// Keeps an observer registered while it lives; ends the registration when destroyed or reset.
 /// Outliving the topology is safe.

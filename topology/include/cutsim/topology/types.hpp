@@ -6,6 +6,8 @@
 #include <functional>
 #include <limits>
 
+#include "cutsim/base/vec3.hpp"
+
 namespace cutsim::topology {
 
 /// The integer of a slot.
@@ -47,7 +49,7 @@ using PointId = Id<struct PointTag>;
 using EdgeId = Id<struct EdgeTag>;
 using TriangleId = Id<struct TriangleTag>;
 
-using Vec3 = std::array<double, 3>;
+using Vec3 = cutsim::Vec3;
 using TriangleVertices = std::array<PointId, 3>;
 using TriangleEdges = std::array<EdgeId, 3>;
 using EdgeVertices = std::array<PointId, 2>;

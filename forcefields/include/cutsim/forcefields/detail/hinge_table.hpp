@@ -110,10 +110,10 @@ class HingeTable : public topology::TopologyObserver {
   /// Builds the table once from the current mesh and subscribes to `topology`.
   void attach(topology::Topology& topology);
   /// Checkpoints: the table as stored (its entries' order included).
-  void saveTable(topology::ArchiveWriter& out) const;
+  void saveTable(ArchiveWriter& out) const;
   /// Replaces the table by the saved one, its counters recounted; refuses (ArchiveReader::fail)
   /// a table that validate() finds wrong for `topology`.
-  void loadTable(topology::ArchiveReader& in, const topology::Topology& topology);
+  void loadTable(ArchiveReader& in, const topology::Topology& topology);
   /// The active entries, compact (their order changes with removals and compaction).
   std::span<const Entry> entries() const { return table_.entries(); }
   /// The record of entry i (0 <= i < entries().size()).

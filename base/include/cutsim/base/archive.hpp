@@ -21,9 +21,9 @@
 #include <string_view>
 #include <vector>
 
-#include "cutsim/topology/errors.hpp"
+#include "cutsim/base/errors.hpp"
 
-namespace cutsim::topology {
+namespace cutsim {
 
 /// 2: contact pairs carry their share of the law and their edges (flat-on-flat contact).
 inline constexpr std::uint32_t kArchiveFormat = 2;
@@ -90,4 +90,4 @@ class ArchiveReader {
   std::size_t pos_ = 0, end_ = 0;
 };
 
-}  // namespace cutsim::topology
+}  // namespace cutsim

@@ -1,5 +1,5 @@
 // The checkpoints' binary archive (see archive.hpp).
-#include "cutsim/topology/archive.hpp"
+#include "cutsim/base/archive.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -11,7 +11,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace cutsim::topology {
+namespace cutsim {
 
 std::uint32_t crc32Of(std::uint32_t crc, const void* data, std::size_t n) {
   uLong c = crc;
@@ -274,4 +274,4 @@ std::vector<std::uint32_t> ArchiveReader::u32s() {
   return v;
 }
 
-}  // namespace cutsim::topology
+}  // namespace cutsim
