@@ -23,6 +23,7 @@
 #include <fstream>
 #include <iostream>
 #include <list>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <random>
@@ -30,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/core/registries.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
@@ -532,19 +534,11 @@ void cantilever(std::ofstream& summary) {
 
 // ---- e-g. dynamics: integrators, linear solvers and time steps --------------------------------
 
-using cutsim::core::BDF2;
-using cutsim::core::CGSettings;
-using cutsim::core::CholmodSolver;
-using cutsim::core::ConjugateGradient;
-using cutsim::core::ExplicitEuler;
-using cutsim::core::ImplicitEuler;
-using cutsim::core::ImplicitSettings;
 using cutsim::core::Integrator;
 using cutsim::core::LinearSolver;
 using cutsim::core::NewtonImplicitEuler;
 using cutsim::core::NewtonSettings;
 using cutsim::core::Simulation;
-using cutsim::core::SolveFailurePolicy;
 
 enum class Bending { Springs, Dihedral };
 const char* bendingName(Bending b) { return b == Bending::Springs ? "springs" : "dihedral"; }
@@ -609,20 +603,38 @@ struct Method {
   std::string label() const { return solver.empty() ? integrator : integrator + "/" + solver; }
 };
 
+using Values = std::map<std::string, cutsim::ScalarParameters::Value, std::less<>>;
+
+/// The study's solver by its label, built through the registry.
 std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& s) {
-  if (s == "cholmod") return std::make_unique<CholmodSolver>();
-  const int cap = s == "cg20" ? 20 : s == "cg100" ? 100 : 1000;
-  return std::make_unique<ConjugateGradient>(CGSettings{cap, 1e-8, true});
+  const std::string type = s == "cholmod" ? "cholmod" : "cg";
+  Values p;
+  if (type == "cg") {
+    p["iterations"] = long(s == "cg20" ? 20 : s == "cg100" ? 100 : 1000);
+    p["tolerance"] = 1e-8;
+    p["warmStart"] = true;
+  }
+  const auto& entry = *cutsim::core::LinearSolverRegistry::instance().find(type);
+  return entry.build(entry.read(cutsim::ScalarParameters("linear solver " + s, std::move(p))));
 }
 
+/// The method's integrator, built through the registry as a scene's would be.
 std::unique_ptr<Integrator> makeMethod(const Method& m) {
-  if (m.integrator == "explicit-euler") return std::make_unique<ExplicitEuler>();
-  ImplicitSettings is;
-  is.onSolveFailure = SolveFailurePolicy::Warn;
-  if (m.integrator == "implicit-euler")
-    return std::make_unique<ImplicitEuler>(is, makeLinearSolver(m.solver));
-  if (m.integrator == "bdf2") return std::make_unique<BDF2>(is, makeLinearSolver(m.solver));
-  return std::make_unique<NewtonImplicitEuler>(is, m.newton, makeLinearSolver(m.solver));
+  const auto* entry = cutsim::core::IntegratorRegistry::instance().find(m.integrator);
+  if (!entry) throw cutsim::InvalidInput("integrator", "unknown integrator " + m.integrator);
+  Values p;
+  std::unique_ptr<LinearSolver> solver;
+  if (!entry->uses.empty()) {
+    p["onSolveFailure"] = std::string("warn");
+    solver = makeLinearSolver(m.solver);
+  }
+  if (m.integrator == "newton") {
+    p["maxIterations"] = long(m.newton.maxIterations);
+    p["tolerance"] = m.newton.tolerance;
+    p["exactStiffness"] = m.newton.exactStiffness;
+    p["lineSearch"] = m.newton.lineSearch;
+  }
+  return entry->build(entry->read(cutsim::ScalarParameters("integrator " + m.label(), std::move(p))), std::move(solver));
 }
 
 struct RunResult {

@@ -9,6 +9,22 @@ namespace cutsim {
 
 ParameterSource::~ParameterSource() = default;
 
+const char* toString(KeyType type) {
+  switch (type) {
+    case KeyType::Number: return "number";
+    case KeyType::Integer: return "integer";
+    case KeyType::Boolean: return "boolean";
+    case KeyType::Choice: return "choice";
+    case KeyType::String: return "string";
+    case KeyType::Integers: return "integers";
+    case KeyType::Points: return "points";
+    case KeyType::Rows: return "rows";
+    case KeyType::Box: return "box";
+    case KeyType::Object: return "object";
+  }
+  return "?";
+}
+
 double ParameterSource::nonNegative(std::string_view key, double fallback) const {
   if (!has(key)) return fallback;
   const double v = number(key);

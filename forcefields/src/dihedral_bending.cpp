@@ -521,10 +521,10 @@ namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "DihedralBending",
     "nonlinear bending on the dihedral angle (Discrete Shells): sharp folds, curved rest shapes",
-    {{"bendingStiffness", "k, >= 0 (default 1): the springs' k, so k = 3 D"},
-     {"minDist", "degenerate-hinge threshold, an absolute length >= 0 (default 1e-6)"},
-     {"rayleighStiffness", "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
-     {"exactHessian", "K is the exact Hessian (indefinite away from the rest angle; what Newton needs) instead of its Gauss-Newton part (default false)"}},
+    {{"bendingStiffness", KeyType::Number, "k, >= 0 (default 1): the springs' k, so k = 3 D"},
+     {"minDist", KeyType::Number, "degenerate-hinge threshold, an absolute length >= 0 (default 1e-6)"},
+     {"rayleighStiffness", KeyType::Number, "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
+     {"exactHessian", KeyType::Boolean, "K is the exact Hessian (indefinite away from the rest angle; what Newton needs) instead of its Gauss-Newton part (default false)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       DihedralBendingParameters p;

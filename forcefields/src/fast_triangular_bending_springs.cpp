@@ -276,10 +276,10 @@ namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "FastTriangularBendingSprings",
     "linear bending springs across interior edges (SOFA's FastTriangularBendingSprings)",
-    {{"bendingStiffness", "k, >= 0 (default 1); k = 3 D for cylindrical bending of a plate of rigidity D"},
-     {"minDistValidity", "degenerate-spring threshold, an absolute length >= 0 (default 1e-6)"},
-     {"rayleighStiffness", "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
-     {"areaWeights", "unsigned (SOFA's, default) or signed (no force at rest on cut meshes)"}},
+    {{"bendingStiffness", KeyType::Number, "k, >= 0 (default 1); k = 3 D for cylindrical bending of a plate of rigidity D"},
+     {"minDistValidity", KeyType::Number, "degenerate-spring threshold, an absolute length >= 0 (default 1e-6)"},
+     {"rayleighStiffness", KeyType::Number, "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
+     {"areaWeights", KeyType::Choice, "unsigned (SOFA's, default) or signed (no force at rest on cut meshes)", {"unsigned", "signed"}}},
     {},
     [](const ParameterSource& s) -> std::any {
       BendingParameters p;

@@ -399,11 +399,11 @@ namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "StretchSprings",
     "one linear spring per edge (SOFA's MeshSpringForceField)",
-    {{"stiffness", "ks per spring, >= 0 (required)"},
-     {"damping", "kd per spring, >= 0 (default 0)"},
-     {"perRestLength", "stiffness and damping divided by each spring's rest length, as SOFA's MeshSpringForceField (default false)"},
-     {"stableJacobian", "clamp compressed springs' K to keep it semi-definite (default true)"},
-     {"restScale", "> 0, multiplies every rest length (prestrain: < 1 puts a held sheet under "
+    {{"stiffness", KeyType::Number, "ks per spring, >= 0 (required)", {}, true},
+     {"damping", KeyType::Number, "kd per spring, >= 0 (default 0)"},
+     {"perRestLength", KeyType::Boolean, "stiffness and damping divided by each spring's rest length, as SOFA's MeshSpringForceField (default false)"},
+     {"stableJacobian", KeyType::Boolean, "clamp compressed springs' K to keep it semi-definite (default true)"},
+     {"restScale", KeyType::Number, "> 0, multiplies every rest length (prestrain: < 1 puts a held sheet under "
                    "tension, strain 1/restScale - 1) (default 1)"}},
     {},
     [](const ParameterSource& s) -> std::any {

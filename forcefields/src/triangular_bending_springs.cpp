@@ -123,7 +123,7 @@ namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "TriangularBendingSprings",
     "SOFA's TriangularBendingSprings: a linear spring between the two wings of each interior edge",
-    {{"stiffness", "ks, >= 0 (default 100000, SOFA's)"}, {"damping", "kd, >= 0 (default 1, SOFA's; explicit, as SOFA's)"}},
+    {{"stiffness", KeyType::Number, "ks, >= 0 (default 100000, SOFA's)"}, {"damping", KeyType::Number, "kd, >= 0 (default 1, SOFA's; explicit, as SOFA's)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       TriangularBendingSpringsParameters p;

@@ -511,12 +511,12 @@ namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "TriangularFEM",
     "corotational linear membrane, one constant-strain triangle each (SOFA's TriangularFEMForceField)",
-    {{"youngModulus", "E, >= 0 (default 1000)"},
-     {"poissonRatio", "nu, in (-1, 0.5) (default 0.3)"},
-     {"thickness", "h, >= 0 (default 1)"},
-     {"restScale", "> 0, scales every element's rest shape (prestrain: < 1 puts a held sheet under "
+    {{"youngModulus", KeyType::Number, "E, >= 0 (default 1000)"},
+     {"poissonRatio", KeyType::Number, "nu, in (-1, 0.5) (default 0.3)"},
+     {"thickness", KeyType::Number, "h, >= 0 (default 1)"},
+     {"restScale", KeyType::Number, "> 0, scales every element's rest shape (prestrain: < 1 puts a held sheet under "
                    "tension, strain 1/restScale - 1) (default 1)"},
-     {"exactHessian", "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
+     {"exactHessian", KeyType::Boolean, "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
     {},
     [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, true); },
     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {

@@ -210,10 +210,10 @@ namespace {
 const bool registered = ForceFieldRegistry::instance().add({
     "TriangularFEMForceFieldOptim",
     "SOFA's TriangularFEMForceFieldOptim (method large), formula for formula: frame along the first edge, K with the frame held",
-    {{"youngModulus", "E, >= 0 (default 1000)"},
-     {"poissonRatio", "nu, in (-1, 0.5) (default 0.3)"},
-     {"thickness", "h, >= 0 (default 1; SOFA's has none: 1)"},
-     {"restScale", "> 0, scales every element's rest shape, as SOFA's restScale (default 1)"}},
+    {{"youngModulus", KeyType::Number, "E, >= 0 (default 1000)"},
+     {"poissonRatio", KeyType::Number, "nu, in (-1, 0.5) (default 0.3)"},
+     {"thickness", KeyType::Number, "h, >= 0 (default 1; SOFA's has none: 1)"},
+     {"restScale", KeyType::Number, "> 0, scales every element's rest shape, as SOFA's restScale (default 1)"}},
     {},
     [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, false); },
     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {

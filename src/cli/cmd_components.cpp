@@ -18,7 +18,14 @@ void list(const char* title, const char* sceneKey, const Registry& registry) {
   for (const auto& [name, entry] : registry.entries()) {
     std::cout << "  " << name << ": " << entry.summary << "\n";
     for (const std::string& u : entry.uses) std::cout << "      uses a " << u << "\n";
-    for (const KeyInfo& k : entry.keys) std::cout << "      " << k.name << ": " << k.what << "\n";
+    for (const KeyInfo& k : entry.keys) {
+      std::cout << "      " << k.name << " (" << toString(k.type) << (k.required ? ", required" : "");
+      if (k.type == KeyType::Choice) {
+        std::cout << ":";
+        for (const std::string& c : k.choices) std::cout << " " << c;
+      }
+      std::cout << "): " << k.what << "\n";
+    }
   }
 }
 

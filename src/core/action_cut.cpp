@@ -183,14 +183,14 @@ const bool registered = ActionRegistry::instance().add({
     "cut",
     "a cut along a polyline in rest coordinates, at a time (\"at\") or progressively over an interval "
     "(\"from\", \"to\": a scalpel at constant speed)",
-    {{"at", "time of the cut"},
-     {"from", "start of a progressive cut"},
-     {"to", "end of a progressive cut"},
-     {"polyline", "[[x, y, z], ...] in rest coordinates, at least 2 points"},
-     {"snapTolerance", "how far (relative to the local edge length) the cut's ends snap onto a vertex or "
+    {{"at", KeyType::Number, "time of the cut"},
+     {"from", KeyType::Number, "start of a progressive cut"},
+     {"to", KeyType::Number, "end of a progressive cut"},
+     {"polyline", KeyType::Points, "[[x, y, z], ...] in rest coordinates, at least 2 points", {}, true},
+     {"snapTolerance", KeyType::Number, "how far (relative to the local edge length) the cut's ends snap onto a vertex or "
                        "the border, in [0, 0.5) (default 0.1); without the quality repair, crossings "
                        "snap too"},
-     {"minAngle", "smallest-angle target (degrees) of the quality repair around the cut, in [0, 60) "
+     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair around the cut, in [0, 60) "
                   "(default 20; 0 turns the repair off)"}},
     {},
     [](const ParameterSource& s) -> std::any {

@@ -319,14 +319,14 @@ const bool registered = ActionRegistry::instance().add({
     "perpendicular to the largest principal strain averaged over a disc of radius \"length\" around "
     "each tip, while that strain exceeds \"criticalStrain\", at most \"speed\" m/s (slit tips are "
     "looked for again whenever the mesh changes)",
-    {{"at", "time fracture starts"},
-     {"criticalStrain", "Green strain, averaged over the disc, above which a crack advances, > 0 "
-                        "(required)"},
-     {"length", "radius of the disc around a tip the strain is averaged over (m), > 0 (required): "
-                "a material length, which the mesh must resolve"},
-     {"speed", "largest crack speed (m/s), > 0 (required): the torn length per unit time, whatever "
-               "the time step"},
-     {"minAngle", "smallest-angle target (degrees) of the quality repair along the crack, in "
+    {{"at", KeyType::Number, "time fracture starts"},
+     {"criticalStrain", KeyType::Number, "Green strain, averaged over the disc, above which a crack advances, > 0 "
+                        "(required)", {}, true},
+     {"length", KeyType::Number, "radius of the disc around a tip the strain is averaged over (m), > 0 (required): "
+                "a material length, which the mesh must resolve", {}, true},
+     {"speed", KeyType::Number, "largest crack speed (m/s), > 0 (required): the torn length per unit time, whatever "
+               "the time step", {}, true},
+     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair along the crack, in "
                   "[0, 60) (default 20)"}},
     {},
     [](const ParameterSource& s) -> std::any {

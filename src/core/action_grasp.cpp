@@ -98,12 +98,12 @@ std::string readName(const ParameterSource& s) {
 const bool graspRegistered = ActionRegistry::instance().add({
     "grasp",
     "points (resolved when it starts) that follow their position then plus a displacement path",
-    {{"at", "time the grasp starts"},
-     {"name", "unique among the active grasps; names the CSV's reaction-force columns"},
-     {"points", "[ids] of the mesh as loaded"},
-     {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
-     {"near", "[[x, y, z], ...]: the nearest live point to each position, in rest coordinates"},
-     {"path", "[[t, dx, dy, dz], ...]: times from the grasp's start, strictly increasing"}},
+    {{"at", KeyType::Number, "time the grasp starts"},
+     {"name", KeyType::String, "unique among the active grasps; names the CSV's reaction-force columns", {"forceps"}, true},
+     {"points", KeyType::Integers, "[ids] of the mesh as loaded"},
+     {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
+     {"near", KeyType::Points, "[[x, y, z], ...]: the nearest live point to each position, in rest coordinates"},
+     {"path", KeyType::Rows, "[[t, dx, dy, dz], ...]: times from the grasp's start, strictly increasing", {}, true}},
     {},
     [](const ParameterSource& s) -> std::any {
       GraspParameters p;
@@ -119,7 +119,7 @@ const bool graspRegistered = ActionRegistry::instance().add({
 const bool releaseRegistered = ActionRegistry::instance().add({
     "release",
     "ends an active grasp",
-    {{"at", "time of the release"}, {"name", "the grasp to release"}},
+    {{"at", KeyType::Number, "time of the release"}, {"name", KeyType::String, "the grasp to release", {"forceps"}, true}},
     {},
     [](const ParameterSource& s) -> std::any {
       s.require("name");

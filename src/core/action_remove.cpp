@@ -54,12 +54,12 @@ const bool registered = ActionRegistry::instance().add({
     "remove",
     "carves out the part of the surface inside a sphere or a box (cutting the triangles its boundary "
     "crosses), or the triangles whose rest centroid lies inside",
-    {{"at", "time of the removal"},
-     {"sphere", "{\"center\": [x, y, z], \"radius\": r} in rest coordinates"},
-     {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"},
-     {"boundary", "\"cut\" (default): cut the triangles the region's boundary crosses, a clean hole; "
-                  "\"centroid\": remove whole triangles whose rest centroid is inside"},
-     {"minAngle", "smallest-angle target (degrees) of the quality repair around the hole, in [0, 60) "
+    {{"at", KeyType::Number, "time of the removal"},
+     {"sphere", KeyType::Object, "{\"center\": [x, y, z], \"radius\": r} in rest coordinates"},
+     {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"},
+     {"boundary", KeyType::Choice, "\"cut\" (default): cut the triangles the region's boundary crosses, a clean hole; "
+                  "\"centroid\": remove whole triangles whose rest centroid is inside", {"cut", "centroid"}},
+     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair around the hole, in [0, 60) "
                   "(default 20; 0 turns the repair off)"}},
     {},
     [](const ParameterSource& s) -> std::any {

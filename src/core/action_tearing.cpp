@@ -32,10 +32,10 @@ class TearingAction final : public TimelineAction {
 const bool registered = ActionRegistry::instance().add({
     "tearing",
     "from its time on, tears the edges strained across above a threshold after each step",
-    {{"at", "time tearing starts"},
-     {"threshold", "Green strain normal to an edge above which it tears, > 0 (required)"},
-     {"maxPerStep", "edges torn per step at most, >= 1 (default 4)"},
-     {"minAngle", "smallest-angle target (degrees) of the quality repair after each tear, in "
+    {{"at", KeyType::Number, "time tearing starts"},
+     {"threshold", KeyType::Number, "Green strain normal to an edge above which it tears, > 0 (required)", {}, true},
+     {"maxPerStep", KeyType::Integer, "edges torn per step at most, >= 1 (default 4)"},
+     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair after each tear, in "
                   "[0, 60) (default 20; 0 turns it off)"}},
     {},
     [](const ParameterSource& s) -> std::any {

@@ -35,9 +35,9 @@ class FixedConstraint final : public SceneConstraint {
 const bool registered = ConstraintRegistry::instance().add({
     "fixed",
     "points that do not move",
-    {{"points", "[ids] of the mesh as loaded"},
-     {"box", "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
-     {"near", "[[x, y, z], ...]: the nearest point to each position, in rest coordinates"}},
+    {{"points", KeyType::Integers, "[ids] of the mesh as loaded"},
+     {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
+     {"near", KeyType::Points, "[[x, y, z], ...]: the nearest point to each position, in rest coordinates"}},
     {},
     [](const ParameterSource& s) -> std::any { return PointSelection::read(s); },
     [](const std::any& p) -> std::unique_ptr<SceneConstraint> {

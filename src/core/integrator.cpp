@@ -196,12 +196,12 @@ std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& s) {
 // ---- registration: the keys the implicit integrators share ----
 
 std::vector<KeyInfo> implicitKeys() {
-  return {{"rayleighMass", "mass-proportional damping factor, >= 0 (default 0)"},
-          {"rayleighStiffness", "stiffness-proportional damping factor, >= 0 (default 0)"},
-          {"onSolveFailure",
-           "warn, fail or fallback (default): what a linear solve that misses its tolerance does"},
-          {"fallbackAbove", "relative residual above which fallback re-solves with the fallbackSolver (default 1e-3)"},
-          {"fallbackSolver", "the linear solver that re-solves, by name, with its defaults (default cholmod)"}};
+  return {{"rayleighMass", KeyType::Number, "mass-proportional damping factor, >= 0 (default 0)"},
+          {"rayleighStiffness", KeyType::Number, "stiffness-proportional damping factor, >= 0 (default 0)"},
+          {"onSolveFailure", KeyType::Choice,
+           "warn, fail or fallback (default): what a linear solve that misses its tolerance does", {"fallback", "warn", "fail"}},
+          {"fallbackAbove", KeyType::Number, "relative residual above which fallback re-solves with the fallbackSolver (default 1e-3)"},
+          {"fallbackSolver", KeyType::String, "the linear solver that re-solves, by name, with its defaults (default cholmod)", {"cholmod", "cg"}}};
 }
 
 std::unique_ptr<LinearSolver> makeFallbackSolver(const std::string& name) {

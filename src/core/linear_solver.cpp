@@ -178,9 +178,9 @@ namespace {
 const bool registered = LinearSolverRegistry::instance().add({
     "cg",
     "Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver)",
-    {{"iterations", "iteration cap, >= 1 (default 100)"},
-     {"tolerance", "relative residual to stop at, > 0 (default 1e-8)"},
-     {"warmStart", "start from the previous solve's result (default true)"}},
+    {{"iterations", KeyType::Integer, "iteration cap, >= 1 (default 100)"},
+     {"tolerance", KeyType::Number, "relative residual to stop at, > 0 (default 1e-8)"},
+     {"warmStart", KeyType::Boolean, "start from the previous solve's result (default true)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       CGSettings p;

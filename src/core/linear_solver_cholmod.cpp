@@ -174,8 +174,8 @@ namespace {
 const bool registered = LinearSolverRegistry::instance().add({
     "cholmod",
     "supernodal Cholesky (CHOLMOD) in a kept pattern, ordered by METIS: exact solves",
-    {{"shortLivedPattern", "solves under which a replaced pattern counts as short-lived (default 10)"},
-     {"reorderAfter", "solves on a minimum-degree pattern before reordering by METIS (default 20)"}},
+    {{"shortLivedPattern", KeyType::Integer, "solves under which a replaced pattern counts as short-lived (default 10)"},
+     {"reorderAfter", KeyType::Integer, "solves on a minimum-degree pattern before reordering by METIS (default 20)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       CholmodSettings p;

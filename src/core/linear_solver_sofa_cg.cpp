@@ -92,10 +92,10 @@ namespace {
 const bool registered = LinearSolverRegistry::instance().add({
     "sofa-cg",
     "SOFA's CGLinearSolver step for step: no preconditioner, zero initial guess, its tolerance and threshold tests",
-    {{"iterations", "iteration cap, >= 1 (default 25)"},
-     {"tolerance", "|r| / |b| to stop at, > 0 (default 1e-5)"},
-     {"threshold", "stop when |p^T A p| <= threshold, >= 0 (default 1e-5)"},
-     {"warmStart", "start from the previous solve's result (default false)"}},
+    {{"iterations", KeyType::Integer, "iteration cap, >= 1 (default 25)"},
+     {"tolerance", KeyType::Number, "|r| / |b| to stop at, > 0 (default 1e-5)"},
+     {"threshold", KeyType::Number, "stop when |p^T A p| <= threshold, >= 0 (default 1e-5)"},
+     {"warmStart", KeyType::Boolean, "start from the previous solve's result (default false)"}},
     {},
     [](const ParameterSource& s) -> std::any {
       SofaCGSettings p;

@@ -250,10 +250,10 @@ struct NewtonParameters {
 
 std::vector<KeyInfo> newtonKeys() {
   std::vector<KeyInfo> keys = implicitKeys();
-  keys.push_back({"maxIterations", "Newton iterations per step at most, >= 1 (default 20)"});
-  keys.push_back({"tolerance", "relative residual that ends the iterations, > 0 (default 1e-8)"});
-  keys.push_back({"exactStiffness", "use the fields' exact K where they have one (default true)"});
-  keys.push_back({"lineSearch", "backtracking line search on the incremental potential (default true)"});
+  keys.push_back({"maxIterations", KeyType::Integer, "Newton iterations per step at most, >= 1 (default 20)"});
+  keys.push_back({"tolerance", KeyType::Number, "relative residual that ends the iterations, > 0 (default 1e-8)"});
+  keys.push_back({"exactStiffness", KeyType::Boolean, "use the fields' exact K where they have one (default true)"});
+  keys.push_back({"lineSearch", KeyType::Boolean, "backtracking line search on the incremental potential (default true)"});
   return keys;
 }
 

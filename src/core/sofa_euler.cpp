@@ -204,9 +204,9 @@ class SofaEuler final : public Integrator {
 const bool registered = IntegratorRegistry::instance().add(
     {"sofa-euler",
      "SOFA's EulerImplicitSolver with its CGLinearSolver (sofa-cg), operation for operation: SOFA's numbers to the last bit where SOFA's order is kept",
-     {{"rayleighMass", "mass-proportional damping factor, >= 0 (default 0)"},
-      {"rayleighStiffness", "stiffness-proportional damping factor, >= 0 (default 0)"},
-      {"massAt", "the mass's place among the force fields in SOFA's node, >= 0 (default 0: first)"}},
+     {{"rayleighMass", KeyType::Number, "mass-proportional damping factor, >= 0 (default 0)"},
+      {"rayleighStiffness", KeyType::Number, "stiffness-proportional damping factor, >= 0 (default 0)"},
+      {"massAt", KeyType::Integer, "the mass's place among the force fields in SOFA's node, >= 0 (default 0: first)"}},
      {"linearSolver"},
      [](const ParameterSource& s) -> std::any {
        SofaEulerSettings p;

@@ -139,7 +139,7 @@ run components
 if expect_code 0 "components"; then
   for word in FastTriangularBendingSprings DihedralBending StretchSprings TriangularFEM \
               explicit-euler implicit-euler bdf2 newton cg cholmod youngModulus onSolveFailure \
-              fixed tearing snapTolerance restScale; do
+              fixed tearing snapTolerance restScale "stiffness (number, required)" "areaWeights (choice: unsigned signed)"; do
     checks=$((checks + 1))
     grep -q -- "$word" "$tmp/out" || fail "components does not list $word"
   done

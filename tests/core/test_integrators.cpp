@@ -3,10 +3,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "cutsim/core/integrator.hpp"
+#include "cutsim/core/registries.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
@@ -33,33 +37,67 @@ using topology::Vec3;
 using ::testing::HasSubstr;
 
 struct Config {
-  std::string name;
+  std::string name;         ///< "integrator_solver", for the test's name
+  std::string integrator;   ///< its registered name
+  bool isExplicit = false;  ///< it uses no linear solver
   std::function<std::unique_ptr<Integrator>(ImplicitSettings)> make;
 };
 
-std::unique_ptr<core::LinearSolver> tightCG() {
-  return std::make_unique<ConjugateGradient>(CGSettings{5000, 1e-14, false});
+/// Whether a registry entry declares a key.
+template <class Entry>
+bool declares(const Entry& entry, const std::string& key) {
+  for (const KeyInfo& k : entry.keys)
+    if (k.name == key) return true;
+  return false;
 }
 
+/// Every registered integrator with every registered linear solver it takes (a pair its build
+/// refuses is left out: scenes name such pairs, tests/core/test_registry.cpp), built through the
+/// registries: the integrator with the settings it declares, the solver iterating to 1e-14 where
+/// it declares an iteration cap and a tolerance, without a warm start or an absolute threshold
+/// where it declares them.
 std::vector<Config> allConfigs() {
-  return {
-      {"explicit_euler", [](ImplicitSettings) { return std::make_unique<ExplicitEuler>(); }},
-      {"implicit_euler_cg", [](ImplicitSettings s) { return std::make_unique<ImplicitEuler>(s, tightCG()); }},
-      {"implicit_euler_cholmod",
-       [](ImplicitSettings s) { return std::make_unique<ImplicitEuler>(s, std::make_unique<CholmodSolver>()); }},
-      {"bdf2_cg", [](ImplicitSettings s) { return std::make_unique<BDF2>(s, tightCG()); }},
-      {"bdf2_cholmod", [](ImplicitSettings s) { return std::make_unique<BDF2>(s, std::make_unique<CholmodSolver>()); }},
-      {"newton_cg",
-       [](ImplicitSettings s) { return std::make_unique<NewtonImplicitEuler>(s, NewtonSettings{}, tightCG()); }},
-      {"newton_cholmod",
-       [](ImplicitSettings s) {
-         return std::make_unique<NewtonImplicitEuler>(s, NewtonSettings{}, std::make_unique<CholmodSolver>());
-       }},
-      {"sofa_euler",
-       [](ImplicitSettings s) {
-         return core::makeSofaEuler(s.rayleighMass, s.rayleighStiffness, 0, core::SofaCGSettings{5000, 1e-14, 0.0, false});
-       }},
-  };
+  std::vector<Config> out;
+  for (const auto& [name, entry] : core::IntegratorRegistry::instance().entries()) {
+    const bool isExplicit = entry.uses.empty();
+    const std::vector<std::string> solvers =
+        isExplicit ? std::vector<std::string>{""} : core::LinearSolverRegistry::instance().names();
+    for (const std::string& solver : solvers) {
+      auto make = [integrator = name, solver](ImplicitSettings s) -> std::unique_ptr<Integrator> {
+        const auto& e = *core::IntegratorRegistry::instance().find(integrator);
+        std::map<std::string, ScalarParameters::Value, std::less<>> values;
+        if (declares(e, "rayleighMass")) values["rayleighMass"] = s.rayleighMass;
+        if (declares(e, "rayleighStiffness")) values["rayleighStiffness"] = s.rayleighStiffness;
+        std::unique_ptr<core::LinearSolver> ls;
+        if (!solver.empty()) {
+          const auto& l = *core::LinearSolverRegistry::instance().find(solver);
+          std::map<std::string, ScalarParameters::Value, std::less<>> tight;
+          if (declares(l, "iterations")) tight["iterations"] = 5000L;
+          if (declares(l, "tolerance")) tight["tolerance"] = 1e-14;
+          if (declares(l, "warmStart")) tight["warmStart"] = false;
+          if (declares(l, "threshold")) tight["threshold"] = 0.0;  // no absolute stop (SOFA's CG)
+          ls = l.build(l.read(ScalarParameters("linearSolver", std::move(tight))));
+        }
+        return e.build(e.read(ScalarParameters("integrator", std::move(values))), std::move(ls));
+      };
+      try {
+        make(ImplicitSettings{});
+      } catch (const InvalidInput&) {
+        continue;  // a pair the integrator refuses
+      }
+      std::string label = name + (solver.empty() ? "" : "_" + solver);
+      std::replace(label.begin(), label.end(), '-', '_');
+      out.push_back({label, name, isExplicit, make});
+    }
+  }
+  return out;
+}
+
+TEST(EveryIntegratorList, HoldsEveryRegisteredIntegrator) {
+  std::set<std::string> covered;
+  for (const Config& c : allConfigs()) covered.insert(c.integrator);
+  const auto names = core::IntegratorRegistry::instance().names();
+  EXPECT_EQ(covered, std::set<std::string>(names.begin(), names.end()));
 }
 
 class EveryIntegrator : public ::testing::TestWithParam<Config> {};
@@ -70,8 +108,8 @@ class EveryIntegrator : public ::testing::TestWithParam<Config> {};
 // v_k+1 = (4 v_k - v_k-1 + 2 h g) / (3 + 2 h rM), x_k+1 = (4 x_k - x_k-1 + 2 h v_k+1) / 3.
 TEST_P(EveryIntegrator, FreeFallFollowsTheMethodsRecurrence) {
   const Config& config = GetParam();
-  const bool isExplicit = config.name == "explicit_euler";
-  const bool bdf2 = config.name.rfind("bdf2", 0) == 0;
+  const bool isExplicit = config.isExplicit;
+  const bool bdf2 = config.integrator == "bdf2";  // BDF2's own recurrence; Euler's for the others
   ImplicitSettings settings;
   settings.rayleighMass = isExplicit ? 0.0 : 0.7;
   Simulation sim(std::make_unique<Topology>(grid(4, 1.0)), 2.0);
@@ -264,6 +302,26 @@ TEST(SolveFailurePolicy, FallbackKeepsACappedSolveThatGotClose) {
   const StepStats s = sim->step(0.05);
   EXPECT_TRUE(s.flags & StepStats::MissedTolerance);
   EXPECT_FALSE(s.flags & StepStats::FellBack);
+}
+
+// The fallback solver is chosen by name: CG (its defaults: 100 iterations to 1e-8) re-solves
+// the capped solve in many iterations where CHOLMOD counts one, and both agree with a direct step.
+TEST(SolveFailurePolicy, TheFallbackSolverIsTheOneNamed) {
+  ImplicitSettings s;
+  s.fallbackSolver = "cg";
+  auto sim = swingingSheet(
+      std::make_unique<ImplicitEuler>(s, std::make_unique<ConjugateGradient>(CGSettings{2, 1e-10, false})));
+  const StepStats st = sim->step(0.05);
+  EXPECT_TRUE(st.flags & StepStats::FellBack);
+  EXPECT_EQ(st.solves, 2);
+  EXPECT_GT(st.iterations, 2 + 1);  // the capped solve's 2, then CG's, not CHOLMOD's one
+  EXPECT_LT(st.residual, 1e-8);
+  auto direct = swingingSheet(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
+  direct->step(0.05);
+  auto a = sim->state().x();
+  auto b = direct->state().x();
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-6);
+  EXPECT_THROW(core::makeFallbackSolver("pardiso"), InvalidInput);
 }
 
 TEST(SolveFailurePolicy, FailNamesTheStepAndTheResidual) {

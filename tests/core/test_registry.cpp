@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
@@ -15,9 +18,27 @@ namespace {
 using ::testing::HasSubstr;
 using test::scene;
 
-/// What a force field needs besides its type (its required keys).
-std::string requiredKeys(const std::string& type) {
-  return type == "StretchSprings" ? ", \"stiffness\": 50" : "";
+/// A JSON value of a key's declared type: a number, an integer, a boolean, a choice's or a
+/// string's last declared value (a choice's default comes first: the last is another one).
+std::string valueOf(const KeyInfo& key) {
+  switch (key.type) {
+    case KeyType::Number: return "0.2";
+    case KeyType::Integer: return "1";
+    case KeyType::Boolean: return "false";
+    case KeyType::Choice:
+    case KeyType::String:
+      if (key.choices.empty()) ADD_FAILURE() << key.name << ": a " << toString(key.type) << " key declares no value";
+      return "\"" + (key.choices.empty() ? std::string() : key.choices.back()) + "\"";
+    default: ADD_FAILURE() << key.name << ": no value made for a key of type " << toString(key.type); return "null";
+  }
+}
+
+/// What a force field needs besides its type: its required keys, with values of their types.
+std::string requiredKeys(const std::string& type, const std::string& except = "") {
+  std::string out;
+  for (const KeyInfo& k : forcefields::ForceFieldRegistry::instance().find(type)->keys)
+    if (k.required && k.name != except) out += ", \"" + k.name + "\": " + valueOf(k);
+  return out;
 }
 
 std::string sceneWith(const std::string& forceFields, const std::string& stepping) {
@@ -46,16 +67,32 @@ void runsAndFalls(const std::string& text) {
   EXPECT_EQ(x[3 * 5 + 2], 0.0);   // a fixed one did not
 }
 
-TEST(Registry, HasEveryForceFieldIntegratorAndLinearSolverOfTheProject) {
-  EXPECT_EQ(forcefields::ForceFieldRegistry::instance().names(),
-            (std::vector<std::string>{"DihedralBending", "FastTriangularBendingSprings", "StretchSprings",
-                                      "TriangularBendingSprings", "TriangularFEM", "TriangularFEMForceFieldOptim"}));
-  EXPECT_EQ(core::IntegratorRegistry::instance().names(),
-            (std::vector<std::string>{"bdf2", "explicit-euler", "implicit-euler", "newton", "sofa-euler"}));
-  EXPECT_EQ(core::LinearSolverRegistry::instance().names(), (std::vector<std::string>{"cg", "cholmod", "sofa-cg"}));
-  EXPECT_EQ(core::ActionRegistry::instance().names(),
-            (std::vector<std::string>{"cut", "fracture", "grasp", "release", "remove", "tearing"}));
-  EXPECT_EQ(core::ConstraintRegistry::instance().names(), (std::vector<std::string>{"fixed"}));
+/// docs/scenes.md, where every component a scene can name is documented.
+std::string scenesDoc() {
+  std::ifstream in(std::filesystem::path(CUTSIM_DATA_DIR).parent_path() / "docs" / "scenes.md");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Every registered component is documented where scene writers look (a new one is its own file,
+// its tests, and its lines in docs/scenes.md); the libraries are linked whole, so the core's
+// registrations are all there (the bending springs among them).
+TEST(Registry, EveryRegisteredComponentIsDocumentedInTheSceneFormat) {
+  const std::string doc = scenesDoc();
+  ASSERT_FALSE(doc.empty());
+  auto documented = [&](const std::vector<std::string>& names, const char* kind) {
+    EXPECT_FALSE(names.empty()) << kind;
+    for (const std::string& n : names)
+      EXPECT_TRUE(doc.find("`" + n + "`") != std::string::npos || doc.find("\"" + n + "\"") != std::string::npos)
+          << "the " << kind << " " << n << " is not named in docs/scenes.md";
+  };
+  documented(forcefields::ForceFieldRegistry::instance().names(), "force field");
+  documented(core::IntegratorRegistry::instance().names(), "integrator");
+  documented(core::LinearSolverRegistry::instance().names(), "linear solver");
+  documented(core::ActionRegistry::instance().names(), "action");
+  documented(core::ConstraintRegistry::instance().names(), "constraint");
+  EXPECT_NE(forcefields::ForceFieldRegistry::instance().find("FastTriangularBendingSprings"), nullptr);
 }
 
 TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
@@ -92,17 +129,68 @@ TEST(Registry, EveryForceFieldTakesEachOfItsKeys) {
   const auto& registry = forcefields::ForceFieldRegistry::instance();
   for (const auto& [type, entry] : registry.entries()) {
     for (const KeyInfo& key : entry.keys) {
-      SCOPED_TRACE(type + "." + key.name);
-      // A value of the right JSON type for each key: parsing must accept it.
-      std::string value = "0.2";
-      if (key.name == "areaWeights") value = "\"signed\"";
-      if (key.name == "stableJacobian") value = "false";
-      if (key.name == "exactHessian" || key.name == "perRestLength") value = "false";
-      const std::string field = "{\"type\": \"" + type + "\", \"" + key.name + "\": " + value +
-                                (key.name == "stiffness" ? "" : requiredKeys(type)) + "}";
+      SCOPED_TRACE(type + "." + key.name + " (" + toString(key.type) + ")");
+      // A value of the key's declared type: parsing must accept it.
+      const std::string field =
+          "{\"type\": \"" + type + "\", \"" + key.name + "\": " + valueOf(key) + requiredKeys(type, key.name) + "}";
       EXPECT_EQ(parseError(sceneWith(field, "")), "");
     }
   }
+}
+
+// A key declared required is: the field refuses to be read without it.
+TEST(Registry, EveryRequiredKeyOfAForceFieldIsRequired) {
+  for (const auto& [type, entry] : forcefields::ForceFieldRegistry::instance().entries())
+    for (const KeyInfo& key : entry.keys) {
+      if (!key.required) continue;
+      SCOPED_TRACE(type + "." + key.name);
+      EXPECT_THAT(parseError(sceneWith("{\"type\": \"" + type + "\"" + requiredKeys(type, key.name) + "}", "")),
+                  HasSubstr("missing key \"" + key.name + "\""));
+    }
+}
+
+const std::string kStretch = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+
+/// The first linear solver a scene may give the integrator (some take only their own).
+std::string solverFor(const std::string& integrator) {
+  for (const std::string& solver : core::LinearSolverRegistry::instance().names())
+    if (parseError(sceneWith(kStretch, "\"integrator\": {\"type\": \"" + integrator +
+                                           "\"}, \"linearSolver\": {\"type\": \"" + solver + "\"}")).empty())
+      return solver;
+  ADD_FAILURE() << "no linear solver for " << integrator;
+  return "";
+}
+
+/// The first integrator that solves with the linear solver in a scene.
+std::string integratorFor(const std::string& solver) {
+  for (const auto& [name, entry] : core::IntegratorRegistry::instance().entries())
+    if (!entry.uses.empty() &&
+        parseError(sceneWith(kStretch, "\"integrator\": {\"type\": \"" + name +
+                                           "\"}, \"linearSolver\": {\"type\": \"" + solver + "\"}")).empty())
+      return name;
+  ADD_FAILURE() << "no integrator solves with " << solver;
+  return "";
+}
+
+// Each key of every integrator and linear solver takes a value of its declared type.
+TEST(Registry, EveryIntegratorAndLinearSolverTakesEachOfItsKeys) {
+  const std::string fields = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+  for (const auto& [name, entry] : core::IntegratorRegistry::instance().entries())
+    for (const KeyInfo& key : entry.keys) {
+      SCOPED_TRACE(name + "." + key.name + " (" + toString(key.type) + ")");
+      const std::string solver = entry.uses.empty() ? "" : ", \"linearSolver\": {\"type\": \"" + solverFor(name) + "\"}";
+      const std::string integrator =
+          "\"integrator\": {\"type\": \"" + name + "\", \"" + key.name + "\": " + valueOf(key) + "}" + solver;
+      EXPECT_EQ(parseError(sceneWith(fields, integrator)), "");
+    }
+  for (const auto& [name, entry] : core::LinearSolverRegistry::instance().entries())
+    for (const KeyInfo& key : entry.keys) {
+      SCOPED_TRACE(name + "." + key.name + " (" + toString(key.type) + ")");
+      const std::string integrator = "\"integrator\": {\"type\": \"" + integratorFor(name) +
+                                     "\"}, \"linearSolver\": {\"type\": \"" + name + "\", \"" + key.name +
+                                     "\": " + valueOf(key) + "}";
+      EXPECT_EQ(parseError(sceneWith(fields, integrator)), "");
+    }
 }
 
 TEST(Registry, EveryIntegratorWithEveryLinearSolverSteps) {
@@ -174,6 +262,10 @@ TEST(Registry, BadComponentsNameTheAlternatives) {
       {ok, "\"integrator\": {\"type\": \"explicit-euler\", \"rayleighMass\": 0.1}",
        "inline.json:7: /integrator/rayleighMass: ", "unknown key \"rayleighMass\" for explicit-euler (it belongs to "
        "bdf2, implicit-euler, newton, sofa-euler)"},
+      {ok, "\"integrator\": {\"type\": \"bdf2\", \"fallbackSolver\": \"pardiso\"}",
+       "inline.json:7: /integrator/fallbackSolver: ", "unknown linear solver \"pardiso\" (cg, cholmod, sofa-cg)"},
+      {ok, "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"warn\", \"fallbackSolver\": \"cg\"}",
+       "inline.json:7: /integrator/fallbackSolver: ", "is used only with \"onSolveFailure\": \"fallback\""},
       {ok, "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"retry\"}",
        "inline.json:7: /integrator/onSolveFailure: ", "unknown value \"retry\" (warn, fail, fallback)"},
       {ok, "\"solver\": {\"type\": \"implicit-cg\"}, \"integrator\": {\"type\": \"bdf2\"}", "inline.json:7: /integrator: ",

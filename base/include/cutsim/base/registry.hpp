@@ -123,10 +123,22 @@ class ScalarParameters final : public ParameterSource {
   std::map<std::string, Value, std::less<>> values_;
 };
 
-/// A key of a component, with what it means (for messages and `cutsim components`).
+/// The kind of value a key takes, as a ParameterSource reads it: number(), integer(),
+/// boolean(), choice(), string(), integers(), points() or vec3(), rows(), box(), object().
+enum class KeyType { Number, Integer, Boolean, Choice, String, Integers, Points, Rows, Box, Object };
+/// "number", "integer", "boolean", "choice", "string", "integers", "points", "rows", "box", "object".
+const char* toString(KeyType type);
+
+/// A key of a component: its name, the kind of value it takes, what it means (for messages and
+/// `cutsim components`), the values of a choice (its default first) or examples of a string's,
+/// and whether it is required. The tests build every component from values made after these
+/// declarations.
 struct KeyInfo {
   std::string name;
+  KeyType type;
   std::string what;
+  std::vector<std::string> choices = {};
+  bool required = false;
 };
 
 /// The registry of one kind of component (a force field, an integrator, a linear solver).
