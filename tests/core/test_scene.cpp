@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "../../src/core/tearing.hpp"
+#include "../../src/core/timeline/tearing.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"

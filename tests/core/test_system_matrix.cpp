@@ -1,4 +1,4 @@
-// The CHOLMOD system matrix assembled in place (src/core/system_matrix.hpp) against its
+// The CHOLMOD system matrix assembled in place (src/core/solvers/system_matrix.hpp) against its
 // brute-force twin: the fields' triplets summed into a dense matrix, the mass added, the
 // constrained points eliminated row by row. And the solver's reuse of pattern and analysis.
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 #include <Eigen/Dense>
 #include <random>
 
-#include "../../src/core/system_matrix.hpp"
+#include "../../src/core/solvers/system_matrix.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/core/state.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"

@@ -15,8 +15,8 @@
 #include <sstream>
 
 #include "cutsim/base/errors.hpp"
-#include "sofa_text.hpp"
-#include "scene_json.hpp"
+#include "sofa/sofa_text.hpp"
+#include "scene/scene_json.hpp"
 
 namespace cutsim::core {
 namespace {

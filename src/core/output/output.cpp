@@ -24,7 +24,7 @@
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
-#include "tearing.hpp"
+#include "timeline/tearing.hpp"
 
 namespace cutsim::core {
 

@@ -7,7 +7,7 @@
 
 #include "cutsim/core/linear_solver.hpp"
 #include "cutsim/base/errors.hpp"
-#include "system_matrix.hpp"
+#include "solvers/system_matrix.hpp"
 
 namespace cutsim::core {
 

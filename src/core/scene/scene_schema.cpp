@@ -13,8 +13,8 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
-#include "scene_internal.hpp"
-#include "scene_json.hpp"
+#include "scene/scene_internal.hpp"
+#include "scene/scene_json.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 
 namespace cutsim::core {

@@ -5,8 +5,8 @@
 #include <set>
 
 #include "cutsim/core/timeline.hpp"
-#include "scene_internal.hpp"
-#include "scene_json.hpp"
+#include "scene/scene_internal.hpp"
+#include "scene/scene_json.hpp"
 
 namespace cutsim::core::detail {
 namespace {

@@ -30,7 +30,7 @@
 #include "cutsim/base/numbers.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/topology/geometry.hpp"
-#include "tearing.hpp"
+#include "timeline/tearing.hpp"
 
 namespace cutsim::core {
 namespace {

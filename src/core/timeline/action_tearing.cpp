@@ -3,7 +3,7 @@
 // tear followed by the quality repair around it.
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/base/archive.hpp"
-#include "tearing.hpp"
+#include "timeline/tearing.hpp"
 
 namespace cutsim::core {
 namespace {

@@ -1,4 +1,4 @@
-#include "tearing.hpp"
+#include "timeline/tearing.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -11,7 +11,7 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/base/errors.hpp"
-#include "sofa_text.hpp"
+#include "sofa/sofa_text.hpp"
 
 namespace cutsim::core {
 namespace {

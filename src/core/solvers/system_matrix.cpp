@@ -1,4 +1,4 @@
-#include "system_matrix.hpp"
+#include "solvers/system_matrix.hpp"
 
 #include <amd.h>
 #include <metis.h>

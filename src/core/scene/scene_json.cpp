@@ -1,5 +1,5 @@
 // The scene reader's JSON layer: values with their lines (scene_json.hpp).
-#include "scene_json.hpp"
+#include "scene/scene_json.hpp"
 
 #include <iterator>
 
