@@ -126,13 +126,15 @@ Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.s
   sim.addForceField(std::make_unique<cutsim::forcefields::StretchSprings>(sim.topology(), stretch));
   cutsim::forcefields::BendingParameters bending;
   bending.bendingStiffness = 1e-4;
-  sim.addForceField(std::make_unique<cutsim::forcefields::FastTriangularBendingSprings>(sim.topology(), bending));
+  sim.addForceField(
+      std::make_unique<cutsim::forcefields::FastTriangularBendingSprings>(sim.topology(), bending));
   sim.setGravity({0, 0, -9.81});
   auto x = sim.state().x();
   const double R = kBallRadius;
   for (PointId p : sim.topology().points()) {
     const auto r = sim.topology().restPosition(p);
-    const auto q = shape == Shape::Drape ? std::array<double, 3>{r[0], r[1], r[2]} : placed(shape, r[0], r[1]);
+    const auto q =
+        shape == Shape::Drape ? std::array<double, 3>{r[0], r[1], r[2]} : placed(shape, r[0], r[1]);
     for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = q[std::size_t(c)];
   }
   if (contact) {
@@ -153,7 +155,8 @@ Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.s
       table.friction = 0.4;
       obstacles = {ball, table};
     }
-    cutsim::core::addContact(sim, std::make_unique<cutsim::forcefields::Contact>(sim.topology(), c, obstacles));
+    cutsim::core::addContact(
+        sim, std::make_unique<cutsim::forcefields::Contact>(sim.topology(), c, obstacles));
   }
   SolverSettings st;
   st.kind = SolverSettings::Kind::ImplicitCG;
@@ -168,14 +171,16 @@ Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.s
   return s;
 }
 
-void BM_ContactStep(benchmark::State& state, Shape shape, bool contact, double searchSlack = ContactParameters{}.searchSlack) {
+void BM_ContactStep(benchmark::State& state, Shape shape, bool contact,
+                    double searchSlack = ContactParameters{}.searchSlack) {
   Setup s = make(shape, contact, searchSlack);
   long clamped = 0, active = 0;
   // The first step builds the search's cache (when there is one): timed apart, so that the
   // figure is the step that reuses it, whatever the number of iterations the run settles on.
   const auto start = std::chrono::steady_clock::now();
   s.sim->step(1e-3);
-  state.counters["first_step_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  state.counters["first_step_ms"] =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   for (auto _ : state) {
     std::copy(s.x.begin(), s.x.end(), s.sim->state().x().begin());
     std::copy(s.v.begin(), s.v.end(), s.sim->state().v().begin());
@@ -206,22 +211,45 @@ void BM_ContactCgIterations(benchmark::State& state, Shape shape, bool contact) 
 
 }  // namespace
 
-BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_without_contact, Shape::Drape, false)->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_without_contact, Shape::Fold, false)->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_with_contact, Shape::Fold, true)->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_without_contact, Shape::FoldShifted, false)->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_with_contact, Shape::FoldShifted, true)->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_ContactStep, drape_without_contact, Shape::Drape, false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact, Shape::Drape, true)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, fold_without_contact, Shape::Fold, false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact, Shape::Fold, true)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, fold_shifted_without_contact, Shape::FoldShifted, false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, fold_shifted_with_contact, Shape::FoldShifted, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_without_contact, Shape::Drape, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, drape_with_contact, Shape::Drape, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_without_contact, Shape::Fold, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_with_contact, Shape::Fold, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_without_contact, Shape::FoldShifted, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactCgIterations, fold_shifted_with_contact, Shape::FoldShifted, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_ContactStep, drape_without_contact, Shape::Drape, false)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact, Shape::Drape, true)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_without_contact, Shape::Fold, false)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact, Shape::Fold, true)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_shifted_without_contact, Shape::FoldShifted, false)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_shifted_with_contact, Shape::FoldShifted, true)
+    ->Unit(benchmark::kMillisecond);
 // The same without the search's cache (searched at every step, as a cloth that keeps moving is).
-BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact_searched_every_step, Shape::Drape, true, 0.0)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact_searched_every_step, Shape::Fold, true, 0.0)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, cliff_without_contact, Shape::Cliff, false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ContactStep, cliff_with_contact, Shape::Cliff, true)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_ContactStep, drape_with_contact_searched_every_step, Shape::Drape, true, 0.0)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, fold_with_contact_searched_every_step, Shape::Fold, true, 0.0)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, cliff_without_contact, Shape::Cliff, false)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ContactStep, cliff_with_contact, Shape::Cliff, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 BENCHMARK_MAIN();

@@ -112,8 +112,8 @@ void BM_AssembleTriplets(benchmark::State& state) {
   ForceField& ff = field(state, s);
   TripletAccumulator acc;
   // 16 blocks per hinge, 9 per triangle, 9 triplets per block (reserved once).
-  acc.reserve((state.range(1) == 0 ? 144 * s.dihedral->numActiveHinges()
-                                   : 81 * s.fem->numElements()));
+  acc.reserve(
+      (state.range(1) == 0 ? 144 * s.dihedral->numActiveHinges() : 81 * s.fem->numElements()));
   for (auto _ : state) {
     acc.clear();
     ff.addKToMatrix(s.x, acc, -1.0);

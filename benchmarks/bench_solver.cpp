@@ -8,7 +8,6 @@
 #include <benchmark/benchmark.h>
 
 #include <functional>
-
 #include <memory>
 #include <vector>
 
@@ -48,11 +47,12 @@ std::unique_ptr<Simulation> cloth(int n, SolverSettings::Kind kind, int cgIterat
   cutsim::forcefields::StretchParameters stretch;
   stretch.stiffness = 200.0;
   stretch.damping = 0.05;
-  sim->addForceField(std::make_unique<cutsim::forcefields::StretchSprings>(sim->topology(), stretch));
+  sim->addForceField(
+      std::make_unique<cutsim::forcefields::StretchSprings>(sim->topology(), stretch));
   cutsim::forcefields::BendingParameters bending;
   bending.bendingStiffness = 1e-4;
-  sim->addForceField(
-      std::make_unique<cutsim::forcefields::FastTriangularBendingSprings>(sim->topology(), bending));
+  sim->addForceField(std::make_unique<cutsim::forcefields::FastTriangularBendingSprings>(
+      sim->topology(), bending));
   sim->fixed().add(id(0, 0));
   sim->fixed().add(id(n - 1, 0));
   sim->setGravity({0, 0, -9.81});
@@ -86,11 +86,13 @@ void BM_Step(benchmark::State& st, SolverSettings::Kind kind, int cgIterations) 
   st.counters["symbolic_analyses"] = analyses;
   st.SetItemsProcessed(st.iterations() * std::int64_t(n) * n);
   st.counters["vertices"] = double(n) * n;
-  st.counters["solver_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
+  st.counters["solver_iterations"] =
+      benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
 }
 
 /// One step of an integrator that the shorthand settings do not describe (BDF2, Newton).
-void BM_StepWith(benchmark::State& st, std::function<std::unique_ptr<cutsim::core::Integrator>()> make) {
+void BM_StepWith(benchmark::State& st,
+                 std::function<std::unique_ptr<cutsim::core::Integrator>()> make) {
   const int n = int(st.range(0));
   auto sim = cloth(n, SolverSettings::Kind::ImplicitCholmod, 1);
   sim->setIntegrator(make());
@@ -122,20 +124,42 @@ void BM_StretchForce(benchmark::State& st) {
 
 // 33^2 ~ 1k, 101^2 ~ 10k, 317^2 ~ 100k vertices.
 BENCHMARK_CAPTURE(BM_Step, explicit, SolverSettings::Kind::Explicit, 1)
-    ->Arg(33)->Arg(101)->Arg(317)->Unit(benchmark::kMillisecond);
+    ->Arg(33)
+    ->Arg(101)
+    ->Arg(317)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Step, implicit_cg20, SolverSettings::Kind::ImplicitCG, 20)
-    ->Arg(33)->Arg(101)->Arg(317)->Unit(benchmark::kMillisecond);
+    ->Arg(33)
+    ->Arg(101)
+    ->Arg(317)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Step, implicit_cg100, SolverSettings::Kind::ImplicitCG, 100)
-    ->Arg(33)->Arg(101)->Arg(317)->Unit(benchmark::kMillisecond);
+    ->Arg(33)
+    ->Arg(101)
+    ->Arg(317)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Step, implicit_cholmod, SolverSettings::Kind::ImplicitCholmod, 1)
-    ->Arg(33)->Arg(101)->Arg(317)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_StepWith, bdf2_cholmod, [] {
-  return std::make_unique<cutsim::core::BDF2>(damped(), std::make_unique<cutsim::core::CholmodSolver>());
-})->Arg(33)->Arg(101)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_StepWith, newton_cholmod, [] {
-  return std::make_unique<cutsim::core::NewtonImplicitEuler>(damped(), cutsim::core::NewtonSettings{},
-                                                             std::make_unique<cutsim::core::CholmodSolver>());
-})->Arg(33)->Arg(101)->Unit(benchmark::kMillisecond);
+    ->Arg(33)
+    ->Arg(101)
+    ->Arg(317)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_StepWith, bdf2_cholmod,
+                  [] {
+                    return std::make_unique<cutsim::core::BDF2>(
+                        damped(), std::make_unique<cutsim::core::CholmodSolver>());
+                  })
+    ->Arg(33)
+    ->Arg(101)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_StepWith, newton_cholmod,
+                  [] {
+                    return std::make_unique<cutsim::core::NewtonImplicitEuler>(
+                        damped(), cutsim::core::NewtonSettings{},
+                        std::make_unique<cutsim::core::CholmodSolver>());
+                  })
+    ->Arg(33)
+    ->Arg(101)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_StretchForce)->Arg(101)->Arg(317)->Arg(1001)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

@@ -5,8 +5,8 @@
 // (StretchSprings) and to the simulation state, on a 20k-triangle grid and on a 2M-triangle grid.
 // Every iteration works on a fresh part of the grid.
 //
-//   cutsim_bench_topology                      # both sizes (the 2M grid takes a few seconds to build)
-//   cutsim_bench_topology --benchmark_format=json > topology.json
+//   cutsim_bench_topology                      # both sizes (the 2M grid takes a few seconds to
+//   build) cutsim_bench_topology --benchmark_format=json > topology.json
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -117,7 +117,8 @@ void BM_RemoveOneTriangle(benchmark::State& st) {
   std::vector<cutsim::topology::TriangleId> ids;
   const int n = s.n;
   for (int j = n - 2; j >= 1 && ids.size() < 4000; j -= 2)
-    for (int i = 1; i + 2 < n && ids.size() < 4000; i += 3) ids.push_back(cutsim::topology::TriangleId(2 * (j * (n - 1) + i)));
+    for (int i = 1; i + 2 < n && ids.size() < 4000; i += 3)
+      ids.push_back(cutsim::topology::TriangleId(2 * (j * (n - 1) + i)));
   std::size_t k = 0;
   for (auto _ : st) {
     while (k < ids.size() && !s.topo->isTriangleAlive(ids[k])) ++k;
@@ -133,8 +134,16 @@ void BM_RemoveOneTriangle(benchmark::State& st) {
 
 // 101 x 101 vertices: 20,000 triangles; 1001 x 1001: 2,000,000 triangles.
 BENCHMARK(BM_Incise20Edges)->Arg(101)->Arg(1001)->Iterations(120)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_CutPolyline20Cells)->Arg(101)->Arg(1001)->Iterations(120)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_RemoveOneTriangle)->Arg(101)->Arg(1001)->Iterations(1000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CutPolyline20Cells)
+    ->Arg(101)
+    ->Arg(1001)
+    ->Iterations(120)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RemoveOneTriangle)
+    ->Arg(101)
+    ->Arg(1001)
+    ->Iterations(1000)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -20,11 +20,11 @@
 #include <string_view>
 #include <vector>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/core/state.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/mirror_observer.hpp"
@@ -337,9 +337,9 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
                       "op " + std::to_string(op) + " (" + name +
                           ") was rejected but changed the mesh: " + e.what() + "\nafter:\n" +
                           history);
-      detail::require(std::string(e.what()).find("internal error") == std::string::npos,
-                      "op " + std::to_string(op) + " (" + name + "): " + e.what() + "\nafter:\n" +
-                          history);
+      detail::require(
+          std::string(e.what()).find("internal error") == std::string::npos,
+          "op " + std::to_string(op) + " (" + name + "): " + e.what() + "\nafter:\n" + history);
     } catch (const InvalidInput& e) {
       outcome = std::string(" -> invalid input: ") + e.what();
       detail::require(

@@ -16,9 +16,9 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -541,7 +541,9 @@ using cutsim::core::NewtonSettings;
 using cutsim::core::Simulation;
 
 enum class Bending { Springs, Dihedral };
-const char* bendingName(Bending b) { return b == Bending::Springs ? "springs" : "dihedral"; }
+const char* bendingName(Bending b) {
+  return b == Bending::Springs ? "springs" : "dihedral";
+}
 
 /// The test cloth: a 1 x 1 m `alternating` grid of n x n vertices (density 0.2 kg/m^2),
 /// StretchSprings (stiffness 1000, the default stable Jacobian) and a bending model of k = 1e-3
@@ -634,7 +636,9 @@ std::unique_ptr<Integrator> makeMethod(const Method& m) {
     p["exactStiffness"] = m.newton.exactStiffness;
     p["lineSearch"] = m.newton.lineSearch;
   }
-  return entry->build(entry->read(cutsim::ScalarParameters("integrator " + m.label(), std::move(p))), std::move(solver));
+  return entry->build(
+      entry->read(cutsim::ScalarParameters("integrator " + m.label(), std::move(p))),
+      std::move(solver));
 }
 
 struct RunResult {
@@ -722,8 +726,12 @@ Reference reference(const ClothSpec& spec, double dt, double T) {
   return ref;
 }
 
-int clothSide() { return gMode == Mode::Full ? 21 : gMode == Mode::Quick ? 11 : 7; }
-double clothT() { return gMode == Mode::Smoke ? 0.2 : 0.5; }
+int clothSide() {
+  return gMode == Mode::Full ? 21 : gMode == Mode::Quick ? 11 : 7;
+}
+double clothT() {
+  return gMode == Mode::Smoke ? 0.2 : 0.5;
+}
 
 /// The implicit time steps of the sweep, largest first; the reference runs at the last / 32.
 std::vector<double> implicitSteps() {
@@ -765,8 +773,8 @@ void pareto(std::ofstream& summary) {
       if (gMode == Mode::Smoke && (bending == Bending::Dihedral) != cut) continue;
       const ClothSpec spec{n, cut, bending};
       const Reference ref = reference(spec, refDt, clothT());
-      refs << spec.scenario() << "," << bendingName(bending) << "," << n * n << "," << ref.dt
-           << "," << ref.seconds << "," << ref.selfError << "," << clothT() << "\n";
+      refs << spec.scenario() << "," << bendingName(bending) << "," << n * n << "," << ref.dt << ","
+           << ref.seconds << "," << ref.selfError << "," << clothT() << "\n";
       const std::string tag = spec.scenario() + "_" + bendingName(bending);
       // Explicit: dt doubled from below the limit until the run blows up.
       double lastStable = 0.0, firstUnstable = 0.0;
@@ -785,7 +793,8 @@ void pareto(std::ofstream& summary) {
       }
       check(lastStable > 0.0 && firstUnstable > 0.0,
             tag + ": the explicit stability limit is bracketed (stable at " +
-                std::to_string(lastStable) + ", blows up at " + std::to_string(firstUnstable) + ")");
+                std::to_string(lastStable) + ", blows up at " + std::to_string(firstUnstable) +
+                ")");
       summary << "explicit_limit_" << tag << "," << lastStable << "\n";
       double smallest = 1e300;
       for (const std::string integrator : {"implicit-euler", "bdf2", "newton"}) {
@@ -821,8 +830,12 @@ void pareto(std::ofstream& summary) {
 /// The order study: the hanging cloth of 11 x 11 vertices (7 x 7 for the smoke test, over 0.2 s
 /// with time steps four times smaller)
 /// and time steps down to where its error is in its asymptotic range.
-int orderSide() { return gMode == Mode::Smoke ? 7 : 11; }
-double orderT() { return gMode == Mode::Smoke ? 0.2 : 0.5; }
+int orderSide() {
+  return gMode == Mode::Smoke ? 7 : 11;
+}
+double orderT() {
+  return gMode == Mode::Smoke ? 0.2 : 0.5;
+}
 std::vector<double> orderSteps() {
   if (gMode == Mode::Smoke) return {0.002, 0.001, 0.0005};
   return {0.005, 0.0025, 0.00125, 0.000625};
@@ -837,8 +850,8 @@ void orderOfAccuracy(std::ofstream& summary) {
   const Reference ref = reference(spec, refDt, T);
   auto out = csv("order.csv", "method,stiffness,dt,error,seconds,failure");
   auto fits = csv("order_fit.csv", "method,stiffness,slope,dt_min,dt_max,points");
-  summary << "order_n," << spec.n << "\norder_T," << T << "\norder_ref_dt," << refDt << "\norder_ref_error,"
-          << ref.selfError << "\n";
+  summary << "order_n," << spec.n << "\norder_T," << T << "\norder_ref_dt," << refDt
+          << "\norder_ref_error," << ref.selfError << "\n";
   // Fitted where the error is well above the reference's own error (and rounding).
   const double floorErr = std::max(10.0 * ref.selfError, 1e-10);
   for (const std::string integrator : {"bdf2", "implicit-euler"}) {
@@ -892,8 +905,8 @@ struct FoldSetup {
 std::unique_ptr<Simulation> foldedSheet(const FoldSetup& f) {
   const int ny = (f.nx - 1) / 2 + 1;
   const MeshData mesh = grid(f.nx, ny, 1.0, 0.5, "alternating");
-  auto sim = std::make_unique<Simulation>(
-      std::make_unique<Topology>(mesh.points, mesh.triangles), f.density);
+  auto sim = std::make_unique<Simulation>(std::make_unique<Topology>(mesh.points, mesh.triangles),
+                                          f.density);
   StretchParameters sp;
   sp.stiffness = 1000.0;
   sim->addForceField(std::make_unique<StretchSprings>(sim->topology(), sp), "stretch");
@@ -982,8 +995,9 @@ void newtonConvergence(std::ofstream& summary) {
   FoldSetup large = f;
   large.dt = 5 * f.dt;
   const int steps = 3;
-  auto out = csv("newton.csv", "setting,dt,stiffness,step,iteration,residual,relative,"
-                               "terminal_order,positive_definite,same_as_gauss_newton");
+  auto out = csv("newton.csv",
+                 "setting,dt,stiffness,step,iteration,residual,relative,"
+                 "terminal_order,positive_definite,same_as_gauss_newton");
   summary << "newton_nx," << f.nx << "\nnewton_ny," << (f.nx - 1) / 2 + 1 << "\nnewton_angle_deg,"
           << f.angle * 180 / kPi << "\nnewton_density," << f.density << "\nnewton_k," << f.k
           << "\nnewton_dt," << f.dt << "\nnewton_large_dt," << large.dt << "\n";
@@ -1004,8 +1018,8 @@ void newtonConvergence(std::ofstream& summary) {
                     setup->dt, exact ? "exact K" : "Gauss-Newton", s + 1, res.size() - 1, order);
         for (std::size_t i = 0; i < res.size(); ++i) {
           out << setting << "," << setup->dt << "," << (exact ? "exact" : "gauss-newton") << ","
-              << s + 1 << "," << i << "," << res[i] << "," << res[i] / res[0] << "," << order
-              << "," << (exact ? ex.positiveDefinite : true) << "," << same << "\n";
+              << s + 1 << "," << i << "," << res[i] << "," << res[i] / res[0] << "," << order << ","
+              << (exact ? ex.positiveDefinite : true) << "," << same << "\n";
           if (i < 12) std::printf(" %.1e", res[i] / res[0]);
         }
         std::printf("%s\n", res.size() > 12 ? " ..." : "");
@@ -1018,21 +1032,27 @@ void newtonConvergence(std::ofstream& summary) {
     if (setup == &f) {
       summary << "newton_exact_worst_order," << worstExact << "\nnewton_gn_best_order," << bestGn
               << "\n";
-      check(ex.positiveDefinite, "fold: Newton's exact system M - dt^2 K is positive definite at "
-                                 "the start and end of every step");
+      check(ex.positiveDefinite,
+            "fold: Newton's exact system M - dt^2 K is positive definite at "
+            "the start and end of every step");
       check(fellBack == 0 && worstExact > 1.5,
             "fold: Newton with the exact Hessian ends quadratically in every step (smallest "
-            "terminal order " + std::to_string(worstExact) + " > 1.5)");
-      check(bestGn < 1.3, "fold: Newton with the Gauss-Newton stiffness ends linearly (largest "
-                          "terminal order " + std::to_string(bestGn) + " < 1.3)");
+            "terminal order " +
+                std::to_string(worstExact) + " > 1.5)");
+      check(bestGn < 1.3,
+            "fold: Newton with the Gauss-Newton stiffness ends linearly (largest "
+            "terminal order " +
+                std::to_string(bestGn) + " < 1.3)");
       int itEx = 0, itGn = 0;
       for (int s = 0; s < steps; ++s) {
         itEx += int(ex.residuals[s].size()) - 1;
         itGn += int(gn.residuals[s].size()) - 1;
       }
-      check(itEx < itGn, "fold: the exact Hessian needs fewer Newton iterations than the "
-                         "Gauss-Newton stiffness (" + std::to_string(itEx) + " vs " +
-                         std::to_string(itGn) + " over " + std::to_string(steps) + " steps)");
+      check(itEx < itGn,
+            "fold: the exact Hessian needs fewer Newton iterations than the "
+            "Gauss-Newton stiffness (" +
+                std::to_string(itEx) + " vs " + std::to_string(itGn) + " over " +
+                std::to_string(steps) + " steps)");
     }
   }
 }
@@ -1044,9 +1064,10 @@ void stepCost(std::ofstream&) {
   auto cost = csv("solver_cost.csv", "solver,n,vertices,seconds_per_step,dt");
   // Full: up to a million vertices for the explicit and CG steps, a quarter million for CHOLMOD
   // (whose factor grows faster than linearly).
-  const std::vector<int> sizes = gMode == Mode::Smoke   ? std::vector<int>{16, 32}
-                                 : gMode == Mode::Quick ? std::vector<int>{32, 64, 90, 128, 181}
-                                                        : std::vector<int>{32, 64, 128, 256, 362, 512, 724, 1000};
+  const std::vector<int> sizes = gMode == Mode::Smoke ? std::vector<int>{16, 32}
+                                 : gMode == Mode::Quick
+                                     ? std::vector<int>{32, 64, 90, 128, 181}
+                                     : std::vector<int>{32, 64, 128, 256, 362, 512, 724, 1000};
   const int cholmodMaxSide = 512;
   const std::vector<Method> methods = {{"explicit-euler", ""},
                                        {"implicit-euler", "cg20"},
@@ -1087,7 +1108,8 @@ int main(int argc, char** argv) {
     } else if (a == "--only" && i + 1 < argc) {
       only = argv[++i];
     } else {
-      std::cerr << "usage: cutsim_study [--smoke | --quick | --full] [--out DIR] [--only SECTIONS]\n";
+      std::cerr
+          << "usage: cutsim_study [--smoke | --quick | --full] [--out DIR] [--only SECTIONS]\n";
       return 2;
     }
   }

@@ -47,7 +47,9 @@ constexpr char kMagic[8] = {'C', 'U', 'T', 'S', 'I', 'M', 'C', 'K'};
 constexpr std::uint32_t kByteOrder = 0x01020304u;
 static_assert(std::endian::native == std::endian::little, "archives are written little-endian");
 
-std::uint32_t crc(const char* data, std::size_t n) { return crc32Of(0, data, n); }
+std::uint32_t crc(const char* data, std::size_t n) {
+  return crc32Of(0, data, n);
+}
 
 template <class T>
 void put(std::string& out, T v) {
@@ -59,7 +61,8 @@ void put(std::string& out, T v) {
 
 void ArchiveWriter::begin(std::string_view tag) {
   if (!tag_.empty()) end();
-  if (tag.empty() || tag.size() > 8) throw Error("archive: a section tag has 1 to 8 bytes: '" + std::string(tag) + "'");
+  if (tag.empty() || tag.size() > 8)
+    throw Error("archive: a section tag has 1 to 8 bytes: '" + std::string(tag) + "'");
   for (const auto& t : tags_)
     if (t == tag) throw Error("archive: section '" + std::string(tag) + "' written twice");
   tag_ = std::string(tag);
@@ -161,7 +164,8 @@ ArchiveReader::ArchiveReader(const std::filesystem::path& path) : path_(path) {
   if (!std::filesystem::is_regular_file(path, ec)) fail("not a regular file, not a checkpoint");
   // The magic first: a file that is not a checkpoint is not read whole.
   char magic[8] = {};
-  if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0) fail("not a cutsim checkpoint (no CUTSIMCK header)");
+  if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0)
+    fail("not a cutsim checkpoint (no CUTSIMCK header)");
   in.seekg(0);
   std::ostringstream buffer;
   buffer << in.rdbuf();
@@ -217,7 +221,8 @@ void ArchiveReader::open(std::string_view tag) {
 }
 
 void ArchiveReader::close() {
-  if (pos_ != end_) fail(std::to_string(end_ - pos_) + " bytes left unread (not what this cutsim writes)");
+  if (pos_ != end_)
+    fail(std::to_string(end_ - pos_) + " bytes left unread (not what this cutsim writes)");
   tag_.clear();
 }
 

@@ -1,9 +1,8 @@
 // ParameterSource's conveniences (cutsim/base/registry.hpp).
-#include "cutsim/base/registry.hpp"
-
 #include <cmath>
 
 #include "cutsim/base/numbers.hpp"
+#include "cutsim/base/registry.hpp"
 
 namespace cutsim {
 
@@ -11,16 +10,26 @@ ParameterSource::~ParameterSource() = default;
 
 const char* toString(KeyType type) {
   switch (type) {
-    case KeyType::Number: return "number";
-    case KeyType::Integer: return "integer";
-    case KeyType::Boolean: return "boolean";
-    case KeyType::Choice: return "choice";
-    case KeyType::String: return "string";
-    case KeyType::Integers: return "integers";
-    case KeyType::Points: return "points";
-    case KeyType::Rows: return "rows";
-    case KeyType::Box: return "box";
-    case KeyType::Object: return "object";
+    case KeyType::Number:
+      return "number";
+    case KeyType::Integer:
+      return "integer";
+    case KeyType::Boolean:
+      return "boolean";
+    case KeyType::Choice:
+      return "choice";
+    case KeyType::String:
+      return "string";
+    case KeyType::Integers:
+      return "integers";
+    case KeyType::Points:
+      return "points";
+    case KeyType::Rows:
+      return "rows";
+    case KeyType::Box:
+      return "box";
+    case KeyType::Object:
+      return "object";
   }
   return "?";
 }
@@ -61,7 +70,8 @@ std::string_view ParameterSource::oneOf(std::initializer_list<std::string_view> 
   int count = 0;
   std::string list;
   for (std::string_view k : keys) {
-    list += (list.empty() ? "\"" : (k == *(keys.end() - 1) ? "\" or \"" : "\", \"")) + std::string(k);
+    list +=
+        (list.empty() ? "\"" : (k == *(keys.end() - 1) ? "\" or \"" : "\", \"")) + std::string(k);
     if (has(k)) {
       found = k;
       ++count;
@@ -80,9 +90,12 @@ const ScalarParameters::Value& ScalarParameters::value(std::string_view key) con
 double ScalarParameters::number(std::string_view key) const {
   const Value& v = value(key);
   double d = 0;
-  if (const double* p = std::get_if<double>(&v)) d = *p;
-  else if (const long* q = std::get_if<long>(&v)) d = double(*q);
-  else fail(key, "expected a number");
+  if (const double* p = std::get_if<double>(&v))
+    d = *p;
+  else if (const long* q = std::get_if<long>(&v))
+    d = double(*q);
+  else
+    fail(key, "expected a number");
   if (!std::isfinite(d)) fail(key, "expected a finite number, got " + describeNumber(d));
   return d;
 }
@@ -91,7 +104,8 @@ long ScalarParameters::integer(std::string_view key, long min, long max) const {
   const long* p = std::get_if<long>(&value(key));
   if (!p) fail(key, "expected an integer");
   if (*p < min || *p > max)
-    fail(key, "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " + std::to_string(*p) + ")");
+    fail(key, "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " +
+                  std::to_string(*p) + ")");
   return *p;
 }
 

@@ -69,7 +69,8 @@ void inParts(std::size_t n, int parts, Body&& body) {
 /// each other into a vector of its own in `scratch`, appended to `out` in the runs' order: what
 /// one run over [0, n) into `out` appends.
 template <class T, class Run>
-void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratch, std::vector<T>& out, Run&& run) {
+void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratch,
+                   std::vector<T>& out, Run&& run) {
   if (parts <= 1) {
     run(std::size_t(0), n, out);
     return;
@@ -86,18 +87,21 @@ void gatherInParts(std::size_t n, int parts, std::vector<std::vector<T>>& scratc
     out.resize(before);  // (as it was: nothing appended)
     throw;
   }
-  for (std::size_t k = 1; k < scratch.size(); ++k) out.insert(out.end(), scratch[k].begin(), scratch[k].end());
+  for (std::size_t k = 1; k < scratch.size(); ++k)
+    out.insert(out.end(), scratch[k].begin(), scratch[k].end());
 }
 
 /// Record indices, each once and ascending (what sorting them and dropping repeats gives), from
 /// a bitset over the records: each(mark) marks them, then they are appended to `out`.
 template <class Each>
-void ascendingOnce(std::size_t records, std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out, Each&& each) {
+void ascendingOnce(std::size_t records, std::vector<std::uint64_t>& bits,
+                   std::vector<std::uint32_t>& out, Each&& each) {
   bits.assign((records + 63) / 64, 0);
   each([&](std::uint32_t i) { bits[i >> 6] |= std::uint64_t(1) << (i & 63); });
   out.clear();
   for (std::size_t w = 0; w < bits.size(); ++w)
-    for (std::uint64_t b = bits[w]; b != 0; b &= b - 1) out.push_back(std::uint32_t(64 * w + std::size_t(std::countr_zero(b))));
+    for (std::uint64_t b = bits[w]; b != 0; b &= b - 1)
+      out.push_back(std::uint32_t(64 * w + std::size_t(std::countr_zero(b))));
 }
 
 /// The threads contact's loops use when its parameters leave it to the machine: CUTSIM_THREADS
@@ -108,8 +112,10 @@ int defaultThreads() {
     char* end = nullptr;
     const long v = std::strtol(s, &end, 10);
     if (end == s || *end != '\0' || v < 1 || v > 256)
-      throw InvalidInput("CUTSIM_THREADS", "must be a whole number in [1, 256] (the threads contact may use), got \"" +
-                                               std::string(s) + "\"");
+      throw InvalidInput(
+          "CUTSIM_THREADS",
+          "must be a whole number in [1, 256] (the threads contact may use), got \"" +
+              std::string(s) + "\"");
     return int(v);
   }
   return int(std::clamp<unsigned>(std::thread::hardware_concurrency(), 1, 256));
@@ -128,9 +134,9 @@ enum class Kind : std::uint8_t {
 
 struct Pair {
   Kind kind;
-  std::int32_t obstacle = -1;       ///< -1: self-contact
+  std::int32_t obstacle = -1;         ///< -1: self-contact
   std::array<std::uint32_t, 4> id{};  ///< point ids (surface) or vertex indices (obstacle mesh)
-  std::uint8_t surface = 0;         ///< bit i: id[i] is a surface point
+  std::uint8_t surface = 0;           ///< bit i: id[i] is a surface point
   bool excluded = false;
   /// VT, VO and OV: what of the triangle the point meets: 3 the triangle (id[1..3]), 2 one of
   /// its edges (id[1..2]), 1 one of its corners (id[1]); unused ids are kInvalidIndex. The
@@ -149,10 +155,13 @@ struct Pair {
     switch (kind) {
       case Kind::VT:
       case Kind::VO:
-      case Kind::OV: return 1 + shape;
+      case Kind::OV:
+        return 1 + shape;
       case Kind::EE:
-      case Kind::EO: return 4;
-      default: return 4;
+      case Kind::EO:
+        return 4;
+      default:
+        return 4;
     }
   }
   // Frozen at the step's start:
@@ -178,7 +187,9 @@ struct Pair {
 struct Law {
   double d, k;
   double sm() const { return 1e-2 * d; }
-  static double energyAt(double d, double k, double s) { return k / 3 * (d - s) * (d - s) * (d - s) / s; }
+  static double energyAt(double d, double k, double s) {
+    return k / 3 * (d - s) * (d - s) * (d - s) / s;
+  }
   static double forceAt(double d, double k, double s) {
     const double a = d - s;
     return k * a * a / s + k / 3 * a * a * a / (s * s);
@@ -213,7 +224,6 @@ struct Eval {
   V3 n = V3::UnitZ();
   std::array<double, 4> w{};
 };
-
 
 /// Friction force on the pair's relative velocity u (tangential to n0); with `keep`, its
 /// derivative dF/du = fa (I - n0 n0^T) + fb ft ft^T goes into the pair.
@@ -252,10 +262,10 @@ struct Contact::Impl {
   std::uint64_t revision = 0;
   std::vector<TriangleId> tris;
   std::vector<std::array<std::uint32_t, 3>> triV;
-  std::vector<std::array<std::uint32_t, 3>> triE;  // edge i opposite vertex i
-  std::vector<std::int32_t> pointOwner, edgeOwner;  // index into tris, -1: none
+  std::vector<std::array<std::uint32_t, 3>> triE;     // edge i opposite vertex i
+  std::vector<std::int32_t> pointOwner, edgeOwner;    // index into tris, -1: none
   std::vector<std::array<std::int32_t, 2>> edgeTris;  // the (at most two) triangles of an edge
-  std::vector<std::int32_t> starStart, star;         // the triangles around a point (CSR)
+  std::vector<std::int32_t> starStart, star;          // the triangles around a point (CSR)
   std::vector<V3> restX;                              // per point slot: its rest position
   /// Per edge slot, at the step's start: how flat the surface is across the edge at the
   /// thickness's scale (flatness()), and the points of the triangles beside it; a self pair of
@@ -281,14 +291,15 @@ struct Contact::Impl {
   };
   std::vector<MeshObstacle> meshes;  // per obstacle (empty for analytic ones)
   std::vector<V3> offset, velocity;  // per obstacle, at the step's end (the penalty's pose)
-  std::vector<V3> startOffset, move;  // per obstacle: at the step's start, and its motion over the step
+  std::vector<V3> startOffset,
+      move;  // per obstacle: at the step's start, and its motion over the step
 
   // ---- the step's pairs ----
   std::vector<Pair> pairs;
-  std::vector<Pair> nearPairs;  // the displacement bound's (kept to reuse its storage)
-  std::vector<V3> sweptMotion;  // the displacements it searched with
-  std::vector<char> fastPoint;  // per point slot: moved too far for the cache
-  std::vector<double> moveLength;  // per point slot: its displacement's length
+  std::vector<Pair> nearPairs;               // the displacement bound's (kept to reuse its storage)
+  std::vector<V3> sweptMotion;               // the displacements it searched with
+  std::vector<char> fastPoint;               // per point slot: moved too far for the cache
+  std::vector<double> moveLength;            // per point slot: its displacement's length
   std::vector<double> pointSdf, pointReach;  // per point slot, for one analytic obstacle (scratch)
   std::vector<char> seenFeature;             // per point, then edge slot (scratch)
   std::vector<std::uint32_t> featureKeys;    // (scratch)
@@ -307,7 +318,8 @@ struct Contact::Impl {
   /// The longest edge of the triangle with corners tv (every point of a triangle lies within it
   /// of each corner).
   static double longestEdge(const std::array<V3, 3>& tv) {
-    return std::sqrt(std::max({(tv[1] - tv[0]).squaredNorm(), (tv[2] - tv[1]).squaredNorm(), (tv[0] - tv[2]).squaredNorm()}));
+    return std::sqrt(std::max({(tv[1] - tv[0]).squaredNorm(), (tv[2] - tv[1]).squaredNorm(),
+                               (tv[0] - tv[2]).squaredNorm()}));
   }
   // The penalty's search by margins: a triangle's is the largest of its corners'; a pair of
   // triangles is examined when their boxes, each inflated by its margin, overlap, and a
@@ -325,7 +337,7 @@ struct Contact::Impl {
   /// point of one primitive and a point of the other, lower id first): a pair all of whose
   /// pairs of points are released is a pair as any other.
   std::set<std::pair<std::uint32_t, std::uint32_t>> released;
-  std::vector<double> lastX;                        // positions of the last beginStep (validate)
+  std::vector<double> lastX;  // positions of the last beginStep (validate)
 
   Impl(topology::Topology& t, const ContactParameters& p, std::vector<Obstacle>& o)
       : topo(t), P(p), O(o) {}
@@ -343,7 +355,8 @@ struct Contact::Impl {
     return V3(v[0], v[1], v[2]) + offset[std::size_t(k)];
   }
   V3 pointOf(const Pair& p, std::span<const double> x, int i) const {
-    return (p.surface >> i) & 1 ? surfacePoint(x, p.id[std::size_t(i)]) : obstaclePoint(p.obstacle, p.id[std::size_t(i)]);
+    return (p.surface >> i) & 1 ? surfacePoint(x, p.id[std::size_t(i)])
+                                : obstaclePoint(p.obstacle, p.id[std::size_t(i)]);
   }
 
   /// The pair's relative velocity (weights frozen at the step's start; obstacles move with their
@@ -352,8 +365,10 @@ struct Contact::Impl {
     V3 u = V3::Zero();
     const int count = p.kind == Kind::PO || p.kind == Kind::FO ? 3 : p.points();
     for (int i = 0; i < count; ++i) {
-      if ((p.surface >> i) & 1) u += p.w0[std::size_t(i)] * surfacePoint(v, p.id[std::size_t(i)]);
-      else if (p.kind != Kind::PO && p.kind != Kind::FO) u += p.w0[std::size_t(i)] * velocity[std::size_t(p.obstacle)];
+      if ((p.surface >> i) & 1)
+        u += p.w0[std::size_t(i)] * surfacePoint(v, p.id[std::size_t(i)]);
+      else if (p.kind != Kind::PO && p.kind != Kind::FO)
+        u += p.w0[std::size_t(i)] * velocity[std::size_t(p.obstacle)];
     }
     if (p.kind == Kind::PO || p.kind == Kind::FO) u -= velocity[std::size_t(p.obstacle)];
     return u;
@@ -392,7 +407,9 @@ struct Contact::Impl {
         const V3 e = a.cwiseMax(0.0);
         const double outside = e.norm();
         if (outside > 0) {
-          g = V3(d.x() < 0 ? -e.x() : e.x(), d.y() < 0 ? -e.y() : e.y(), d.z() < 0 ? -e.z() : e.z()) / outside;
+          g = V3(d.x() < 0 ? -e.x() : e.x(), d.y() < 0 ? -e.y() : e.y(),
+                 d.z() < 0 ? -e.z() : e.z()) /
+              outside;
           return outside;
         }
         int axis = 0;
@@ -402,7 +419,8 @@ struct Contact::Impl {
         g[axis] = d[axis] < 0 ? -1.0 : 1.0;
         return a[axis];
       }
-      case Obstacle::Shape::Mesh: break;
+      case Obstacle::Shape::Mesh:
+        break;
     }
     g = V3::UnitZ();
     return kInf;
@@ -436,7 +454,8 @@ struct Contact::Impl {
   /// A point q[0] and a triangle q[1..3] whose closest point has barycentric weights bw (one
   /// compiled copy: evaluatePoints and the screened classification get the same numbers from
   /// the same weights).
-  [[gnu::noinline]] static Eval pointTriangleEval(const std::array<V3, 4>& q, const std::array<double, 3>& bw, const V3& n0) {
+  [[gnu::noinline]] static Eval pointTriangleEval(const std::array<V3, 4>& q,
+                                                  const std::array<double, 3>& bw, const V3& n0) {
     Eval e;
     const V3 d = q[0] - (bw[0] * q[1] + bw[1] * q[2] + bw[2] * q[3]);
     e.s = d.norm();
@@ -496,7 +515,9 @@ struct Contact::Impl {
   Eval roundObstacle(int k, const std::array<V3, 4>& q, int m, const V3& fallback) const {
     const Obstacle& o = O[std::size_t(k)];
     const V3 a = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
-    const V3 b = o.shape == Obstacle::Shape::Capsule ? V3(V3(o.pointB[0], o.pointB[1], o.pointB[2]) + offset[std::size_t(k)]) : a;
+    const V3 b = o.shape == Obstacle::Shape::Capsule
+                     ? V3(V3(o.pointB[0], o.pointB[1], o.pointB[2]) + offset[std::size_t(k)])
+                     : a;
     Eval e;
     V3 pf = q[0], pc = a;
     e.w = {1, 0, 0, 0};
@@ -574,7 +595,8 @@ struct Contact::Impl {
     // distance many times smaller than the motion. One that approaches gets the part of the
     // step it provably has.
     for (int i = 0; i < 32; ++i) {
-      const double next = t + 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
+      const double next =
+          t + 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
       if (next >= 1.0) return 1.0;
       d = dist(next);
       if (!(d > floor)) return t;
@@ -585,7 +607,8 @@ struct Contact::Impl {
 
   /// Whether a pair moving linearly by the displacements dx (scaled per point) provably stays
   /// apart over the step.
-  double pairSafeFraction(const Pair& p, std::span<const double> x0, const std::vector<V3>& dx) const {
+  double pairSafeFraction(const Pair& p, std::span<const double> x0,
+                          const std::vector<V3>& dx) const {
     if (p.kind == Kind::PO || p.kind == Kind::FO) return 1.0;  // (bounded per triangle)
     std::array<V3, 4> q0, d;
     q0.fill(V3::Zero());
@@ -594,7 +617,8 @@ struct Contact::Impl {
     const int count = p.points();
     for (int i = 0; i < count; ++i) {
       q0[std::size_t(i)] = pointOf(p, x0, i);
-      d[std::size_t(i)] = (p.surface >> i) & 1 ? dx[p.id[std::size_t(i)]] : move[std::size_t(p.obstacle)];
+      d[std::size_t(i)] =
+          (p.surface >> i) & 1 ? dx[p.id[std::size_t(i)]] : move[std::size_t(p.obstacle)];
       mean += d[std::size_t(i)] / double(count);
     }
     // The two primitives' points: [0, split) and [split, count).
@@ -607,7 +631,8 @@ struct Contact::Impl {
     return safeFraction(
         [&](double t) {
           std::array<V3, 4> q;
-          for (int i = 0; i < 4; ++i) q[std::size_t(i)] = q0[std::size_t(i)] + t * d[std::size_t(i)];
+          for (int i = 0; i < 4; ++i)
+            q[std::size_t(i)] = q0[std::size_t(i)] + t * d[std::size_t(i)];
           return evaluatePoints(p, q).s;  // (unused points stay at zero)
         },
         a + b);
@@ -643,7 +668,8 @@ struct Contact::Impl {
   std::uint64_t evaluation = 0;  // counts evaluateAt's evaluations
   const std::vector<Product>& packProducts(double kFactor, double bFactor) {
     for (std::size_t k = 0; k < packs.size(); ++k)
-      if (packs[k].evaluation == evaluation && packs[k].kFactor == kFactor && packs[k].bFactor == bFactor) {
+      if (packs[k].evaluation == evaluation && packs[k].kFactor == kFactor &&
+          packs[k].bFactor == bFactor) {
         lastPack = k;
         return packs[k].list;
       }
@@ -653,16 +679,21 @@ struct Contact::Impl {
     products.clear();
     const Law law{P.thickness, P.stiffness};
     auto push = [&](const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& A) {
-      products.push_back({p.id, p.surface, w, {A(0, 0), A(0, 1), A(0, 2), A(1, 1), A(1, 2), A(2, 2)}});
+      products.push_back(
+          {p.id, p.surface, w, {A(0, 0), A(0, 1), A(0, 2), A(1, 1), A(1, 2), A(2, 2)}});
     };
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const Pair& p = pairs[i];
       if (p.excluded) continue;
-      const bool penalty = closerThanD[i] && kFactor != 0.0, rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
+      const bool penalty = closerThanD[i] && kFactor != 0.0,
+                 rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
       if (!penalty && !rubs) continue;
-      const Eigen::Matrix3d K = penalty ? Eigen::Matrix3d((-kFactor * p.scale * law.curvature(evals[i].s)) * (evals[i].n * evals[i].n.transpose()))
-                                        : Eigen::Matrix3d::Zero();
-      const Eigen::Matrix3d F = rubs ? Eigen::Matrix3d(bFactor * p.frictionMatrix()) : Eigen::Matrix3d::Zero();
+      const Eigen::Matrix3d K =
+          penalty ? Eigen::Matrix3d((-kFactor * p.scale * law.curvature(evals[i].s)) *
+                                    (evals[i].n * evals[i].n.transpose()))
+                  : Eigen::Matrix3d::Zero();
+      const Eigen::Matrix3d F =
+          rubs ? Eigen::Matrix3d(bFactor * p.frictionMatrix()) : Eigen::Matrix3d::Zero();
       if (penalty && rubs && evals[i].w == p.w0) {
         push(p, p.w0, K + F);
         continue;
@@ -682,7 +713,8 @@ struct Contact::Impl {
   /// Whether x holds the same numbers, bit for bit, as y (the integrators ask at the same x
   /// many times: compared as memory, which is several times faster than number by number).
   static bool sameBits(std::span<const double> x, const std::vector<double>& y) {
-    return x.size() == y.size() && (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
+    return x.size() == y.size() &&
+           (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
   }
   /// The positions a solve's operator holds unchanged (ForceField::beginProducts), and where
   /// the last evaluation read its x: an evaluation made at memory that is held since is still
@@ -707,7 +739,8 @@ struct Contact::Impl {
       moved.assign(x.size() / 3, kInf);
       if (lastX.size() == x.size())
         for (std::size_t p = 0; p < moved.size(); ++p)
-          moved[p] = (surfacePoint(x, std::uint32_t(p)) - surfacePoint(lastX, std::uint32_t(p))).norm();
+          moved[p] =
+              (surfacePoint(x, std::uint32_t(p)) - surfacePoint(lastX, std::uint32_t(p))).norm();
     }
     evals.resize(pairs.size());
     closerThanD.assign(pairs.size(), 0);
@@ -721,8 +754,10 @@ struct Contact::Impl {
       if (p.s0 - 2 * m >= d) continue;
       // At the step's start a pair is as the search measured it (but for a moving obstacle's,
       // whose distance was taken again where the obstacle ends the step).
-      if (atStart && !obstacleMoves(p)) evals[i] = Eval{p.s0, p.n0, p.w0};
-      else evals[i] = evaluate(p, x, true);
+      if (atStart && !obstacleMoves(p))
+        evals[i] = Eval{p.s0, p.n0, p.w0};
+      else
+        evals[i] = evaluate(p, x, true);
       closerThanD[i] = evals[i].s < d;
     }
     ++evaluation;
@@ -746,8 +781,10 @@ struct Contact::Impl {
       for (int k = 0; k < 3; ++k) {
         triV[i][std::size_t(k)] = Index(v[std::size_t(k)]);
         triE[i][std::size_t(k)] = Index(e[std::size_t(k)]);
-        if (pointOwner[Index(v[std::size_t(k)])] < 0) pointOwner[Index(v[std::size_t(k)])] = std::int32_t(i);
-        if (edgeOwner[Index(e[std::size_t(k)])] < 0) edgeOwner[Index(e[std::size_t(k)])] = std::int32_t(i);
+        if (pointOwner[Index(v[std::size_t(k)])] < 0)
+          pointOwner[Index(v[std::size_t(k)])] = std::int32_t(i);
+        if (edgeOwner[Index(e[std::size_t(k)])] < 0)
+          edgeOwner[Index(e[std::size_t(k)])] = std::int32_t(i);
       }
     }
     edgeTris.assign(topo.edgeCapacity(), {-1, -1});
@@ -763,7 +800,8 @@ struct Contact::Impl {
     {
       std::vector<std::int32_t> fill(starStart.begin(), starStart.end() - 1);
       for (std::size_t i = 0; i < tris.size(); ++i)
-        for (int k = 0; k < 3; ++k) star[std::size_t(fill[triV[i][std::size_t(k)]]++)] = std::int32_t(i);
+        for (int k = 0; k < 3; ++k)
+          star[std::size_t(fill[triV[i][std::size_t(k)]]++)] = std::int32_t(i);
     }
     restX.assign(topo.pointCapacity(), V3::Zero());
     for (PointId p : topo.points()) {
@@ -777,7 +815,8 @@ struct Contact::Impl {
     for (EdgeId e : topo.edges()) {
       const auto v = topo.edgeVertices(e);
       const Vec3 a = topo.restPosition(v[0]), b = topo.restPosition(v[1]);
-      sum += std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+      sum += std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                       (a[2] - b[2]) * (a[2] - b[2]));
       ++count;
     }
     meanEdge = count ? sum / double(count) : 0.0;
@@ -840,7 +879,8 @@ struct Contact::Impl {
     std::uint32_t far = B[0];
     for (int j = 0; j < 3; ++j)
       if (B[std::size_t(j)] != a && B[std::size_t(j)] != b) far = B[std::size_t(j)];
-    r.flat = (flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]), surfacePoint(x, far), P.thickness));
+    r.flat = (flatness(surfacePoint(x, a), surfacePoint(x, b), surfacePoint(x, A[std::size_t(k)]),
+                       surfacePoint(x, far), P.thickness));
     return r.flat;
   }
   /// A self pair of two edges' share of the law (x: the step's start): 1 - both edges'
@@ -889,7 +929,8 @@ struct Contact::Impl {
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (!meshLike(k)) continue;
       MeshObstacle& m = meshes[k];
-      if (O[k].shape == Obstacle::Shape::Box) O[k].surface({0, 0, 0}, 0.0, m.vertices, m.triangles);
+      if (O[k].shape == Obstacle::Shape::Box)
+        O[k].surface({0, 0, 0}, 0.0, m.vertices, m.triangles);
       else {
         m.vertices = O[k].vertices;
         m.triangles = O[k].triangles;
@@ -909,7 +950,8 @@ struct Contact::Impl {
             m.edgeOwner.push_back(int(t));
           }
           m.triEdges[t][std::size_t(c)] = it->second;
-          if (m.vertexOwner[std::size_t(T[t][std::size_t(c)])] < 0) m.vertexOwner[std::size_t(T[t][std::size_t(c)])] = int(t);
+          if (m.vertexOwner[std::size_t(T[t][std::size_t(c)])] < 0)
+            m.vertexOwner[std::size_t(T[t][std::size_t(c)])] = int(t);
         }
       }
       m.edgeTris.assign(m.edges.size(), {});
@@ -954,12 +996,12 @@ struct Contact::Impl {
   /// feature, kept once for that feature (see toFeature), and two edges are kept only when their
   /// closest points are inside both (else they are a point's pair). `screen`: surelyDropped has
   /// already passed it, with what it measured (and an edge pair's share is set).
-  void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out, bool features = false,
-                  int t = -1, const Screen* screen = nullptr) const {
+  void keepIfNear(Pair p, std::span<const double> x, double r, std::vector<Pair>& out,
+                  bool features = false, int t = -1, const Screen* screen = nullptr) const {
     if (features && p.kind == Kind::EE) {
       if (!screen) p.scale = edgePairScale(p.edges, x);  // (screened: the caller set it)
       if (!(p.scale > 0)) return;  // (two flat edges: their corners' pairs hold the contact)
-      orderEdges(p.id);  // (the same classification whichever way they were met)
+      orderEdges(p.id);            // (the same classification whichever way they were met)
     }
     Screen own;
     if (features && !screen) {
@@ -968,12 +1010,15 @@ struct Contact::Impl {
     }
     // (a point and a triangle that the screening measured: its closest point, as evaluate's)
     const bool measured = features && screen && screen->set && p.kind == Kind::VT && p.shape == 3;
-    Eval e = measured ? pointTriangleEval({pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3)}, screen->closest, p.n0)
+    Eval e = measured ? pointTriangleEval({pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2),
+                                           pointOf(p, x, 3)},
+                                          screen->closest, p.n0)
                       : evaluate(p, x);
     if (!(e.s < r)) return;
     if (features) {
       if (p.kind == Kind::EE || p.kind == Kind::EO) {
-        if (!edgePairKept(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3))) return;
+        if (!edgePairKept(pointOf(p, x, 0), pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3)))
+          return;
       } else if (p.kind == Kind::VT || p.kind == Kind::VO || p.kind == Kind::OV) {
         if (!toFeature(p, e, x, t, measured ? &screen->snapped : nullptr)) return;
         if (p.shape != 3) e = evaluate(p, x);
@@ -981,7 +1026,8 @@ struct Contact::Impl {
     }
     if (cacheOut) {  // (the cache's build: its compact record only)
       const bool ee = p.kind == Kind::EE;
-      cacheOut->push_back({p.kind, p.surface, p.obstacle, ee ? p.edges[0] : p.tri, p.id, p.margins, ee ? p.edges[1] : -1, e.s});
+      cacheOut->push_back({p.kind, p.surface, p.obstacle, ee ? p.edges[0] : p.tri, p.id, p.margins,
+                           ee ? p.edges[1] : -1, e.s});
       return;
     }
     p.s0 = e.s;
@@ -995,12 +1041,14 @@ struct Contact::Impl {
   /// else they meet at an end, which is that point's pair (two aligned layers, an edge over an
   /// edge). One compiled copy, so that the screening and the classification get the same
   /// numbers.
-  [[gnu::noinline]] static bool edgePairKept(const V3& q0, const V3& q1, const V3& q2, const V3& q3) {
+  [[gnu::noinline]] static bool edgePairKept(const V3& q0, const V3& q1, const V3& q2,
+                                             const V3& q3) {
     std::array<double, 2> st;
     if (!closestInsideSegments(q0, q1, q2, q3, st)) return false;
     const double s2 = ((q0 + st[0] * (q1 - q0)) - (q2 + st[1] * (q3 - q2))).squaredNorm();
-    const double ends = std::min({pointSegmentDistance2(q0, q2, q3), pointSegmentDistance2(q1, q2, q3),
-                                  pointSegmentDistance2(q2, q0, q1), pointSegmentDistance2(q3, q0, q1)});
+    const double ends =
+        std::min({pointSegmentDistance2(q0, q2, q3), pointSegmentDistance2(q1, q2, q3),
+                  pointSegmentDistance2(q2, q0, q1), pointSegmentDistance2(q3, q0, q1)});
     constexpr double shrink = (1 - kFeatureTolerance) * (1 - kFeatureTolerance);
     return s2 < ends * shrink;
   }
@@ -1010,7 +1058,9 @@ struct Contact::Impl {
     if (b < a) id = {id[2], id[3], id[0], id[1]};
   }
   /// Whether the pair's obstacle moves over the step.
-  bool obstacleMoves(const Pair& p) const { return p.obstacle >= 0 && move[std::size_t(p.obstacle)] != V3::Zero(); }
+  bool obstacleMoves(const Pair& p) const {
+    return p.obstacle >= 0 && move[std::size_t(p.obstacle)] != V3::Zero();
+  }
 
   /// Whether the penalty's search drops the pair whatever its distance, told from its closest
   /// points alone (most of the pairs it measures, which then need no distance, normal or
@@ -1018,17 +1068,20 @@ struct Contact::Impl {
   /// feature of a surface triangle is a corner or an edge that the triangle does not own (or a
   /// corner the pair is kept from the other side). The same tests keepIfNear and toFeature make,
   /// on the same numbers.
-  bool surelyDropped(Kind kind, std::uint8_t surface, std::int32_t obstacle, std::array<std::uint32_t, 4> id, std::uint8_t shape,
-                     std::span<const double> x, int t, Screen* screen = nullptr) const {
+  bool surelyDropped(Kind kind, std::uint8_t surface, std::int32_t obstacle,
+                     std::array<std::uint32_t, 4> id, std::uint8_t shape, std::span<const double> x,
+                     int t, Screen* screen = nullptr) const {
     auto point = [&](int i) {
-      return (surface >> i) & 1 ? surfacePoint(x, id[std::size_t(i)]) : obstaclePoint(obstacle, id[std::size_t(i)]);
+      return (surface >> i) & 1 ? surfacePoint(x, id[std::size_t(i)])
+                                : obstaclePoint(obstacle, id[std::size_t(i)]);
     };
     if (kind == Kind::EE || kind == Kind::EO) {
       if (kind == Kind::EE) orderEdges(id);  // (as keepIfNear orders them)
       return !edgePairKept(point(0), point(1), point(2), point(3));
     }
     if (kind != Kind::VT || shape != 3 || t < 0) return false;
-    const V3 q0 = surfacePoint(x, id[0]), q1 = surfacePoint(x, id[1]), q2 = surfacePoint(x, id[2]), q3 = surfacePoint(x, id[3]);
+    const V3 q0 = surfacePoint(x, id[0]), q1 = surfacePoint(x, id[1]), q2 = surfacePoint(x, id[2]),
+             q3 = surfacePoint(x, id[3]);
     const auto closest = closestOnTriangle(q0, q1, q2, q3);
     const auto bw = snapToFeature(q0, q1, q2, q3, closest);  // (closestFeatureOnTriangle)
     if (screen) *screen = Screen{true, closest, bw};
@@ -1049,11 +1102,14 @@ struct Contact::Impl {
   /// around it (the point is in its Voronoi region: no triangle beside it is nearer), and is
   /// kept only from its owner triangle, so that every feature the point meets counts once,
   /// whichever triangles the search pairs the point with. Returns false to drop the pair.
-  bool toFeature(Pair& p, const Eval& e, std::span<const double> x, int t, const std::array<double, 3>* snapped = nullptr) const {
+  bool toFeature(Pair& p, const Eval& e, std::span<const double> x, int t,
+                 const std::array<double, 3>* snapped = nullptr) const {
     const V3 q = pointOf(p, x, 0);
     // (at a corner or on an edge within kFeatureTolerance: aligned surfaces; `snapped`: the
     // screening's snap of the same weights)
-    const auto w = snapped ? *snapped : snapToFeature(q, pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3), {-e.w[1], -e.w[2], -e.w[3]});
+    const auto w = snapped ? *snapped
+                           : snapToFeature(q, pointOf(p, x, 1), pointOf(p, x, 2), pointOf(p, x, 3),
+                                           {-e.w[1], -e.w[2], -e.w[3]});
     int on[3], m = 0;
     for (int c = 0; c < 3; ++c)
       if (w[std::size_t(c)] != 0.0) on[m++] = c;
@@ -1064,20 +1120,27 @@ struct Contact::Impl {
     // the triangle's), and another triangle is nearer below (1 - kFeatureTolerance)^2 of it (as
     // the brute force compares distances): then the triangle a point was snapped from is never
     // nearer than the feature, and the feature's owner keeps the pair.
-    const double d2 = (q - (w[0] * pointOf(p, x, 1) + w[1] * pointOf(p, x, 2) + w[2] * pointOf(p, x, 3))).squaredNorm();
+    const double d2 =
+        (q - (w[0] * pointOf(p, x, 1) + w[1] * pointOf(p, x, 2) + w[2] * pointOf(p, x, 3)))
+            .squaredNorm();
     constexpr double shrink = (1 - kFeatureTolerance) * (1 - kFeatureTolerance);
     const double near2 = d2 * shrink - 1e-300;
     // The squared distance from q to triangle u of the same side.
     auto dist2 = [&](int u) {
       std::array<V3, 3> c;
       for (int k = 0; k < 3; ++k)
-        c[std::size_t(k)] = obstacleSide ? obstaclePoint(p.obstacle, std::uint32_t(mesh->triangles[std::size_t(u)][std::size_t(k)]))
-                                         : surfacePoint(x, triV[std::size_t(u)][std::size_t(k)]);
+        c[std::size_t(k)] =
+            obstacleSide
+                ? obstaclePoint(p.obstacle,
+                                std::uint32_t(mesh->triangles[std::size_t(u)][std::size_t(k)]))
+                : surfacePoint(x, triV[std::size_t(u)][std::size_t(k)]);
       const auto bw = closestOnTriangle(q, c[0], c[1], c[2]);
       return (q - (bw[0] * c[0] + bw[1] * c[1] + bw[2] * c[2])).squaredNorm();
     };
     // A triangle that holds the pair's own point (a self pair's neighbours) is not its contact.
-    auto holdsPoint = [&](int u) { return p.kind == Kind::VT && shares(triV[std::size_t(u)], p.id[0]); };
+    auto holdsPoint = [&](int u) {
+      return p.kind == Kind::VT && shares(triV[std::size_t(u)], p.id[0]);
+    };
     auto nearer = [&](int u) { return u != t && !holdsPoint(u) && dist2(u) < near2; };
     const std::uint32_t inv = kInvalidIndex;
     if (m == 2) {
@@ -1092,7 +1155,8 @@ struct Contact::Impl {
         const std::uint32_t edge = triE[std::size_t(t)][std::size_t(opposite)];
         if (edgeOwner[edge] != t) return false;
         for (std::int32_t u : edgeTris[edge])
-          if (u >= 0 && (holdsPoint(u) || nearer(u))) return false;  // (a triangle's own corner and edge: no pair)
+          if (u >= 0 && (holdsPoint(u) || nearer(u)))
+            return false;  // (a triangle's own corner and edge: no pair)
       }
       p.id = {p.id[0], a, b, inv};
       p.shape = 2;
@@ -1108,8 +1172,10 @@ struct Contact::Impl {
       for (std::int32_t k = starStart[p.id[0]]; k < starStart[p.id[0] + 1]; ++k) {
         const auto& U = triV[std::size_t(star[std::size_t(k)])];
         if (!obstacleSide && shares(U, c)) continue;
-        const auto bw = closestOnTriangle(qc, surfacePoint(x, U[0]), surfacePoint(x, U[1]), surfacePoint(x, U[2]));
-        const V3 f = bw[0] * surfacePoint(x, U[0]) + bw[1] * surfacePoint(x, U[1]) + bw[2] * surfacePoint(x, U[2]);
+        const auto bw = closestOnTriangle(qc, surfacePoint(x, U[0]), surfacePoint(x, U[1]),
+                                          surfacePoint(x, U[2]));
+        const V3 f = bw[0] * surfacePoint(x, U[0]) + bw[1] * surfacePoint(x, U[1]) +
+                     bw[2] * surfacePoint(x, U[2]);
         if ((qc - f).squaredNorm() < near2) return false;
       }
       if (obstacleSide) {
@@ -1117,7 +1183,8 @@ struct Contact::Impl {
           if (nearer(u)) return false;
       } else {
         for (std::int32_t k = starStart[c]; k < starStart[c + 1]; ++k)
-          if (holdsPoint(star[std::size_t(k)]) || nearer(star[std::size_t(k)])) return false;  // (neighbours: no pair)
+          if (holdsPoint(star[std::size_t(k)]) || nearer(star[std::size_t(k)]))
+            return false;  // (neighbours: no pair)
       }
       p.id = {p.id[0], c, inv, inv};
       p.shape = 1;
@@ -1144,13 +1211,15 @@ struct Contact::Impl {
     if (absoluteReach) {
       // Each primitive's largest displacement: shortening displacements keeps it valid.
       double a = 0, b = 0;
-      for (int i = 0; i < count; ++i) (i < split ? a : b) = std::max(i < split ? a : b, motionOf(p, i).norm());
+      for (int i = 0; i < count; ++i)
+        (i < split ? a : b) = std::max(i < split ? a : b, motionOf(p, i).norm());
       return a + b;
     }
     V3 mean = V3::Zero();
     for (int i = 0; i < count; ++i) mean += motionOf(p, i) / double(count);
     double a = 0, b = 0;
-    for (int i = 0; i < count; ++i) (i < split ? a : b) = std::max(i < split ? a : b, (motionOf(p, i) - mean).norm());
+    for (int i = 0; i < count; ++i)
+      (i < split ? a : b) = std::max(i < split ? a : b, (motionOf(p, i) - mean).norm());
     return a + b;
   }
   /// The box a point sweeps.
@@ -1170,12 +1239,15 @@ struct Contact::Impl {
     const double eps = 1e-9 * std::max(meanEdge, 1e-300);
     for (std::size_t i = 0; i < tris.size(); ++i) {
       Box b = tight.tri[i];
-      for (int k = 0; k < 3; ++k) b.add(surfacePoint(x, triV[i][std::size_t(k)]) + dx[triV[i][std::size_t(k)]]);
+      for (int k = 0; k < 3; ++k)
+        b.add(surfacePoint(x, triV[i][std::size_t(k)]) + dx[triV[i][std::size_t(k)]]);
       b.inflate(eps);
       boxes[i] = b;
     }
-    if (rebuild || bvh.size() != boxes.size()) bvh.build(boxes);
-    else bvh.refit(boxes);
+    if (rebuild || bvh.size() != boxes.size())
+      bvh.build(boxes);
+    else
+      bvh.refit(boxes);
   }
 
   /// The boxes of the triangles and of the edges at x (not grown): cheap tests before the
@@ -1195,7 +1267,8 @@ struct Contact::Impl {
       for (int k = 0; k < 3; ++k) {
         const std::uint32_t e = triE[i][std::size_t(k)];
         if (edgeOwner[e] != std::int32_t(i)) continue;
-        const V3 p = surfacePoint(x, T[std::size_t((k + 1) % 3)]), q = surfacePoint(x, T[std::size_t((k + 2) % 3)]);
+        const V3 p = surfacePoint(x, T[std::size_t((k + 1) % 3)]),
+                 q = surfacePoint(x, T[std::size_t((k + 2) % 3)]);
         out.edge[e].lo = p.cwiseMin(q);
         out.edge[e].hi = p.cwiseMax(q);
       }
@@ -1203,8 +1276,8 @@ struct Contact::Impl {
   }
   Tight tight;  // at the x of the last prepare()
 
-  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features,
-                        const Tight& boxesAtX) const {
+  void selfTrianglePair(int i, int j, std::span<const double> x, std::vector<Pair>& out,
+                        bool features, const Tight& boxesAtX) const {
     const auto& A = triV[std::size_t(i)];
     const auto& B = triV[std::size_t(j)];
     if (sweep) {
@@ -1261,7 +1334,8 @@ struct Contact::Impl {
     auto keep = [&](const Pair& p) { keepIfNear(p, x, reachOf(p), out); };
     auto vt = [&](std::uint32_t v, int t, const Box& box) {
       const auto& T = triV[std::size_t(t)];
-      if (!shares(T, v) && box.overlaps(sweptPoint(x, v))) keep(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111});
+      if (!shares(T, v) && box.overlaps(sweptPoint(x, v)))
+        keep(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111});
     };
     for (int k = 0; k < 3; ++k) {
       if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j, bb);
@@ -1284,19 +1358,26 @@ struct Contact::Impl {
     }
   }
 
-  void meshTrianglePair(int k, int i, int j, std::span<const double> x, std::vector<Pair>& out, bool features) const {
+  void meshTrianglePair(int k, int i, int j, std::span<const double> x, std::vector<Pair>& out,
+                        bool features) const {
     const MeshObstacle& m = meshes[std::size_t(k)];
     const auto& A = triV[std::size_t(i)];
     const auto& T = m.triangles[std::size_t(j)];
     auto keep = [&](Pair p, int t) {
       p.tri = t;
       p.margins = {i, -1};
-      const double r = sweep ? reachOf(p) : triMargin[std::size_t(i)] + obstacleMargin[std::size_t(k)];
+      const double r =
+          sweep ? reachOf(p) : triMargin[std::size_t(i)] + obstacleMargin[std::size_t(k)];
       keepIfNear(p, x, r, out, features, t);
     };
     for (int c = 0; c < 3; ++c) {
       if (pointOwner[A[std::size_t(c)]] == i)
-        keep(Pair{Kind::VO, k, {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])}, 0b0001}, j);
+        keep(
+            Pair{Kind::VO,
+                 k,
+                 {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])},
+                 0b0001},
+            j);
       if (m.vertexOwner[std::size_t(T[std::size_t(c)])] == j)
         keep(Pair{Kind::OV, k, {std::uint32_t(T[std::size_t(c)]), A[0], A[1], A[2]}, 0b1110}, i);
     }
@@ -1306,7 +1387,12 @@ struct Contact::Impl {
       for (int b = 0; b < 3; ++b) {
         const int eb = m.triEdges[std::size_t(j)][std::size_t(b)];
         if (m.edgeOwner[std::size_t(eb)] != j) continue;
-        keep(Pair{Kind::EO, k, {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]), std::uint32_t(m.edges[std::size_t(eb)][1])}, 0b0011}, -1);
+        keep(Pair{Kind::EO,
+                  k,
+                  {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]),
+                   std::uint32_t(m.edges[std::size_t(eb)][1])},
+                  0b0011},
+             -1);
       }
     }
   }
@@ -1325,22 +1411,27 @@ struct Contact::Impl {
     for (std::size_t k = 0; k < O.size(); ++k) {
       if (!meshLike(k)) continue;
       refitObstacle(k);
-      bvh.crossPairs(meshes[k].bvh, [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
+      bvh.crossPairs(meshes[k].bvh,
+                     [&](int i, int j) { meshTrianglePair(int(k), i, j, x, out, features); });
     }
   }
   /// Obstacle mesh k's boxes (grown by its margin) and hierarchy, at its current pose.
   void refitObstacle(std::size_t k) {
     MeshObstacle& m = meshes[k];
     obstacleBoxes(int(k), m.boxes);
-    if (m.bvh.size() != m.boxes.size() || m.bvh.empty()) m.bvh.build(m.boxes);
-    else m.bvh.refit(m.boxes);
+    if (m.bvh.size() != m.boxes.size() || m.bvh.empty())
+      m.bvh.build(m.boxes);
+    else
+      m.bvh.refit(m.boxes);
   }
   /// The displacement bound's pairs among slow points (sweep set), from the cache: those whose
   /// distance (at most what it was, less its points' motion since) is below their reach.
-  void nearFromCache(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
+  void nearFromCache(std::span<const double> x, const std::vector<char>& fast,
+                     std::vector<Pair>& out) {
     // (a pair's reach is at most twice its points' largest displacement, doubled)
     moveLength.resize(sweep->size());
-    double largest = 0.0;  // of every point's and obstacle's displacement (infinity: one is not finite)
+    double largest =
+        0.0;  // of every point's and obstacle's displacement (infinity: one is not finite)
     bool finite = true;
     for (std::size_t p = 0; p < sweep->size(); ++p) {
       moveLength[p] = (*sweep)[p].norm();
@@ -1386,7 +1477,8 @@ struct Contact::Impl {
     std::vector<std::uint32_t>& moving = movingScratch;
     moving.clear();
     // (the index covers the points of the cache's pairs; a point beyond it is in none)
-    const bool indexed = still > 0 && obstaclesStill && !cacheByPointStart.empty() && cacheByPointStart.size() <= moveLength.size() + 1;
+    const bool indexed = still > 0 && obstaclesStill && !cacheByPointStart.empty() &&
+                         cacheByPointStart.size() <= moveLength.size() + 1;
     if (indexed)
       for (std::size_t p = 0; p + 1 < cacheByPointStart.size(); ++p)
         if (!(moveLength[p] <= still)) moving.push_back(std::uint32_t(p));
@@ -1394,19 +1486,22 @@ struct Contact::Impl {
       std::vector<std::uint32_t>& visits = visitScratch;
       ascendingOnce(cache.size(), recordBits, visits, [&](auto&& mark) {
         for (const std::uint32_t p : moving)
-          for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k) mark(cacheByPoint[k]);
+          for (std::uint32_t k = cacheByPointStart[p]; k < cacheByPointStart[p + 1]; ++k)
+            mark(cacheByPoint[k]);
       });
       gatherInParts(visits.size(), partsFor(visits.size(), kRecordsPerThread), partPairs, out,
                     [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
                       for (std::size_t k = begin; k < end; ++k)
-                        if (!(double(cacheLow[visits[k]]) - shrink >= 4 * largest)) visit(visits[k], to);
+                        if (!(double(cacheLow[visits[k]]) - shrink >= 4 * largest))
+                          visit(visits[k], to);
                     });
       return;
     }
     gatherInParts(cache.size(), partsFor(cache.size(), kRecordsPerThread), partPairs, out,
                   [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
                     for (std::size_t ci = begin; ci < end; ++ci) {
-                      if (double(cacheLow[ci]) - shrink >= 4 * largest) continue;  // (the test below, with bounds for every pair)
+                      if (double(cacheLow[ci]) - shrink >= 4 * largest)
+                        continue;  // (the test below, with bounds for every pair)
                       visit(ci, to);
                     }
                   });
@@ -1414,8 +1509,11 @@ struct Contact::Impl {
 
   /// The displacement bound's pairs that hold a fast point (prepareSwept first): each triangle
   /// with a fast corner against the triangles and obstacle triangles its swept box meets.
-  void searchAround(std::span<const double> x, const std::vector<char>& fast, std::vector<Pair>& out) {
-    auto hasFast = [&](std::size_t t) { return fast[triV[t][0]] || fast[triV[t][1]] || fast[triV[t][2]]; };
+  void searchAround(std::span<const double> x, const std::vector<char>& fast,
+                    std::vector<Pair>& out) {
+    auto hasFast = [&](std::size_t t) {
+      return fast[triV[t][0]] || fast[triV[t][1]] || fast[triV[t][2]];
+    };
     for (std::size_t k = 0; k < O.size(); ++k)
       if (meshLike(k)) refitObstacle(k);
     for (std::size_t i = 0; i < tris.size(); ++i) {
@@ -1428,7 +1526,8 @@ struct Contact::Impl {
         });
       for (std::size_t k = 0; k < O.size(); ++k)
         if (meshLike(k))
-          meshes[k].bvh.query(boxes[i], [&](int j) { meshTrianglePair(int(k), int(i), j, x, out, false); });
+          meshes[k].bvh.query(boxes[i],
+                              [&](int j) { meshTrianglePair(int(k), int(i), j, x, out, false); });
     }
   }
 
@@ -1445,15 +1544,19 @@ struct Contact::Impl {
         // that meets it, as one thread would.
         pointDistances(int(k), x);
         // (a feature's key: a corner's point id, or an edge's id + the number of point slots)
-        auto run = [&](std::size_t begin, std::size_t end, std::vector<char>& seen, std::vector<Pair>& to,
-                       std::vector<std::uint32_t>& keys) {
+        auto run = [&](std::size_t begin, std::size_t end, std::vector<char>& seen,
+                       std::vector<Pair>& to, std::vector<std::uint32_t>& keys) {
           for (std::size_t t = begin; t < end; ++t) {
             const auto& T = triV[t];
-            const double within = triMargin[t] + obstacleMargin[k];  // (the obstacle's motion included)
+            const double within =
+                triMargin[t] + obstacleMargin[k];  // (the obstacle's motion included)
             const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
-            const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2]), V3::Zero()};
+            const std::array<V3, 4> q{surfacePoint(x, T[0]), surfacePoint(x, T[1]),
+                                      surfacePoint(x, T[2]), V3::Zero()};
             if (smin - longestEdge({q[0], q[1], q[2]}) >= within) continue;
-            if (O[k].shape == Obstacle::Shape::Sphere && planeSeparates(int(k), {q[0], q[1], q[2]}, within)) continue;
+            if (O[k].shape == Obstacle::Shape::Sphere &&
+                planeSeparates(int(k), {q[0], q[1], q[2]}, within))
+              continue;
             const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
             if (!(e.s < within)) continue;
             Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
@@ -1504,7 +1607,8 @@ struct Contact::Impl {
           for (std::size_t u = 0; u < partPairs.size(); ++u)
             for (std::size_t i = 0; i < partPairs[u].size(); ++i) {
               const std::uint32_t key = partKeys[u][i];
-              if (key != std::uint32_t(kInvalidIndex) && std::exchange(seenFeature[key], 1)) continue;
+              if (key != std::uint32_t(kInvalidIndex) && std::exchange(seenFeature[key], 1))
+                continue;
               out.push_back(partPairs[u][i]);
             }
         }
@@ -1539,11 +1643,13 @@ struct Contact::Impl {
     std::array<std::uint32_t, 4> id;
     std::array<std::int32_t, 2> margins;
     std::int32_t edge2;  // EE self pairs: the second edge (in what was padding: 48 bytes a record)
-    double s;  // the distance when the cache was built
+    double s;            // the distance when the cache was built
     Pair pair() const {
       Pair p{kind, obstacle, id, surface};
-      if (kind == Kind::EE) p.edges = {tri, edge2};
-      else p.tri = tri;
+      if (kind == Kind::EE)
+        p.edges = {tri, edge2};
+      else
+        p.tri = tri;
       p.margins = margins;
       return p;
     }
@@ -1558,7 +1664,8 @@ struct Contact::Impl {
   bool cacheBuilt = false;
   std::vector<double> sinceCache;  // per point slot: how far it moved since the cache's x
   std::vector<double> obstacleSinceCache;
-  double largestSinceCache = 0.0;  // the largest of the two above (a cached pair shrinks by at most twice it)
+  double largestSinceCache =
+      0.0;  // the largest of the two above (a cached pair shrinks by at most twice it)
   std::size_t cacheUses = 0, cacheBuilds = 0;
   // A cache that was never reused before the points moved out of it cost more than the search
   // it replaced: then the next steps search plainly, for twice as many steps each time (up to
@@ -1568,14 +1675,16 @@ struct Contact::Impl {
   /// Whether the cache holds every self pair within rSelf and every pair with obstacle mesh k
   /// within rObstacle[k] at x (the obstacles at `offset`); fills sinceCache.
   bool cacheCovers(std::span<const double> x, double rSelf, const std::vector<double>& rObstacle) {
-    if (!(P.searchSlack > 0) || !cacheBuilt || cacheRevision != topo.revision() || cacheX.size() != x.size())
+    if (!(P.searchSlack > 0) || !cacheBuilt || cacheRevision != topo.revision() ||
+        cacheX.size() != x.size())
       return false;
     const std::size_t n = x.size() / 3;
     sinceCache.assign(n, 0.0);
     double m = 0.0;
     for (std::size_t p = 0; p < n; ++p)
       if (p < pointOwner.size() && pointOwner[p] >= 0) {
-        sinceCache[p] = (surfacePoint(x, std::uint32_t(p)) - surfacePoint(cacheX, std::uint32_t(p))).norm();
+        sinceCache[p] =
+            (surfacePoint(x, std::uint32_t(p)) - surfacePoint(cacheX, std::uint32_t(p))).norm();
         m = std::max(m, sinceCache[p]);
       }
     if (!(m < kInf)) return false;
@@ -1631,7 +1740,8 @@ struct Contact::Impl {
   std::vector<std::uint32_t> cacheByPointStart, cacheByPoint;
   void indexCache() {
     apartIndexed = false;
-    cacheEdgePairs = std::size_t(std::count_if(cache.begin(), cache.end(), [](const Cached& c) { return c.kind == Kind::EE; }));
+    cacheEdgePairs = std::size_t(std::count_if(cache.begin(), cache.end(),
+                                               [](const Cached& c) { return c.kind == Kind::EE; }));
     cacheLow.resize(cache.size());
     cacheNearest = kInf;
     for (std::size_t i = 0; i < cache.size(); ++i) {
@@ -1643,17 +1753,21 @@ struct Contact::Impl {
     std::size_t n = 0;
     for (const Cached& c : cache)
       for (int i = 0; i < 4; ++i)
-        if (((c.surface >> i) & 1) && c.id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) n = std::max<std::size_t>(n, c.id[std::size_t(i)] + 1);
+        if (((c.surface >> i) & 1) && c.id[std::size_t(i)] != std::uint32_t(kInvalidIndex))
+          n = std::max<std::size_t>(n, c.id[std::size_t(i)] + 1);
     cacheByPointStart.assign(n + 1, 0);
     for (const Cached& c : cache)
       for (int i = 0; i < 4; ++i)
-        if (((c.surface >> i) & 1) && c.id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) ++cacheByPointStart[c.id[std::size_t(i)] + 1];
+        if (((c.surface >> i) & 1) && c.id[std::size_t(i)] != std::uint32_t(kInvalidIndex))
+          ++cacheByPointStart[c.id[std::size_t(i)] + 1];
     for (std::size_t p = 0; p < n; ++p) cacheByPointStart[p + 1] += cacheByPointStart[p];
     cacheByPoint.resize(cacheByPointStart.back());
     std::vector<std::uint32_t> fill(cacheByPointStart.begin(), cacheByPointStart.end() - 1);
     for (std::size_t ci = 0; ci < cache.size(); ++ci)
       for (int i = 0; i < 4; ++i)
-        if (((cache[ci].surface >> i) & 1) && cache[ci].id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) cacheByPoint[fill[cache[ci].id[std::size_t(i)]]++] = std::uint32_t(ci);
+        if (((cache[ci].surface >> i) & 1) &&
+            cache[ci].id[std::size_t(i)] != std::uint32_t(kInvalidIndex))
+          cacheByPoint[fill[cache[ci].id[std::size_t(i)]]++] = std::uint32_t(ci);
   }
   /// How far a cached pair's distance may have shrunk since the cache was built.
   double cachedShrink(const Cached& c) const {
@@ -1661,7 +1775,8 @@ struct Contact::Impl {
     const int split = (c.kind == Kind::EE || c.kind == Kind::EO) ? 2 : 1;
     double a = 0, b = 0;
     for (int i = 0; i < 4; ++i) {
-      const double m = (c.surface >> i) & 1 ? sinceCache[c.id[std::size_t(i)]] : obstacleSinceCache[std::size_t(c.obstacle)];
+      const double m = (c.surface >> i) & 1 ? sinceCache[c.id[std::size_t(i)]]
+                                            : obstacleSinceCache[std::size_t(c.obstacle)];
       (i < split ? a : b) = std::max(i < split ? a : b, m);
     }
     return a + b;
@@ -1669,7 +1784,8 @@ struct Contact::Impl {
   /// The search's margin for a cached pair (what selfTrianglePair or meshTrianglePair used).
   double searchMargin(const Cached& c) const {
     const double a = triMargin[std::size_t(c.margins[0])];
-    return c.obstacle < 0 ? a + triMargin[std::size_t(c.margins[1])] : a + obstacleMargin[std::size_t(c.obstacle)];
+    return c.obstacle < 0 ? a + triMargin[std::size_t(c.margins[1])]
+                          : a + obstacleMargin[std::size_t(c.obstacle)];
   }
 
   /// The step's self and obstacle-mesh pairs from the cache: each cached pair that may be within
@@ -1696,10 +1812,12 @@ struct Contact::Impl {
     ascendingOnce(cache.size(), recordBits, cacheVisitExtra, [&](auto&& mark) {
       for (const std::uint32_t e : apartEdges)
         if (flatnessOf(e, x) != 1.0)
-          for (std::uint32_t k = apartByEdgeStart[e]; k < apartByEdgeStart[e + 1]; ++k) mark(apartByEdge[k]);
+          for (std::uint32_t k = apartByEdgeStart[e]; k < apartByEdgeStart[e + 1]; ++k)
+            mark(apartByEdge[k]);
     });
     cacheVisit.resize(cacheOthers.size() + cacheVisitExtra.size());
-    std::merge(cacheOthers.begin(), cacheOthers.end(), cacheVisitExtra.begin(), cacheVisitExtra.end(), cacheVisit.begin());
+    std::merge(cacheOthers.begin(), cacheOthers.end(), cacheVisitExtra.begin(),
+               cacheVisitExtra.end(), cacheVisit.begin());
     gatherInParts(cacheVisit.size(), partsFor(cacheVisit.size(), kRecordsPerThread), partPairs, out,
                   [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
                     for (std::size_t k = begin; k < end; ++k) classifyCached(cacheVisit[k], x, to);
@@ -1710,10 +1828,13 @@ struct Contact::Impl {
     const Cached& c = cache[ci];
     const double within = searchMargin(c);
     // (it cannot be within its margin; the shrink is at most twice the largest motion)
-    if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within)) return;
+    if (c.s >= within && (c.s - 2 * largestSinceCache >= within || c.s - cachedShrink(c) >= within))
+      return;
     Pair p = c.pair();
-    if (c.kind == Kind::EE && !((p.scale = edgePairScale(p.edges, x)) > 0)) return;  // (as keepIfNear would)
-    const int t = c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
+    if (c.kind == Kind::EE && !((p.scale = edgePairScale(p.edges, x)) > 0))
+      return;  // (as keepIfNear would)
+    const int t =
+        c.kind == Kind::EE ? -1 : c.tri;  // (an edge pair's record holds its first edge there)
     Screen screen;
     if (surelyDropped(c.kind, c.surface, c.obstacle, c.id, 3, x, t, &screen)) return;
     keepIfNear(p, x, within, to, true, t, &screen);
@@ -1722,7 +1843,7 @@ struct Contact::Impl {
   std::vector<std::uint64_t> recordBits;  // (ascendingOnce's, for pairsFromCache and nearFromCache)
   // (per thread: pairsFromCache's, nearFromCache's and analyticPairs', which never run at once)
   std::vector<std::vector<Pair>> partPairs;
-  std::size_t cacheEdgePairs = 0;     // the cache's self pairs of two edges (indexCache)
+  std::size_t cacheEdgePairs = 0;         // the cache's self pairs of two edges (indexCache)
   std::vector<std::uint32_t> cacheEdges;  // their edges, each once, ascending (markApart)
   /// Whether markApart has indexed the cache's apart pairs of two edges: those whose triangles,
   /// beside the one edge and the other, share no point (edgePairScale's condition; a property of
@@ -1801,7 +1922,8 @@ struct Contact::Impl {
   void triangleMargins() {
     triMargin.resize(tris.size());
     for (std::size_t i = 0; i < tris.size(); ++i) {
-      triMargin[i] = std::max({pointMargin[triV[i][0]], pointMargin[triV[i][1]], pointMargin[triV[i][2]]});
+      triMargin[i] =
+          std::max({pointMargin[triV[i][0]], pointMargin[triV[i][1]], pointMargin[triV[i][2]]});
     }
   }
   void prepare(std::span<const double> x) {
@@ -1810,8 +1932,10 @@ struct Contact::Impl {
     bvhBuilt = true;
     tightBoxes(x, tight);
     surfaceBoxes(x, boxes);
-    if (rebuild || bvh.size() != boxes.size()) bvh.build(boxes);
-    else bvh.refit(boxes);
+    if (rebuild || bvh.size() != boxes.size())
+      bvh.build(boxes);
+    else
+      bvh.refit(boxes);
   }
 
   /// A self pair by its points, the same whichever way it was found.
@@ -1856,7 +1980,8 @@ struct Contact::Impl {
       std::array<std::uint32_t, 3> on{inv, inv, inv};
       int m = 0;
       for (int c = 0; c < 3; ++c)
-        if (std::abs(p.w0[std::size_t(c + 1)]) > 1e-9) on[std::size_t(m++)] = p.id[std::size_t(c + 1)];
+        if (std::abs(p.w0[std::size_t(c + 1)]) > 1e-9)
+          on[std::size_t(m++)] = p.id[std::size_t(c + 1)];
       if (m == 0 || m == 3) return f;
       f.id = {p.id[0], on[0], on[1], inv};
       f.shape = std::uint8_t(m);
@@ -1866,16 +1991,21 @@ struct Contact::Impl {
     if (p.kind != Kind::EE) return f;
     // An end of an edge stands for the edge.
     auto side = [&](std::uint32_t a, std::uint32_t b, double t, std::array<std::uint32_t, 2>& out) {
-      if (t <= 1e-9) out = {a, inv};
-      else if (t >= 1 - 1e-9) out = {b, inv};
-      else out = {a, b};
+      if (t <= 1e-9)
+        out = {a, inv};
+      else if (t >= 1 - 1e-9)
+        out = {b, inv};
+      else
+        out = {a, b};
       return out[1] == inv ? 1 : 2;
     };
     std::array<std::uint32_t, 2> A, B;
     const int na = side(p.id[0], p.id[1], p.w0[1], A), nb = side(p.id[2], p.id[3], -p.w0[3], B);
     if (na == 2 && nb == 2) return f;
-    if (na == 1) f.id = {A[0], B[0], B[1], inv};
-    else f.id = {B[0], A[0], A[1], inv};
+    if (na == 1)
+      f.id = {A[0], B[0], B[1], inv};
+    else
+      f.id = {B[0], A[0], A[1], inv};
     f.kind = Kind::VT;
     f.shape = std::uint8_t(na == 1 ? nb : na);
     f.surface = std::uint8_t((1 << (f.shape + 1)) - 1);
@@ -1899,13 +2029,16 @@ struct Contact::Impl {
       loB = loB.cwiseMin(rest[std::size_t(i)]);
       hiB = hiB.cwiseMax(rest[std::size_t(i)]);
     }
-    if (((loB - hiA).maxCoeff() > P.thickness) || ((loA - hiB).maxCoeff() > P.thickness)) return false;
+    if (((loB - hiA).maxCoeff() > P.thickness) || ((loA - hiB).maxCoeff() > P.thickness))
+      return false;
     return evaluatePoints(p, rest).s <= P.thickness;
   }
   bool isReleased(const Pair& p) const {
     if (released.empty()) return false;
     bool all = true;
-    crossPoints(p, [&](const std::pair<std::uint32_t, std::uint32_t>& ab) { all = all && released.count(ab); });
+    crossPoints(p, [&](const std::pair<std::uint32_t, std::uint32_t>& ab) {
+      all = all && released.count(ab);
+    });
     return all;
   }
   /// A self pair at distance s0 that has no penalty, no friction and no bound: neighbours in the
@@ -1933,10 +2066,12 @@ struct Contact::Impl {
   /// it is surely farther than `within`.
   double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within) const {
     V3 g;
-    return triangleObstacleDistance(k, tv, within, std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)}));
+    return triangleObstacleDistance(
+        k, tv, within, std::min({sdf(k, tv[0], g), sdf(k, tv[1], g), sdf(k, tv[2], g)}));
   }
   /// The same, given smin, the smallest of the corners' signed distances to the obstacle.
-  double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within, double smin) const {
+  double triangleObstacleDistance(int k, const std::array<V3, 3>& tv, double within,
+                                  double smin) const {
     const Obstacle& o = O[std::size_t(k)];
     if (smin <= 0) return -1.0;
     // (a plane's distance is linear over the triangle: the smallest corner's)
@@ -1945,7 +2080,8 @@ struct Contact::Impl {
     double D = smin;
     const V3 c = V3(o.point[0], o.point[1], o.point[2]) + offset[std::size_t(k)];
     switch (o.shape) {
-      case Obstacle::Shape::Plane: break;
+      case Obstacle::Shape::Plane:
+        break;
       case Obstacle::Shape::Sphere: {
         if (planeSeparates(k, tv, within)) return kInf;
         D = pointTriangleDistance(c, tv[0], tv[1], tv[2]) - o.radius;
@@ -1957,7 +2093,8 @@ struct Contact::Impl {
         break;
       }
       case Obstacle::Shape::Box:
-      case Obstacle::Shape::Mesh: break;
+      case Obstacle::Shape::Mesh:
+        break;
     }
     return std::max(D, 0.0);
   }
@@ -2002,7 +2139,8 @@ struct Contact::Impl {
           // How far the triangle's points travel relative to the obstacle.
           const double reach = std::max({pointReach[T[0]], pointReach[T[1]], pointReach[T[2]]});
           if (!(reach > 0)) continue;
-          const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
+          const std::array<V3, 3> tv{surfacePoint(x, T[0]), surfacePoint(x, T[1]),
+                                     surfacePoint(x, T[2])};
           const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
           // Dropped only at 1.25 times its reach or more, where the CCD below would take the
           // whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
@@ -2018,7 +2156,8 @@ struct Contact::Impl {
     }
     std::vector<const Pair*> pairsToCheck;
     for (const Pair& p : near) {
-      if (p.kind == Kind::PO || p.kind == Kind::FO || !(p.s0 > 0)) continue;  // (at zero distance: as above)
+      if (p.kind == Kind::PO || p.kind == Kind::FO || !(p.s0 > 0))
+        continue;  // (at zero distance: as above)
       // Excluded pairs (new after a cut) have no penalty but are kept apart like the others; at
       // zero distance (the lips themselves) they cannot be, and are left to separate.
       if (p.obstacle < 0 && p.s0 <= P.thickness && excludedPair(closestFeature(p))) continue;
@@ -2042,8 +2181,10 @@ struct Contact::Impl {
       for (int i = 0; i < 4; ++i) {
         if (!((p.surface >> i) & 1)) continue;
         const V3& b = anchor[p.id[std::size_t(i)]];
-        if (first) a = b;
-        else if (b != a) common = false;
+        if (first)
+          a = b;
+        else if (b != a)
+          common = false;
         first = false;
       }
       return a;
@@ -2056,7 +2197,8 @@ struct Contact::Impl {
       if (!common) return false;
       const double b = gamma * p.s0;
       for (int i = 0; i < 4; ++i)
-        if (((p.surface >> i) & 1) && (dx[p.id[std::size_t(i)]] - f).squaredNorm() > b * b) return false;
+        if (((p.surface >> i) & 1) && (dx[p.id[std::size_t(i)]] - f).squaredNorm() > b * b)
+          return false;
       return true;
     };
     // A pair's bound on its free points: gamma times its distance, less what its prescribed
@@ -2065,7 +2207,8 @@ struct Contact::Impl {
       double lockedMove = 0.0;
       for (int i = 0; i < 4; ++i) {
         const std::uint32_t q = p.id[std::size_t(i)];
-        if (((p.surface >> i) & 1) && q < locked.size() && locked[q]) lockedMove = std::max(lockedMove, (dx[q] - frame).norm());
+        if (((p.surface >> i) & 1) && q < locked.size() && locked[q])
+          lockedMove = std::max(lockedMove, (dx[q] - frame).norm());
       }
       return gamma * std::max(p.s0 - lockedMove, 0.0);
     };
@@ -2102,7 +2245,8 @@ struct Contact::Impl {
         V3 frame = f;
         if (!common)  // a self pair with a point that goes with an obstacle: all its points do
           for (int i = 0; i < 4; ++i)
-            if (((p->surface >> i) & 1) && anchor[p->id[std::size_t(i)]] != V3::Zero()) frame = anchor[p->id[std::size_t(i)]];
+            if (((p->surface >> i) & 1) && anchor[p->id[std::size_t(i)]] != V3::Zero())
+              frame = anchor[p->id[std::size_t(i)]];
         // Each point keeps the part of its motion the pair provably has (or gamma times the
         // distance, which suffices alone).
         const double b = pairBound(*p, frame);
@@ -2117,11 +2261,14 @@ struct Contact::Impl {
         if (round > 0 && !moved[T[0]] && !moved[T[1]] && !moved[T[2]]) continue;
         const V3& m = move[std::size_t(it.k)];
         if (!plain) {
-          const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]), surfacePoint(x, T[2])};
-          const double lp = std::max({(dx[T[0]] - m).norm(), (dx[T[1]] - m).norm(), (dx[T[2]] - m).norm()});
+          const std::array<V3, 3> c0{surfacePoint(x, T[0]), surfacePoint(x, T[1]),
+                                     surfacePoint(x, T[2])};
+          const double lp =
+              std::max({(dx[T[0]] - m).norm(), (dx[T[1]] - m).norm(), (dx[T[2]] - m).norm()});
           const auto dist = [&](double t) {
             // Relative to the obstacle, which moves by `move` over the step.
-            const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m), c0[2] + t * (dx[T[2]] - m)};
+            const std::array<V3, 3> c{c0[0] + t * (dx[T[0]] - m), c0[1] + t * (dx[T[1]] - m),
+                                      c0[2] + t * (dx[T[2]] - m)};
             const double D = triangleObstacleDistance(it.k, c, kInf);
             return D < 0 ? 0.0 : D;
           };
@@ -2130,7 +2277,8 @@ struct Contact::Impl {
           const bool finite = dx[T[0]].allFinite() && dx[T[1]].allFinite() && dx[T[2]].allFinite();
           const double safe = finite ? safeFraction(dist, lp, it.D) : safeFraction(dist, lp);
           if (safe >= 1.0) continue;
-          for (std::uint32_t p : T) restrict(p, std::max(gamma * it.D, safe * (dx[p] - m).norm()), m, changed);
+          for (std::uint32_t p : T)
+            restrict(p, std::max(gamma * it.D, safe * (dx[p] - m).norm()), m, changed);
           continue;
         }
         for (std::uint32_t p : T) restrict(p, gamma * it.D, m, changed);
@@ -2146,7 +2294,8 @@ struct Contact::Impl {
 
 // -------------------------------------------------------------------------------------------------
 
-Contact::Contact(topology::Topology& topology, ContactParameters parameters, std::vector<Obstacle> obstacles)
+Contact::Contact(topology::Topology& topology, ContactParameters parameters,
+                 std::vector<Obstacle> obstacles)
     : parameters_(parameters), obstacles_(std::move(obstacles)) {
   parameters_.validate();
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
@@ -2154,10 +2303,13 @@ Contact::Contact(topology::Topology& topology, ContactParameters parameters, std
     try {
       o.validate();
     } catch (const InvalidInput& e) {
-      throw InvalidInput("obstacles/" + std::to_string(k) + (e.where().empty() ? "" : "/" + e.where()), e.message());
+      throw InvalidInput(
+          "obstacles/" + std::to_string(k) + (e.where().empty() ? "" : "/" + e.where()),
+          e.message());
     }
     if (o.shape == Obstacle::Shape::Plane) {
-      const double l = std::sqrt(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2]);
+      const double l = std::sqrt(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] +
+                                 o.normal[2] * o.normal[2]);
       for (double& c : o.normal) c /= l;
     }
     if (o.name.empty()) o.name = o.shapeName() + std::to_string(k);
@@ -2183,7 +2335,8 @@ void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double 
   Obstacle& o = obstacles_[k];
   const std::string where = "obstacle \"" + o.name + "\"";
   if (!std::isfinite(now) || !(duration > 0) || !std::isfinite(duration))
-    throw InvalidInput(where, "a move needs a finite duration > 0 (an obstacle sweeps; it does not jump)");
+    throw InvalidInput(where,
+                       "a move needs a finite duration > 0 (an obstacle sweeps; it does not jump)");
   for (double c : delta)
     if (!std::isfinite(c)) throw InvalidInput(where, "non-finite displacement");
   const Vec3 d0 = o.offsetAt(now);
@@ -2195,12 +2348,21 @@ void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double 
   o.path = std::move(path);
 }
 
-const std::vector<double>& Contact::bounds() const { return impl_->bound; }
-std::size_t Contact::cachedPairs() const { return impl_->cacheBuilt ? impl_->cache.size() : 0; }
-std::size_t Contact::searches() const { return impl_->cacheBuilds + impl_->plainSearches; }
-std::size_t Contact::searchesReused() const { return impl_->cacheUses; }
+const std::vector<double>& Contact::bounds() const {
+  return impl_->bound;
+}
+std::size_t Contact::cachedPairs() const {
+  return impl_->cacheBuilt ? impl_->cache.size() : 0;
+}
+std::size_t Contact::searches() const {
+  return impl_->cacheBuilds + impl_->plainSearches;
+}
+std::size_t Contact::searchesReused() const {
+  return impl_->cacheUses;
+}
 
-void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt) {
+void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0,
+                        double dt) {
   Impl& I = *impl_;
   const ContactParameters& P = parameters_;
   // Obstacles at the step's end.
@@ -2244,7 +2406,8 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   bool fromCache = false;
   double widest = 0.0;
   for (std::size_t p = 0; p < n; ++p)
-    if (I.pointOwner.size() > p && I.pointOwner[p] >= 0) widest = std::max(widest, I.pointMargin[p]);
+    if (I.pointOwner.size() > p && I.pointOwner[p] >= 0)
+      widest = std::max(widest, I.pointMargin[p]);
   if (P.searchSlack > 0 && I.plainSteps > 0) {
     --I.plainSteps;
   } else if (P.searchSlack > 0 && widest <= 1.5 * P.thickness) {
@@ -2255,7 +2418,8 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
     const double rSelf = 2 * widest;
     std::vector<double> rObstacle(obstacles_.size(), 0.0);
     double r = rSelf;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) r = std::max(r, rObstacle[k] = widest + I.obstacleMargin[k]);
+    for (std::size_t k = 0; k < obstacles_.size(); ++k)
+      r = std::max(r, rObstacle[k] = widest + I.obstacleMargin[k]);
     fromCache = true;
     if (I.cacheCovers(x, rSelf, rObstacle)) {
       ++I.cacheUses;
@@ -2302,9 +2466,11 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   for (const auto& key : I.excluded) {
     const Pair p = Impl::fromKey(key);
     bool alive = true;
-    for (int i = 0; i < p.points(); ++i) alive = alive && I.topo.isPointAlive(PointId(p.id[std::size_t(i)]));
+    for (int i = 0; i < p.points(); ++i)
+      alive = alive && I.topo.isPointAlive(PointId(p.id[std::size_t(i)]));
     if (alive && I.evaluate(p, x).s > P.thickness)
-      Impl::crossPoints(p, [&](const std::pair<std::uint32_t, std::uint32_t>& ab) { I.released.insert(ab); });
+      Impl::crossPoints(
+          p, [&](const std::pair<std::uint32_t, std::uint32_t>& ab) { I.released.insert(ab); });
   }
   std::set<std::array<std::uint32_t, 5>> stillClose;
   for (Pair& p : I.pairs) {
@@ -2324,8 +2490,9 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   }
 }
 
-std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<double> x1, std::span<double> v1,
-                                       double dt, std::span<const char> constrained) const {
+std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<double> x1,
+                                       std::span<double> v1, double dt,
+                                       std::span<const char> constrained) const {
   Impl& I = *impl_;
   const std::size_t n = x0.size() / 3;
   I.updateTables();
@@ -2334,7 +2501,8 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
   std::vector<V3> disp(n, V3::Zero());
   for (std::size_t p = 0; p < n; ++p)
     if (I.topo.isPointAlive(PointId(Index(p))))
-      disp[p] = V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
+      disp[p] =
+          V3(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1], x1[3 * p + 2] - x0[3 * p + 2]);
   std::vector<double> scale(n, 1.0);
   I.bound.assign(n, kInf);
   I.anchor.assign(n, V3::Zero());
@@ -2369,7 +2537,8 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     dx.resize(n);
     for (std::size_t p = 0; p < n; ++p) dx[p] = dxOf(p);
     I.obstacleMargin.assign(obstacles_.size(), 0.0);
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k)
+      I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge;
     std::vector<Pair>& near = I.nearPairs;
     near.clear();
     I.sweep = &dx;
@@ -2391,7 +2560,8 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
         fastCount += fast[p] && I.pointOwner.size() > p && I.pointOwner[p] >= 0;
       }
       for (std::size_t k = 0; k < obstacles_.size(); ++k)
-        if (I.meshLike(k) && !(I.obstacleSinceCache[k] + 2 * I.move[k].norm() < 0.25 * I.cacheR)) cached = false;
+        if (I.meshLike(k) && !(I.obstacleSinceCache[k] + 2 * I.move[k].norm() < 0.25 * I.cacheR))
+          cached = false;
       if (10 * fastCount > n) cached = false;  // (then one search is cheaper)
     }
     if (cached) {
@@ -2429,8 +2599,8 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
 // -------------------------------------------------------------------------------------------------
 // The force field
 
-
-void Contact::addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const {
+void Contact::addForce(std::span<const double> x, std::span<const double> v,
+                       std::span<double> f) const {
   Impl& I = *impl_;
   const Law law{parameters_.thickness, parameters_.stiffness};
   I.evaluateAt(x);
@@ -2442,13 +2612,15 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v, std
       const double mag = p.scale * law.force(e.s);
       for (int i = 0; i < 4; ++i)
         if ((p.surface >> i) & 1)
-          for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += mag * e.w[std::size_t(i)] * e.n[c];
+          for (int c = 0; c < 3; ++c)
+            f[3 * p.id[std::size_t(i)] + std::size_t(c)] += mag * e.w[std::size_t(i)] * e.n[c];
     }
     if (p.lambda > 0 && p.mu > 0) {
       const V3 ff = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v));
       for (int i = 0; i < 4; ++i)
         if ((p.surface >> i) & 1)
-          for (int c = 0; c < 3; ++c) f[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * ff[c];
+          for (int c = 0; c < 3; ++c)
+            f[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * ff[c];
     }
   }
 }
@@ -2468,8 +2640,8 @@ void Contact::endProducts(std::span<const double> x) const {
     }
 }
 
-void Contact::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df, double kFactor,
-                        double bFactor) const {
+void Contact::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                        double kFactor, double bFactor) const {
   Impl& I = *impl_;
   I.evaluateAt(x);
   auto at = [&](std::uint32_t p) { return Eigen::Map<const V3>(dx.data() + 3 * std::size_t(p)); };
@@ -2479,7 +2651,8 @@ void Contact::addDForce(std::span<const double> x, std::span<const double> dx, s
     for (int i = 0; i < 4; ++i)
       if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
     const auto& a = c.a;
-    const V3 g(a[0] * u[0] + a[1] * u[1] + a[2] * u[2], a[1] * u[0] + a[3] * u[1] + a[4] * u[2], a[2] * u[0] + a[4] * u[1] + a[5] * u[2]);
+    const V3 g(a[0] * u[0] + a[1] * u[1] + a[2] * u[2], a[1] * u[0] + a[3] * u[1] + a[4] * u[2],
+               a[2] * u[0] + a[4] * u[1] + a[5] * u[2]);
     for (int i = 0; i < 4; ++i)
       if ((c.surface >> i) & 1) to(c.id[std::size_t(i)]) += c.w[std::size_t(i)] * g;
   }
@@ -2502,10 +2675,13 @@ namespace {
 /// no place in the accumulator's pattern, adds |w_i| (sum_j |w_j|) B to the diagonal blocks
 /// instead (B is semi-definite: the lumped blocks bound the true ones in the same direction, by
 /// Cauchy-Schwarz), and says so.
-void addPairBlocks(const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& B, MatrixAccumulator& m) {
+void addPairBlocks(const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& B,
+                   MatrixAccumulator& m) {
   if (m.diagonalOnly()) {
     for (int i = 0; i < 4; ++i)
-      if ((p.surface >> i) & 1) m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(i)]), (w[std::size_t(i)] * w[std::size_t(i)]) * B);
+      if ((p.surface >> i) & 1)
+        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(i)]),
+                   (w[std::size_t(i)] * w[std::size_t(i)]) * B);
     return;
   }
   bool fits = true;
@@ -2514,18 +2690,21 @@ void addPairBlocks(const Pair& p, const std::array<double, 4>& w, const Eigen::M
     if (!((p.surface >> i) & 1)) continue;
     sum += std::abs(w[std::size_t(i)]);
     for (int j = 0; j < i && fits; ++j)
-      if ((p.surface >> j) & 1) fits = m.contains(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]));
+      if ((p.surface >> j) & 1)
+        fits = m.contains(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]));
   }
   if (!fits) m.approximated();
   for (int i = 0; i < 4; ++i) {
     if (!((p.surface >> i) & 1)) continue;
     if (!fits) {
-      m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(i)]), (std::abs(w[std::size_t(i)]) * sum) * B);
+      m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(i)]),
+                 (std::abs(w[std::size_t(i)]) * sum) * B);
       continue;
     }
     for (int j = 0; j < 4; ++j)
       if ((p.surface >> j) & 1)
-        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]), (w[std::size_t(i)] * w[std::size_t(j)]) * B);
+        m.addBlock(PointId(p.id[std::size_t(i)]), PointId(p.id[std::size_t(j)]),
+                   (w[std::size_t(i)] * w[std::size_t(j)]) * B);
   }
 }
 }  // namespace
@@ -2543,7 +2722,8 @@ void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, doub
   }
 }
 
-void Contact::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m, double bFactor) const {
+void Contact::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m,
+                           double bFactor) const {
   const Impl& I = *impl_;
   for (const Pair& p : I.pairs) {
     if (p.excluded || !(p.lambda > 0 && p.mu > 0)) continue;
@@ -2571,7 +2751,8 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
       ++m.active;
       fn = p.scale * law.force(e.s);
     }
-    if (p.lambda > 0 && p.mu > 0) ft = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v)).norm();
+    if (p.lambda > 0 && p.mu > 0)
+      ft = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v)).norm();
     if (p.obstacle < 0) {
       m.selfNormal += fn;
       m.selfFriction += ft;
@@ -2583,7 +2764,8 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
   return m;
 }
 
-std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, double within, std::size_t limit) const {
+std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, double within,
+                                                  std::size_t limit) const {
   Impl& I = *impl_;
   I.updateTables();
   // (every kind of pair within the sum of two margins: within)
@@ -2599,29 +2781,41 @@ std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, dou
   for (const Pair& p : found) {
     if (out.size() >= limit) break;
     std::ostringstream s;
-    const std::string obstacle = p.obstacle >= 0 ? "obstacle \"" + obstacles_[std::size_t(p.obstacle)].name + "\"" : "";
+    const std::string obstacle =
+        p.obstacle >= 0 ? "obstacle \"" + obstacles_[std::size_t(p.obstacle)].name + "\"" : "";
     switch (p.kind) {
       case Kind::VT:
-        s << "point " << p.id[0] << " and the triangle of points " << p.id[1] << ", " << p.id[2] << ", " << p.id[3];
-        break;
-      case Kind::EE:
-        s << "the edge of points " << p.id[0] << ", " << p.id[1] << " and the edge of points " << p.id[2] << ", " << p.id[3];
-        break;
-      case Kind::PO: s << "point " << p.id[0] << " and " << obstacle; break;
-      case Kind::FO: s << "point " << p.id[0] << " and " << obstacle; break;
-      case Kind::VO: s << "point " << p.id[0] << " and " << obstacle; break;
-      case Kind::OV:
-        s << obstacle << " (its vertex " << p.id[0] << ") and the triangle of points " << p.id[1] << ", " << p.id[2]
+        s << "point " << p.id[0] << " and the triangle of points " << p.id[1] << ", " << p.id[2]
           << ", " << p.id[3];
         break;
-      case Kind::EO: s << "the edge of points " << p.id[0] << ", " << p.id[1] << " and " << obstacle; break;
+      case Kind::EE:
+        s << "the edge of points " << p.id[0] << ", " << p.id[1] << " and the edge of points "
+          << p.id[2] << ", " << p.id[3];
+        break;
+      case Kind::PO:
+        s << "point " << p.id[0] << " and " << obstacle;
+        break;
+      case Kind::FO:
+        s << "point " << p.id[0] << " and " << obstacle;
+        break;
+      case Kind::VO:
+        s << "point " << p.id[0] << " and " << obstacle;
+        break;
+      case Kind::OV:
+        s << obstacle << " (its vertex " << p.id[0] << ") and the triangle of points " << p.id[1]
+          << ", " << p.id[2] << ", " << p.id[3];
+        break;
+      case Kind::EO:
+        s << "the edge of points " << p.id[0] << ", " << p.id[1] << " and " << obstacle;
+        break;
     }
     out.push_back({s.str(), p.s0});
   }
   return out;
 }
 
-std::vector<ContactProximity> Contact::intersections(std::span<const double> x, std::size_t limit) const {
+std::vector<ContactProximity> Contact::intersections(std::span<const double> x,
+                                                     std::size_t limit) const {
   Impl& I = *impl_;
   I.updateTables();
   I.pointMargin.assign(x.size() / 3, 0.0);
@@ -2630,7 +2824,8 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
   std::vector<ContactProximity> out;
   auto corners = [&](int i) {
     const auto& T = I.triV[std::size_t(i)];
-    return std::array<V3, 3>{I.surfacePoint(x, T[0]), I.surfacePoint(x, T[1]), I.surfacePoint(x, T[2])};
+    return std::array<V3, 3>{I.surfacePoint(x, T[0]), I.surfacePoint(x, T[1]),
+                             I.surfacePoint(x, T[2])};
   };
   auto name = [&](int i) {
     const auto& T = I.triV[std::size_t(i)];
@@ -2643,7 +2838,8 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
       if (out.size() >= limit) return;
       for (std::uint32_t p : I.triV[std::size_t(i)])
         if (I.shares(I.triV[std::size_t(j)], p)) return;
-      if (triangleTriangleDistance(corners(i), corners(j)) == 0.0) out.push_back({name(i) + " and " + name(j), 0.0});
+      if (triangleTriangleDistance(corners(i), corners(j)) == 0.0)
+        out.push_back({name(i) + " and " + name(j), 0.0});
     });
   for (std::size_t k = 0; k < obstacles_.size() && out.size() < limit; ++k) {
     const std::string obstacle = "obstacle \"" + obstacles_[k].name + "\"";
@@ -2660,16 +2856,20 @@ std::vector<ContactProximity> Contact::intersections(std::span<const double> x, 
       I.bvh.crossPairs(m.bvh, [&](int i, int j) {
         if (out.size() >= limit) return;
         const auto& T = m.triangles[std::size_t(j)];
-        const std::array<V3, 3> u{I.obstaclePoint(int(k), std::uint32_t(T[0])), I.obstaclePoint(int(k), std::uint32_t(T[1])),
+        const std::array<V3, 3> u{I.obstaclePoint(int(k), std::uint32_t(T[0])),
+                                  I.obstaclePoint(int(k), std::uint32_t(T[1])),
                                   I.obstaclePoint(int(k), std::uint32_t(T[2]))};
         if (triangleTriangleDistance(corners(int(i)), u) == 0.0)
-          out.push_back({name(i) + " and " + obstacle + " (its triangle " + std::to_string(j) + ")", 0.0});
+          out.push_back(
+              {name(i) + " and " + obstacle + " (its triangle " + std::to_string(j) + ")", 0.0});
       });
       continue;
     }
     for (std::size_t t = 0; t < I.tris.size() && out.size() < limit; ++t) {
       const double D = I.triangleObstacleDistance(int(k), corners(int(t)), 1e-300);
-      if (D == 0.0 || D < 0) out.push_back({name(int(t)) + (D < 0 ? " has a corner inside " : " crosses ") + obstacle, 0.0});
+      if (D == 0.0 || D < 0)
+        out.push_back(
+            {name(int(t)) + (D < 0 ? " has a corner inside " : " crosses ") + obstacle, 0.0});
     }
   }
   return out;
@@ -2684,7 +2884,8 @@ void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renu
   bool gone = false;
   auto map = [&](std::uint32_t p) {
     if (p == std::uint32_t(kInvalidIndex)) return p;
-    const std::uint32_t q = p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
+    const std::uint32_t q =
+        p < r.oldToNew.size() ? std::uint32_t(r.oldToNew[p]) : std::uint32_t(kInvalidIndex);
     if (q == std::uint32_t(kInvalidIndex)) gone = true;
     return q;
   };
@@ -2716,9 +2917,12 @@ void Contact::onTransactionEnd(const topology::Topology&, const topology::Transa
   I.evalValid = false;
 }
 
-void Contact::validate(const topology::Topology& topology, std::vector<std::string>& problems) const {
+void Contact::validate(const topology::Topology& topology,
+                       std::vector<std::string>& problems) const {
   const Impl& I = *impl_;
-  if (!I.built || I.revision != topology.revision() || I.lastX.size() < 3 * topology.pointCapacity()) return;
+  if (!I.built || I.revision != topology.revision() ||
+      I.lastX.size() < 3 * topology.pointCapacity())
+    return;
   if (I.tris != topology.triangles()) {
     problems.push_back("Contact: its triangle list differs from the topology's");
     return;
@@ -2727,7 +2931,8 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
     const auto v = topology.triangleVertices(I.tris[i]);
     for (int k = 0; k < 3; ++k)
       if (I.triV[i][std::size_t(k)] != Index(v[std::size_t(k)]))
-        problems.push_back("Contact: triangle " + std::to_string(Index(I.tris[i])) + " has other corners in its table");
+        problems.push_back("Contact: triangle " + std::to_string(Index(I.tris[i])) +
+                           " has other corners in its table");
   }
   std::vector<Box> boxes;
   I.surfaceBoxes(I.lastX, boxes);
@@ -2759,13 +2964,15 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
   std::vector<Pair> brute;
   for (std::size_t i = 0; i < I.tris.size(); ++i)
     for (std::size_t j = i + 1; j < I.tris.size(); ++j)
-      if (boxes[i].overlaps(boxes[j])) I.selfTrianglePair(int(i), int(j), I.lastX, brute, true, tight);
+      if (boxes[i].overlaps(boxes[j]))
+        I.selfTrianglePair(int(i), int(j), I.lastX, brute, true, tight);
   std::vector<Pair> fast;
   refitted.selfPairs([&](int i, int j) { I.selfTrianglePair(i, j, I.lastX, fast, true, tight); });
   const auto a = keys(brute), b = keys(fast);
   if (a != b || brute.size() != fast.size()) {
     std::ostringstream s;
-    s << "Contact: the BVH finds " << fast.size() << " self pairs, every pair of triangles gives " << brute.size();
+    s << "Contact: the BVH finds " << fast.size() << " self pairs, every pair of triangles gives "
+      << brute.size();
     problems.push_back(s.str());
   }
 }
@@ -2773,8 +2980,12 @@ void Contact::validate(const topology::Topology& topology, std::vector<std::stri
 // ---- checkpoints ----
 
 namespace {
-void saveV3s(ArchiveWriter& out, const std::vector<V3>& v) { contact::saveRecords(out, v); }
-void loadV3s(ArchiveReader& in, std::vector<V3>& v, const char* what) { contact::loadRecords(in, v, what); }
+void saveV3s(ArchiveWriter& out, const std::vector<V3>& v) {
+  contact::saveRecords(out, v);
+}
+void loadV3s(ArchiveReader& in, std::vector<V3>& v, const char* what) {
+  contact::loadRecords(in, v, what);
+}
 }  // namespace
 
 void Contact::saveState(ArchiveWriter& out) const {
@@ -2834,13 +3045,16 @@ void Contact::saveState(ArchiveWriter& out) const {
   out.boolean(I.cacheBuilt);
   out.f64s(I.sinceCache);
   out.f64s(I.obstacleSinceCache);
-  for (std::size_t v : {I.cacheUses, I.cacheBuilds, I.usesSinceBuild, I.plainSteps, I.backoff, I.plainSearches}) out.u64(v);
+  for (std::size_t v :
+       {I.cacheUses, I.cacheBuilds, I.usesSinceBuild, I.plainSteps, I.backoff, I.plainSearches})
+    out.u64(v);
 }
 
 void Contact::loadState(ArchiveReader& in) {
   Impl& I = *impl_;
   using contact::loadRecords;
-  if (in.u64() != obstacles_.size()) in.fail("contact: the saved run has another number of obstacles");
+  if (in.u64() != obstacles_.size())
+    in.fail("contact: the saved run has another number of obstacles");
   for (Obstacle& o : obstacles_) {
     loadRecords(in, o.path, "an obstacle's path");
     try {
@@ -2893,7 +3107,8 @@ void Contact::loadState(ArchiveReader& in) {
   loadRecords(in, I.tight.tri, "boxes");
   loadRecords(in, I.tight.edge, "boxes");
   const std::uint64_t excluded = in.u64();
-  if (excluded > in.remaining() / (5 * sizeof(std::uint32_t))) in.fail("contact: a count of " + std::to_string(excluded) + " exclusions");
+  if (excluded > in.remaining() / (5 * sizeof(std::uint32_t)))
+    in.fail("contact: a count of " + std::to_string(excluded) + " exclusions");
   I.excluded.clear();
   for (std::uint64_t k = 0; k < excluded; ++k) {
     std::array<std::uint32_t, 5> key;
@@ -2901,7 +3116,8 @@ void Contact::loadState(ArchiveReader& in) {
     I.excluded.insert(key);
   }
   const std::uint64_t released = in.u64();
-  if (released > in.remaining() / 16) in.fail("contact: a count of " + std::to_string(released) + " released pairs");
+  if (released > in.remaining() / 16)
+    in.fail("contact: a count of " + std::to_string(released) + " released pairs");
   I.released.clear();
   for (std::uint64_t k = 0; k < released; ++k) {
     const auto a = std::uint32_t(in.u64()), b = std::uint32_t(in.u64());
@@ -2916,40 +3132,51 @@ void Contact::loadState(ArchiveReader& in) {
   I.cacheBuilt = in.boolean();
   I.sinceCache = in.f64s();
   I.obstacleSinceCache = in.f64s();
-  for (std::size_t* v : {&I.cacheUses, &I.cacheBuilds, &I.usesSinceBuild, &I.plainSteps, &I.backoff, &I.plainSearches})
+  for (std::size_t* v : {&I.cacheUses, &I.cacheBuilds, &I.usesSinceBuild, &I.plainSteps, &I.backoff,
+                         &I.plainSearches})
     *v = std::size_t(in.u64());
   I.evalValid = false;
   I.sweep = nullptr;
   // Every index the records hold must be one of this mesh's.
   const std::size_t points = I.topo.pointCapacity(), tris = I.tris.size();
-  auto checkPair = [&](auto kind, std::int32_t obstacle, std::uint8_t surface, const std::array<std::uint32_t, 4>& id) {
-    if (obstacle < -1 || obstacle >= std::int32_t(obstacles_.size()) || std::uint8_t(kind) > std::uint8_t(Kind::FO))
+  auto checkPair = [&](auto kind, std::int32_t obstacle, std::uint8_t surface,
+                       const std::array<std::uint32_t, 4>& id) {
+    if (obstacle < -1 || obstacle >= std::int32_t(obstacles_.size()) ||
+        std::uint8_t(kind) > std::uint8_t(Kind::FO))
       in.fail("contact: a pair of an obstacle or a kind that does not exist");
     for (int i = 0; i < 4; ++i)
-      if (((surface >> i) & 1) && id[std::size_t(i)] != kInvalidIndex && id[std::size_t(i)] >= points)
+      if (((surface >> i) & 1) && id[std::size_t(i)] != kInvalidIndex &&
+          id[std::size_t(i)] >= points)
         in.fail("contact: a pair of a point that does not exist");
   };
   for (const Pair& p : I.pairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
   for (const Pair& p : I.nearPairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
   for (const auto& c : I.cache) {
     checkPair(c.kind, c.obstacle, c.surface, c.id);
-    if (I.cacheRevision == I.topo.revision() && (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)))
+    if (I.cacheRevision == I.topo.revision() &&
+        (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)))
       in.fail("contact: a cached pair of a triangle that does not exist");
     // (a self pair of edges holds its edges; a point's pair its triangle, of the surface or of
     // an obstacle mesh)
-    const bool edgesOk = c.kind != Kind::EE || c.obstacle >= 0 ||
-                         (c.tri >= -1 && c.edge2 >= -1 && c.tri < std::int32_t(I.topo.edgeCapacity()) && c.edge2 < std::int32_t(I.topo.edgeCapacity()));
-    const bool triOk = c.kind == Kind::EE || c.tri < 0 || c.obstacle >= 0 || c.tri < std::int32_t(tris);
+    const bool edgesOk =
+        c.kind != Kind::EE || c.obstacle >= 0 ||
+        (c.tri >= -1 && c.edge2 >= -1 && c.tri < std::int32_t(I.topo.edgeCapacity()) &&
+         c.edge2 < std::int32_t(I.topo.edgeCapacity()));
+    const bool triOk =
+        c.kind == Kind::EE || c.tri < 0 || c.obstacle >= 0 || c.tri < std::int32_t(tris);
     if (I.cacheRevision == I.topo.revision() && !(edgesOk && triOk))
       in.fail("contact: a cached pair of an edge or a triangle that does not exist");
   }
   I.indexCache();  // (by point: after the points are checked)
-  if (current && I.bvhBuilt && I.bvh.size() != tris) in.fail("contact: a hierarchy over another number of triangles");
+  if (current && I.bvhBuilt && I.bvh.size() != tris)
+    in.fail("contact: a hierarchy over another number of triangles");
   // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles
   // (tables of the mesh before a change are replaced at the next step, unread).
   const std::size_t k = obstacles_.size(), edges = I.topo.edgeCapacity();
   auto size = [&](std::size_t got, std::size_t most, const char* what) {
-    if (current && got > most) in.fail(std::string("contact: ") + what + " for " + std::to_string(got) + " elements, at most " + std::to_string(most));
+    if (current && got > most)
+      in.fail(std::string("contact: ") + what + " for " + std::to_string(got) +
+              " elements, at most " + std::to_string(most));
   };
   size(I.boxes.size(), tris, "boxes");
   size(I.fastPoint.size(), points, "fast points");
@@ -2964,11 +3191,13 @@ void Contact::loadState(ArchiveReader& in) {
   size(I.cacheX.size(), 3 * points, "cached positions");
   size(I.tight.tri.size(), tris, "boxes");
   size(I.tight.edge.size(), edges, "edge boxes");
-  if (I.offset.size() != k || I.velocity.size() != k || I.startOffset.size() != k || I.move.size() != k ||
-      I.obstacleMargin.size() > k || I.obstacleSinceCache.size() > k || I.cacheOffset.size() > k)
+  if (I.offset.size() != k || I.velocity.size() != k || I.startOffset.size() != k ||
+      I.move.size() != k || I.obstacleMargin.size() > k || I.obstacleSinceCache.size() > k ||
+      I.cacheOffset.size() > k)
     in.fail("contact: poses for another number of obstacles");
   for (std::size_t j = 0; j < I.meshes.size(); ++j)
-    if (I.meshes[j].bvh.size() > I.meshes[j].triangles.size()) in.fail("contact: an obstacle's hierarchy over other triangles");
+    if (I.meshes[j].bvh.size() > I.meshes[j].triangles.size())
+      in.fail("contact: an obstacle's hierarchy over other triangles");
 }
 
 }  // namespace cutsim::forcefields

@@ -22,7 +22,8 @@ template <class T>
 void loadRecords(ArchiveReader& in, std::vector<T>& v, const char* what) {
   static_assert(std::is_standard_layout_v<T> && std::is_trivially_destructible_v<T>);
   const std::uint64_t n = in.u64();
-  if (n > in.remaining() / sizeof(T)) in.fail(std::string("contact: ") + what + ": a count of " + std::to_string(n));
+  if (n > in.remaining() / sizeof(T))
+    in.fail(std::string("contact: ") + what + ": a count of " + std::to_string(n));
   v.resize(n);
   in.raw(v.data(), n * sizeof(T));
 }

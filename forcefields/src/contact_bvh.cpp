@@ -1,11 +1,11 @@
 // The contact code's bounding volume hierarchy (contact_bvh.hpp).
 #include "contact_bvh.hpp"
 
-#include "contact_archive.hpp"
-
 #include <algorithm>
 #include <numeric>
 #include <sstream>
+
+#include "contact_archive.hpp"
 
 namespace cutsim::forcefields::contact {
 
@@ -19,8 +19,7 @@ void Bvh::build(const std::vector<Box>& boxes, int leafSize) {
   buildNode(0, std::int32_t(boxes.size()), std::max(1, leafSize));
 }
 
-std::int32_t Bvh::buildNode(std::int32_t first, std::int32_t count,
-                            int leafSize) {
+std::int32_t Bvh::buildNode(std::int32_t first, std::int32_t count, int leafSize) {
   const std::int32_t id = std::int32_t(nodes_.size());
   nodes_.push_back({});
   Box box, cbox;
@@ -140,8 +139,8 @@ void Bvh::query(const Box& b, const std::function<void(int)>& f) const {
 void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problems) const {
   std::vector<int> seen(boxes.size(), 0);
   if (boxes.size() != boxes_.size()) {
-    problems.push_back("contact BVH: holds " + std::to_string(boxes_.size()) + " elements, the surface has " +
-                       std::to_string(boxes.size()));
+    problems.push_back("contact BVH: holds " + std::to_string(boxes_.size()) +
+                       " elements, the surface has " + std::to_string(boxes.size()));
     return;
   }
   for (std::size_t k = 0; k < nodes_.size(); ++k) {
@@ -165,8 +164,8 @@ void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problem
   }
   for (std::size_t e = 0; e < seen.size(); ++e)
     if (seen[e] != 1)
-      problems.push_back("contact BVH: element " + std::to_string(e) + " is in " + std::to_string(seen[e]) +
-                         " leaves");
+      problems.push_back("contact BVH: element " + std::to_string(e) + " is in " +
+                         std::to_string(seen[e]) + " leaves");
 }
 
 void Bvh::save(ArchiveWriter& out) const {
@@ -181,11 +180,12 @@ void Bvh::load(ArchiveReader& in) {
   loadRecords(in, boxes_, "BVH boxes");
   const std::int32_t n = std::int32_t(nodes_.size()), m = std::int32_t(order_.size());
   for (const Node& node : nodes_)
-    if (node.left < -1 || node.left >= n || node.right < -1 || node.right >= n || node.first < 0 || node.count < 0 ||
-        node.first > m - node.count)
+    if (node.left < -1 || node.left >= n || node.right < -1 || node.right >= n || node.first < 0 ||
+        node.count < 0 || node.first > m - node.count)
       in.fail("contact: a BVH node outside the hierarchy");
   for (std::int32_t e : order_)
-    if (e < 0 || e >= std::int32_t(boxes_.size())) in.fail("contact: a BVH element outside the hierarchy");
+    if (e < 0 || e >= std::int32_t(boxes_.size()))
+      in.fail("contact: a BVH element outside the hierarchy");
 }
 
 }  // namespace cutsim::forcefields::contact

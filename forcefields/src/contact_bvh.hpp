@@ -43,8 +43,7 @@ class Bvh {
     std::int32_t left = -1, right = -1;  // children (both -1 for a leaf)
     std::int32_t first = 0, count = 0;   // leaf: order_[first .. first + count)
   };
-  std::int32_t buildNode(std::int32_t first, std::int32_t count,
-                         int leafSize);
+  std::int32_t buildNode(std::int32_t first, std::int32_t count, int leafSize);
   void selfNode(std::int32_t n, const std::function<void(int, int)>& f) const;
   void pairNodes(const Bvh& other, std::int32_t a, std::int32_t b, bool same,
                  const std::function<void(int, int)>& f) const;

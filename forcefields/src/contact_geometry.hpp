@@ -83,7 +83,8 @@ inline constexpr double kFeatureTolerance = 1e-11;
 /// around a corner or an edge then snap a point alike, whichever of them it is over, so that the
 /// feature's owner triangle makes the snap that the others leave to it.
 /// (One compiled copy, so that the screening and the classification get the same numbers.)
-[[gnu::noinline]] inline std::array<double, 3> snapToFeature(const V3& p, const V3& a, const V3& b, const V3& c, std::array<double, 3> w) {
+[[gnu::noinline]] inline std::array<double, 3> snapToFeature(const V3& p, const V3& a, const V3& b,
+                                                             const V3& c, std::array<double, 3> w) {
   const int m = (w[0] != 0.0) + (w[1] != 0.0) + (w[2] != 0.0);
   if (m <= 1) return w;
   constexpr double grow = (1 + kFeatureTolerance) * (1 + kFeatureTolerance);
@@ -115,7 +116,8 @@ inline constexpr double kFeatureTolerance = 1e-11;
 }
 
 /// closestOnTriangle, at a corner or on an edge within kFeatureTolerance (snapToFeature).
-inline std::array<double, 3> closestFeatureOnTriangle(const V3& p, const V3& a, const V3& b, const V3& c) {
+inline std::array<double, 3> closestFeatureOnTriangle(const V3& p, const V3& a, const V3& b,
+                                                      const V3& c) {
   return snapToFeature(p, a, b, c, closestOnTriangle(p, a, b, c));
 }
 
@@ -162,7 +164,8 @@ inline std::array<double, 2> closestSegmentSegment(const V3& p0, const V3& p1, c
 /// Whether closestSegmentSegment's closest points are inside both segments (0 < s, t < 1), and
 /// then s and t, the same numbers; told without a division for most segments that are not: the
 /// screening of edge pairs, most of which meet at an end.
-inline bool closestInsideSegments(const V3& p0, const V3& p1, const V3& q0, const V3& q1, std::array<double, 2>& st) {
+inline bool closestInsideSegments(const V3& p0, const V3& p1, const V3& q0, const V3& q1,
+                                  std::array<double, 2>& st) {
   const V3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
   const double a = d1.squaredNorm(), e = d2.squaredNorm();
   constexpr double tiny = 1e-300;
@@ -248,7 +251,8 @@ struct Box {
   }
   V3 center() const { return 0.5 * (lo + hi); }
   bool contains(const V3& p) const {
-    return lo.x() <= p.x() && p.x() <= hi.x() && lo.y() <= p.y() && p.y() <= hi.y() && lo.z() <= p.z() && p.z() <= hi.z();
+    return lo.x() <= p.x() && p.x() <= hi.x() && lo.y() <= p.y() && p.y() <= hi.y() &&
+           lo.z() <= p.z() && p.z() <= hi.z();
   }
   bool contains(const Box& b) const {
     return (lo.array() <= b.lo.array()).all() && (hi.array() >= b.hi.array()).all();

@@ -1,5 +1,3 @@
-#include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"
 
 #include <algorithm>
@@ -10,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "dual.hpp"
 #include "hinge_table_impl.hpp"
 
@@ -518,26 +518,31 @@ void DihedralBending::addTableForces(std::span<const double> x, std::span<double
 
 namespace cutsim::forcefields {
 namespace {
-const bool registered = ForceFieldRegistry::instance().add({
-    "DihedralBending",
-    "nonlinear bending on the dihedral angle (Discrete Shells): sharp folds, curved rest shapes",
-    {{"bendingStiffness", KeyType::Number, "k, >= 0 (default 1): the springs' k, so k = 3 D"},
-     {"minDist", KeyType::Number, "degenerate-hinge threshold, an absolute length >= 0 (default 1e-6)"},
-     {"rayleighStiffness", KeyType::Number, "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
-     {"exactHessian", KeyType::Boolean, "K is the exact Hessian (indefinite away from the rest angle; what Newton needs) instead of its Gauss-Newton part (default false)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      DihedralBendingParameters p;
-      p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
-      p.minDist = s.nonNegative("minDist", p.minDist);
-      p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
-      p.exactHessian = s.boolean("exactHessian", p.exactHessian);
-      s.check([&] { p.validate(); });
-      return p;
-    },
-    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
-      return std::make_unique<DihedralBending>(t, std::any_cast<const DihedralBendingParameters&>(p));
-    }});
+const bool registered = ForceFieldRegistry::instance().add(
+    {"DihedralBending",
+     "nonlinear bending on the dihedral angle (Discrete Shells): sharp folds, curved rest shapes",
+     {{"bendingStiffness", KeyType::Number, "k, >= 0 (default 1): the springs' k, so k = 3 D"},
+      {"minDist", KeyType::Number,
+       "degenerate-hinge threshold, an absolute length >= 0 (default 1e-6)"},
+      {"rayleighStiffness", KeyType::Number,
+       "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
+      {"exactHessian", KeyType::Boolean,
+       "K is the exact Hessian (indefinite away from the rest angle; what Newton needs) instead of "
+       "its Gauss-Newton part (default false)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       DihedralBendingParameters p;
+       p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
+       p.minDist = s.nonNegative("minDist", p.minDist);
+       p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
+       p.exactHessian = s.boolean("exactHessian", p.exactHessian);
+       s.check([&] { p.validate(); });
+       return p;
+     },
+     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+       return std::make_unique<DihedralBending>(t,
+                                                std::any_cast<const DihedralBendingParameters&>(p));
+     }});
 }  // namespace
 void DihedralBending::saveState(ArchiveWriter& out) const {
   out.boolean(params_.exactHessian);

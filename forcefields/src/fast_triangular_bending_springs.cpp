@@ -1,5 +1,3 @@
-#include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 
 #include <algorithm>
@@ -10,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 #include "hinge_table_impl.hpp"
 
 namespace cutsim::forcefields {
@@ -68,9 +68,9 @@ HingeRecord FastTriangularBendingSprings::hingeFromMesh(const Topology& t, EdgeI
     r.status = HingeStatus::NoHinge;
     return r;
   }
-  const HingeWeights w = computeHinge(t.restPosition((*vid)[0]), t.restPosition((*vid)[1]),
-                                      t.restPosition((*vid)[2]), t.restPosition((*vid)[3]),
-                                      p.bendingStiffness, p.minDistValidity, p.areaWeights);
+  const HingeWeights w =
+      computeHinge(t.restPosition((*vid)[0]), t.restPosition((*vid)[1]), t.restPosition((*vid)[2]),
+                   t.restPosition((*vid)[3]), p.bendingStiffness, p.minDistValidity, p.areaWeights);
   r.status = w.status;
   if (w.status == HingeStatus::Active) {
     r.vertices = *vid;
@@ -273,28 +273,40 @@ void FastTriangularBendingSprings::addTableForces(std::span<const double> x,
 
 namespace cutsim::forcefields {
 namespace {
-const bool registered = ForceFieldRegistry::instance().add({
-    "FastTriangularBendingSprings",
-    "linear bending springs across interior edges (SOFA's FastTriangularBendingSprings)",
-    {{"bendingStiffness", KeyType::Number, "k, >= 0 (default 1); k = 3 D for cylindrical bending of a plate of rigidity D"},
-     {"minDistValidity", KeyType::Number, "degenerate-spring threshold, an absolute length >= 0 (default 1e-6)"},
-     {"rayleighStiffness", KeyType::Number, "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
-     {"areaWeights", KeyType::Choice, "unsigned (SOFA's, default) or signed (no force at rest on cut meshes)", {"unsigned", "signed"}}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      BendingParameters p;
-      p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
-      p.minDistValidity = s.nonNegative("minDistValidity", p.minDistValidity);
-      p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
-      p.areaWeights = parseAreaWeights(s.choice("areaWeights", "unsigned", {"unsigned", "signed"}));
-      s.check([&] { p.validate(); });
-      return p;
-    },
-    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
-      return std::make_unique<FastTriangularBendingSprings>(t, std::any_cast<const BendingParameters&>(p));
-    }});
+const bool registered = ForceFieldRegistry::instance().add(
+    {"FastTriangularBendingSprings",
+     "linear bending springs across interior edges (SOFA's FastTriangularBendingSprings)",
+     {{"bendingStiffness", KeyType::Number,
+       "k, >= 0 (default 1); k = 3 D for cylindrical bending of a plate of rigidity D"},
+      {"minDistValidity", KeyType::Number,
+       "degenerate-spring threshold, an absolute length >= 0 (default 1e-6)"},
+      {"rayleighStiffness", KeyType::Number,
+       "this field's Rayleigh stiffness damping factor, >= 0 (default 0)"},
+      {"areaWeights",
+       KeyType::Choice,
+       "unsigned (SOFA's, default) or signed (no force at rest on cut meshes)",
+       {"unsigned", "signed"}}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       BendingParameters p;
+       p.bendingStiffness = s.nonNegative("bendingStiffness", p.bendingStiffness);
+       p.minDistValidity = s.nonNegative("minDistValidity", p.minDistValidity);
+       p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
+       p.areaWeights =
+           parseAreaWeights(s.choice("areaWeights", "unsigned", {"unsigned", "signed"}));
+       s.check([&] { p.validate(); });
+       return p;
+     },
+     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+       return std::make_unique<FastTriangularBendingSprings>(
+           t, std::any_cast<const BendingParameters&>(p));
+     }});
 }  // namespace
-void FastTriangularBendingSprings::saveState(ArchiveWriter& out) const { saveTable(out); }
-void FastTriangularBendingSprings::loadState(ArchiveReader& in) { loadTable(in, *topology_); }
+void FastTriangularBendingSprings::saveState(ArchiveWriter& out) const {
+  saveTable(out);
+}
+void FastTriangularBendingSprings::loadState(ArchiveReader& in) {
+  loadTable(in, *topology_);
+}
 
 }  // namespace cutsim::forcefields

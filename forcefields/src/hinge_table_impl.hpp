@@ -22,7 +22,7 @@ inline std::string edgeName(topology::EdgeId e) {
 /// The hinge of edge e: A, B (the vertices opposite e in edgeTriangles(e)[0] and [1]), C, D
 /// (edgeVertices(e)); nothing for an edge with fewer than two triangles.
 inline std::optional<std::array<topology::PointId, 4>> hingeVertices(const topology::Topology& t,
-                                                                    topology::EdgeId e) {
+                                                                     topology::EdgeId e) {
   const std::array<topology::TriangleId, 2> tris = t.edgeTriangles(e);
   if (tris[0] == topology::kInvalidIndex || tris[1] == topology::kInvalidIndex) {
     return std::nullopt;
@@ -259,11 +259,10 @@ void HingeTable<F, T>::validate(const topology::Topology& topology,
   }
   if (!(refCounters == counters_)) {
     constexpr auto active = T::counter(Status::Active);
-    std::string message = who + "counters differ from a rebuild (active " +
-                          std::to_string(counters_.*active) + " vs " +
-                          std::to_string(refCounters.*active) + ", degenerate " +
-                          std::to_string(counters_.degenerate()) + " vs " +
-                          std::to_string(refCounters.degenerate());
+    std::string message =
+        who + "counters differ from a rebuild (active " + std::to_string(counters_.*active) +
+        " vs " + std::to_string(refCounters.*active) + ", degenerate " +
+        std::to_string(counters_.degenerate()) + " vs " + std::to_string(refCounters.degenerate());
     if constexpr (kHasFlag) {
       message += ", " + std::string(T::kFlagName) + " " +
                  std::to_string(counters_.*T::kFlagCounter) + " vs " +

@@ -2,9 +2,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "cutsim/forcefields/contact.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/forcefields/contact.hpp"
 
 namespace cutsim::forcefields {
 
@@ -14,14 +14,17 @@ void ContactParameters::validate() const {
   requireFiniteNonNegative("friction", friction);
   requireFinitePositive("stickVelocity", stickVelocity);
   if (!(displacementFraction > 0 && displacementFraction < 0.5))
-    throw InvalidInput("displacementFraction",
-                       "must be in (0, 0.5) (two primitives each moving less than half their distance "
-                       "cannot meet), got " + describeNumber(displacementFraction));
+    throw InvalidInput(
+        "displacementFraction",
+        "must be in (0, 0.5) (two primitives each moving less than half their distance "
+        "cannot meet), got " +
+            describeNumber(displacementFraction));
   if (!(splitAbove >= 0 && splitAbove <= 1))
     throw InvalidInput("splitAbove", "must be in [0, 1], got " + describeNumber(splitAbove));
   if (maxSplits < 0 || maxSplits > 20) throw InvalidInput("maxSplits", "must be in [0, 20]");
   requireFiniteNonNegative("searchSlack", searchSlack);
-  if (threads < 0 || threads > 256) throw InvalidInput("threads", "must be in [0, 256] (0: as many as the machine has)");
+  if (threads < 0 || threads > 256)
+    throw InvalidInput("threads", "must be in [0, 256] (0: as many as the machine has)");
 }
 
 Vec3 Obstacle::offsetAt(double t) const {
@@ -33,24 +36,34 @@ Vec3 Obstacle::offsetAt(double t) const {
   const ObstacleKey& a = path[k - 1];
   const ObstacleKey& b = path[k];
   const double s = b.time > a.time ? (t - a.time) / (b.time - a.time) : 1.0;
-  return {a.offset[0] + s * (b.offset[0] - a.offset[0]), a.offset[1] + s * (b.offset[1] - a.offset[1]),
+  return {a.offset[0] + s * (b.offset[0] - a.offset[0]),
+          a.offset[1] + s * (b.offset[1] - a.offset[1]),
           a.offset[2] + s * (b.offset[2] - a.offset[2])};
 }
 
 std::string Obstacle::shapeName() const {
   switch (shape) {
-    case Shape::Plane: return "plane";
-    case Shape::Sphere: return "sphere";
-    case Shape::Box: return "box";
-    case Shape::Capsule: return "capsule";
-    case Shape::Mesh: return "mesh";
+    case Shape::Plane:
+      return "plane";
+    case Shape::Sphere:
+      return "sphere";
+    case Shape::Box:
+      return "box";
+    case Shape::Capsule:
+      return "capsule";
+    case Shape::Mesh:
+      return "mesh";
   }
   return "?";
 }
 
 namespace {
-bool finite3(const Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
-double norm3(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+bool finite3(const Vec3& v) {
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+double norm3(const Vec3& v) {
+  return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
 }  // namespace
 
 void Obstacle::validate() const {
@@ -83,8 +96,10 @@ void Obstacle::validate() const {
           throw InvalidInput("file", "vertex " + std::to_string(i) + " is not finite");
       for (std::size_t t = 0; t < triangles.size(); ++t)
         for (int k = 0; k < 3; ++k)
-          if (triangles[t][std::size_t(k)] < 0 || std::size_t(triangles[t][std::size_t(k)]) >= vertices.size())
-            throw InvalidInput("file", "triangle " + std::to_string(t) + " refers to a missing vertex");
+          if (triangles[t][std::size_t(k)] < 0 ||
+              std::size_t(triangles[t][std::size_t(k)]) >= vertices.size())
+            throw InvalidInput("file",
+                               "triangle " + std::to_string(t) + " refers to a missing vertex");
       break;
   }
   for (std::size_t k = 0; k < path.size(); ++k) {
@@ -116,7 +131,8 @@ void Obstacle::surface(const Vec3& o, double planeSize, std::vector<Vec3>& pts,
       const double h = planeSize / 2;
       for (int k = 0; k < 4; ++k) {
         const double su = (k == 1 || k == 2) ? h : -h, sw = k >= 2 ? h : -h;
-        add(point[0] + su * u[0] + sw * w[0], point[1] + su * u[1] + sw * w[1], point[2] + su * u[2] + sw * w[2]);
+        add(point[0] + su * u[0] + sw * w[0], point[1] + su * u[1] + sw * w[1],
+            point[2] + su * u[2] + sw * w[2]);
       }
       tris = {{0, 1, 2}, {0, 2, 3}};
       break;
@@ -141,7 +157,8 @@ void Obstacle::surface(const Vec3& o, double planeSize, std::vector<Vec3>& pts,
         for (int i = 0; i < nu; ++i) {
           const double ph = 2 * pi * double(i) / nu;
           const double cx = r * std::cos(ph), cy = r * std::sin(ph);
-          add(c[0] + radius * (cx * x[0] + cy * y[0] + cz * z[0]), c[1] + radius * (cx * x[1] + cy * y[1] + cz * z[1]),
+          add(c[0] + radius * (cx * x[0] + cy * y[0] + cz * z[0]),
+              c[1] + radius * (cx * x[1] + cy * y[1] + cz * z[1]),
               c[2] + radius * (cx * x[2] + cy * y[2] + cz * z[2]));
         }
         if (shape == Shape::Capsule && j == nv / 2) {  // the same ring again, at the other end

@@ -1,14 +1,15 @@
-#include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 
 #include <algorithm>
 #include <charconv>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
 
 namespace cutsim::forcefields {
 namespace {
@@ -165,7 +166,8 @@ void StretchSprings::addForce(std::span<const double> x, std::span<const double>
     if (damped) {
       const double* va = vp + 3 * static_cast<std::size_t>(s.a);
       const double* vb = vp + 3 * static_cast<std::size_t>(s.b);
-      intensity -= (kd * w) * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
+      intensity -=
+          (kd * w) * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
     }
     double* fa = fp + 3 * static_cast<std::size_t>(s.a);
     double* fb = fp + 3 * static_cast<std::size_t>(s.b);
@@ -396,30 +398,34 @@ void StretchSprings::validate(const Topology& topology, std::vector<std::string>
 
 namespace cutsim::forcefields {
 namespace {
-const bool registered = ForceFieldRegistry::instance().add({
-    "StretchSprings",
-    "one linear spring per edge (SOFA's MeshSpringForceField)",
-    {{"stiffness", KeyType::Number, "ks per spring, >= 0 (required)", {}, true},
-     {"damping", KeyType::Number, "kd per spring, >= 0 (default 0)"},
-     {"perRestLength", KeyType::Boolean, "stiffness and damping divided by each spring's rest length, as SOFA's MeshSpringForceField (default false)"},
-     {"stableJacobian", KeyType::Boolean, "clamp compressed springs' K to keep it semi-definite (default true)"},
-     {"restScale", KeyType::Number, "> 0, multiplies every rest length (prestrain: < 1 puts a held sheet under "
-                   "tension, strain 1/restScale - 1) (default 1)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      StretchParameters p;
-      s.require("stiffness");
-      p.stiffness = s.nonNegative("stiffness", p.stiffness);
-      p.damping = s.nonNegative("damping", p.damping);
-      p.perRestLength = s.boolean("perRestLength", p.perRestLength);
-      p.stableJacobian = s.boolean("stableJacobian", p.stableJacobian);
-      p.restScale = s.positive("restScale", p.restScale);
-      s.check([&] { p.validate(); });
-      return p;
-    },
-    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
-      return std::make_unique<StretchSprings>(t, std::any_cast<const StretchParameters&>(p));
-    }});
+const bool registered = ForceFieldRegistry::instance().add(
+    {"StretchSprings",
+     "one linear spring per edge (SOFA's MeshSpringForceField)",
+     {{"stiffness", KeyType::Number, "ks per spring, >= 0 (required)", {}, true},
+      {"damping", KeyType::Number, "kd per spring, >= 0 (default 0)"},
+      {"perRestLength", KeyType::Boolean,
+       "stiffness and damping divided by each spring's rest length, as SOFA's MeshSpringForceField "
+       "(default false)"},
+      {"stableJacobian", KeyType::Boolean,
+       "clamp compressed springs' K to keep it semi-definite (default true)"},
+      {"restScale", KeyType::Number,
+       "> 0, multiplies every rest length (prestrain: < 1 puts a held sheet under "
+       "tension, strain 1/restScale - 1) (default 1)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       StretchParameters p;
+       s.require("stiffness");
+       p.stiffness = s.nonNegative("stiffness", p.stiffness);
+       p.damping = s.nonNegative("damping", p.damping);
+       p.perRestLength = s.boolean("perRestLength", p.perRestLength);
+       p.stableJacobian = s.boolean("stableJacobian", p.stableJacobian);
+       p.restScale = s.positive("restScale", p.restScale);
+       s.check([&] { p.validate(); });
+       return p;
+     },
+     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+       return std::make_unique<StretchSprings>(t, std::any_cast<const StretchParameters&>(p));
+     }});
 }  // namespace
 void StretchSprings::saveState(ArchiveWriter& out) const {
   out.boolean(params_.stableJacobian);

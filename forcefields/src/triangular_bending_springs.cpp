@@ -40,18 +40,21 @@ void TriangularBendingSpringsParameters::validate() const {
   requireFiniteNonNegative("damping", damping);
 }
 
-TriangularBendingSprings::TriangularBendingSprings(topology::Topology& topology, TriangularBendingSpringsParameters p)
+TriangularBendingSprings::TriangularBendingSprings(topology::Topology& topology,
+                                                   TriangularBendingSpringsParameters p)
     : FastTriangularBendingSprings(topology, hingeParameters()), topo_(&topology), sp_(p) {
   sp_.validate();
 }
 
 double TriangularBendingSprings::restLength(const BendingSpring& s) const {
-  const auto a = topo_->restPosition(topology::PointId(s.v[0])), b = topo_->restPosition(topology::PointId(s.v[1]));
+  const auto a = topo_->restPosition(topology::PointId(s.v[0])),
+             b = topo_->restPosition(topology::PointId(s.v[1]));
   const double d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2];
   return std::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
 }
 
-void TriangularBendingSprings::addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const {
+void TriangularBendingSprings::addForce(std::span<const double> x, std::span<const double> v,
+                                        std::span<double> f) const {
   const bool damped = sp_.damping != 0.0;
   for (const BendingSpring& bs : activeSprings()) {
     const Spring s = springAt(x.data(), bs.v[0], bs.v[1]);
@@ -59,7 +62,8 @@ void TriangularBendingSprings::addForce(std::span<const double> x, std::span<con
     double intensity = sp_.stiffness * (s.l - restLength(bs));
     if (damped) {
       double rel = 0;
-      for (int k = 0; k < 3; ++k) rel += (v[3 * bs.v[1] + std::uint32_t(k)] - v[3 * bs.v[0] + std::uint32_t(k)]) * s.u[k];
+      for (int k = 0; k < 3; ++k)
+        rel += (v[3 * bs.v[1] + std::uint32_t(k)] - v[3 * bs.v[0] + std::uint32_t(k)]) * s.u[k];
       intensity += sp_.damping * rel;
     }
     for (int k = 0; k < 3; ++k) {
@@ -69,8 +73,8 @@ void TriangularBendingSprings::addForce(std::span<const double> x, std::span<con
   }
 }
 
-void TriangularBendingSprings::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
-                                         double kFactor, double) const {
+void TriangularBendingSprings::addDForce(std::span<const double> x, std::span<const double> dx,
+                                         std::span<double> df, double kFactor, double) const {
   if (kFactor == 0.0) return;
   for (const BendingSpring& bs : activeSprings()) {
     const Spring s = springAt(x.data(), bs.v[0], bs.v[1]);
@@ -100,14 +104,16 @@ double TriangularBendingSprings::potentialEnergy(std::span<const double> x) cons
   return 0.5 * sp_.stiffness * e;
 }
 
-void TriangularBendingSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const {
+void TriangularBendingSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
+                                            double kFactor) const {
   for (const BendingSpring& bs : activeSprings()) {
     const Spring s = springAt(x.data(), bs.v[0], bs.v[1]);
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
     if (s.live) {
       const double t = sp_.stiffness * (s.l - restLength(bs)) / s.l;
       const Eigen::Vector3d u(s.u[0], s.u[1], s.u[2]);
-      block = kFactor * ((sp_.stiffness - t) * (u * u.transpose()) + t * Eigen::Matrix3d::Identity());
+      block =
+          kFactor * ((sp_.stiffness - t) * (u * u.transpose()) + t * Eigen::Matrix3d::Identity());
     }
     const PointId a(bs.v[0]), b(bs.v[1]);
     m.addBlock(a, b, block);
@@ -117,24 +123,27 @@ void TriangularBendingSprings::addKToMatrix(std::span<const double> x, MatrixAcc
   }
 }
 
-void TriangularBendingSprings::addBToMatrix(std::span<const double>, MatrixAccumulator&, double) const {}
+void TriangularBendingSprings::addBToMatrix(std::span<const double>, MatrixAccumulator&,
+                                            double) const {}
 
 namespace {
-const bool registered = ForceFieldRegistry::instance().add({
-    "TriangularBendingSprings",
-    "SOFA's TriangularBendingSprings: a linear spring between the two wings of each interior edge",
-    {{"stiffness", KeyType::Number, "ks, >= 0 (default 100000, SOFA's)"}, {"damping", KeyType::Number, "kd, >= 0 (default 1, SOFA's; explicit, as SOFA's)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      TriangularBendingSpringsParameters p;
-      p.stiffness = s.nonNegative("stiffness", p.stiffness);
-      p.damping = s.nonNegative("damping", p.damping);
-      s.check([&] { p.validate(); });
-      return p;
-    },
-    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
-      return std::make_unique<TriangularBendingSprings>(t, std::any_cast<const TriangularBendingSpringsParameters&>(p));
-    }});
+const bool registered = ForceFieldRegistry::instance().add(
+    {"TriangularBendingSprings",
+     "SOFA's TriangularBendingSprings: a linear spring between the two wings of each interior edge",
+     {{"stiffness", KeyType::Number, "ks, >= 0 (default 100000, SOFA's)"},
+      {"damping", KeyType::Number, "kd, >= 0 (default 1, SOFA's; explicit, as SOFA's)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       TriangularBendingSpringsParameters p;
+       p.stiffness = s.nonNegative("stiffness", p.stiffness);
+       p.damping = s.nonNegative("damping", p.damping);
+       s.check([&] { p.validate(); });
+       return p;
+     },
+     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+       return std::make_unique<TriangularBendingSprings>(
+           t, std::any_cast<const TriangularBendingSpringsParameters&>(p));
+     }});
 }  // namespace
 
 }  // namespace cutsim::forcefields

@@ -1,7 +1,4 @@
-#include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
-#include "cutsim/forcefields/registry.hpp"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -11,6 +8,10 @@
 #include <map>
 #include <sstream>
 #include <stdexcept>
+
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/forcefields/registry.hpp"
 
 namespace cutsim::forcefields {
 namespace {
@@ -496,7 +497,8 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
 // ---- the component's registration (scenes, and every other front end) ----
 
 namespace cutsim::forcefields {
-TriangularFEMParameters readTriangularFEMParameters(const ParameterSource& s, bool withExactHessian) {
+TriangularFEMParameters readTriangularFEMParameters(const ParameterSource& s,
+                                                    bool withExactHessian) {
   TriangularFEMParameters p;
   p.youngModulus = s.nonNegative("youngModulus", p.youngModulus);
   p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
@@ -508,20 +510,23 @@ TriangularFEMParameters readTriangularFEMParameters(const ParameterSource& s, bo
 }
 
 namespace {
-const bool registered = ForceFieldRegistry::instance().add({
-    "TriangularFEM",
-    "corotational linear membrane, one constant-strain triangle each (SOFA's TriangularFEMForceField)",
-    {{"youngModulus", KeyType::Number, "E, >= 0 (default 1000)"},
-     {"poissonRatio", KeyType::Number, "nu, in (-1, 0.5) (default 0.3)"},
-     {"thickness", KeyType::Number, "h, >= 0 (default 1)"},
-     {"restScale", KeyType::Number, "> 0, scales every element's rest shape (prestrain: < 1 puts a held sheet under "
-                   "tension, strain 1/restScale - 1) (default 1)"},
-     {"exactHessian", KeyType::Boolean, "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
-    {},
-    [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, true); },
-    [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
-      return std::make_unique<TriangularFEM>(t, std::any_cast<const TriangularFEMParameters&>(p));
-    }});
+const bool registered = ForceFieldRegistry::instance().add(
+    {"TriangularFEM",
+     "corotational linear membrane, one constant-strain triangle each (SOFA's "
+     "TriangularFEMForceField)",
+     {{"youngModulus", KeyType::Number, "E, >= 0 (default 1000)"},
+      {"poissonRatio", KeyType::Number, "nu, in (-1, 0.5) (default 0.3)"},
+      {"thickness", KeyType::Number, "h, >= 0 (default 1)"},
+      {"restScale", KeyType::Number,
+       "> 0, scales every element's rest shape (prestrain: < 1 puts a held sheet under "
+       "tension, strain 1/restScale - 1) (default 1)"},
+      {"exactHessian", KeyType::Boolean,
+       "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
+     {},
+     [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, true); },
+     [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {
+       return std::make_unique<TriangularFEM>(t, std::any_cast<const TriangularFEMParameters&>(p));
+     }});
 }  // namespace
 void TriangularFEM::saveState(ArchiveWriter& out) const {
   out.boolean(params_.exactHessian);

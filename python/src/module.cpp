@@ -11,27 +11,27 @@
 
 #include <algorithm>
 #include <atomic>
-#include <thread>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <utility>
-#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <type_traits>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
-#include "cutsim/core/output.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/contact_step.hpp"
+#include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/core/version.hpp"
 #include "cutsim/forcefields/contact.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace py = pybind11;
@@ -46,13 +46,13 @@ using topology::Index;
 // ---------------------------------------------------------------------------------------------
 // Errors
 
-PyObject* gError = nullptr;         // cutsim.Error(Exception)
-PyObject* gInvalidInput = nullptr;  // cutsim.InvalidInputError(Error, ValueError)
-PyObject* gTopologyError = nullptr; // cutsim.TopologyError(Error, ValueError)
-PyObject* gSolverError = nullptr;   // cutsim.SolverError(Error, RuntimeError)
-PyObject* gStaleView = nullptr;     // cutsim.StaleViewError(Error, RuntimeError)
-PyObject* gUsageError = nullptr;    // cutsim.UsageError(Error, RuntimeError)
-PyObject* gSolverWarning = nullptr; // cutsim.SolverWarning(UserWarning)
+PyObject* gError = nullptr;          // cutsim.Error(Exception)
+PyObject* gInvalidInput = nullptr;   // cutsim.InvalidInputError(Error, ValueError)
+PyObject* gTopologyError = nullptr;  // cutsim.TopologyError(Error, ValueError)
+PyObject* gSolverError = nullptr;    // cutsim.SolverError(Error, RuntimeError)
+PyObject* gStaleView = nullptr;      // cutsim.StaleViewError(Error, RuntimeError)
+PyObject* gUsageError = nullptr;     // cutsim.UsageError(Error, RuntimeError)
+PyObject* gSolverWarning = nullptr;  // cutsim.SolverWarning(UserWarning)
 
 /// A view used after the layout it was made for went away.
 struct StaleView : std::runtime_error {
@@ -124,12 +124,13 @@ py::array_t<double, py::array::c_style | py::array::forcecast> floats(const py::
 std::vector<double> readPoints(const py::handle& obj, std::size_t rows, const char* what) {
   auto a = floats(obj);
   if (!a || a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != rows)
-    throw py::value_error(std::string(what) + ": expected an array of shape (" + std::to_string(rows) +
-                          ", 3), one row per point slot");
+    throw py::value_error(std::string(what) + ": expected an array of shape (" +
+                          std::to_string(rows) + ", 3), one row per point slot");
   std::vector<double> out(a.data(), a.data() + a.size());
   for (std::size_t i = 0; i < out.size(); ++i)
     if (!std::isfinite(out[i]))
-      throw py::value_error(std::string(what) + ": non-finite value at point slot " + std::to_string(i / 3));
+      throw py::value_error(std::string(what) + ": non-finite value at point slot " +
+                            std::to_string(i / 3));
   return out;
 }
 
@@ -142,7 +143,8 @@ std::vector<core::Vec3> readVec3List(const py::handle& obj, const char* what) {
     for (std::size_t c = 0; c < 3; ++c) {
       out[i][c] = a.at(py::ssize_t(i), py::ssize_t(c));
       if (!std::isfinite(out[i][c]))
-        throw py::value_error(std::string(what) + "[" + std::to_string(i) + "]: non-finite coordinate");
+        throw py::value_error(std::string(what) + "[" + std::to_string(i) +
+                              "]: non-finite coordinate");
     }
   return out;
 }
@@ -164,18 +166,20 @@ core::Vec3 readVec3(const py::handle& obj, const char* what) {
 py::dict statsDict(const core::StepStats& s) {
   return py::dict("iterations"_a = s.iterations, "residual"_a = s.residual,
                   "worst_residual"_a = s.worstResidual, "solves"_a = s.solves,
-                  "newton_iterations"_a = s.newtonIterations, "newton_residual"_a = s.newtonResidual,
-                  "analysed"_a = s.analysed, "clamped"_a = s.clamped, "splits"_a = s.splits,
-                  "substeps"_a = s.substeps, "flags"_a = s.flagText());
+                  "newton_iterations"_a = s.newtonIterations,
+                  "newton_residual"_a = s.newtonResidual, "analysed"_a = s.analysed,
+                  "clamped"_a = s.clamped, "splits"_a = s.splits, "substeps"_a = s.substeps,
+                  "flags"_a = s.flagText());
 }
 
 py::dict incisionDict(const topology::IncisionResult& r) {
-  return py::dict("path"_a = idArray(r.path), "copies"_a = idArray(r.copies),
-                  "copied_from"_a = idArray(r.copiedFrom), "inserted"_a = idArray(r.insertedPoints),
-                  "flips"_a = r.repair.flips, "collapses"_a = r.repair.collapses,
-                  "relocations"_a = r.repair.relocations, "splits"_a = r.repair.splits,
-                  "insertions"_a = r.repair.insertions, "min_angle_before"_a = r.repair.minAngleBefore,
-                  "min_angle_after"_a = r.repair.minAngleAfter, "budget_spent"_a = r.repair.budgetSpent);
+  return py::dict(
+      "path"_a = idArray(r.path), "copies"_a = idArray(r.copies),
+      "copied_from"_a = idArray(r.copiedFrom), "inserted"_a = idArray(r.insertedPoints),
+      "flips"_a = r.repair.flips, "collapses"_a = r.repair.collapses,
+      "relocations"_a = r.repair.relocations, "splits"_a = r.repair.splits,
+      "insertions"_a = r.repair.insertions, "min_angle_before"_a = r.repair.minAngleBefore,
+      "min_angle_after"_a = r.repair.minAngleAfter, "budget_spent"_a = r.repair.budgetSpent);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -198,7 +202,8 @@ class Simulation;
 class EventBridge final : public topology::TopologyObserver {
  public:
   explicit EventBridge(Simulation& s) : sim_(s) {}
-  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed& e) override {
+  void onTrianglesDestroyed(const topology::Topology&,
+                            const topology::TrianglesDestroyed& e) override {
     if (!wanted()) return;
     emit([&] {
       Event ev{"triangles_destroyed"};
@@ -231,7 +236,8 @@ class EventBridge final : public topology::TopologyObserver {
       Event ev{"points_created"};
       ev.ids = idArray(e.points);
       py::array_t<std::int64_t> off(py::ssize_t(e.offsets.size()));
-      for (std::size_t i = 0; i < e.offsets.size(); ++i) off.mutable_at(py::ssize_t(i)) = e.offsets[i];
+      for (std::size_t i = 0; i < e.offsets.size(); ++i)
+        off.mutable_at(py::ssize_t(i)) = e.offsets[i];
       ev.offsets = off;
       ev.ancestors = idArray(e.ancestors);
       ev.weights = py::array_t<double>(py::ssize_t(e.weights.size()), e.weights.data());
@@ -278,7 +284,8 @@ class EventBridge final : public topology::TopologyObserver {
       Event ev{kind};
       py::array_t<std::int64_t> map(py::ssize_t(r.oldToNew.size()));
       for (std::size_t i = 0; i < r.oldToNew.size(); ++i)
-        map.mutable_at(py::ssize_t(i)) = r.oldToNew[i] == topology::kInvalidIndex ? -1 : std::int64_t(r.oldToNew[i]);
+        map.mutable_at(py::ssize_t(i)) =
+            r.oldToNew[i] == topology::kInvalidIndex ? -1 : std::int64_t(r.oldToNew[i]);
       ev.oldToNew = map;
       ev.newSize = long(r.newSize);
       return ev;
@@ -295,7 +302,8 @@ class EventBridge final : public topology::TopologyObserver {
 class EventLog final : public topology::TopologyObserver {
  public:
   std::vector<std::string> lines;
-  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed& e) override {
+  void onTrianglesDestroyed(const topology::Topology&,
+                            const topology::TrianglesDestroyed& e) override {
     lines.push_back("triangles_destroyed:" + join(e.triangles) + "|" + rows(e.vertices));
   }
   void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed& e) override {
@@ -311,30 +319,38 @@ class EventLog final : public topology::TopologyObserver {
       std::snprintf(buf, sizeof buf, "%.17g", e.weights[i]);
       w += (i ? "," : "") + std::string(buf);
     }
-    lines.push_back("points_created:" + join(e.points) + "|" + join(e.offsets) + "|" + join(e.ancestors) + "|" + w);
+    lines.push_back("points_created:" + join(e.points) + "|" + join(e.offsets) + "|" +
+                    join(e.ancestors) + "|" + w);
   }
   void onEdgesCreated(const topology::Topology&, const topology::EdgesCreated& e) override {
     lines.push_back("edges_created:" + join(e.edges) + "|" + rows(e.vertices));
   }
   void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated& e) override {
-    lines.push_back("triangles_created:" + join(e.triangles) + "|" + rows(e.vertices) + "|" + rows(e.edges));
+    lines.push_back("triangles_created:" + join(e.triangles) + "|" + rows(e.vertices) + "|" +
+                    rows(e.edges));
   }
-  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) override { renumbered("points", r); }
-  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering& r) override { renumbered("edges", r); }
+  void onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
+    renumbered("points", r);
+  }
+  void onEdgesRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
+    renumbered("edges", r);
+  }
   void onTrianglesRenumbered(const topology::Topology&, const topology::Renumbering& r) override {
     renumbered("triangles", r);
   }
   void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary& s) override {
     std::ostringstream o;
-    o << "transaction_end:" << s.operation << "|" << s.pointsCreated << "," << s.pointsDestroyed << ","
-      << s.edgesCreated << "," << s.edgesDestroyed << "," << s.trianglesCreated << "," << s.trianglesDestroyed << ","
-      << (s.renumbered ? 1 : 0);
+    o << "transaction_end:" << s.operation << "|" << s.pointsCreated << "," << s.pointsDestroyed
+      << "," << s.edgesCreated << "," << s.edgesDestroyed << "," << s.trianglesCreated << ","
+      << s.trianglesDestroyed << "," << (s.renumbered ? 1 : 0);
     lines.push_back(o.str());
   }
   std::string observerName() const override { return "event log"; }
 
  private:
-  static std::string number(Index v) { return v == topology::kInvalidIndex ? "-1" : std::to_string(v); }
+  static std::string number(Index v) {
+    return v == topology::kInvalidIndex ? "-1" : std::to_string(v);
+  }
   template <class Ids>
   static std::string join(const Ids& ids) {
     std::string out;
@@ -354,7 +370,8 @@ class EventLog final : public topology::TopologyObserver {
     return out;
   }
   void renumbered(const char* kind, const topology::Renumbering& r) {
-    lines.push_back(std::string(kind) + "_renumbered:" + std::to_string(r.newSize) + "|" + join(r.oldToNew));
+    lines.push_back(std::string(kind) + "_renumbered:" + std::to_string(r.newSize) + "|" +
+                    join(r.oldToNew));
   }
 };
 
@@ -363,7 +380,8 @@ class EventLog final : public topology::TopologyObserver {
 
 class Simulation {
  public:
-  explicit Simulation(const core::Scene& scene) : runner_(std::make_unique<core::SceneRunner>(scene)) {
+  explicit Simulation(const core::Scene& scene)
+      : runner_(std::make_unique<core::SceneRunner>(scene)) {
     bridge_ = std::make_unique<EventBridge>(*this);
     subscription_ = runner_->simulation().topology().subscribe(*bridge_);
   }
@@ -386,22 +404,26 @@ class Simulation {
   /// Throws unless the simulation may be changed now.
   void requireMutable(const char* what) const {
     if (inEvent_ && std::this_thread::get_id() == eventThread_)
-      throw Usage(std::string(what) +
-                  ": a topology event callback may read the simulation but not change it (the event "
-                  "contract: events arrive while the operation is finishing)");
+      throw Usage(
+          std::string(what) +
+          ": a topology event callback may read the simulation but not change it (the event "
+          "contract: events arrive while the operation is finishing)");
     if (stepping_ || inEvent_)
-      throw Usage(std::string(what) + ": the simulation is busy (stepping or changing) in another thread");
+      throw Usage(std::string(what) +
+                  ": the simulation is busy (stepping or changing) in another thread");
     if (editing_)
-      throw Usage(std::string(what) + ": called inside a `with sim.edit()` block, which allows no step or topology "
-                                      "change: leave the block first");
+      throw Usage(std::string(what) +
+                  ": called inside a `with sim.edit()` block, which allows no step or topology "
+                  "change: leave the block first");
   }
   /// Forces and energies are read between operations, or at an operation's transaction_end: before
   /// it, the force fields have not all followed the operation yet.
   void requireSettled(const char* what) const {
     requireReadable(what);
     if (inEvent_ && eventKind_ != "transaction_end")
-      throw Usage(std::string(what) + ": in a topology event callback, forces and energies are read at the "
-                                      "transaction_end event, when every table has followed the operation");
+      throw Usage(std::string(what) +
+                  ": in a topology event callback, forces and energies are read at the "
+                  "transaction_end event, when every table has followed the operation");
   }
   void requireReadable(const char* what) const {
     if (stepping_ && !(inEvent_ && std::this_thread::get_id() == eventThread_))
@@ -413,7 +435,8 @@ class Simulation {
     if (n < 0) throw py::value_error("step: n must be >= 0");
     requireMutable("step");
     if (inStepLoop_)
-      throw Usage("step: a step loop is in progress (a controller or callback of a step cannot step)");
+      throw Usage(
+          "step: a step loop is in progress (a controller or callback of a step cannot step)");
     inStepLoop_ = true;
     struct Reset {
       bool& b;
@@ -459,8 +482,10 @@ class Simulation {
     }
     if (flagged > 0) {
       std::ostringstream w;
-      w << flagged << " of " << n << " steps were flagged by their solves (last: " << stats.flagText()
-        << ", worst relative residual " << stats.worstResidual << "); see last_stats and solve_summary";
+      w << flagged << " of " << n
+        << " steps were flagged by their solves (last: " << stats.flagText()
+        << ", worst relative residual " << stats.worstResidual
+        << "); see last_stats and solve_summary";
       if (PyErr_WarnEx(gSolverWarning, w.str().c_str(), 2) != 0) throw py::error_already_set();
     }
     return any ? py::object(statsDict(stats)) : py::object(py::none());
@@ -472,7 +497,8 @@ class Simulation {
     if (t > runner_->time() + eps) {
       const double steps = std::ceil((t - runner_->time()) / runner_->timeStep() - 1e-9);
       if (steps > 1e12)
-        throw py::value_error("run_until: t = " + std::to_string(t) + " is more than 1e12 steps of time_step away");
+        throw py::value_error("run_until: t = " + std::to_string(t) +
+                              " is more than 1e12 steps of time_step away");
       n = long(steps);
     }
     return step(n);
@@ -501,7 +527,8 @@ class Simulation {
     requireReadable("alive");
     const auto& topo = sim().topology();
     auto a = py::array_t<bool>(static_cast<py::ssize_t>(slots()));
-    for (std::size_t p = 0; p < slots(); ++p) a.mutable_at(py::ssize_t(p)) = topo.isPointAlive(PointId(p));
+    for (std::size_t p = 0; p < slots(); ++p)
+      a.mutable_at(py::ssize_t(p)) = topo.isPointAlive(PointId(p));
     return a;
   }
   py::array_t<std::int64_t> triangles() {
@@ -532,7 +559,8 @@ class Simulation {
     requireMutable("cut");
     const auto points = readVec3List(polyline, "cut: polyline");
     if (points.size() < 2) throw py::value_error("cut: a polyline needs at least two points");
-    if (!(minAngle >= 0 && minAngle < 60)) throw py::value_error("cut: min_angle must be in [0, 60) degrees");
+    if (!(minAngle >= 0 && minAngle < 60))
+      throw py::value_error("cut: min_angle must be in [0, 60) degrees");
     topology::CutOptions o;
     o.snapTolerance = snapTolerance;
     o.repair = core::repairOptions(sim(), minAngle);
@@ -541,9 +569,11 @@ class Simulation {
   }
   py::dict tear(long edge, double minAngle) {
     requireMutable("tear");
-    if (!(minAngle >= 0 && minAngle < 60)) throw py::value_error("tear: min_angle must be in [0, 60) degrees");
+    if (!(minAngle >= 0 && minAngle < 60))
+      throw py::value_error("tear: min_angle must be in [0, 60) degrees");
     auto& topo = sim().topology();
-    if (edge < 0 || edge >= long(topo.edgeCapacity()) || !topo.isEdgeAlive(topology::EdgeId(Index(edge))))
+    if (edge < 0 || edge >= long(topo.edgeCapacity()) ||
+        !topo.isEdgeAlive(topology::EdgeId(Index(edge))))
       throw TopologyError("tear: edge " + std::to_string(edge) + " does not exist");
     const auto result = operate([&] {
       return topo.tear(topology::EdgeId(Index(edge)), core::repairOptions(sim(), minAngle));
@@ -553,7 +583,8 @@ class Simulation {
   long findEdge(long a, long b) {
     requireReadable("find_edge");
     const auto& topo = sim().topology();
-    if (a < 0 || b < 0 || a >= long(topo.pointCapacity()) || b >= long(topo.pointCapacity())) return -1;
+    if (a < 0 || b < 0 || a >= long(topo.pointCapacity()) || b >= long(topo.pointCapacity()))
+      return -1;
     const auto e = topo.findEdge(PointId(Index(a)), PointId(Index(b)));
     return e == topology::kInvalidIndex ? -1 : long(Index(e));
   }
@@ -607,7 +638,8 @@ class Simulation {
   void moveObstacle(const std::string& name, const py::handle& delta, double duration) {
     requireMutable("move_obstacle");
     forcefields::Contact* c = core::findContact(sim());
-    if (!c) throw InvalidInput("move_obstacle", "the scene has no contact section (and so no obstacles)");
+    if (!c)
+      throw InvalidInput("move_obstacle", "the scene has no contact section (and so no obstacles)");
     const auto& obstacles = c->obstacles();
     for (std::size_t k = 0; k < obstacles.size(); ++k)
       if (obstacles[k].name == name) {
@@ -616,11 +648,13 @@ class Simulation {
       }
     std::string known;
     for (const auto& o : obstacles) known += (known.empty() ? "" : ", ") + o.name;
-    throw InvalidInput("move_obstacle", "no obstacle named \"" + name + "\" (the scene has: " + known + ")");
+    throw InvalidInput("move_obstacle",
+                       "no obstacle named \"" + name + "\" (the scene has: " + known + ")");
   }
   void release(const std::string& name) {
     requireMutable("release");
-    if (!sim().findGrasp(name)) throw InvalidInput("release", "no grasp named \"" + name + "\" is active");
+    if (!sim().findGrasp(name))
+      throw InvalidInput("release", "no grasp named \"" + name + "\" is active");
     sim().releaseGrasp(name);
   }
 
@@ -630,7 +664,8 @@ class Simulation {
     py::dict d;
     d["kinetic"] = sim().kineticEnergy();
     d["gravity"] = sim().gravityEnergy();
-    for (std::size_t i = 0; i < sim().numForceFields(); ++i) d[py::str(sim().forceFieldLabel(i))] = sim().potentialEnergy(i);
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i)
+      d[py::str(sim().forceFieldLabel(i))] = sim().potentialEnergy(i);
     return d;
   }
   py::array_t<double> forces() {
@@ -644,16 +679,20 @@ class Simulation {
     for (std::size_t i = 0; i < sim().numForceFields(); ++i)
       if (sim().forceFieldLabel(i) == label) return i;
     std::string known;
-    for (std::size_t i = 0; i < sim().numForceFields(); ++i) known += (i ? ", " : "") + sim().forceFieldLabel(i);
-    throw InvalidInput("field", "no force field labelled \"" + label + "\" (the scene has: " + known + ")");
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i)
+      known += (i ? ", " : "") + sim().forceFieldLabel(i);
+    throw InvalidInput("field",
+                       "no force field labelled \"" + label + "\" (the scene has: " + known + ")");
   }
   py::tuple fieldEval(const std::string& label, const py::object& xObj, const py::object& vObj) {
     requireSettled("eval");
     const std::size_t i = fieldIndex(label);
     const std::size_t n = slots();
-    std::vector<double> x = xObj.is_none() ? std::vector<double>(sim().state().x().begin(), sim().state().x().end())
-                                           : readPoints(xObj, n, "eval: x");
-    std::vector<double> v = vObj.is_none() ? std::vector<double>(3 * n, 0.0) : readPoints(vObj, n, "eval: v");
+    std::vector<double> x =
+        xObj.is_none() ? std::vector<double>(sim().state().x().begin(), sim().state().x().end())
+                       : readPoints(xObj, n, "eval: x");
+    std::vector<double> v =
+        vObj.is_none() ? std::vector<double>(3 * n, 0.0) : readPoints(vObj, n, "eval: v");
     // Dead slots are not part of the surface: their entries are ignored, as the state's are.
     const auto& field = sim().forceField(i);
     py::array_t<double> f({n, std::size_t(3)});
@@ -665,7 +704,8 @@ class Simulation {
   }
   std::vector<std::string> fieldLabels() {
     std::vector<std::string> out;
-    for (std::size_t i = 0; i < sim().numForceFields(); ++i) out.push_back(sim().forceFieldLabel(i));
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i)
+      out.push_back(sim().forceFieldLabel(i));
     return out;
   }
   py::dict graspForces() {
@@ -690,7 +730,8 @@ class Simulation {
   }
   std::vector<std::string> fieldTypes() {
     std::vector<std::string> out;
-    for (std::size_t i = 0; i < sim().numForceFields(); ++i) out.push_back(sim().forceField(i).typeName());
+    for (std::size_t i = 0; i < sim().numForceFields(); ++i)
+      out.push_back(sim().forceField(i).typeName());
     return out;
   }
   py::dict summary() {
@@ -698,8 +739,8 @@ class Simulation {
     const auto& s = sim().solveSummary();
     return py::dict("flagged_steps"_a = s.flaggedSteps, "missed_tolerance"_a = s.missedTolerance,
                     "indefinite"_a = s.indefinite, "fell_back"_a = s.fellBack,
-                    "newton_not_converged"_a = s.newtonNotConverged, "worst_residual"_a = s.worstResidual,
-                    "worst_step"_a = s.worstStep);
+                    "newton_not_converged"_a = s.newtonNotConverged,
+                    "worst_residual"_a = s.worstResidual, "worst_step"_a = s.worstStep);
   }
   /// The contact's settings, obstacles and last step's figures; None without contact.
   py::object contact() {
@@ -710,18 +751,22 @@ class Simulation {
     py::list obstacles;
     for (const auto& o : c->obstacles()) {
       const auto off = o.offsetAt(runner_->time());
-      obstacles.append(py::dict("name"_a = o.name, "shape"_a = o.shapeName(), "friction"_a = o.friction,
-                                "offset"_a = py::array_t<double>(3, off.data()), "moving"_a = o.moving()));
+      obstacles.append(
+          py::dict("name"_a = o.name, "shape"_a = o.shapeName(), "friction"_a = o.friction,
+                   "offset"_a = py::array_t<double>(3, off.data()), "moving"_a = o.moving()));
     }
     const auto& m = c->lastStep();
     py::dict normal, friction;
     for (std::size_t i = 0; i < c->obstacles().size(); ++i) {
-      normal[py::str(c->obstacles()[i].name)] = i < m.obstacleNormal.size() ? m.obstacleNormal[i] : 0.0;
-      friction[py::str(c->obstacles()[i].name)] = i < m.obstacleFriction.size() ? m.obstacleFriction[i] : 0.0;
+      normal[py::str(c->obstacles()[i].name)] =
+          i < m.obstacleNormal.size() ? m.obstacleNormal[i] : 0.0;
+      friction[py::str(c->obstacles()[i].name)] =
+          i < m.obstacleFriction.size() ? m.obstacleFriction[i] : 0.0;
     }
-    return py::dict("thickness"_a = p.thickness, "stiffness"_a = p.stiffness, "friction"_a = p.friction,
-                    "self_contact"_a = p.selfContact, "obstacles"_a = obstacles, "candidates"_a = m.candidates,
-                    "active"_a = m.active, "excluded"_a = m.excluded, "self_normal_force"_a = m.selfNormal,
+    return py::dict("thickness"_a = p.thickness, "stiffness"_a = p.stiffness,
+                    "friction"_a = p.friction, "self_contact"_a = p.selfContact,
+                    "obstacles"_a = obstacles, "candidates"_a = m.candidates, "active"_a = m.active,
+                    "excluded"_a = m.excluded, "self_normal_force"_a = m.selfNormal,
                     "self_friction_force"_a = m.selfFriction, "obstacle_normal_force"_a = normal,
                     "obstacle_friction_force"_a = friction);
   }
@@ -732,7 +777,8 @@ class Simulation {
     const forcefields::Contact* c = core::findContact(sim());
     if (!c) throw InvalidInput("intersections", "the scene has no contact section");
     std::vector<std::pair<std::string, double>> out;
-    for (const auto& p : c->intersections(sim().state().x(), limit)) out.emplace_back(p.what, p.distance);
+    for (const auto& p : c->intersections(sim().state().x(), limit))
+      out.emplace_back(p.what, p.distance);
     return out;
   }
   std::vector<std::string> validate() {
@@ -743,12 +789,15 @@ class Simulation {
   // ---- outputs ----
   void record(const std::filesystem::path& dir, const std::vector<std::string>& extraGrasps) {
     requireMutable("record");
-    if (writer_) throw Usage("record: already recording to " + writer_->dir().string() + " (finish_recording() first)");
+    if (writer_)
+      throw Usage("record: already recording to " + writer_->dir().string() +
+                  " (finish_recording() first)");
     std::vector<std::string> obstacles;
     for (const auto& o : scene().obstacles) obstacles.push_back(o.name);
     std::vector<std::string> grasps = scene().graspNames();
     std::vector<std::string> more = extraGrasps;
-    for (std::size_t i = 0; i < sim().numGrasps(); ++i) more.push_back(sim().grasp(i).name());  // active now
+    for (std::size_t i = 0; i < sim().numGrasps(); ++i)
+      more.push_back(sim().grasp(i).name());  // active now
     for (const auto& g : more) {
       if (g.empty() || g.find_first_of(",\"\n\r") != std::string::npos)
         throw InvalidInput("record", "grasp name \"" + g + "\" cannot name CSV columns");
@@ -756,8 +805,8 @@ class Simulation {
     }
     runner_->start();  // the scene's actions due at time 0, if they have not run yet
     keepBridgeLast();
-    writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(), grasps,
-                                                   scene().contact.has_value(), obstacles);
+    writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(),
+                                                   grasps, scene().contact.has_value(), obstacles);
     if (scene().output.vtk) core::writeRunInfo(dir, scene());
     writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()},
                     runner_->currentStep() == runner_->numSteps());
@@ -779,10 +828,11 @@ class Simulation {
 
   // ---- callbacks ----
   void addController(py::object c) {
-    if (!py::hasattr(c, "on_step_begin") && !py::hasattr(c, "on_step_end") && !py::hasattr(c, "onAnimateBeginEvent") &&
-        !py::hasattr(c, "onAnimateEndEvent"))
-      throw py::type_error("add_controller: the controller has none of on_step_begin, on_step_end, "
-                           "onAnimateBeginEvent, onAnimateEndEvent");
+    if (!py::hasattr(c, "on_step_begin") && !py::hasattr(c, "on_step_end") &&
+        !py::hasattr(c, "onAnimateBeginEvent") && !py::hasattr(c, "onAnimateEndEvent"))
+      throw py::type_error(
+          "add_controller: the controller has none of on_step_begin, on_step_end, "
+          "onAnimateBeginEvent, onAnimateEndEvent");
     controllers_.push_back(std::move(c));
   }
   void removeController(const py::object& c) {
@@ -874,7 +924,8 @@ class Simulation {
     const char* sofa = begin ? "onAnimateBeginEvent" : "onAnimateEndEvent";
     for (const auto& c : std::vector<py::object>(controllers_)) {
       if (py::hasattr(c, sofa)) {
-        c.attr(sofa)(py::dict("dt"_a = runner_->timeStep(), "time"_a = runner_->time(), "sim"_a = self()));
+        c.attr(sofa)(
+            py::dict("dt"_a = runner_->timeStep(), "time"_a = runner_->time(), "sim"_a = self()));
       } else if (py::hasattr(c, method)) {
         c.attr(method)(self());
       }
@@ -921,22 +972,26 @@ class Simulation {
   std::string eventKind_;
 };
 
-bool EventBridge::wanted() const { return sim_.hasEventCallbacks(); }
+bool EventBridge::wanted() const {
+  return sim_.hasEventCallbacks();
+}
 
 template <class Make>
 void EventBridge::emit(Make&& make) {
   sim_.deliver(std::forward<Make>(make));
 }
 
-void EventBridge::onTransactionEnd(const topology::Topology&, const topology::TransactionSummary& s) {
+void EventBridge::onTransactionEnd(const topology::Topology&,
+                                   const topology::TransactionSummary& s) {
   if (!wanted()) return;
   emit([&] {
     Event ev{"transaction_end"};
     ev.operation = std::string(s.operation);
-    ev.summary = py::dict("points_created"_a = s.pointsCreated, "points_destroyed"_a = s.pointsDestroyed,
-                          "edges_created"_a = s.edgesCreated, "edges_destroyed"_a = s.edgesDestroyed,
-                          "triangles_created"_a = s.trianglesCreated,
-                          "triangles_destroyed"_a = s.trianglesDestroyed, "renumbered"_a = s.renumbered);
+    ev.summary =
+        py::dict("points_created"_a = s.pointsCreated, "points_destroyed"_a = s.pointsDestroyed,
+                 "edges_created"_a = s.edgesCreated, "edges_destroyed"_a = s.edgesDestroyed,
+                 "triangles_created"_a = s.trianglesCreated,
+                 "triangles_destroyed"_a = s.trianglesDestroyed, "renumbered"_a = s.renumbered);
     return ev;
   });
 }
@@ -956,9 +1011,10 @@ class StateView {
   StateView(Simulation& s, const py::object& owner) : ref_(owner), layout_(s.layout()) {}
   void check(const char* what) const {
     if (sim().layout() != layout_)
-      throw StaleView(std::string("StateView.") + what +
-                      ": the topology has changed since this view was made (the state's slots may have moved, "
-                      "grown or been renumbered): take a new view");
+      throw StaleView(
+          std::string("StateView.") + what +
+          ": the topology has changed since this view was made (the state's slots may have moved, "
+          "grown or been renumbered): take a new view");
   }
   bool valid() const {
     py::object o = ref_();
@@ -1000,7 +1056,8 @@ class Editor {
     if (!type.is_none()) return false;  // the block raised: nothing of it is kept
     auto& st = sim_->sim().state();
     const auto& topo = sim_->sim().topology();
-    if (sim_->layout() != revision_) throw Usage("edit: the topology changed during the edit; nothing was written");
+    if (sim_->layout() != revision_)
+      throw Usage("edit: the topology changed during the edit; nothing was written");
     // The arrays must still be what the edit handed out: (slots, 3) float64, C order.
     auto sound = [&](const py::object& a) {
       if (!py::isinstance<py::array_t<double>>(a)) return false;
@@ -1015,8 +1072,10 @@ class Editor {
       for (std::size_t i = 0; i < st.x().size(); ++i) {
         const bool dead = !topo.isPointAlive(PointId(Index(i / 3)));
         if (!std::isfinite(values[i]) || (dead && values[i] != 0.0))
-          throw InvalidInput("edit", std::string(name) + "[" + std::to_string(i / 3) + ", " + std::to_string(i % 3) +
-                                         "]: " + (dead ? "the slot is dead (not a point of the surface)" : "non-finite value") +
+          throw InvalidInput("edit", std::string(name) + "[" + std::to_string(i / 3) + ", " +
+                                         std::to_string(i % 3) + "]: " +
+                                         (dead ? "the slot is dead (not a point of the surface)"
+                                               : "non-finite value") +
                                          "; nothing of the edit was written");
       }
     }
@@ -1055,7 +1114,8 @@ int traverseSimulation(PyObject* self, visitproc visit, void* arg) {
 
 int clearSimulation(PyObject* self) {
   auto* inst = reinterpret_cast<py::detail::instance*>(self);
-  if (inst->get_value_and_holder().holder_constructed()) py::handle(self).cast<Simulation&>().clearReferences();
+  if (inst->get_value_and_holder().holder_constructed())
+    py::handle(self).cast<Simulation&>().clearReferences();
   return 0;
 }
 
@@ -1068,22 +1128,25 @@ PYBIND11_MODULE(_cutsim, m) {
   py::tuple errorBases = py::make_tuple(py::handle(PyExc_Exception));
   gError = makeException(m, "Error", "Base of every error cutsim raises on purpose.", errorBases);
   py::handle error(gError);
-  gInvalidInput = makeException(m, "InvalidInputError",
-                                "Bad input: a scene, a parameter, an array (\"FILE:LINE: /pointer: message\").",
-                                py::make_tuple(error, py::handle(PyExc_ValueError)));
-  gTopologyError = makeException(m, "TopologyError",
-                                 "A topology operation that cannot be carried out; nothing was changed.",
-                                 py::make_tuple(error, py::handle(PyExc_ValueError)));
+  gInvalidInput =
+      makeException(m, "InvalidInputError",
+                    "Bad input: a scene, a parameter, an array (\"FILE:LINE: /pointer: message\").",
+                    py::make_tuple(error, py::handle(PyExc_ValueError)));
+  gTopologyError = makeException(
+      m, "TopologyError", "A topology operation that cannot be carried out; nothing was changed.",
+      py::make_tuple(error, py::handle(PyExc_ValueError)));
   gSolverError = makeException(m, "SolverError",
                                "A numerical failure of a step; the state is as before the step.",
                                py::make_tuple(error, py::handle(PyExc_RuntimeError)));
   gStaleView = makeException(m, "StaleViewError", "A StateView used after the topology changed.",
                              py::make_tuple(error, py::handle(PyExc_RuntimeError)));
-  gUsageError = makeException(m, "UsageError",
-                              "A call the simulation cannot take now (re-entrant stepping, a change from an event "
-                              "callback or inside edit()).",
-                              py::make_tuple(error, py::handle(PyExc_RuntimeError)));
-  gSolverWarning = PyErr_NewExceptionWithDoc("cutsim.SolverWarning", "Steps whose solves missed their tolerance.",
+  gUsageError = makeException(
+      m, "UsageError",
+      "A call the simulation cannot take now (re-entrant stepping, a change from an event "
+      "callback or inside edit()).",
+      py::make_tuple(error, py::handle(PyExc_RuntimeError)));
+  gSolverWarning = PyErr_NewExceptionWithDoc("cutsim.SolverWarning",
+                                             "Steps whose solves missed their tolerance.",
                                              PyExc_UserWarning, nullptr);
   m.add_object("SolverWarning", py::handle(gSolverWarning));
 
@@ -1113,13 +1176,18 @@ PYBIND11_MODULE(_cutsim, m) {
   });
 
   // A SOFA scene's translation into a JSON scene (docs/sofa.md), as text.
-  m.def("_sofa_scene_json", [](const std::filesystem::path& scn) { return core::importSofaScene(scn).scene.dump(); }, "path"_a);
+  m.def(
+      "_sofa_scene_json",
+      [](const std::filesystem::path& scn) { return core::importSofaScene(scn).scene.dump(); },
+      "path"_a);
 
   m.def(
       "_write_player",
-      [](const std::filesystem::path& run, const std::filesystem::path& html, double maxMb, const std::string& up) {
+      [](const std::filesystem::path& run, const std::filesystem::path& html, double maxMb,
+         const std::string& up) {
         if (!(maxMb >= 1.0 && maxMb <= 4096.0))
-          throw InvalidInput("max_mb", std::to_string(maxMb) + " is not a size between 1 and 4096 MB");
+          throw InvalidInput("max_mb",
+                             std::to_string(maxMb) + " is not a size between 1 and 4096 MB");
         view::PlayerOptions options;
         options.budgetBytes = std::size_t(maxMb * 1048576.0);
         options.up = up;
@@ -1138,9 +1206,10 @@ PYBIND11_MODULE(_cutsim, m) {
       },
       py::arg("run"), py::arg("html"), py::arg("max_mb"), py::arg("up"));
 
-  py::class_<Event>(m, "TopologyEvent",
-                    "One topology event, as the C++ observers get it (docs/topology-events.md). Arrays are "
-                    "copies; ids are slots (-1: none).")
+  py::class_<Event>(
+      m, "TopologyEvent",
+      "One topology event, as the C++ observers get it (docs/topology-events.md). Arrays are "
+      "copies; ids are slots (-1: none).")
       .def_readonly("kind", &Event::kind)
       .def_readonly("ids", &Event::ids)
       .def_readonly("vertices", &Event::vertices)
@@ -1167,8 +1236,10 @@ PYBIND11_MODULE(_cutsim, m) {
                          }))
       // A scene file (text = its path, source = ""), or a scene's JSON text named `source` whose
       // relative paths are resolved against `base`.
-      .def(py::init([](const std::string& text, const std::string& source, const std::filesystem::path& base) {
-             const core::Scene scene = source.empty() ? core::loadScene(text) : core::parseScene(text, source, base);
+      .def(py::init([](const std::string& text, const std::string& source,
+                       const std::filesystem::path& base) {
+             const core::Scene scene =
+                 source.empty() ? core::loadScene(text) : core::parseScene(text, source, base);
              return std::make_unique<Simulation>(scene);
            }),
            "text"_a, "source"_a, "base"_a)
@@ -1177,36 +1248,61 @@ PYBIND11_MODULE(_cutsim, m) {
       .def("run", &Simulation::run)
       .def_property_readonly("time", [](Simulation& s) { return s.runner().time(); })
       .def_property_readonly("step_count", [](Simulation& s) { return s.runner().currentStep(); })
-      .def_property("time_step", [](Simulation& s) { return s.runner().timeStep(); },
-                    [](Simulation& s, double dt) {
-                      s.requireMutable("time_step");
-                      s.runner().setTimeStep(dt);
-                    })
+      .def_property(
+          "time_step", [](Simulation& s) { return s.runner().timeStep(); },
+          [](Simulation& s, double dt) {
+            s.requireMutable("time_step");
+            s.runner().setTimeStep(dt);
+          })
       .def_property_readonly("duration", [](Simulation& s) { return s.scene().duration; })
       .def_property_readonly("num_steps", [](Simulation& s) { return s.runner().numSteps(); })
       .def_property_readonly("finished", [](Simulation& s) { return s.runner().finished(); })
       .def_property_readonly("name", [](Simulation& s) { return s.scene().name; })
       .def_property_readonly("description", [](Simulation& s) { return s.scene().description; })
       .def_property_readonly("scene_file", [](Simulation& s) { return s.scene().file; })
-      .def_property("gravity",
-                    [](Simulation& s) { s.requireReadable("gravity"); return py::array_t<double>(3, s.sim().gravity().data()); },
-                    [](Simulation& s, const py::object& g) {
-                      s.requireMutable("gravity");
-                      s.sim().setGravity(readVec3(g, "gravity"));
-                    })
+      .def_property(
+          "gravity",
+          [](Simulation& s) {
+            s.requireReadable("gravity");
+            return py::array_t<double>(3, s.sim().gravity().data());
+          },
+          [](Simulation& s, const py::object& g) {
+            s.requireMutable("gravity");
+            s.sim().setGravity(readVec3(g, "gravity"));
+          })
       .def_property_readonly("x", [](Simulation& s) { return s.x(false); })
       .def_property_readonly("v", [](Simulation& s) { return s.v(false); })
       .def_property_readonly("rest", &Simulation::rest)
       .def_property_readonly("alive", &Simulation::alive)
-      .def_property_readonly("revision", [](Simulation& s) { s.requireReadable("revision"); return s.layout(); })
+      .def_property_readonly("revision",
+                             [](Simulation& s) {
+                               s.requireReadable("revision");
+                               return s.layout();
+                             })
       .def("triangles", &Simulation::triangles)
       .def("edges", &Simulation::edges)
       .def("triangle_ids", &Simulation::triangleIds)
       .def("edge_ids", &Simulation::edgeIds)
-      .def_property_readonly("num_points", [](Simulation& s) { s.requireReadable("num_points"); return s.sim().topology().numPoints(); })
-      .def_property_readonly("num_edges", [](Simulation& s) { s.requireReadable("num_edges"); return s.sim().topology().numEdges(); })
-      .def_property_readonly("num_triangles", [](Simulation& s) { s.requireReadable("num_triangles"); return s.sim().topology().numTriangles(); })
-      .def_property_readonly("num_slots", [](Simulation& s) { s.requireReadable("num_slots"); return s.slots(); })
+      .def_property_readonly("num_points",
+                             [](Simulation& s) {
+                               s.requireReadable("num_points");
+                               return s.sim().topology().numPoints();
+                             })
+      .def_property_readonly("num_edges",
+                             [](Simulation& s) {
+                               s.requireReadable("num_edges");
+                               return s.sim().topology().numEdges();
+                             })
+      .def_property_readonly("num_triangles",
+                             [](Simulation& s) {
+                               s.requireReadable("num_triangles");
+                               return s.sim().topology().numTriangles();
+                             })
+      .def_property_readonly("num_slots",
+                             [](Simulation& s) {
+                               s.requireReadable("num_slots");
+                               return s.slots();
+                             })
       .def("_cut", &Simulation::cut)
       .def("_tear", &Simulation::tear)
       .def("find_edge", &Simulation::findEdge, "a"_a, "b"_a)
@@ -1226,7 +1322,11 @@ PYBIND11_MODULE(_cutsim, m) {
       .def("grasp_forces", &Simulation::graspForces)
       .def("grasp_points", &Simulation::graspPoints, "name"_a)
       .def("fixed_points", &Simulation::fixedPoints)
-      .def_property_readonly("last_stats", [](Simulation& s) { s.requireReadable("last_stats"); return statsDict(s.runner().lastStats()); })
+      .def_property_readonly("last_stats",
+                             [](Simulation& s) {
+                               s.requireReadable("last_stats");
+                               return statsDict(s.runner().lastStats());
+                             })
       .def_property_readonly("solve_summary", &Simulation::summary)
       .def_property_readonly("torn_edges", [](Simulation& s) { return s.runner().tornEdges(); })
       .def_property_readonly("cuts_done", [](Simulation& s) { return s.runner().cutsDone(); })
@@ -1249,18 +1349,40 @@ PYBIND11_MODULE(_cutsim, m) {
            })
       .def("edit", [](py::object self) { return Editor(self); });
 
-  py::class_<StateView>(m, "StateView",
-                        "Read-only, zero-copy arrays of the state at one layout; StaleViewError once the topology "
-                        "has changed.")
-      .def_property_readonly("x", [](const StateView& v) { v.check("x"); return v.sim().x(false); })
-      .def_property_readonly("v", [](const StateView& v) { v.check("v"); return v.sim().v(false); })
-      .def_property_readonly("rest", [](const StateView& v) { v.check("rest"); return v.sim().rest(); })
-      .def_property_readonly("alive", [](const StateView& v) { v.check("alive"); return v.sim().alive(); })
-      .def_property_readonly("triangles", [](const StateView& v) { v.check("triangles"); return v.sim().triangles(); })
+  py::class_<StateView>(
+      m, "StateView",
+      "Read-only, zero-copy arrays of the state at one layout; StaleViewError once the topology "
+      "has changed.")
+      .def_property_readonly("x",
+                             [](const StateView& v) {
+                               v.check("x");
+                               return v.sim().x(false);
+                             })
+      .def_property_readonly("v",
+                             [](const StateView& v) {
+                               v.check("v");
+                               return v.sim().v(false);
+                             })
+      .def_property_readonly("rest",
+                             [](const StateView& v) {
+                               v.check("rest");
+                               return v.sim().rest();
+                             })
+      .def_property_readonly("alive",
+                             [](const StateView& v) {
+                               v.check("alive");
+                               return v.sim().alive();
+                             })
+      .def_property_readonly("triangles",
+                             [](const StateView& v) {
+                               v.check("triangles");
+                               return v.sim().triangles();
+                             })
       .def_property_readonly("valid", &StateView::valid)
       .def_property_readonly("revision", &StateView::revision);
 
-  py::class_<Editor>(m, "Editor", "Writable positions and velocities inside `with sim.edit() as e:`")
+  py::class_<Editor>(m, "Editor",
+                     "Writable positions and velocities inside `with sim.edit() as e:`")
       .def("__enter__", &Editor::enter)
       .def("__exit__", &Editor::exit)
       .def_property_readonly("x", &Editor::x)

@@ -5,9 +5,9 @@
 #include <string>
 
 #include "commands.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/timeline.hpp"
-#include "cutsim/base/errors.hpp"
 
 namespace cutsim::cli {
 namespace {
@@ -19,7 +19,8 @@ void list(const char* title, const char* sceneKey, const Registry& registry) {
     std::cout << "  " << name << ": " << entry.summary << "\n";
     for (const std::string& u : entry.uses) std::cout << "      uses a " << u << "\n";
     for (const KeyInfo& k : entry.keys) {
-      std::cout << "      " << k.name << " (" << toString(k.type) << (k.required ? ", required" : "");
+      std::cout << "      " << k.name << " (" << toString(k.type)
+                << (k.required ? ", required" : "");
       if (k.type == KeyType::Choice) {
         std::cout << ":";
         for (const std::string& c : k.choices) std::cout << " " << c;
@@ -33,23 +34,28 @@ void list(const char* title, const char* sceneKey, const Registry& registry) {
 
 void registerComponentsCommand(CLI::App& app) {
   auto kind = std::make_shared<std::string>();
-  CLI::App* cmd = app.add_subcommand(
-      "components", "List what a scene can name (force fields, integrators, linear solvers, constraints, actions) with their keys");
+  CLI::App* cmd = app.add_subcommand("components",
+                                     "List what a scene can name (force fields, integrators, "
+                                     "linear solvers, constraints, actions) with their keys");
   cmd->add_option("kind", *kind,
                   "forcefields, integrators, linearsolvers, constraints or actions (default: all)");
   cmd->callback([kind] {
     const bool all = kind->empty();
     if (!all && *kind != "forcefields" && *kind != "integrators" && *kind != "linearsolvers" &&
         *kind != "constraints" && *kind != "actions")
-      throw InvalidInput("components", "unknown kind \"" + *kind +
-                                           "\" (forcefields, integrators, linearsolvers, constraints, actions)");
+      throw InvalidInput("components",
+                         "unknown kind \"" + *kind +
+                             "\" (forcefields, integrators, linearsolvers, constraints, actions)");
     if (all || *kind == "forcefields")
       list("force fields", "forceFields", forcefields::ForceFieldRegistry::instance());
-    if (all || *kind == "integrators") list("integrators", "integrator", core::IntegratorRegistry::instance());
+    if (all || *kind == "integrators")
+      list("integrators", "integrator", core::IntegratorRegistry::instance());
     if (all || *kind == "linearsolvers")
       list("linear solvers", "linearSolver", core::LinearSolverRegistry::instance());
-    if (all || *kind == "constraints") list("constraints", "constraints", core::ConstraintRegistry::instance());
-    if (all || *kind == "actions") list("timeline actions", "timeline", core::ActionRegistry::instance());
+    if (all || *kind == "constraints")
+      list("constraints", "constraints", core::ConstraintRegistry::instance());
+    if (all || *kind == "actions")
+      list("timeline actions", "timeline", core::ActionRegistry::instance());
     std::cout.flush();
     if (!std::cout) throw Error("cannot write to standard output");
   });

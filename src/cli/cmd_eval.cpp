@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 

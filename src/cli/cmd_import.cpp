@@ -5,8 +5,8 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/sofa_scene.hpp"
 
 namespace cutsim::cli {
 namespace {
@@ -19,8 +19,10 @@ struct ImportOptions {
 void importScene(const ImportOptions& options) {
   const std::filesystem::path out(options.output);
   std::error_code ec;
-  if (std::filesystem::is_directory(out, ec)) throw InvalidInput("-o", options.output + " is a folder, not a file");
-  if (!out.parent_path().empty()) std::filesystem::create_directories(out.parent_path(), ec);  // checked on writing
+  if (std::filesystem::is_directory(out, ec))
+    throw InvalidInput("-o", options.output + " is a folder, not a file");
+  if (!out.parent_path().empty())
+    std::filesystem::create_directories(out.parent_path(), ec);  // checked on writing
   core::SofaImportOptions o;
   o.steps = options.steps;
   o.jsonDir = out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path();
@@ -35,19 +37,22 @@ void importScene(const ImportOptions& options) {
   }
   std::filesystem::rename(tmp, out, ec);
   if (ec) throw Error(out.string() + ": cannot write: " + ec.message());
-  std::cout << "wrote " << out.string() << " (" << imported.scene["forceFields"].size() << " force fields, "
-            << imported.scene["constraints"].size() << " constraints, " << imported.scene["ignored"].size()
-            << " components ignored, " << imported.notes.size() << " notes)\n";
+  std::cout << "wrote " << out.string() << " (" << imported.scene["forceFields"].size()
+            << " force fields, " << imported.scene["constraints"].size() << " constraints, "
+            << imported.scene["ignored"].size() << " components ignored, " << imported.notes.size()
+            << " notes)\n";
 }
 
 }  // namespace
 
 void registerImportCommand(CLI::App& app) {
   auto options = std::make_shared<ImportOptions>();
-  CLI::App* cmd = app.add_subcommand("import", "Translate a SOFA scene (.scn) into a cutsim JSON scene");
+  CLI::App* cmd =
+      app.add_subcommand("import", "Translate a SOFA scene (.scn) into a cutsim JSON scene");
   cmd->add_option("scene", options->scene, "the SOFA scene (.scn)")->required();
   cmd->add_option("-o,--output", options->output, "the JSON scene to write")->required();
-  cmd->add_option("--steps", options->steps, "the number of steps the JSON scene runs (default 100)")
+  cmd->add_option("--steps", options->steps,
+                  "the number of steps the JSON scene runs (default 100)")
       ->check(CLI::Range(1L, 1000000000L));
   cmd->callback([options] { importScene(*options); });
 }

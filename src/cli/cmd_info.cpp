@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "cutsim/core/mesh_info.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/mesh_info.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
 namespace cutsim::cli {

@@ -3,12 +3,11 @@
 // and prints a summary. `cutsim resume CHECKPOINT`: continues a run from its checkpoint.
 #include <unistd.h>
 
-#include <csignal>
-
 #include <chrono>
-#include <fstream>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -18,12 +17,12 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/core/version.hpp"
-#include "cutsim/base/archive.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace cutsim::cli {
@@ -35,9 +34,9 @@ struct RunOptions {
   std::string dumpFinal;
   bool quiet = false;
   bool allowLong = false;
-  std::string html;  ///< also write the player page (cutsim view) here; "" none
-  bool htmlAuto = false;  ///< --html without a file: OUT/player.html
-  long steps = 0;         ///< a SOFA scene's number of steps (0: 100)
+  std::string html;          ///< also write the player page (cutsim view) here; "" none
+  bool htmlAuto = false;     ///< --html without a file: OUT/player.html
+  long steps = 0;            ///< a SOFA scene's number of steps (0: 100)
   long checkpointEvery = 0;  ///< a checkpoint every N steps (0: only when stopped by a signal)
   long stopAfter = 0;        ///< stop after this step as a signal would (0: run to the end)
 };
@@ -116,7 +115,8 @@ class StopSignals {
   int received() const { return gStopSignal; }
 
  private:
-  struct sigaction oldInt_ {}, oldTerm_ {};
+  struct sigaction oldInt_ {
+  }, oldTerm_{};
 };
 
 std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceField* field) {
@@ -128,8 +128,9 @@ std::size_t fieldIndex(const core::Simulation& sim, const forcefields::ForceFiel
 /// What a checkpoint holds beyond the run's state: the scene (its text, so that a checkpoint
 /// does not depend on the file staying as it was) and how the run was asked for.
 struct RunSource {
-  std::string sceneText;  ///< the JSON scene (a SOFA scene's translation, as cutsim import writes it)
-  std::string sceneName;  ///< the scene file as given (for messages)
+  std::string
+      sceneText;  ///< the JSON scene (a SOFA scene's translation, as cutsim import writes it)
+  std::string sceneName;          ///< the scene file as given (for messages)
   std::filesystem::path baseDir;  ///< the scene's folder, absolute (its mesh files)
   long checkpointEvery = 0;
   // What the run was asked to write at its end (a resumed run does the same unless told).
@@ -161,8 +162,8 @@ std::string buildIdentity() {
 constexpr const char* kCheckpointName = "checkpoint.ckpt";
 
 /// Writes OUT/checkpoint.ckpt atomically (the previous one stays whole until the new one is).
-void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& source, const core::SceneRunner& runner,
-                     core::OutputWriter& writer) {
+void writeCheckpoint(const std::filesystem::path& outDir, const RunSource& source,
+                     const core::SceneRunner& runner, core::OutputWriter& writer) {
   ArchiveWriter w;
   w.begin("cutsim");
   w.str(core::version());
@@ -188,8 +189,9 @@ std::string whyNotCheckpointable(const core::SceneRunner& runner) {
 
 /// Steps a run to its end (or to a stop signal), writing its outputs and checkpoints, then prints
 /// its summary. `resumed`: the runner and the writer continue a checkpoint.
-void play(const RunOptions& options, const core::Scene& scene, const RunSource& source, core::SceneRunner& runner,
-          core::OutputWriter& writer, const std::filesystem::path& outDir, bool resumed,
+void play(const RunOptions& options, const core::Scene& scene, const RunSource& source,
+          core::SceneRunner& runner, core::OutputWriter& writer,
+          const std::filesystem::path& outDir, bool resumed,
           std::chrono::steady_clock::time_point start) {
   const std::string notSaved = whyNotCheckpointable(runner);
   Progress progress(runner.numSteps(), !options.quiet);
@@ -204,7 +206,8 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
   int signal = 0;
   {
     StopSignals signals;  // only while stepping: afterwards a signal ends the program at once
-    const long stopAt = options.stopAfter > 0 ? options.stopAfter : std::numeric_limits<long>::max();
+    const long stopAt =
+        options.stopAfter > 0 ? options.stopAfter : std::numeric_limits<long>::max();
     while (!runner.finished() && !signals.received() && runner.currentStep() < stopAt) {
       const core::StepStats stats = runner.advance();
       last = {runner.currentStep(), runner.time(), stats};
@@ -223,10 +226,12 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
     if (saved) writeCheckpoint(outDir, source, runner, writer);
     writer.frame(runner.simulation(), last);
     writer.finishPartial();
-    const std::string by = signal == SIGINT ? "by SIGINT" : signal == SIGTERM ? "by SIGTERM" : "as asked (--stop-after)";
-    std::cerr << "cutsim: stopped " << by << " after step "
-              << runner.currentStep() << " of " << runner.numSteps() << " (t = " << runner.time()
-              << " s): the outputs in " << outDir.string() << " are marked partial (steps.partial.csv, *.partial.pvd); "
+    const std::string by = signal == SIGINT    ? "by SIGINT"
+                           : signal == SIGTERM ? "by SIGTERM"
+                                               : "as asked (--stop-after)";
+    std::cerr << "cutsim: stopped " << by << " after step " << runner.currentStep() << " of "
+              << runner.numSteps() << " (t = " << runner.time() << " s): the outputs in "
+              << outDir.string() << " are marked partial (steps.partial.csv, *.partial.pvd); "
               << (saved ? "resume with: cutsim resume " + (outDir / kCheckpointName).string()
                         : "the run cannot be resumed: " + notSaved)
               << "\n";
@@ -234,8 +239,8 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
       const std::filesystem::path html =
           options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
       const view::PlayerReport r = view::writePlayer(outDir, html);
-      std::cerr << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun
-                << " frames, partial)\n";
+      std::cerr << "player     " << html.string() << " (" << r.framesShown << " of "
+                << r.framesInRun << " frames, partial)\n";
     }
     if (signal) throw ExitStatus{128 + signal, signal};
     return;
@@ -253,8 +258,8 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
   const topology::Topology& topo = runner.simulation().topology();
   std::cout << "scene      " << scene.name << " (" << source.sceneName << ")\n"
             << "steps      " << runner.numSteps() << " of " << scene.timeStep
-            << " s, t = " << runner.time() << " s" << (resumed ? " (resumed at step " + std::to_string(firstStep) + ")" : "")
-            << "\n"
+            << " s, t = " << runner.time() << " s"
+            << (resumed ? " (resumed at step " + std::to_string(firstStep) + ")" : "") << "\n"
             << "wall time  " << seconds << " s ("
             << (seconds > 0 ? double(stepsRun) / seconds : 0.0) << " steps/s)\n"
             << "final      " << topo.numPoints() << " points, " << topo.numEdges() << " edges, "
@@ -269,30 +274,34 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
   std::cout << "solver     " << sim.integrator().name();
   if (const auto* ls = sim.integrator().linearSolver()) std::cout << " with " << ls->name();
   std::cout << ", " << solves.flaggedSteps << " flagged steps\n";
-  if (every > 0) std::cout << "checkpoint " << (outDir / kCheckpointName).string() << " (every " << every << " steps)\n";
+  if (every > 0)
+    std::cout << "checkpoint " << (outDir / kCheckpointName).string() << " (every " << every
+              << " steps)\n";
   if (solves.flaggedSteps > 0) {
     std::ostringstream w;
     w << "warning: " << solves.flaggedSteps << " of " << runner.numSteps()
-      << " steps were flagged by their solves (" << solves.missedTolerance << " missed their tolerance, "
-      << solves.indefinite << " indefinite, " << solves.fellBack << " fell back to CHOLMOD, "
-      << solves.newtonNotConverged << " Newton unconverged); worst relative residual "
-      << solves.worstResidual << " at step " << solves.worstStep
-      << "; the steps are flagged in the solver_flags column of steps.csv";
+      << " steps were flagged by their solves (" << solves.missedTolerance
+      << " missed their tolerance, " << solves.indefinite << " indefinite, " << solves.fellBack
+      << " fell back to CHOLMOD, " << solves.newtonNotConverged
+      << " Newton unconverged); worst relative residual " << solves.worstResidual << " at step "
+      << solves.worstStep << "; the steps are flagged in the solver_flags column of steps.csv";
     std::cerr << w.str() << "\n";
   }
   if (!options.dumpFinal.empty()) {
     if (const auto* b = runner.bendingField())
-      std::cout << "final dump " << options.dumpFinal << " (forces of the FastTriangularBendingSprings field '"
+      std::cout << "final dump " << options.dumpFinal
+                << " (forces of the FastTriangularBendingSprings field '"
                 << sim.forceFieldLabel(fieldIndex(sim, b)) << "')\n";
     else
       std::cout << "final dump " << options.dumpFinal
                 << " (meshes only: the scene has no FastTriangularBendingSprings field)\n";
   }
   if (options.htmlAuto || !options.html.empty()) {
-    const std::filesystem::path html = options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
+    const std::filesystem::path html =
+        options.html.empty() ? outDir / "player.html" : std::filesystem::path(options.html);
     const view::PlayerReport r = view::writePlayer(outDir, html);
-    std::cout << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun << " frames, "
-              << view::describeSize(r.bytes) << "; open it in a browser)\n";
+    std::cout << "player     " << html.string() << " (" << r.framesShown << " of " << r.framesInRun
+              << " frames, " << view::describeSize(r.bytes) << "; open it in a browser)\n";
   }
   std::cout.flush();
   if (!std::cout) throw Error("cannot write to standard output");
@@ -306,21 +315,28 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
 }
 
 /// The checks of --html and --dump-final before a run into outDir.
-void checkOutputOptions(const RunOptions& options, const core::Scene& scene, const std::filesystem::path& outDir) {
+void checkOutputOptions(const RunOptions& options, const core::Scene& scene,
+                        const std::filesystem::path& outDir) {
   if (!options.html.empty()) {
     std::error_code ec;
-    const std::filesystem::path page = std::filesystem::weakly_canonical(std::filesystem::absolute(options.html), ec);
-    const std::filesystem::path dir = std::filesystem::weakly_canonical(std::filesystem::absolute(outDir), ec);
+    const std::filesystem::path page =
+        std::filesystem::weakly_canonical(std::filesystem::absolute(options.html), ec);
+    const std::filesystem::path dir =
+        std::filesystem::weakly_canonical(std::filesystem::absolute(outDir), ec);
     const std::string name = page.filename().string();
     if (page.parent_path() == dir && name != "player.html" && core::OutputWriter::isRunOutput(name))
-      throw InvalidInput("--html", options.html + " is one of the run's own files: name the page otherwise");
+      throw InvalidInput("--html",
+                         options.html + " is one of the run's own files: name the page otherwise");
   }
   if ((options.htmlAuto || !options.html.empty()) && !scene.output.vtk)
-    throw InvalidInput("--html", "the scene writes no frames (its output has \"vtk\": false): the player has nothing to "
-                                 "show");
+    throw InvalidInput(
+        "--html",
+        "the scene writes no frames (its output has \"vtk\": false): the player has nothing to "
+        "show");
   if (!options.dumpFinal.empty()) {
     std::error_code ec;
-    if (std::filesystem::exists(options.dumpFinal, ec) && !std::filesystem::is_directory(options.dumpFinal, ec))
+    if (std::filesystem::exists(options.dumpFinal, ec) &&
+        !std::filesystem::is_directory(options.dumpFinal, ec))
       throw InvalidInput("--dump-final", options.dumpFinal + " is a file, not a folder");
   }
 }
@@ -342,8 +358,10 @@ void runScene(const RunOptions& options) {
     if (!isSofaScene(options.scene)) {
       // Read once: the checkpoints hold the text the run was made from.
       source.sceneText = core::readSceneText(options.scene);
-      source.baseDir = std::filesystem::absolute(std::filesystem::path(options.scene)).parent_path();
-      return core::parseScene(source.sceneText, options.scene, std::filesystem::path(options.scene).parent_path());
+      source.baseDir =
+          std::filesystem::absolute(std::filesystem::path(options.scene)).parent_path();
+      return core::parseScene(source.sceneText, options.scene,
+                              std::filesystem::path(options.scene).parent_path());
     }
     core::SofaImportOptions o;
     if (options.steps > 0) o.steps = options.steps;
@@ -351,7 +369,8 @@ void runScene(const RunOptions& options) {
     for (const std::string& n : imported.notes) std::cerr << n << "\n";
     // The checkpoints hold its JSON translation (what cutsim import writes: the same run).
     source.sceneText = imported.scene.dump(2) + "\n";
-    source.baseDir = std::filesystem::absolute(imported.jsonDir.empty() ? std::filesystem::path(".") : imported.jsonDir);
+    source.baseDir = std::filesystem::absolute(imported.jsonDir.empty() ? std::filesystem::path(".")
+                                                                        : imported.jsonDir);
     return core::sceneFromSofa(imported);
   }();
   const std::filesystem::path outDir = options.out.empty()
@@ -364,14 +383,16 @@ void runScene(const RunOptions& options) {
   const long frames = (scene.output.vtk || scene.output.obj) ? steps / scene.output.every + 2 : 0;
   constexpr long kMaxSteps = 10'000'000, kMaxFrames = 100'000;
   if (!options.allowLong && (steps > kMaxSteps || frames > kMaxFrames))
-    throw InvalidInput(options.scene, "the run would take " + std::to_string(steps) + " steps and write " +
-                                          std::to_string(frames) + " frames, more than the limits (10^7 steps, 10^5 "
-                                          "frames): raise output.every or the time step, or pass --allow-long");
+    throw InvalidInput(options.scene,
+                       "the run would take " + std::to_string(steps) + " steps and write " +
+                           std::to_string(frames) +
+                           " frames, more than the limits (10^7 steps, 10^5 "
+                           "frames): raise output.every or the time step, or pass --allow-long");
   checkOutputOptions(options, scene, outDir);
   if (!options.quiet)
     std::cerr << "running " << steps << " steps of " << scene.timeStep << " s"
-              << (frames ? ", " + std::to_string(frames - 1) + " frames at most" : std::string()) << ", into "
-              << outDir.string() << "\n";
+              << (frames ? ", " + std::to_string(frames - 1) + " frames at most" : std::string())
+              << ", into " << outDir.string() << "\n";
 
   const auto start = std::chrono::steady_clock::now();
   core::SceneRunner runner(scene);
@@ -384,8 +405,8 @@ void runScene(const RunOptions& options) {
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
                             scene.contact.has_value(), obstacleNamesOf(scene));
   if (writer.replacedFiles() > 0)
-    std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from " << outDir.string()
-              << "\n";
+    std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from "
+              << outDir.string() << "\n";
   // What the player (cutsim view) shows of the scene: its name, description and "up".
   if (scene.output.vtk) core::writeRunInfo(outDir, scene);
   play(options, scene, source, runner, writer, outDir, false, start);
@@ -417,12 +438,16 @@ void resumeRun(const ResumeOptions& options) {
   source.dumpFinal = in.str();
   in.close();
   if (written != core::version())
-    throw InvalidInput(file.string(), "written by cutsim " + written + ", this is cutsim " + core::version() +
-                                          ": a run resumes with the program that began it (its outputs would differ)");
+    throw InvalidInput(
+        file.string(),
+        "written by cutsim " + written + ", this is cutsim " + core::version() +
+            ": a run resumes with the program that began it (its outputs would differ)");
   if (build != buildIdentity() && !options.otherBuild)
-    throw InvalidInput(file.string(), "written by another build of cutsim (" + build + ", this one is " + buildIdentity() +
-                                          "): its rounding may differ from this one's, so the resumed run would not be "
-                                          "the run made without a stop; pass --other-build to resume anyway");
+    throw InvalidInput(
+        file.string(),
+        "written by another build of cutsim (" + build + ", this one is " + buildIdentity() +
+            "): its rounding may differ from this one's, so the resumed run would not be "
+            "the run made without a stop; pass --other-build to resume anyway");
   // What the run was asked for, unless given again.
   RunOptions run = options.run;
   if (options.everyGiven) source.checkpointEvery = run.checkpointEvery;
@@ -433,18 +458,21 @@ void resumeRun(const ResumeOptions& options) {
   if (!options.dumpGiven) run.dumpFinal = source.dumpFinal;
   source.remember(run);  // (the checkpoints this run writes remember what it was asked for)
   const core::Scene scene = core::parseScene(source.sceneText, source.sceneName, source.baseDir);
-  const std::filesystem::path outDir = file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+  const std::filesystem::path outDir =
+      file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
   checkOutputOptions(run, scene, outDir);
   const auto start = std::chrono::steady_clock::now();
   core::SceneRunner runner(scene, in);
   if (run.stopAfter > 0 && run.stopAfter <= runner.currentStep())
-    throw InvalidInput("--stop-after", std::to_string(run.stopAfter) + " is not after the checkpoint's step " +
+    throw InvalidInput("--stop-after", std::to_string(run.stopAfter) +
+                                           " is not after the checkpoint's step " +
                                            std::to_string(runner.currentStep()));
-  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(), scene.contact.has_value(),
-                            obstacleNamesOf(scene), in);
+  core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
+                            scene.contact.has_value(), obstacleNamesOf(scene), in);
   if (!run.quiet)
-    std::cerr << "resuming " << source.sceneName << " at step " << runner.currentStep() << " of " << runner.numSteps()
-              << " (t = " << runner.time() << " s), into " << outDir.string() << "\n";
+    std::cerr << "resuming " << source.sceneName << " at step " << runner.currentStep() << " of "
+              << runner.numSteps() << " (t = " << runner.time() << " s), into " << outDir.string()
+              << "\n";
   if (scene.output.vtk) core::writeRunInfo(outDir, scene);
   play(run, scene, source, runner, writer, outDir, true, start);
 }
@@ -453,26 +481,32 @@ void resumeRun(const ResumeOptions& options) {
 
 void registerRunCommand(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "run", "Load a scene (JSON, or SOFA's .scn), check it, run it and write its frames and per-step CSV");
-  cmd->add_option("scene", options->scene, "the scene file (.json, or a SOFA scene .scn)")->required();
+  CLI::App* cmd = app.add_subcommand("run",
+                                     "Load a scene (JSON, or SOFA's .scn), check it, run it and "
+                                     "write its frames and per-step CSV");
+  cmd->add_option("scene", options->scene, "the scene file (.json, or a SOFA scene .scn)")
+      ->required();
   cmd->add_option("--steps", options->steps, "a SOFA scene's number of steps (default 100)")
       ->check(CLI::Range(1L, 1000000000L));
   cmd->add_option("--out", options->out, "output folder (default: out/<scene name>)");
   cmd->add_option("--dump-final", options->dumpFinal,
                   "also write final_rest.obj, final.obj and final_forces.json in this folder");
   cmd->add_flag("--quiet", options->quiet, "no progress display (the summary is still printed)");
-  cmd->add_flag("--allow-long", options->allowLong,
-                "run a scene of more than 10^7 steps or 10^5 frames (refused otherwise, before it starts)");
+  cmd->add_flag(
+      "--allow-long", options->allowLong,
+      "run a scene of more than 10^7 steps or 10^5 frames (refused otherwise, before it starts)");
   cmd->add_option("--html", options->html,
-                  "also write the run's player page (as cutsim view) to this file; --html alone: OUT/player.html")
+                  "also write the run's player page (as cutsim view) to this file; --html alone: "
+                  "OUT/player.html")
       ->expected(0, 1);
-  cmd->add_option("--checkpoint-every", options->checkpointEvery,
-                  "write OUT/checkpoint.ckpt every N steps (a stop by SIGINT or SIGTERM writes one too); "
-                  "cutsim resume continues from it")
+  cmd->add_option(
+         "--checkpoint-every", options->checkpointEvery,
+         "write OUT/checkpoint.ckpt every N steps (a stop by SIGINT or SIGTERM writes one too); "
+         "cutsim resume continues from it")
       ->check(CLI::Range(1L, 1000000000L));
   cmd->add_option("--stop-after", options->stopAfter,
-                  "stop after this step as SIGINT would (a checkpoint, the outputs marked partial), exit code 0: "
+                  "stop after this step as SIGINT would (a checkpoint, the outputs marked "
+                  "partial), exit code 0: "
                   "a run made in parts")
       ->check(CLI::Range(1L, 1000000000L));
   CLI::Option* html = cmd->get_option("--html");
@@ -489,26 +523,32 @@ void registerRunCommand(CLI::App& app) {
 
 void registerResumeCommand(CLI::App& app) {
   auto options = std::make_shared<ResumeOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "resume", "Continue a run from its checkpoint (OUT/checkpoint.ckpt) into the same folder: the outputs are those "
-                "of the run made without a stop");
-  cmd->add_option("checkpoint", options->checkpoint, "the checkpoint file (OUT/checkpoint.ckpt)")->required();
+  CLI::App* cmd = app.add_subcommand("resume",
+                                     "Continue a run from its checkpoint (OUT/checkpoint.ckpt) "
+                                     "into the same folder: the outputs are those "
+                                     "of the run made without a stop");
+  cmd->add_option("checkpoint", options->checkpoint, "the checkpoint file (OUT/checkpoint.ckpt)")
+      ->required();
   cmd->add_option("--dump-final", options->run.dumpFinal,
                   "also write final_rest.obj, final.obj and final_forces.json in this folder");
-  cmd->add_flag("--quiet", options->run.quiet, "no progress display (the summary is still printed)");
+  cmd->add_flag("--quiet", options->run.quiet,
+                "no progress display (the summary is still printed)");
   cmd->add_option("--html", options->run.html,
-                  "also write the run's player page (as cutsim view) to this file; --html alone: OUT/player.html")
+                  "also write the run's player page (as cutsim view) to this file; --html alone: "
+                  "OUT/player.html")
       ->expected(0, 1);
   CLI::Option* every = cmd->add_option("--checkpoint-every", options->run.checkpointEvery,
                                        "a checkpoint every N steps (default: as the run did)")
                            ->check(CLI::Range(1L, 1000000000L));
   cmd->add_option("--stop-after", options->run.stopAfter,
-                  "stop after this step as SIGINT would (a checkpoint, the outputs marked partial), exit code 0: "
+                  "stop after this step as SIGINT would (a checkpoint, the outputs marked "
+                  "partial), exit code 0: "
                   "a run made in parts")
       ->check(CLI::Range(1L, 1000000000L));
   CLI::Option* dump = cmd->get_option("--dump-final");
   cmd->add_flag("--other-build", options->otherBuild,
-                "resume a checkpoint written by another build of cutsim (the outputs may then differ by rounding "
+                "resume a checkpoint written by another build of cutsim (the outputs may then "
+                "differ by rounding "
                 "from the run made without a stop)");
   CLI::Option* html = cmd->get_option("--html");
   cmd->callback([options, html, every, dump] {
@@ -516,7 +556,8 @@ void registerResumeCommand(CLI::App& app) {
     options->htmlGiven = html->count() > 0;
     options->dumpGiven = dump->count() > 0;
     options->everyGiven = every->count() > 0;
-    if (options->run.htmlAuto && !options->run.html.empty() && std::filesystem::is_directory(options->run.html))
+    if (options->run.htmlAuto && !options->run.html.empty() &&
+        std::filesystem::is_directory(options->run.html))
       throw InvalidInput("--html", options->run.html + " is a folder, not a file");
     resumeRun(*options);
   });

@@ -7,8 +7,8 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "cutsim/core/version.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/version.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"Simulator of thin deformable surfaces that are cut, torn and carved while they run",

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "cutsim/core/output.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/output.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace cutsim::view {
@@ -59,9 +59,11 @@ void FramePacker::add(const Frame& f) {
     }
     return std::sqrt(s);
   };
-  if (!f.v.empty()) j["speed"] = put("speed", perTriangle([&](std::uint32_t p) { return norm(f.v, nullptr, p); }));
+  if (!f.v.empty())
+    j["speed"] = put("speed", perTriangle([&](std::uint32_t p) { return norm(f.v, nullptr, p); }));
   if (!f.rest.empty())
-    j["displacement"] = put("displacement", perTriangle([&](std::uint32_t p) { return norm(f.x, &f.rest, p); }));
+    j["displacement"] =
+        put("displacement", perTriangle([&](std::uint32_t p) { return norm(f.x, &f.rest, p); }));
   if (!f.held.empty()) {
     std::size_t fixed = 0, grasped = 0;
     for (std::uint8_t h : f.held) {
@@ -148,7 +150,8 @@ std::vector<std::size_t> chooseFrames(std::size_t count, double bytesPerFrame, s
   // At most `fit` frames (two at least: the first and the last), evenly spaced from the first;
   // the last frame is always kept, in place of the one before it when there is no room.
   const double fitting = std::floor(double(budget) / std::max(bytesPerFrame, 1e-300));
-  const std::size_t fit = std::max<std::size_t>(2, fitting >= double(count) ? count : std::size_t(fitting));
+  const std::size_t fit =
+      std::max<std::size_t>(2, fitting >= double(count) ? count : std::size_t(fitting));
   if (fit >= count) {
     for (std::size_t i = 0; i < count; ++i) chosen.push_back(i);
     return chosen;
@@ -169,13 +172,15 @@ std::string describeSize(std::size_t bytes) {
 }
 
 std::string base64(const std::string& bytes) {
-  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((bytes.size() + 2) / 3 * 4);
   std::size_t i = 0;
   for (; i + 2 < bytes.size(); i += 3) {
     const std::uint32_t v = (std::uint32_t(std::uint8_t(bytes[i])) << 16) |
-                            (std::uint32_t(std::uint8_t(bytes[i + 1])) << 8) | std::uint8_t(bytes[i + 2]);
+                            (std::uint32_t(std::uint8_t(bytes[i + 1])) << 8) |
+                            std::uint8_t(bytes[i + 2]);
     out += kAlphabet[(v >> 18) & 63];
     out += kAlphabet[(v >> 12) & 63];
     out += kAlphabet[(v >> 6) & 63];
@@ -196,7 +201,8 @@ namespace {
 
 /// Text that cannot end the <script> element it is embedded in.
 std::string scriptSafe(std::string text) {
-  for (std::size_t at = 0; (at = text.find("</", at)) != std::string::npos; at += 3) text.replace(at, 2, "<\\/");
+  for (std::size_t at = 0; (at = text.find("</", at)) != std::string::npos; at += 3)
+    text.replace(at, 2, "<\\/");
   return text;
 }
 
@@ -219,11 +225,20 @@ std::string htmlEscape(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '&': out += "&amp;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -235,16 +250,20 @@ json upVector(const std::string& up, const json& info) {
     if (info.contains("gravity") && info["gravity"].is_array() && info["gravity"].size() == 3) {
       double g[3], n = 0.0;
       for (int k = 0; k < 3; ++k) {
-        g[k] = info["gravity"][std::size_t(k)].is_number() ? info["gravity"][std::size_t(k)].get<double>() : 0.0;
+        g[k] = info["gravity"][std::size_t(k)].is_number()
+                   ? info["gravity"][std::size_t(k)].get<double>()
+                   : 0.0;
         n += g[k] * g[k];
       }
-      if (n > 0.0 && std::isfinite(n)) return json::array({-g[0] / std::sqrt(n), -g[1] / std::sqrt(n), -g[2] / std::sqrt(n)});
+      if (n > 0.0 && std::isfinite(n))
+        return json::array({-g[0] / std::sqrt(n), -g[1] / std::sqrt(n), -g[2] / std::sqrt(n)});
     }
     return json::array({0, 0, 1});
   }
   const double sign = up.size() == 2 && up[0] == '-' ? -1.0 : 1.0;
   const char axis = up.empty() ? ' ' : up.back();
-  if ((up.size() == 1 || (up.size() == 2 && (up[0] == '-' || up[0] == '+'))) && axis >= 'x' && axis <= 'z') {
+  if ((up.size() == 1 || (up.size() == 2 && (up[0] == '-' || up[0] == '+'))) && axis >= 'x' &&
+      axis <= 'z') {
     json v = json::array({0.0, 0.0, 0.0});
     v[std::size_t(axis - 'x')] = sign;
     return v;
@@ -255,17 +274,21 @@ json upVector(const std::string& up, const json& info) {
 }  // namespace
 
 void writePlayerPage(std::ostream& out, const json& meta, const std::string& blob) {
-  const std::string title = meta.contains("run") ? meta["run"].value("name", std::string("run")) : "run";
+  const std::string title =
+      meta.contains("run") ? meta["run"].value("name", std::string("run")) : "run";
   out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
          "<meta name=\"generator\" content=\"cutsim view\">\n"
       << "<title>" << htmlEscape(title) << " - cutsim</title>\n</head>\n<body>\n"
-      << "<script type=\"application/json\" id=\"cutsim-meta\">" << jsonInHtml(meta.dump()) << "</script>\n"
-      << "<script type=\"application/octet-stream\" id=\"cutsim-data\">" << base64(blob) << "</script>\n"
+      << "<script type=\"application/json\" id=\"cutsim-meta\">" << jsonInHtml(meta.dump())
+      << "</script>\n"
+      << "<script type=\"application/octet-stream\" id=\"cutsim-data\">" << base64(blob)
+      << "</script>\n"
       << "<script>" << scriptSafe(std::string(playerScript())) << "</script>\n</body>\n</html>\n";
 }
 
-PlayerReport writePlayer(const fs::path& runDir, const fs::path& html, const PlayerOptions& options) {
+PlayerReport writePlayer(const fs::path& runDir, const fs::path& html,
+                         const PlayerOptions& options) {
   const RunFolder run = scanRun(runDir);
   PlayerReport report;
   report.framesInRun = run.surface.size();
@@ -281,16 +304,18 @@ PlayerReport writePlayer(const fs::path& runDir, const fs::path& html, const Pla
   const double perFrame =
       4.0 / 3.0 *
       (4.0 * double(last.x.size() + 3 * last.strain.size() + last.obstacleX.size()) +
-       0.2 * (4.0 * double(last.triangles.size() + last.borders.size() + last.springs.size()) + last.lips.size() +
-              last.held.size()));
-  const double fixedBytes = double(playerScript().size()) +
-                            4.0 / 3.0 * 8.0 * double(std::min(series.rows(), kMaxSeriesRows) * series.names.size()) +
-                            64.0 * double(run.surface.size()) + 65536.0;
+       0.2 * (4.0 * double(last.triangles.size() + last.borders.size() + last.springs.size()) +
+              last.lips.size() + last.held.size()));
+  const double fixedBytes =
+      double(playerScript().size()) +
+      4.0 / 3.0 * 8.0 * double(std::min(series.rows(), kMaxSeriesRows) * series.names.size()) +
+      64.0 * double(run.surface.size()) + 65536.0;
   double budget = std::max(double(options.budgetBytes) - fixedBytes, 2.0 * perFrame);
   // The page, packed from the frames chosen by the estimate; packed again with fewer frames if
   // it came out above the budget (the estimate is of a typical frame, not of each).
   auto info = [&](const char* key) {
-    return run.info.contains(key) && run.info[key].is_string() ? run.info[key].get<std::string>() : std::string();
+    return run.info.contains(key) && run.info[key].is_string() ? run.info[key].get<std::string>()
+                                                               : std::string();
   };
   std::string name = info("scene");
   if (name.empty()) name = fs::absolute(runDir).lexically_normal().filename().string();
@@ -316,7 +341,8 @@ PlayerReport writePlayer(const fs::path& runDir, const fs::path& html, const Pla
     runMeta["up"] = up;
     runMeta["folder"] = runDir.string();
     meta["run"] = std::move(runMeta);
-    if (!meta.contains("series")) meta["series"] = {{"names", json::array()}, {"rows", 0}, {"columns", json::array()}};
+    if (!meta.contains("series"))
+      meta["series"] = {{"names", json::array()}, {"rows", 0}, {"columns", json::array()}};
     std::ostringstream page;
     writePlayerPage(page, meta, packer.blob());
     text = page.str();

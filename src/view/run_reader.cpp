@@ -31,7 +31,8 @@ std::string readWhole(const fs::path& path) {
 /// "FILE:LINE" of a byte offset of a text.
 std::string where(const fs::path& path, const std::string& text, std::ptrdiff_t offset) {
   offset = std::clamp<std::ptrdiff_t>(offset, 0, std::ptrdiff_t(text.size()));
-  return path.string() + ":" + std::to_string(1 + std::count(text.begin(), text.begin() + offset, '\n'));
+  return path.string() + ":" +
+         std::to_string(1 + std::count(text.begin(), text.begin() + offset, '\n'));
 }
 
 struct Xml {
@@ -41,15 +42,20 @@ struct Xml {
 
   explicit Xml(const fs::path& p) : path(p), text(readWhole(p)) {
     const pugi::xml_parse_result r = doc.load_buffer(text.data(), text.size());
-    if (!r) throw InvalidInput(where(path, text, r.offset), std::string("not valid XML: ") + r.description());
+    if (!r)
+      throw InvalidInput(where(path, text, r.offset),
+                         std::string("not valid XML: ") + r.description());
   }
-  std::string at(const pugi::xml_node& node) const { return where(path, text, node.offset_debug()); }
+  std::string at(const pugi::xml_node& node) const {
+    return where(path, text, node.offset_debug());
+  }
 };
 
 std::vector<std::pair<double, std::string>> readPvd(const fs::path& path) {
   const Xml xml(path);
   const pugi::xml_node collection = xml.doc.child("VTKFile").child("Collection");
-  if (!collection) throw InvalidInput(path.string(), "not a ParaView collection (no VTKFile/Collection)");
+  if (!collection)
+    throw InvalidInput(path.string(), "not a ParaView collection (no VTKFile/Collection)");
   std::vector<std::pair<double, std::string>> frames;
   for (const pugi::xml_node& d : collection.children("DataSet")) {
     const char* t = d.attribute("timestep").value();
@@ -61,7 +67,8 @@ std::vector<std::pair<double, std::string>> readPvd(const fs::path& path) {
     if (file.empty() || file.find('/') != std::string::npos || file.find("..") != std::string::npos)
       throw InvalidInput(xml.at(d), "file \"" + file + "\" is not a frame file of this folder");
     if (!frames.empty() && time < frames.back().first)
-      throw InvalidInput(xml.at(d), "timestep " + std::string(t) + " is before the previous frame's");
+      throw InvalidInput(xml.at(d),
+                         "timestep " + std::string(t) + " is before the previous frame's");
     frames.emplace_back(time, file);
   }
   return frames;
@@ -75,9 +82,10 @@ std::vector<T> numbers(const Xml& xml, const pugi::xml_node& array, std::size_t 
   // Every value takes two characters at least: a count beyond that is not in this file (and is
   // not reserved: a forged NumberOfPoints must not exhaust the memory).
   if (expected > std::size_t(end - p) / 2 + 1)
-    throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() + " should hold " +
-                                          std::to_string(expected) + " values: more than its " +
-                                          std::to_string(end - p) + " characters can");
+    throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() +
+                                          " should hold " + std::to_string(expected) +
+                                          " values: more than its " + std::to_string(end - p) +
+                                          " characters can");
   out.reserve(expected);
   while (true) {
     while (p < end && std::isspace(static_cast<unsigned char>(*p))) ++p;
@@ -92,17 +100,19 @@ std::vector<T> numbers(const Xml& xml, const pugi::xml_node& array, std::size_t 
     else
       fits = fits && v >= 0 && static_cast<unsigned long long>(v) <= std::numeric_limits<T>::max();
     if (!fits)
-      throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() + ": \"" +
-                                            std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) + "\" is not " +
-                                            (std::is_floating_point_v<T> ? "a finite number (in single precision)"
-                                                                         : "an index or flag in range"));
+      throw InvalidInput(xml.at(array),
+                         std::string("DataArray ") + array.attribute("Name").value() + ": \"" +
+                             std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) +
+                             "\" is not " +
+                             (std::is_floating_point_v<T> ? "a finite number (in single precision)"
+                                                          : "an index or flag in range"));
     out.push_back(T(v));
     p = r.ptr;
   }
   if (out.size() != expected)
-    throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() + " has " +
-                                          std::to_string(out.size()) + " values, the piece needs " +
-                                          std::to_string(expected));
+    throw InvalidInput(xml.at(array), std::string("DataArray ") + array.attribute("Name").value() +
+                                          " has " + std::to_string(out.size()) +
+                                          " values, the piece needs " + std::to_string(expected));
   return out;
 }
 
@@ -122,45 +132,53 @@ Piece openPiece(const fs::path& path) {
   Piece p;
   p.xml = std::make_unique<Xml>(path);
   p.node = p.xml->doc.child("VTKFile").child("PolyData").child("Piece");
-  if (!p.node) throw InvalidInput(path.string(), "not a VTK PolyData file (no VTKFile/PolyData/Piece)");
+  if (!p.node)
+    throw InvalidInput(path.string(), "not a VTK PolyData file (no VTKFile/PolyData/Piece)");
   p.points = p.node.attribute("NumberOfPoints").as_ullong();
   p.polys = p.node.attribute("NumberOfPolys").as_ullong();
   p.lines = p.node.attribute("NumberOfLines").as_ullong();
   // Counts no file of this size can hold (they would overflow the sizes computed from them).
   const std::size_t limit = p.xml->text.size();
   if (p.points > limit || p.polys > limit || p.lines > limit)
-    throw InvalidInput(p.xml->at(p.node), "the piece's counts (" + std::to_string(p.points) + " points, " +
-                                              std::to_string(p.polys) + " polys, " + std::to_string(p.lines) +
+    throw InvalidInput(p.xml->at(p.node), "the piece's counts (" + std::to_string(p.points) +
+                                              " points, " + std::to_string(p.polys) + " polys, " +
+                                              std::to_string(p.lines) +
                                               " lines) are more than the file can hold");
   return p;
 }
 
 template <typename T>
-std::vector<T> required(const Piece& p, const pugi::xml_node& parent, const char* name, std::size_t count) {
+std::vector<T> required(const Piece& p, const pugi::xml_node& parent, const char* name,
+                        std::size_t count) {
   const pugi::xml_node a = findArray(parent, name);
-  if (!a) throw InvalidInput(p.xml->at(parent ? parent : p.node), std::string("no DataArray named ") + name);
+  if (!a)
+    throw InvalidInput(p.xml->at(parent ? parent : p.node),
+                       std::string("no DataArray named ") + name);
   return numbers<T>(*p.xml, a, count);
 }
 
-std::vector<std::uint32_t> cells(const Piece& p, const char* block, std::size_t count, std::size_t per) {
+std::vector<std::uint32_t> cells(const Piece& p, const char* block, std::size_t count,
+                                 std::size_t per) {
   const pugi::xml_node b = p.node.child(block);
   if (count == 0) return {};
   auto c = required<std::uint32_t>(p, b, "connectivity", count * per);
   for (std::uint32_t i : c)
     if (i >= p.points)
-      throw InvalidInput(p.xml->at(b), std::string(block) + ": point " + std::to_string(i) + " of " +
-                                           std::to_string(p.points));
+      throw InvalidInput(p.xml->at(b), std::string(block) + ": point " + std::to_string(i) +
+                                           " of " + std::to_string(p.points));
   return c;
 }
 
 /// The frame of `series` at the time of the surface's frame `index`, if it has one (found by
 /// time, not by position: a collection with a frame less is matched right for the others).
-std::optional<fs::path> companion(const RunFolder& run, const std::vector<std::pair<double, std::string>>& series,
+std::optional<fs::path> companion(const RunFolder& run,
+                                  const std::vector<std::pair<double, std::string>>& series,
                                   std::size_t index) {
   const double t = run.surface[index].first;
   if (index < series.size() && series[index].first == t) return run.dir / series[index].second;
-  const auto it = std::lower_bound(series.begin(), series.end(), t,
-                                   [](const std::pair<double, std::string>& f, double time) { return f.first < time; });
+  const auto it = std::lower_bound(
+      series.begin(), series.end(), t,
+      [](const std::pair<double, std::string>& f, double time) { return f.first < time; });
   if (it != series.end() && it->first == t) return run.dir / it->second;
   return std::nullopt;
 }
@@ -173,7 +191,8 @@ RunFolder scanRun(const fs::path& dir) {
   std::error_code ec;
   if (!fs::exists(dir, ec)) throw InvalidInput(dir.string(), "no such folder");
   if (!fs::is_directory(dir, ec))
-    throw InvalidInput(dir.string(), "not a folder (give the folder a run wrote, cutsim run --out DIR)");
+    throw InvalidInput(dir.string(),
+                       "not a folder (give the folder a run wrote, cutsim run --out DIR)");
   fs::path surface = dir / "surface.pvd";
   if (!fs::exists(surface)) {
     surface = dir / "surface.partial.pvd";
@@ -182,9 +201,10 @@ RunFolder scanRun(const fs::path& dir) {
   if (!fs::exists(surface)) {
     const bool csvOnly = fs::exists(dir / "steps.csv") || fs::exists(dir / "steps.partial.csv") ||
                          fs::exists(dir / ".steps.csv.tmp");
-    throw InvalidInput(dir.string(), csvOnly ? "the run wrote no frames (its scene's output has \"vtk\": false): "
-                                               "nothing to play"
-                                             : "not a cutsim run folder (no surface.pvd or surface.partial.pvd)");
+    throw InvalidInput(dir.string(),
+                       csvOnly ? "the run wrote no frames (its scene's output has \"vtk\": false): "
+                                 "nothing to play"
+                               : "not a cutsim run folder (no surface.pvd or surface.partial.pvd)");
   }
   run.surface = readPvd(surface);
   if (run.surface.empty()) throw InvalidInput(surface.string(), "the collection lists no frames");
@@ -218,7 +238,8 @@ Frame readFrame(const RunFolder& run, std::size_t index) {
     const Piece p = openPiece(run.dir / run.surface[index].second);
     const pugi::xml_node pd = p.node.child("PointData"), cd = p.node.child("CellData");
     f.x = required<float>(p, p.node.child("Points"), "position", 3 * p.points);
-    if (findArray(pd, "rest_position")) f.rest = required<float>(p, pd, "rest_position", 3 * p.points);
+    if (findArray(pd, "rest_position"))
+      f.rest = required<float>(p, pd, "rest_position", 3 * p.points);
     if (findArray(pd, "velocity")) f.v = required<float>(p, pd, "velocity", 3 * p.points);
     if (findArray(pd, "constraint")) f.held = required<std::uint8_t>(p, pd, "constraint", p.points);
     f.triangles = cells(p, "Polys", p.polys, 3);
@@ -226,13 +247,15 @@ Frame readFrame(const RunFolder& run, std::size_t index) {
     if (f.strain.empty()) f.strain.assign(p.polys, 0.0f);
   }
   const std::size_t points = f.x.size() / 3;
-  auto lines = [&](const fs::path& path, std::vector<std::uint32_t>& out, std::vector<std::uint8_t>* flags) {
+  auto lines = [&](const fs::path& path, std::vector<std::uint32_t>& out,
+                   std::vector<std::uint8_t>* flags) {
     const Piece p = openPiece(path);
     if (p.points != points)
-      throw InvalidInput(path.string(), "has " + std::to_string(p.points) + " points, its surface frame " +
-                                            std::to_string(points));
+      throw InvalidInput(path.string(), "has " + std::to_string(p.points) +
+                                            " points, its surface frame " + std::to_string(points));
     out = cells(p, "Lines", p.lines, 2);
-    if (flags && p.lines) *flags = required<std::uint8_t>(p, p.node.child("CellData"), "lip", p.lines);
+    if (flags && p.lines)
+      *flags = required<std::uint8_t>(p, p.node.child("CellData"), "lip", p.lines);
   };
   if (auto b = companion(run, run.borders, index)) {
     lines(*b, f.borders, &f.lips);
@@ -281,8 +304,9 @@ Series readSeries(const fs::path& csv) {
     // A last line cut short by a run that was stopped while writing it is left out.
     if (row.size() != header.size()) {
       if (in.peek() == EOF) break;
-      throw InvalidInput(csv.string() + ":" + std::to_string(lineNo),
-                         std::to_string(row.size()) + " columns, the header has " + std::to_string(header.size()));
+      throw InvalidInput(
+          csv.string() + ":" + std::to_string(lineNo),
+          std::to_string(row.size()) + " columns, the header has " + std::to_string(header.size()));
     }
     for (std::size_t k = 0; k < row.size(); ++k) {
       if (!std::isnan(row[k])) numeric[k] = true;

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "cutsim/core/scene.hpp"
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/scene.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/scene_text.hpp"
 
@@ -43,8 +43,8 @@ struct Snapshot {
 Snapshot snapshot(const SceneRunner& r) {
   const Simulation& s = r.simulation();
   return {std::vector<double>(s.state().x().begin(), s.state().x().end()),
-          std::vector<double>(s.state().v().begin(), s.state().v().end()), s.topology().digest(), r.cutsDone(),
-          r.tornEdges()};
+          std::vector<double>(s.state().v().begin(), s.state().v().end()), s.topology().digest(),
+          r.cutsDone(), r.tornEdges()};
 }
 
 /// Steps a runner of `scene` to `stop`, saves it to `file`, restores it and steps both to the end:
@@ -66,7 +66,8 @@ void resumeAndCompare(const Scene& scene, long stop, const std::filesystem::path
   while (!a.finished()) {
     a.advance();
     b.advance();
-    ASSERT_TRUE(snapshot(a) == snapshot(b)) << "restored at step " << stop << ", differs at step " << a.currentStep();
+    ASSERT_TRUE(snapshot(a) == snapshot(b))
+        << "restored at step " << stop << ", differs at step " << a.currentStep();
   }
   EXPECT_TRUE(b.finished());
   EXPECT_EQ(a.simulation().solveSummary().flaggedSteps, b.simulation().solveSummary().flaggedSteps);
@@ -75,36 +76,45 @@ void resumeAndCompare(const Scene& scene, long stop, const std::filesystem::path
 
 class CheckpointRun : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
 
-
 TEST_P(CheckpointRun, ARestoredRunnerGoesOnBitForBitAsTheOneThatWroteIt) {
   const std::string text = smallScene(GetParam().second, "0.01");
   const Scene scene = parseScene(text, "small.json", test::kSceneDir);
-  const std::filesystem::path file =
-      std::filesystem::path(::testing::TempDir()) / (std::string("cutsim_ck_") + GetParam().first + ".ckpt");
+  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) /
+                                     (std::string("cutsim_ck_") + GetParam().first + ".ckpt");
   std::mt19937 rng(std::hash<std::string>{}(GetParam().first));
   const long steps = scene.numSteps();
   // At steps whose actions changed the mesh after the step (a cut, a removal, a piece of the
   // progressive cut: tables saved before they catch up), and at random ones.
   for (long stop : {5L, 10L, 12L, 16L}) resumeAndCompare(scene, stop, file);
-  for (int trial = 0; trial < 2; ++trial) resumeAndCompare(scene, std::uniform_int_distribution<long>(0, steps - 1)(rng), file);
+  for (int trial = 0; trial < 2; ++trial)
+    resumeAndCompare(scene, std::uniform_int_distribution<long>(0, steps - 1)(rng), file);
   std::filesystem::remove(file);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Integrators, CheckpointRun,
     ::testing::Values(
-        std::pair{"ImplicitCG", "\"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10, "
-                                "\"rayleighMass\": 0.5}"},
-        std::pair{"ImplicitCholmod", "\"integrator\": {\"type\": \"implicit-euler\", \"rayleighMass\": 0.5}, "
-                                     "\"linearSolver\": {\"type\": \"cholmod\"}"},
-        std::pair{"BDF2", "\"integrator\": {\"type\": \"bdf2\"}, \"linearSolver\": {\"type\": \"cg\", "
-                          "\"iterations\": 200, \"tolerance\": 1e-10}"},
-        std::pair{"Newton", "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"cholmod\"}"},
+        std::pair{
+            "ImplicitCG",
+            "\"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10, "
+            "\"rayleighMass\": 0.5}"},
+        std::pair{"ImplicitCholmod",
+                  "\"integrator\": {\"type\": \"implicit-euler\", \"rayleighMass\": 0.5}, "
+                  "\"linearSolver\": {\"type\": \"cholmod\"}"},
+        std::pair{"BDF2",
+                  "\"integrator\": {\"type\": \"bdf2\"}, \"linearSolver\": {\"type\": \"cg\", "
+                  "\"iterations\": 200, \"tolerance\": 1e-10}"},
+        std::pair{
+            "Newton",
+            "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"cholmod\"}"},
         std::pair{"Explicit", "\"integrator\": {\"type\": \"explicit-euler\"}"},
-        std::pair{"Contact", "\"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10}, "
-                             "\"contact\": {\"thickness\": 0.005, \"stiffness\": 0.5, \"friction\": 0.2}"},
-        std::pair{"SofaEuler", "\"integrator\": {\"type\": \"sofa-euler\", \"rayleighMass\": 0.5}, "
-                               "\"linearSolver\": {\"type\": \"sofa-cg\", \"iterations\": 200}"}),
+        std::pair{
+            "Contact",
+            "\"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10}, "
+            "\"contact\": {\"thickness\": 0.005, \"stiffness\": 0.5, \"friction\": 0.2}"},
+        std::pair{"SofaEuler",
+                  "\"integrator\": {\"type\": \"sofa-euler\", \"rayleighMass\": 0.5}, "
+                  "\"linearSolver\": {\"type\": \"sofa-cg\", \"iterations\": 200}"}),
     [](const auto& info) { return std::string(info.param.first); });
 
 TEST(Checkpoint, FEMDihedralAndFractureGoOnBitForBit) {
@@ -129,7 +139,8 @@ TEST(Checkpoint, FEMDihedralAndFractureGoOnBitForBit) {
       {"at": 0, "action": "fracture", "criticalStrain": 0.02, "length": 0.15, "speed": 2}
     ]})";
   const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
-  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_fem.ckpt";
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_fem.ckpt";
   for (long stop : {1L, 37L, 55L}) resumeAndCompare(scene, stop, file);
   SceneRunner probe(scene);
   probe.start();
@@ -163,7 +174,8 @@ TEST(Checkpoint, ContactGoesOnBitForBitThroughACutAndAMovingObstacle) {
     "timeline": [{"at": 0.2, "action": "cut", "polyline": [[-0.2, 0.05, 0.12], [0.2, 0.05, 0.12]]}]
   })";
   const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
-  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_contact.ckpt";
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_contact.ckpt";
   for (long stop : {3L, 50L, 51L, 52L, 90L}) resumeAndCompare(scene, stop, file);
   std::filesystem::remove(file);
 }
@@ -176,8 +188,10 @@ TEST(Checkpoint, TheDrapeDemoGoesOnBitForBitFromTheStepOfItsCut) {
   std::string text = readFile(std::filesystem::path(CUTSIM_DATA_DIR) / "scenes" / "drape_cut.json");
   text = std::regex_replace(text, std::regex("\"at\": 1.2"), "\"at\": 0.1");
   text = std::regex_replace(text, std::regex("\"duration\": 3"), "\"duration\": 0.2");
-  const Scene scene = parseScene(text, "drape_cut.json", std::filesystem::path(CUTSIM_DATA_DIR) / "scenes");
-  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_drape.ckpt";
+  const Scene scene =
+      parseScene(text, "drape_cut.json", std::filesystem::path(CUTSIM_DATA_DIR) / "scenes");
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_drape.ckpt";
   for (long stop : {49L, 50L, 51L}) resumeAndCompare(scene, stop, file);
   std::filesystem::remove(file);
 }
@@ -188,21 +202,26 @@ TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   const Scene plain = parseScene(test::scene(), "inline.json", test::kSceneDir);
   SceneRunner edited(plain);
   EXPECT_TRUE(edited.notCheckpointable().empty());
-  edited.schedule(parseActionEntry(R"({"at": 0.05, "action": "cut", "polyline": [[0, 0.5, 0], [0.5, 0.5, 0]]})", "typed", 0.0));
+  edited.schedule(parseActionEntry(
+      R"({"at": 0.05, "action": "cut", "polyline": [[0, 0.5, 0], [0.5, 0.5, 0]]})", "typed", 0.0));
   ASSERT_EQ(edited.notCheckpointable().size(), 1u);
-  EXPECT_NE(edited.notCheckpointable().front().find("changes made while running"), std::string::npos);
+  EXPECT_NE(edited.notCheckpointable().front().find("changes made while running"),
+            std::string::npos);
   ArchiveWriter w;
   try {
     edited.save(w);
     FAIL() << "an edited run was saved";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("this run cannot be saved: changes made while running"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("this run cannot be saved: changes made while running"),
+              std::string::npos)
         << e.what();
   }
 
   // A checkpoint of one scene does not restore into another.
-  const std::filesystem::path file = std::filesystem::path(::testing::TempDir()) / "cutsim_ck_other.ckpt";
-  const Scene small = parseScene(smallScene("\"solver\": {\"type\": \"implicit-cg\"}"), "small.json", test::kSceneDir);
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_other.ckpt";
+  const Scene small = parseScene(smallScene("\"solver\": {\"type\": \"implicit-cg\"}"),
+                                 "small.json", test::kSceneDir);
   SceneRunner a(small);
   a.start();
   for (int i = 0; i < 12; ++i) a.advance();
@@ -220,17 +239,20 @@ TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
     }
     return "";
   };
-  const Scene bending = parseScene(
-      test::scene("\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 1}]"),
-      "inline.json", test::kSceneDir);
+  const Scene bending =
+      parseScene(test::scene("\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", "
+                             "\"bendingStiffness\": 1}]"),
+                 "inline.json", test::kSceneDir);
   const std::string wrongMesh = refusal(bending);
   EXPECT_NE(wrongMesh.find("cutsim_ck_other.ckpt"), std::string::npos) << wrongMesh;
   EXPECT_FALSE(wrongMesh.empty());
-  const Scene cholmod = parseScene(
-      smallScene("\"integrator\": {\"type\": \"implicit-euler\"}, \"linearSolver\": {\"type\": \"cholmod\"}"),
-      "small.json", test::kSceneDir);
+  const Scene cholmod = parseScene(smallScene("\"integrator\": {\"type\": \"implicit-euler\"}, "
+                                              "\"linearSolver\": {\"type\": \"cholmod\"}"),
+                                   "small.json", test::kSceneDir);
   const std::string wrongSolver = refusal(cholmod);
-  EXPECT_NE(wrongSolver.find("the saved linear solver is cg, the scene's cholmod"), std::string::npos) << wrongSolver;
+  EXPECT_NE(wrongSolver.find("the saved linear solver is cg, the scene's cholmod"),
+            std::string::npos)
+      << wrongSolver;
 
   // A damaged byte anywhere is caught by the section's checksum before anything is built.
   std::string bytes = readFile(file);

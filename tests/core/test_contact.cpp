@@ -3,21 +3,20 @@
 // incline it sticks below the friction limit and slides with g (sin - mu cos) above it; a cloth
 // thrown at v dt = 5 d does not tunnel; a frictionless undamped drop gains no energy; a cut opens
 // exactly as without contact; random cuts and tears under contact leave no intersection.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <cstdlib>
 #include <iostream>
 #include <random>
-#include <unistd.h>
 #include <set>
 #include <sstream>
 #include <string>
-
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
 #include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/scene.hpp"
@@ -29,11 +28,15 @@
 namespace cutsim::core {
 namespace {
 
-Scene sceneOf(const std::string& text) { return parseScene(text, "contact.json", test::kSceneDir); }
+Scene sceneOf(const std::string& text) {
+  return parseScene(text, "contact.json", test::kSceneDir);
+}
 
 /// The penalty law's normal force at distance s (docs/contact.md): -E'(s) for
 /// E(s) = k/3 (d - s)^3 / s, written out here independently of the code.
-double lawForce(double d, double k, double s) { return s >= d ? 0.0 : k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s); }
+double lawForce(double d, double k, double s) {
+  return s >= d ? 0.0 : k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
+}
 
 /// The distance at which the law carries a weight w (bisection).
 double restGap(double d, double k, double w) {
@@ -58,7 +61,9 @@ void obstacleSoup(const Simulation& sim, std::vector<std::array<double, 3>>& pts
     o.surface(o.offsetAt(sim.time()), 10.0, p, t);
     const std::size_t base = pts.size();
     for (const auto& q : p) pts.push_back({q[0], q[1], q[2]});
-    for (const auto& a : t) tris.push_back({base + std::size_t(a[0]), base + std::size_t(a[1]), base + std::size_t(a[2])});
+    for (const auto& a : t)
+      tris.push_back(
+          {base + std::size_t(a[0]), base + std::size_t(a[1]), base + std::size_t(a[2])});
   }
 }
 
@@ -83,7 +88,8 @@ TEST(ContactScenes, ASheetRestingOnAPlaneSettlesAtThePenaltyGap) {
   s << R"({"mesh": {"grid": {"nx": 11, "ny": 11, "size": [0.5, 0.5], "origin": [0, 0, 0.0105]}},
     "mass": {"total": 0.1}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 10}],
-    "contact": {"thickness": )" << d << R"(, "stiffness": )" << k << R"(, "selfContact": false},
+    "contact": {"thickness": )"
+    << d << R"(, "stiffness": )" << k << R"(, "selfContact": false},
     "obstacles": [{"type": "plane", "name": "floor", "point": [0, 0, 0], "normal": [0, 0, 1]}],
     "integrator": {"type": "implicit-euler", "rayleighMass": 8},
     "linearSolver": {"type": "cg", "iterations": 200, "tolerance": 1e-10},
@@ -117,14 +123,16 @@ TEST(ContactScenes, ASheetRestingOnAnotherSettlesAtThePenaltyGapOfItsPointsPairs
   // the points lie within 0.04% of the gap.)
   const double d = 0.01, k = 1.5, g = 9.81, h = 0.05;
   const int nl = 15, nu = 11;
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("cutsim_layers_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cutsim_layers_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   {
     std::ofstream obj(dir / "layers.obj");
     obj.precision(17);
     auto grid = [&](int n, double x0, double y0, double z, int base) {
       for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i) obj << "v " << x0 + i * h << ' ' << y0 + j * h << ' ' << z << '\n';
+        for (int i = 0; i < n; ++i)
+          obj << "v " << x0 + i * h << ' ' << y0 + j * h << ' ' << z << '\n';
       for (int j = 0; j + 1 < n; ++j)
         for (int i = 0; i + 1 < n; ++i) {
           const int a = base + j * n + i + 1, b = a + 1, c = a + n, e = a + n + 1;
@@ -139,7 +147,8 @@ TEST(ContactScenes, ASheetRestingOnAnotherSettlesAtThePenaltyGapOfItsPointsPairs
     "mass": {"total": 0.1}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 10}],
     "constraints": [{"type": "fixed", "box": [[-1, -1, -0.001], [1, 1, 0.001]]}],
-    "contact": {"thickness": )" << d << R"(, "stiffness": )" << k << R"(},
+    "contact": {"thickness": )"
+    << d << R"(, "stiffness": )" << k << R"(},
     "integrator": {"type": "implicit-euler", "rayleighMass": 8},
     "linearSolver": {"type": "cg", "iterations": 400, "tolerance": 1e-10},
     "timeStep": 0.005, "duration": 3})";
@@ -182,14 +191,21 @@ std::vector<double> incline(double tanTheta, double mu, double stick, double dur
   const double gap = restGap(d, k, mass / (n * n) * g * std::cos(th));
   std::ostringstream s;
   s.precision(17);
-  s << R"({"mesh": {"grid": {"nx": 6, "ny": 6, "size": [0.1, 0.1], "origin": [0, 0, )" << gap << R"(]}},
-    "mass": {"total": )" << mass << R"(}, "gravity": [)" << g * std::sin(th) << ", 0, " << -g * std::cos(th) << R"(],
+  s << R"({"mesh": {"grid": {"nx": 6, "ny": 6, "size": [0.1, 0.1], "origin": [0, 0, )" << gap
+    << R"(]}},
+    "mass": {"total": )"
+    << mass << R"(}, "gravity": [)" << g * std::sin(th) << ", 0, " << -g * std::cos(th) << R"(],
     "forceFields": [{"type": "StretchSprings", "stiffness": 5}],
-    "contact": {"thickness": )" << d << R"(, "stiffness": )" << k << R"(, "selfContact": false, "stickVelocity": )" << stick << R"(},
-    "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "friction": )" << mu << R"(}],
-    "integrator": {"type": ")" << integrator << R"("},
+    "contact": {"thickness": )"
+    << d << R"(, "stiffness": )" << k << R"(, "selfContact": false, "stickVelocity": )" << stick
+    << R"(},
+    "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "friction": )"
+    << mu << R"(}],
+    "integrator": {"type": ")"
+    << integrator << R"("},
     "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-10},
-    "timeStep": 0.001, "duration": )" << duration << "}";
+    "timeStep": 0.001, "duration": )"
+    << duration << "}";
   SceneRunner runner(sceneOf(s.str()));
   runner.start();
   // Each point starts at the gap that carries its own weight's normal part (no bouncing).
@@ -253,11 +269,13 @@ TEST(ContactScenes, AClothThrownAtFiveThicknessesPerStepDoesNotTunnel) {
   s << R"({"mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.2, 0.2], "origin": [-0.1, -0.1, 0.03]}},
     "mass": {"total": 0.02}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 200}, {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0005}],
-    "contact": {"thickness": )" << d << R"(, "stiffness": 2},
+    "contact": {"thickness": )"
+    << d << R"(, "stiffness": 2},
     "obstacles": [{"type": "box", "name": "plate", "center": [0, 0, 0], "size": [0.12, 0.12, 0.002]}],
     "integrator": {"type": "implicit-euler", "rayleighMass": 1},
     "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8},
-    "timeStep": )" << dt << R"(, "duration": 0.3})";
+    "timeStep": )"
+    << dt << R"(, "duration": 0.3})";
   SceneRunner runner(sceneOf(s.str()));
   runner.start();
   auto v = runner.simulation().state().v();
@@ -273,13 +291,15 @@ TEST(ContactScenes, AClothThrownAtFiveThicknessesPerStepDoesNotTunnel) {
   const Simulation& sim = runner.simulation();
   for (topology::PointId p : sim.topology().points()) {
     const double X = sim.state().x()[3 * p], Y = sim.state().x()[3 * p + 1];
-    if (std::abs(X) < 0.05 && std::abs(Y) < 0.05) EXPECT_GT(sim.state().x()[3 * p + 2], 0.001) << "point " << p;
+    if (std::abs(X) < 0.05 && std::abs(Y) < 0.05)
+      EXPECT_GT(sim.state().x()[3 * p + 2], 0.001) << "point " << p;
   }
 }
 
 TEST(ContactScenes, AFrictionlessUndampedDropGainsNoEnergy) {
   const double g = 9.81;
-  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.3, 0.3], "origin": [0, 0, 0.05]}},
+  const Scene scene =
+      sceneOf(R"({"mesh": {"grid": {"nx": 9, "ny": 9, "size": [0.3, 0.3], "origin": [0, 0, 0.05]}},
     "mass": {"total": 0.05}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 100}],
     "contact": {"thickness": 0.01, "stiffness": 5},
@@ -329,8 +349,9 @@ std::vector<double> hangingCut(bool contact) {
     const StepStats st = runner.advance();
     EXPECT_EQ(st.clamped, 0);
     if (contact) {
-      const auto m = findContact(runner.simulation())->measure(runner.simulation().state().x(),
-                                                                      runner.simulation().state().v());
+      const auto m =
+          findContact(runner.simulation())
+              ->measure(runner.simulation().state().x(), runner.simulation().state().v());
       EXPECT_EQ(m.active, 0u) << "t = " << runner.time();
       excludedSeen += long(m.excluded);
     }
@@ -349,7 +370,8 @@ TEST(ContactScenes, ACutOpensExactlyAsWithoutContact) {
 }
 
 TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
-  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 15, "ny": 15, "size": [0.6, 0.6], "origin": [-0.3, -0.3, 0.25]}},
+  const Scene scene = sceneOf(
+      R"({"mesh": {"grid": {"nx": 15, "ny": 15, "size": [0.6, 0.6], "origin": [-0.3, -0.3, 0.25]}},
     "mass": {"total": 0.05}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 300, "damping": 0.05},
                     {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
@@ -389,15 +411,16 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
     o.precision(6);
     if (t >= sim.topology().triangleCapacity()) {
       o << "obstacle triangle " << t - sim.topology().triangleCapacity() << " (";
-      for (auto c : tris[t - sim.topology().triangleCapacity()]) o << " [" << pts[c][0] << " " << pts[c][1] << " " << pts[c][2] << "]";
+      for (auto c : tris[t - sim.topology().triangleCapacity()])
+        o << " [" << pts[c][0] << " " << pts[c][1] << " " << pts[c][2] << "]";
       o << ")";
       return o.str();
     }
     o << "triangle " << t << " (";
     for (auto q : sim.topology().triangleVertices(topology::TriangleId(topology::Index(t)))) {
       const auto r = sim.topology().restPosition(q);
-      o << " point " << q << " rest [" << r[0] << " " << r[1] << "] at [" << sim.state().x()[3 * q] << " "
-        << sim.state().x()[3 * q + 1] << " " << sim.state().x()[3 * q + 2] << "]";
+      o << " point " << q << " rest [" << r[0] << " " << r[1] << "] at [" << sim.state().x()[3 * q]
+        << " " << sim.state().x()[3 * q + 1] << " " << sim.state().x()[3 * q + 2] << "]";
     }
     o << ")";
     return o.str();
@@ -414,10 +437,12 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
       std::array<K::Point_3, 3> c;
       bool below = false;
       for (int k = 0; k < 3; ++k) {
-        c[std::size_t(k)] = K::Point_3(x[3 * v[std::size_t(k)]], x[3 * v[std::size_t(k)] + 1], x[3 * v[std::size_t(k)] + 2]);
+        c[std::size_t(k)] = K::Point_3(x[3 * v[std::size_t(k)]], x[3 * v[std::size_t(k)] + 1],
+                                       x[3 * v[std::size_t(k)] + 2]);
         below = below || x[3 * v[std::size_t(k)] + 2] < 0;
       }
-      if (below || CGAL::to_double(CGAL::squared_distance(K::Point_3(0, 0, 0.1), K::Triangle_3(c[0], c[1], c[2]))) < 0.01)
+      if (below || CGAL::to_double(CGAL::squared_distance(K::Point_3(0, 0, 0.1),
+                                                          K::Triangle_3(c[0], c[1], c[2]))) < 0.01)
         tainted.insert(std::size_t(t));
     }
     for (const auto& p : before) {
@@ -430,8 +455,9 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
     const auto after = pairsNow();
     for (const auto& p : after) {
       if (tainted.count(p.first) || tainted.count(p.second)) continue;
-      ASSERT_TRUE(before.count(p)) << "t = " << runner.time() << ": the step made triangles " << p.first << " and "
-                                   << p.second << " intersect: " << corners(p.first) << "; " << corners(p.second);
+      ASSERT_TRUE(before.count(p))
+          << "t = " << runner.time() << ": the step made triangles " << p.first << " and "
+          << p.second << " intersect: " << corners(p.first) << "; " << corners(p.second);
     }
     before = after;
     if (runner.currentStep() % 30 == 0) {
@@ -440,7 +466,8 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
           topology::CutOptions o;
           o.repair = repair;
           const double y = u(rng) - 0.3;
-          sim.topology().cutPolyline(std::vector<topology::Vec3>{{-0.3, y, 0.25}, {u(rng) - 0.3, u(rng) - 0.3, 0.25}}, o);
+          sim.topology().cutPolyline(
+              std::vector<topology::Vec3>{{-0.3, y, 0.25}, {u(rng) - 0.3, u(rng) - 0.3, 0.25}}, o);
         } else {
           const auto edges = sim.topology().edges();
           for (int k = 0; k < 50; ++k) {
@@ -464,8 +491,10 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
   }
   // Reported, not asserted: the repair's flips and collapses work in rest coordinates and may
   // fold a curved part of the surface onto a layer it lies on (docs/contact.md).
-  std::cout << "[ info ] intersecting pairs right after the " << ops << " operations: " << madeByOperations
-            << "; triangles they left intersecting or inside an obstacle: " << tainted.size() << "\n";
+  std::cout << "[ info ] intersecting pairs right after the " << ops
+            << " operations: " << madeByOperations
+            << "; triangles they left intersecting or inside an obstacle: " << tainted.size()
+            << "\n";
   EXPECT_GE(ops, 6);
   const auto report = sim.topology().validate();
   EXPECT_TRUE(report.ok()) << report.summary();
@@ -488,14 +517,16 @@ TEST(ContactScenes, BadContactInputIsReportedWhereItIs) {
       {R"("contact": {"thickness": 0, "stiffness": 1})", "/contact/thickness", "> 0"},
       {R"("contact": {"thickness": -0.01, "stiffness": 1})", "/contact/thickness", "> 0"},
       {R"("contact": {"thickness": 0.01})", "/contact", "stiffness"},
-      {R"("contact": {"thickness": 0.01, "stiffness": 1, "friction": -0.1})", "/contact/friction", ">= 0"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1, "friction": -0.1})", "/contact/friction",
+       ">= 0"},
       {R"("contact": {"thickness": 0.01, "stiffness": 1, "displacementFraction": 0.7})",
        "/contact/displacementFraction", "(0, 0.5)"},
-      {R"("contact": {"thickness": 0.01, "stiffness": 1, "thickness2": 1})", "/contact/thickness2", "unknown key"},
-      {R"("obstacles": [{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1]}])", "/obstacles",
-       "need a \"contact\" section"},
-      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "cone"}])", "/obstacles/0/type",
-       "unknown obstacle type"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1, "thickness2": 1})", "/contact/thickness2",
+       "unknown key"},
+      {R"("obstacles": [{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 1]}])",
+       "/obstacles", "need a \"contact\" section"},
+      {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "cone"}])",
+       "/obstacles/0/type", "unknown obstacle type"},
       {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "sphere", "center": [0, 0, -1], "radius": -2}])",
        "/obstacles/0/radius", ""},
       {R"("contact": {"thickness": 0.01, "stiffness": 1}, "obstacles": [{"type": "plane", "point": [0, 0, -1], "normal": [0, 0, 0]}])",
@@ -530,7 +561,8 @@ TEST(ContactScenes, APlateFasterThanThePenaltyPushesTheClothAlong) {
   // A plate rising 1 cm a step (twice the contact thickness) through a cloth held at its
   // corners: the penalty alone cannot stop it within a step; the bound moves the cloth's points
   // with the plate. The oracle checks every step; the cloth ends lifted.
-  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 11, "ny": 11, "size": [0.2, 0.2], "origin": [-0.1, -0.1, 0]}},
+  const Scene scene = sceneOf(
+      R"({"mesh": {"grid": {"nx": 11, "ny": 11, "size": [0.2, 0.2], "origin": [-0.1, -0.1, 0]}},
     "mass": {"total": 0.02}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 100}, {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
     "constraints": [{"type": "fixed", "near": [[-0.1, -0.1, 0], [0.1, -0.1, 0], [-0.1, 0.1, 0], [0.1, 0.1, 0]]}],
@@ -550,19 +582,22 @@ TEST(ContactScenes, APlateFasterThanThePenaltyPushesTheClothAlong) {
   // The plate's top ends at 0.05 - 0.02 + 0.002 = 0.032: the cloth's middle rests above it.
   const auto x = runner.simulation().state().x();
   double top = -1;
-  for (topology::PointId p : runner.simulation().topology().points()) top = std::max(top, x[3 * p + 2]);
+  for (topology::PointId p : runner.simulation().topology().points())
+    top = std::max(top, x[3 * p + 2]);
   EXPECT_GT(top, 0.032);
 }
 
 TEST(ContactScenes, AClothOnAMovingMeshObstacleStaysClearOfIt) {
   // The unit icosphere of data/meshes as a triangle-mesh obstacle, scaled to 0.15 m, rising
   // through the height of a falling sheet; the oracle checks the cloth against its triangles.
-  const Scene scene = sceneOf(R"({"mesh": {"grid": {"nx": 13, "ny": 13, "size": [0.5, 0.5], "origin": [-0.25, -0.25, 0.2]}},
+  const Scene scene = sceneOf(
+      R"({"mesh": {"grid": {"nx": 13, "ny": 13, "size": [0.5, 0.5], "origin": [-0.25, -0.25, 0.2]}},
     "mass": {"total": 0.03}, "gravity": [0, 0, -9.81],
     "forceFields": [{"type": "StretchSprings", "stiffness": 100, "damping": 0.05},
                     {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
     "contact": {"thickness": 0.005, "stiffness": 1, "friction": 0.2},
-    "obstacles": [{"type": "mesh", "name": "ball", "file": ")" + std::string(CUTSIM_DATA_DIR) + R"(/meshes/icosphere_1.off",
+    "obstacles": [{"type": "mesh", "name": "ball", "file": ")" +
+      std::string(CUTSIM_DATA_DIR) + R"(/meshes/icosphere_1.off",
                    "scale": 0.15, "friction": 0.3, "path": [[0, 0, 0, 0], [0.4, 0, 0, 0.1]]}],
     "integrator": {"type": "implicit-euler", "rayleighMass": 0.5},
     "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-6},
@@ -596,8 +631,10 @@ TEST_P(ContactEveryIntegrator, KeepsADroppedClothClearOfAPlate) {
     "forceFields": [{"type": "StretchSprings", "stiffness": 50}, {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0002}],
     "contact": {"thickness": 0.004, "stiffness": 0.5, "friction": 0.3},
     "obstacles": [{"type": "box", "name": "plate", "center": [0, 0, 0], "size": [0.12, 0.12, 0.002], "friction": 0.4}],
-    )" << GetParam() << R"(,
-    "timeStep": )" << (explicitStep ? 2e-4 : 0.002) << R"(, "duration": 0.25})";
+    )"
+    << GetParam() << R"(,
+    "timeStep": )"
+    << (explicitStep ? 2e-4 : 0.002) << R"(, "duration": 0.25})";
   SceneRunner runner(sceneOf(s.str()));
   runner.start();
   double carried = 0;
@@ -612,15 +649,18 @@ TEST_P(ContactEveryIntegrator, KeepsADroppedClothClearOfAPlate) {
 
 INSTANTIATE_TEST_SUITE_P(
     Contact, ContactEveryIntegrator,
-    ::testing::Values(R"("integrator": {"type": "implicit-euler", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8})",
-                      R"("integrator": {"type": "implicit-euler", "rayleighMass": 1}, "linearSolver": {"type": "cholmod"})",
-                      R"("integrator": {"type": "bdf2", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8})",
-                      R"("integrator": {"type": "newton", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-10})",
-                      R"("integrator": {"type": "explicit-euler"})"),
+    ::testing::Values(
+        R"("integrator": {"type": "implicit-euler", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8})",
+        R"("integrator": {"type": "implicit-euler", "rayleighMass": 1}, "linearSolver": {"type": "cholmod"})",
+        R"("integrator": {"type": "bdf2", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-8})",
+        R"("integrator": {"type": "newton", "rayleighMass": 1}, "linearSolver": {"type": "cg", "iterations": 300, "tolerance": 1e-10})",
+        R"("integrator": {"type": "explicit-euler"})"),
     [](const ::testing::TestParamInfo<std::string>& info) {
       const std::string& p = info.param;
-      std::string name = p.find("explicit") != std::string::npos ? "explicit" : p.find("bdf2") != std::string::npos ? "bdf2"
-                         : p.find("newton") != std::string::npos ? "newton" : "implicit";
+      std::string name = p.find("explicit") != std::string::npos ? "explicit"
+                         : p.find("bdf2") != std::string::npos   ? "bdf2"
+                         : p.find("newton") != std::string::npos ? "newton"
+                                                                 : "implicit";
       if (p.find("cholmod") != std::string::npos) name += "_cholmod";
       return name;
     });
@@ -637,7 +677,8 @@ namespace {
 class ContactDemoScene : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ContactDemoScene, StaysFreeOfIntersectionsOnACoarserGrid) {
-  std::ifstream in(std::filesystem::path(CUTSIM_DATA_DIR) / "scenes" / GetParam(), std::ios::binary);
+  std::ifstream in(std::filesystem::path(CUTSIM_DATA_DIR) / "scenes" / GetParam(),
+                   std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
   std::string s = text.str();
@@ -648,8 +689,9 @@ TEST_P(ContactDemoScene, StaysFreeOfIntersectionsOnACoarserGrid) {
       coarsened = true;
     }
   ASSERT_TRUE(coarsened);
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{"\"duration\": 3,", "\"duration\": 1.6,"},
-                                 {"\"duration\": 1.5,", "\"duration\": 0.8,"}})
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"\"duration\": 3,", "\"duration\": 1.6,"},
+        {"\"duration\": 1.5,", "\"duration\": 0.8,"}})
     if (s.find(from) != std::string::npos) s.replace(s.find(from), from.size(), to);
   SceneRunner runner(parseScene(s, GetParam(), std::filesystem::path(CUTSIM_DATA_DIR) / "scenes"));
   runner.start();
@@ -661,7 +703,9 @@ TEST_P(ContactDemoScene, StaysFreeOfIntersectionsOnACoarserGrid) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Contact, ContactDemoScene, ::testing::Values("drape_cut.json", "fold_ground.json", "surgery_flap.json"),
+INSTANTIATE_TEST_SUITE_P(Contact, ContactDemoScene,
+                         ::testing::Values("drape_cut.json", "fold_ground.json",
+                                           "surgery_flap.json"),
                          [](const ::testing::TestParamInfo<std::string>& info) {
                            return info.param.substr(0, info.param.find('.'));
                          });

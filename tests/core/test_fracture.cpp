@@ -13,16 +13,16 @@
 #include <vector>
 
 #include "cutsim/core/scene.hpp"
-#include "support/scene_text.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/scene_text.hpp"
 
 namespace cutsim::core {
 namespace {
 
 struct CrackRun {
-  double start = -1;                ///< time of the crack's first advance
-  std::map<int, double> tornAt;     ///< torn length (m below the notch tip) at t = key / 100 s
-  double worstAngle = 0;            ///< degrees: largest angle of the crack path from the notch axis
+  double start = -1;             ///< time of the crack's first advance
+  std::map<int, double> tornAt;  ///< torn length (m below the notch tip) at t = key / 100 s
+  double worstAngle = 0;         ///< degrees: largest angle of the crack path from the notch axis
   double cell = 0;
   /// The path at the end: the crack's mean x in bands 5 cm deep below the notch tip (by band).
   std::map<int, double> pathX;
@@ -36,7 +36,9 @@ const std::string kExplicit = R"("integrator": {"type": "explicit-euler"})";
 /// rest position with another point (the two lips).
 std::vector<topology::Vec3> crackPoints(const topology::Topology& t) {
   std::map<std::pair<long, long>, int> count;
-  auto keyOf = [](const topology::Vec3& p) { return std::pair{std::lround(p[0] * 1e9), std::lround(p[1] * 1e9)}; };
+  auto keyOf = [](const topology::Vec3& p) {
+    return std::pair{std::lround(p[0] * 1e9), std::lround(p[1] * 1e9)};
+  };
   for (topology::PointId p : t.points()) ++count[keyOf(t.restPosition(p))];
   std::vector<topology::Vec3> out;
   for (topology::PointId p : t.points()) {
@@ -56,8 +58,10 @@ CrackRun notchedSheet(int n, double dt, const std::string& diagonals, double unt
   "mass": {"total": 0.2}, "gravity": [0, 0, 0],
   "forceFields": [{"type": "StretchSprings", "stiffness": 1000, "damping": 0.2},
                   {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.002}],
-  )" << integrator << R"(,
-  "timeStep": )" << dt << R"(, "duration": )" << until << R"(,
+  )" << integrator
+    << R"(,
+  "timeStep": )"
+    << dt << R"(, "duration": )" << until << R"(,
   "output": {"every": 1000000},
   "timeline": [
     {"at": 0, "action": "cut", "polyline": [[0.48, 1, 0], [0.48, 0.8, 0]]},
@@ -73,7 +77,8 @@ CrackRun notchedSheet(int n, double dt, const std::string& diagonals, double unt
   run.cell = 1.0 / (n - 1);
   const topology::Topology& t = runner.simulation().topology();
   const long cuts0 = runner.cutsDone();  // the notch
-  if (std::getenv("CUTSIM_TEST_TRACE")) std::cerr << "steps " << scene.numSteps() << "\n" << s.str() << "\n";
+  if (std::getenv("CUTSIM_TEST_TRACE"))
+    std::cerr << "steps " << scene.numSteps() << "\n" << s.str() << "\n";
   while (!runner.finished()) {
     runner.advance();
     if (run.start < 0 && runner.cutsDone() > cuts0) run.start = runner.time();
@@ -83,7 +88,8 @@ CrackRun notchedSheet(int n, double dt, const std::string& diagonals, double unt
     for (const topology::Vec3& x : crackPoints(t)) {
       deepest = std::min(deepest, x[1]);
       if (0.8 - x[1] > 2 * run.cell)
-        run.worstAngle = std::max(run.worstAngle, std::atan2(std::abs(x[0] - 0.48), 0.8 - x[1]) * 180 / std::numbers::pi);
+        run.worstAngle = std::max(
+            run.worstAngle, std::atan2(std::abs(x[0] - 0.48), 0.8 - x[1]) * 180 / std::numbers::pi);
     }
     run.tornAt[key] = 0.8 - deepest;
   }
@@ -108,20 +114,22 @@ TEST(Fracture, NotchedSheetTearsFromTheTipIndependentlyOfMeshAndTimeStep) {
   // triangles arrive).
   const CrackRun expl = notchedSheet(26, 2.5e-5, "alternating", until, kExplicit);
   std::cout << "crack starts at t = " << base.start << " (dt / 4: " << fineDt.start << ", one-way "
-            << "diagonals: " << oneway.start << ", mesh h / 2: " << fine.start << ", explicit at dt / 200: "
-            << expl.start << "); path within " << base.worstAngle << ", " << fineDt.worstAngle << ", "
-            << oneway.worstAngle << ", " << fine.worstAngle << ", " << expl.worstAngle << " deg of the notch axis\n";
+            << "diagonals: " << oneway.start << ", mesh h / 2: " << fine.start
+            << ", explicit at dt / 200: " << expl.start << "); path within " << base.worstAngle
+            << ", " << fineDt.worstAngle << ", " << oneway.worstAngle << ", " << fine.worstAngle
+            << ", " << expl.worstAngle << " deg of the notch axis\n";
   for (int key : {45, 50, 55, 60})
     std::cout << "  torn length at t = " << key / 100.0 << ": " << base.tornAt.at(key) << ", "
-              << fineDt.tornAt.at(key) << ", " << oneway.tornAt.at(key) << ", " << fine.tornAt.at(key) << ", "
-              << expl.tornAt.at(key) << "\n";
+              << fineDt.tornAt.at(key) << ", " << oneway.tornAt.at(key) << ", "
+              << fine.tornAt.at(key) << ", " << expl.tornAt.at(key) << "\n";
   for (const CrackRun* r : {&base, &fineDt, &oneway, &fine, &expl}) {
     ASSERT_GT(r->start, 0.0);
     EXPECT_LT(r->worstAngle, 10.0);
   }
   // Initiation load (the grasps' displacement grows linearly in time): within 10% at two
   // resolutions a factor 2 apart, two patterns, two time steps, explicit and implicit.
-  for (const CrackRun* r : {&fineDt, &oneway, &fine, &expl}) EXPECT_NEAR(r->start, base.start, 0.1 * base.start);
+  for (const CrackRun* r : {&fineDt, &oneway, &fine, &expl})
+    EXPECT_NEAR(r->start, base.start, 0.1 * base.start);
   // Torn length over time: within one cell between time steps, mesh patterns and integrators.
   for (int key : {45, 50, 55, 60}) {
     EXPECT_NEAR(fineDt.tornAt.at(key), base.tornAt.at(key), base.cell) << "t = " << key / 100.0;
@@ -133,7 +141,8 @@ TEST(Fracture, NotchedSheetTearsFromTheTipIndependentlyOfMeshAndTimeStep) {
     int compared = 0;
     for (const auto& [band, x] : r->pathX)
       if (auto it = base.pathX.find(band); it != base.pathX.end()) {
-        EXPECT_NEAR(x, it->second, base.cell) << "the crack's x 5 cm band " << band << " below the notch tip";
+        EXPECT_NEAR(x, it->second, base.cell)
+            << "the crack's x 5 cm band " << band << " below the notch tip";
         ++compared;
       }
     EXPECT_GE(compared, 3);

@@ -32,9 +32,9 @@ using core::NewtonImplicitEuler;
 using core::NewtonSettings;
 using core::Simulation;
 using core::StepStats;
+using ::testing::HasSubstr;
 using topology::Topology;
 using topology::Vec3;
-using ::testing::HasSubstr;
 
 struct Config {
   std::string name;         ///< "integrator_solver", for the test's name
@@ -157,7 +157,8 @@ std::unique_ptr<Simulation> swingingSheet(std::unique_ptr<Integrator> integrator
   sim->addForceField(std::make_unique<forcefields::StretchSprings>(sim->topology(), sp));
   forcefields::BendingParameters bp;
   bp.bendingStiffness = 0.05;
-  sim->addForceField(std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
+  sim->addForceField(
+      std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
   for (topology::PointId p = 0; p < 5; ++p) sim->fixed().add(p);
   sim->setGravity({0, 0, -9.81});
   sim->setIntegrator(std::move(integrator));
@@ -185,13 +186,17 @@ TEST(IntegratorOrder, ImplicitEulerIsFirstOrderAndBDF2SecondOrder) {
       runTo(std::make_unique<BDF2>(ImplicitSettings{}, cholmod()), T, 3200);
   std::vector<double> eulerErr, bdfErr;
   for (int steps : {25, 50, 100}) {
-    eulerErr.push_back(distance(runTo(std::make_unique<ImplicitEuler>(ImplicitSettings{}, cholmod()), T, steps), reference));
-    bdfErr.push_back(distance(runTo(std::make_unique<BDF2>(ImplicitSettings{}, cholmod()), T, steps), reference));
+    eulerErr.push_back(
+        distance(runTo(std::make_unique<ImplicitEuler>(ImplicitSettings{}, cholmod()), T, steps),
+                 reference));
+    bdfErr.push_back(distance(
+        runTo(std::make_unique<BDF2>(ImplicitSettings{}, cholmod()), T, steps), reference));
   }
   for (std::size_t i = 0; i + 1 < eulerErr.size(); ++i) {
     const double eulerOrder = std::log2(eulerErr[i] / eulerErr[i + 1]);
     const double bdfOrder = std::log2(bdfErr[i] / bdfErr[i + 1]);
-    EXPECT_NEAR(eulerOrder, 1.0, 0.25) << "implicit Euler errors " << eulerErr[i] << ", " << eulerErr[i + 1];
+    EXPECT_NEAR(eulerOrder, 1.0, 0.25)
+        << "implicit Euler errors " << eulerErr[i] << ", " << eulerErr[i + 1];
     EXPECT_NEAR(bdfOrder, 2.0, 0.3) << "BDF2 errors " << bdfErr[i] << ", " << bdfErr[i + 1];
     EXPECT_LT(bdfErr[i], eulerErr[i]);
   }
@@ -204,7 +209,8 @@ TEST(Newton, OnALinearFieldItIsTheLinearisedStepInOneIteration) {
     auto sim = std::make_unique<Simulation>(std::make_unique<Topology>(grid(5, 1.0, 0.2)), 1.0);
     forcefields::BendingParameters bp;
     bp.bendingStiffness = 3.0;
-    sim->addForceField(std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
+    sim->addForceField(
+        std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
     sim->fixed().add(0);
     sim->fixed().add(1);
     sim->setGravity({0, 0, -9.81});
@@ -213,7 +219,8 @@ TEST(Newton, OnALinearFieldItIsTheLinearisedStepInOneIteration) {
   };
   auto newtonSim = make(std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{},
                                                               std::make_unique<CholmodSolver>()));
-  auto eulerSim = make(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
+  auto eulerSim =
+      make(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
   for (int i = 0; i < 10; ++i) {
     const StepStats s = newtonSim->step(0.02);
     eulerSim->step(0.02);
@@ -227,8 +234,8 @@ TEST(Newton, OnALinearFieldItIsTheLinearisedStepInOneIteration) {
 
 // On a nonlinear field Newton iterates until the implicit Euler equations hold.
 TEST(Newton, SolvesTheImplicitEulerEquationsOfANonlinearField) {
-  auto integrator = std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{30, 1e-10, true, true},
-                                                           std::make_unique<CholmodSolver>());
+  auto integrator = std::make_unique<NewtonImplicitEuler>(
+      ImplicitSettings{}, NewtonSettings{30, 1e-10, true, true}, std::make_unique<CholmodSolver>());
   auto* newton = integrator.get();
   auto sim = swingingSheet(std::move(integrator));
   const double h = 0.05;
@@ -262,8 +269,8 @@ std::unique_ptr<Simulation> stiffCappedCG(core::SolveFailurePolicy policy, doubl
   ImplicitSettings s;
   s.onSolveFailure = policy;
   s.fallbackAbove = fallbackAbove;
-  auto sim = swingingSheet(
-      std::make_unique<ImplicitEuler>(s, std::make_unique<ConjugateGradient>(CGSettings{2, 1e-10, false})));
+  auto sim = swingingSheet(std::make_unique<ImplicitEuler>(
+      s, std::make_unique<ConjugateGradient>(CGSettings{2, 1e-10, false})));
   return sim;
 }
 
@@ -290,7 +297,8 @@ TEST(SolveFailurePolicy, FallbackResolvesWithTheDirectSolverAboveItsThreshold) {
   EXPECT_GT(s.worstResidual, 1e-9);
   EXPECT_EQ(s.flagText(), "missed-tolerance+fallback");
   // The same step as CHOLMOD's.
-  auto direct = swingingSheet(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
+  auto direct = swingingSheet(
+      std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
   direct->step(0.05);
   auto a = sim->state().x();
   auto b = direct->state().x();
@@ -309,14 +317,15 @@ TEST(SolveFailurePolicy, FallbackKeepsACappedSolveThatGotClose) {
 TEST(SolveFailurePolicy, TheFallbackSolverIsTheOneNamed) {
   ImplicitSettings s;
   s.fallbackSolver = "cg";
-  auto sim = swingingSheet(
-      std::make_unique<ImplicitEuler>(s, std::make_unique<ConjugateGradient>(CGSettings{2, 1e-10, false})));
+  auto sim = swingingSheet(std::make_unique<ImplicitEuler>(
+      s, std::make_unique<ConjugateGradient>(CGSettings{2, 1e-10, false})));
   const StepStats st = sim->step(0.05);
   EXPECT_TRUE(st.flags & StepStats::FellBack);
   EXPECT_EQ(st.solves, 2);
   EXPECT_GT(st.iterations, 2 + 1);  // the capped solve's 2, then CG's, not CHOLMOD's one
   EXPECT_LT(st.residual, 1e-8);
-  auto direct = swingingSheet(std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
+  auto direct = swingingSheet(
+      std::make_unique<ImplicitEuler>(ImplicitSettings{}, std::make_unique<CholmodSolver>()));
   direct->step(0.05);
   auto a = sim->state().x();
   auto b = direct->state().x();
@@ -332,7 +341,8 @@ TEST(SolveFailurePolicy, FailNamesTheStepAndTheResidual) {
     FAIL() << "the capped solve did not fail";
   } catch (const SolverError& e) {
     EXPECT_THAT(e.what(), HasSubstr("step 1 (t = 0)"));
-    EXPECT_THAT(e.what(), HasSubstr("the linear solve (cg) missed its tolerance: relative residual"));
+    EXPECT_THAT(e.what(),
+                HasSubstr("the linear solve (cg) missed its tolerance: relative residual"));
     EXPECT_THAT(e.what(), HasSubstr("after 2 iterations"));
   }
   // The state is left as before the step.
@@ -352,7 +362,8 @@ TEST(BDF2, RestartsAfterATopologyChangeOrAnEditOfTheState) {
   EXPECT_EQ(bdf->restarts(), 2);
   sim->step(0.02);  // a new time step
   EXPECT_EQ(bdf->restarts(), 3);
-  sim->topology().removeTriangles(std::vector<topology::TriangleId>{sim->topology().triangles().back()});
+  sim->topology().removeTriangles(
+      std::vector<topology::TriangleId>{sim->topology().triangles().back()});
   sim->step(0.02);
   EXPECT_EQ(bdf->restarts(), 4);
   sim->step(0.02);
@@ -390,8 +401,9 @@ std::unique_ptr<Simulation> foldedSheet(double angle, std::unique_ptr<Integrator
 
 /// Residuals of Newton's first step on the fold, relative to the first.
 std::vector<double> newtonResiduals(bool exact) {
-  auto integrator = std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{40, 1e-13, exact, true},
-                                                           std::make_unique<CholmodSolver>());
+  auto integrator = std::make_unique<NewtonImplicitEuler>(ImplicitSettings{},
+                                                          NewtonSettings{40, 1e-13, exact, true},
+                                                          std::make_unique<CholmodSolver>());
   auto* newton = integrator.get();
   auto sim = foldedSheet(1.2, std::move(integrator));
   sim->step(0.02);
@@ -417,11 +429,13 @@ TEST(Newton, ConvergesQuadraticallyWithTheExactStiffnessOnADihedralFold) {
   // Quadratic: some iteration takes an error below 1e-2 to below its square times 10.
   bool quadratic = false;
   for (std::size_t k = 0; k + 1 < exact.size(); ++k)
-    if (exact[k] < 1e-2 && exact[k + 1] <= 10 * exact[k] * exact[k] && exact[k + 1] > 0) quadratic = true;
+    if (exact[k] < 1e-2 && exact[k + 1] <= 10 * exact[k] * exact[k] && exact[k + 1] > 0)
+      quadratic = true;
   EXPECT_TRUE(quadratic);
   // The fields are given back their own stiffness after the step.
-  auto sim = foldedSheet(1.2, std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{},
-                                                                     std::make_unique<CholmodSolver>()));
+  auto sim =
+      foldedSheet(1.2, std::make_unique<NewtonImplicitEuler>(ImplicitSettings{}, NewtonSettings{},
+                                                             std::make_unique<CholmodSolver>()));
   sim->step(0.05);
   EXPECT_FALSE(sim->forceField(0).stiffnessIsExact());
   EXPECT_FALSE(sim->forceField(1).stiffnessIsExact());

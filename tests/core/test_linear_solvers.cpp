@@ -82,7 +82,8 @@ VectorXd bruteForce(const SystemOperator& A, const VectorXd& b, const VectorXd& 
   const VectorXd bc = b - M * prescribed;
   for (Eigen::Index i = 0; i < F; ++i) {
     rhs[i] = bc[freeDofs[std::size_t(i)]];
-    for (Eigen::Index j = 0; j < F; ++j) Mff(i, j) = M(freeDofs[std::size_t(i)], freeDofs[std::size_t(j)]);
+    for (Eigen::Index j = 0; j < F; ++j)
+      Mff(i, j) = M(freeDofs[std::size_t(i)], freeDofs[std::size_t(j)]);
   }
   const VectorXd xf = Mff.ldlt().solve(rhs);
   VectorXd out = prescribed;

@@ -5,8 +5,8 @@
 #include <ostream>
 #include <string>
 
-#include "cutsim/core/mesh_info.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/mesh_info.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 
 namespace cutsim::core {

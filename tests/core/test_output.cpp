@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
-#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -204,7 +204,9 @@ TEST(Output, SurfaceMarksFixedAndGraspedPoints) {
   ASSERT_EQ(sim.numGrasps(), 1u);
   std::size_t fixed = 0, grasped = 0;
   for (std::size_t k = 0; k < live.size(); ++k) {
-    const int expected = sim.fixed().contains(live[k]) ? 1 : sim.grasp(0).points().contains(live[k]) ? 2 : 0;
+    const int expected = sim.fixed().contains(live[k])             ? 1
+                         : sim.grasp(0).points().contains(live[k]) ? 2
+                                                                   : 0;
     EXPECT_EQ(std::stoi(held[k]), expected);
     fixed += expected == 1;
     grasped += expected == 2;
@@ -267,7 +269,8 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
     EXPECT_TRUE(std::filesystem::exists(dir / ("surface_" + std::string(name) + ".vtp")));
     EXPECT_TRUE(std::filesystem::exists(dir / ("springs_" + std::string(name) + ".vtp")));
     // Every other field that draws has its own series.
-    EXPECT_TRUE(std::filesystem::exists(dir / ("network_StretchSprings_" + std::string(name) + ".vtp")));
+    EXPECT_TRUE(
+        std::filesystem::exists(dir / ("network_StretchSprings_" + std::string(name) + ".vtp")));
     EXPECT_TRUE(std::filesystem::exists(dir / ("frame_" + std::string(name) + ".obj")));
   }
   // No temporary file is left behind (nor the folder's lock).
@@ -309,13 +312,15 @@ TEST(Output, WriterProducesFramesCollectionsAndCsv) {
 
 TEST(Output, AnEarlierRunsFilesGoAndAUsersStay) {
   const std::filesystem::path dir = freshDir("reuse");
-  for (const char* name : {"surface_000099.vtp", "springs_000099.vtp", "network_X_000003.vtp", "obstacles_000001.vtp",
-                           "frame_000004.obj", "steps.csv", "surface.pvd", "springs.partial.pvd",
-                           ".surface_000100.vtp.tmp", ".steps.csv.tmp", "notes.txt", "final.obj", "surface.vtp"})
+  for (const char* name :
+       {"surface_000099.vtp", "springs_000099.vtp", "network_X_000003.vtp", "obstacles_000001.vtp",
+        "frame_000004.obj", "steps.csv", "surface.pvd", "springs.partial.pvd",
+        ".surface_000100.vtp.tmp", ".steps.csv.tmp", "notes.txt", "final.obj", "surface.vtp"})
     std::ofstream(dir / name) << "old\n";
   SmallRun run(0);
   {
-    OutputWriter writer(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+    OutputWriter writer(dir, run.scene.output, run.scene.forceFieldLabels(),
+                        run.scene.graspNames());
     EXPECT_EQ(writer.replacedFiles(), 10u);
     writer.record(run.runner->simulation(), {0, 0.0, {}}, true);
     writer.finish();
@@ -334,7 +339,8 @@ TEST(Output, OneRunAtATimeInAFolder) {
   SmallRun run(0);
   OutputWriter first(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
   try {
-    OutputWriter second(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+    OutputWriter second(dir, run.scene.output, run.scene.forceFieldLabels(),
+                        run.scene.graspNames());
     FAIL() << "a second writer took the folder";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("another run is writing into the output folder"));
@@ -366,7 +372,8 @@ TEST(Output, PartialCollectionsLagByAnEighthAtMost) {
     if (partial != last) ++rewrites;
     last = partial;
     std::size_t listed = 0;
-    for (std::size_t at = partial.find("<DataSet"); at != std::string::npos; at = partial.find("<DataSet", at + 1))
+    for (std::size_t at = partial.find("<DataSet"); at != std::string::npos;
+         at = partial.find("<DataSet", at + 1))
       ++listed;
     const std::size_t frames = writer.framesWritten();
     EXPECT_GE(8 * listed, 7 * frames) << "after " << frames << " frames";
@@ -387,7 +394,8 @@ TEST(Output, NoInfinityReachesTheCsv) {
     writer.record(run.runner->simulation(), {2, 0.02, stats}, false);
     FAIL() << "an infinite residual was written";
   } catch (const SolverError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("step 2 (t = 0.02): solver_residual is inf, not a finite number"));
+    EXPECT_THAT(e.what(),
+                HasSubstr("step 2 (t = 0.02): solver_residual is inf, not a finite number"));
   }
   stats.residual = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(writer.record(run.runner->simulation(), {2, 0.02, stats}, false), SolverError);

@@ -15,21 +15,27 @@
 namespace cutsim::test {
 namespace {
 
-using ::testing::HasSubstr;
 using test::scene;
+using ::testing::HasSubstr;
 
 /// A JSON value of a key's declared type: a number, an integer, a boolean, a choice's or a
 /// string's last declared value (a choice's default comes first: the last is another one).
 std::string valueOf(const KeyInfo& key) {
   switch (key.type) {
-    case KeyType::Number: return "0.2";
-    case KeyType::Integer: return "1";
-    case KeyType::Boolean: return "false";
+    case KeyType::Number:
+      return "0.2";
+    case KeyType::Integer:
+      return "1";
+    case KeyType::Boolean:
+      return "false";
     case KeyType::Choice:
     case KeyType::String:
-      if (key.choices.empty()) ADD_FAILURE() << key.name << ": a " << toString(key.type) << " key declares no value";
+      if (key.choices.empty())
+        ADD_FAILURE() << key.name << ": a " << toString(key.type) << " key declares no value";
       return "\"" + (key.choices.empty() ? std::string() : key.choices.back()) + "\"";
-    default: ADD_FAILURE() << key.name << ": no value made for a key of type " << toString(key.type); return "null";
+    default:
+      ADD_FAILURE() << key.name << ": no value made for a key of type " << toString(key.type);
+      return "null";
   }
 }
 
@@ -47,8 +53,8 @@ std::string sceneWith(const std::string& forceFields, const std::string& steppin
          "  \"mass\": {\"density\": 1},\n"
          "  \"gravity\": [0, 0, -9.81],\n"
          "  \"constraints\": [{\"type\": \"fixed\", \"points\": [0, 5]}],\n"
-         "  \"forceFields\": [" + forceFields + "],\n" +
-         (stepping.empty() ? "" : "  " + stepping + ",\n") +
+         "  \"forceFields\": [" +
+         forceFields + "],\n" + (stepping.empty() ? "" : "  " + stepping + ",\n") +
          "  \"timeStep\": 0.001,\n"
          "  \"duration\": 0.005\n"
          "}\n";
@@ -84,7 +90,8 @@ TEST(Registry, EveryRegisteredComponentIsDocumentedInTheSceneFormat) {
   auto documented = [&](const std::vector<std::string>& names, const char* kind) {
     EXPECT_FALSE(names.empty()) << kind;
     for (const std::string& n : names)
-      EXPECT_TRUE(doc.find("`" + n + "`") != std::string::npos || doc.find("\"" + n + "\"") != std::string::npos)
+      EXPECT_TRUE(doc.find("`" + n + "`") != std::string::npos ||
+                  doc.find("\"" + n + "\"") != std::string::npos)
           << "the " << kind << " " << n << " is not named in docs/scenes.md";
   };
   documented(forcefields::ForceFieldRegistry::instance().names(), "force field");
@@ -92,7 +99,8 @@ TEST(Registry, EveryRegisteredComponentIsDocumentedInTheSceneFormat) {
   documented(core::LinearSolverRegistry::instance().names(), "linear solver");
   documented(core::ActionRegistry::instance().names(), "action");
   documented(core::ConstraintRegistry::instance().names(), "constraint");
-  EXPECT_NE(forcefields::ForceFieldRegistry::instance().find("FastTriangularBendingSprings"), nullptr);
+  EXPECT_NE(forcefields::ForceFieldRegistry::instance().find("FastTriangularBendingSprings"),
+            nullptr);
 }
 
 TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
@@ -101,26 +109,33 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
     return sceneWith(ok, "\"timeline\": [" + action + "]");
   };
   EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"explode\"}")),
-              HasSubstr("/timeline/0/action: unknown action \"explode\" (cut, fracture, grasp, release, remove, tearing)"));
-  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
-              HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing; expected one of: action, at, "
-                        "threshold, maxPerStep"));
-  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
+              HasSubstr("/timeline/0/action: unknown action \"explode\" (cut, fracture, grasp, "
+                        "release, remove, tearing)"));
+  EXPECT_THAT(
+      parseError(
+          timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
+      HasSubstr(
+          "/timeline/0/radius: unknown key \"radius\" for tearing; expected one of: action, at, "
+          "threshold, maxPerStep"));
+  EXPECT_THAT(parseError(timeline(
+                  "{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
               HasSubstr("(it belongs to cut)"));
-  EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"remove\", \"sphere\": {\"center\": [0, 0, 0], "
-                                  "\"radius\": 1, \"colour\": 2}}")),
-              HasSubstr("/timeline/0/sphere/colour: unknown key \"colour\""));
-  EXPECT_THAT(parseError(scene("\"constraints\": [{\"type\": \"fixed\", \"box\": [[0, 0, 0], [1, 1, 1]], "
-                               "\"points\": [1]}]")),
-              HasSubstr("/constraints/0: give exactly one of \"points\", \"box\" or \"near\""));
+  EXPECT_THAT(
+      parseError(timeline("{\"at\": 0, \"action\": \"remove\", \"sphere\": {\"center\": [0, 0, 0], "
+                          "\"radius\": 1, \"colour\": 2}}")),
+      HasSubstr("/timeline/0/sphere/colour: unknown key \"colour\""));
+  EXPECT_THAT(
+      parseError(scene("\"constraints\": [{\"type\": \"fixed\", \"box\": [[0, 0, 0], [1, 1, 1]], "
+                       "\"points\": [1]}]")),
+      HasSubstr("/constraints/0: give exactly one of \"points\", \"box\" or \"near\""));
 }
 
 TEST(Registry, EveryForceFieldParsesBuildsAndSteps) {
   for (const std::string& type : forcefields::ForceFieldRegistry::instance().names()) {
     SCOPED_TRACE(type);
     // Stretch springs keep the sheet together under every field.
-    const std::string fields = "{\"type\": \"StretchSprings\", \"stiffness\": 100}, {\"type\": \"" + type + "\"" +
-                               requiredKeys(type) + ", \"label\": \"under test\"}";
+    const std::string fields = "{\"type\": \"StretchSprings\", \"stiffness\": 100}, {\"type\": \"" +
+                               type + "\"" + requiredKeys(type) + ", \"label\": \"under test\"}";
     runsAndFalls(sceneWith(fields, ""));
   }
 }
@@ -131,8 +146,8 @@ TEST(Registry, EveryForceFieldTakesEachOfItsKeys) {
     for (const KeyInfo& key : entry.keys) {
       SCOPED_TRACE(type + "." + key.name + " (" + toString(key.type) + ")");
       // A value of the key's declared type: parsing must accept it.
-      const std::string field =
-          "{\"type\": \"" + type + "\", \"" + key.name + "\": " + valueOf(key) + requiredKeys(type, key.name) + "}";
+      const std::string field = "{\"type\": \"" + type + "\", \"" + key.name +
+                                "\": " + valueOf(key) + requiredKeys(type, key.name) + "}";
       EXPECT_EQ(parseError(sceneWith(field, "")), "");
     }
   }
@@ -144,7 +159,8 @@ TEST(Registry, EveryRequiredKeyOfAForceFieldIsRequired) {
     for (const KeyInfo& key : entry.keys) {
       if (!key.required) continue;
       SCOPED_TRACE(type + "." + key.name);
-      EXPECT_THAT(parseError(sceneWith("{\"type\": \"" + type + "\"" + requiredKeys(type, key.name) + "}", "")),
+      EXPECT_THAT(parseError(sceneWith(
+                      "{\"type\": \"" + type + "\"" + requiredKeys(type, key.name) + "}", "")),
                   HasSubstr("missing key \"" + key.name + "\""));
     }
 }
@@ -155,7 +171,8 @@ const std::string kStretch = "{\"type\": \"StretchSprings\", \"stiffness\": 20}"
 std::string solverFor(const std::string& integrator) {
   for (const std::string& solver : core::LinearSolverRegistry::instance().names())
     if (parseError(sceneWith(kStretch, "\"integrator\": {\"type\": \"" + integrator +
-                                           "\"}, \"linearSolver\": {\"type\": \"" + solver + "\"}")).empty())
+                                           "\"}, \"linearSolver\": {\"type\": \"" + solver + "\"}"))
+            .empty())
       return solver;
   ADD_FAILURE() << "no linear solver for " << integrator;
   return "";
@@ -166,7 +183,8 @@ std::string integratorFor(const std::string& solver) {
   for (const auto& [name, entry] : core::IntegratorRegistry::instance().entries())
     if (!entry.uses.empty() &&
         parseError(sceneWith(kStretch, "\"integrator\": {\"type\": \"" + name +
-                                           "\"}, \"linearSolver\": {\"type\": \"" + solver + "\"}")).empty())
+                                           "\"}, \"linearSolver\": {\"type\": \"" + solver + "\"}"))
+            .empty())
       return name;
   ADD_FAILURE() << "no integrator solves with " << solver;
   return "";
@@ -178,17 +196,18 @@ TEST(Registry, EveryIntegratorAndLinearSolverTakesEachOfItsKeys) {
   for (const auto& [name, entry] : core::IntegratorRegistry::instance().entries())
     for (const KeyInfo& key : entry.keys) {
       SCOPED_TRACE(name + "." + key.name + " (" + toString(key.type) + ")");
-      const std::string solver = entry.uses.empty() ? "" : ", \"linearSolver\": {\"type\": \"" + solverFor(name) + "\"}";
-      const std::string integrator =
-          "\"integrator\": {\"type\": \"" + name + "\", \"" + key.name + "\": " + valueOf(key) + "}" + solver;
+      const std::string solver =
+          entry.uses.empty() ? "" : ", \"linearSolver\": {\"type\": \"" + solverFor(name) + "\"}";
+      const std::string integrator = "\"integrator\": {\"type\": \"" + name + "\", \"" + key.name +
+                                     "\": " + valueOf(key) + "}" + solver;
       EXPECT_EQ(parseError(sceneWith(fields, integrator)), "");
     }
   for (const auto& [name, entry] : core::LinearSolverRegistry::instance().entries())
     for (const KeyInfo& key : entry.keys) {
       SCOPED_TRACE(name + "." + key.name + " (" + toString(key.type) + ")");
       const std::string integrator = "\"integrator\": {\"type\": \"" + integratorFor(name) +
-                                     "\"}, \"linearSolver\": {\"type\": \"" + name + "\", \"" + key.name +
-                                     "\": " + valueOf(key) + "}";
+                                     "\"}, \"linearSolver\": {\"type\": \"" + name + "\", \"" +
+                                     key.name + "\": " + valueOf(key) + "}";
       EXPECT_EQ(parseError(sceneWith(fields, integrator)), "");
     }
 }
@@ -241,41 +260,58 @@ TEST(Registry, BadComponentsNameTheAlternatives) {
   const std::string ok = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
   const std::vector<BadCase> cases = {
       {"{\"type\": \"Magnet\"}", "", "inline.json:6: /forceFields/0/type: ",
-       "unknown force field type \"Magnet\" (registered: DihedralBending, FastTriangularBendingSprings, "
+       "unknown force field type \"Magnet\" (registered: DihedralBending, "
+       "FastTriangularBendingSprings, "
        "StretchSprings, TriangularBendingSprings, TriangularFEM, TriangularFEMForceFieldOptim)"},
       {"{\"type\": \"FastTriangularBendingSprings\", \"youngModulus\": 3}", "",
        "inline.json:6: /forceFields/0/youngModulus: ",
-       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to TriangularFEM, TriangularFEMForceFieldOptim); expected one of: "
+       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to "
+       "TriangularFEM, TriangularFEMForceFieldOptim); expected one of: "
        "type, label, bendingStiffness"},
-      {"{\"type\": \"TriangularFEM\", \"poissonRatio\": 0.5}", "", "inline.json:6: /forceFields/0/poissonRatio: ",
-       "0.5"},
+      {"{\"type\": \"TriangularFEM\", \"poissonRatio\": 0.5}", "",
+       "inline.json:6: /forceFields/0/poissonRatio: ", "0.5"},
       {ok, "\"integrator\": {\"type\": \"rk4\"}", "inline.json:7: /integrator/type: ",
-       "unknown integrator type \"rk4\" (registered: bdf2, explicit-euler, implicit-euler, newton, sofa-euler)"},
+       "unknown integrator type \"rk4\" (registered: bdf2, explicit-euler, implicit-euler, newton, "
+       "sofa-euler)"},
       {ok, "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"pardiso\"}",
-       "inline.json:7: /linearSolver/type: ", "unknown linear solver type \"pardiso\" (registered: cg, cholmod, sofa-cg)"},
-      {ok, "\"integrator\": {\"type\": \"implicit-euler\", \"iterations\": 20}", "inline.json:7: /integrator/iterations: ",
-       "unknown key \"iterations\" for implicit-euler (it belongs to the linear solver cg, the linear solver sofa-cg); expected one of: type, rayleighMass"},
+       "inline.json:7: /linearSolver/type: ",
+       "unknown linear solver type \"pardiso\" (registered: cg, cholmod, sofa-cg)"},
+      {ok, "\"integrator\": {\"type\": \"implicit-euler\", \"iterations\": 20}",
+       "inline.json:7: /integrator/iterations: ",
+       "unknown key \"iterations\" for implicit-euler (it belongs to the linear solver cg, the "
+       "linear solver sofa-cg); expected one of: type, rayleighMass"},
       {ok, "\"integrator\": {\"type\": \"explicit-euler\"}, \"linearSolver\": {\"type\": \"cg\"}",
        "inline.json:7: /linearSolver: ",
-       "the integrator \"explicit-euler\" uses no linear solver (the integrators that do: bdf2, implicit-euler, "
+       "the integrator \"explicit-euler\" uses no linear solver (the integrators that do: bdf2, "
+       "implicit-euler, "
        "newton, sofa-euler)"},
       {ok, "\"integrator\": {\"type\": \"explicit-euler\", \"rayleighMass\": 0.1}",
-       "inline.json:7: /integrator/rayleighMass: ", "unknown key \"rayleighMass\" for explicit-euler (it belongs to "
+       "inline.json:7: /integrator/rayleighMass: ",
+       "unknown key \"rayleighMass\" for explicit-euler (it belongs to "
        "bdf2, implicit-euler, newton, sofa-euler)"},
       {ok, "\"integrator\": {\"type\": \"bdf2\", \"fallbackSolver\": \"pardiso\"}",
-       "inline.json:7: /integrator/fallbackSolver: ", "unknown linear solver \"pardiso\" (cg, cholmod, sofa-cg)"},
-      {ok, "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"warn\", \"fallbackSolver\": \"cg\"}",
-       "inline.json:7: /integrator/fallbackSolver: ", "is used only with \"onSolveFailure\": \"fallback\""},
+       "inline.json:7: /integrator/fallbackSolver: ",
+       "unknown linear solver \"pardiso\" (cg, cholmod, sofa-cg)"},
+      {ok,
+       "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"warn\", \"fallbackSolver\": "
+       "\"cg\"}",
+       "inline.json:7: /integrator/fallbackSolver: ",
+       "is used only with \"onSolveFailure\": \"fallback\""},
       {ok, "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"retry\"}",
-       "inline.json:7: /integrator/onSolveFailure: ", "unknown value \"retry\" (warn, fail, fallback)"},
-      {ok, "\"solver\": {\"type\": \"implicit-cg\"}, \"integrator\": {\"type\": \"bdf2\"}", "inline.json:7: /integrator: ",
-       "give either \"solver\" (the shorthand of the first scenes) or \"integrator\" and \"linearSolver\""},
+       "inline.json:7: /integrator/onSolveFailure: ",
+       "unknown value \"retry\" (warn, fail, fallback)"},
+      {ok, "\"solver\": {\"type\": \"implicit-cg\"}, \"integrator\": {\"type\": \"bdf2\"}",
+       "inline.json:7: /integrator: ",
+       "give either \"solver\" (the shorthand of the first scenes) or \"integrator\" and "
+       "\"linearSolver\""},
       {ok, "\"solver\": {\"type\": \"implicit-cg\", \"onSolveFailure\": \"warn\"}",
-       "inline.json:7: /solver/onSolveFailure: ", "give \"integrator\" and \"linearSolver\" for every other setting"},
-      {ok, "\"solver\": {\"type\": \"explicit\", \"iterations\": 20}", "inline.json:7: /solver/iterations: ",
+       "inline.json:7: /solver/onSolveFailure: ",
+       "give \"integrator\" and \"linearSolver\" for every other setting"},
+      {ok, "\"solver\": {\"type\": \"explicit\", \"iterations\": 20}",
+       "inline.json:7: /solver/iterations: ",
        "the solver \"explicit\" does not use \"iterations\""},
-      {ok, "\"linearSolver\": {\"type\": \"cg\", \"iterations\": 0}", "inline.json:7: /linearSolver/iterations: ",
-       "must be between 1 and 1000000"},
+      {ok, "\"linearSolver\": {\"type\": \"cg\", \"iterations\": 0}",
+       "inline.json:7: /linearSolver/iterations: ", "must be between 1 and 1000000"},
   };
   for (const BadCase& c : cases) {
     SCOPED_TRACE(c.stepping + " " + c.forceFields);
@@ -293,8 +329,8 @@ TEST(Registry, TheSolverShorthandStillReadsTheFirstScenes) {
   for (const Case& c : std::vector<Case>{{"explicit", "explicit-euler", ""},
                                          {"implicit-cg", "implicit-euler", "cg"},
                                          {"implicit-cholmod", "implicit-euler", "cholmod"}}) {
-    const core::Scene s = core::parseScene(sceneWith(ok, "\"solver\": {\"type\": \"" + c.solver + "\"}"),
-                                           "inline.json", kSceneDir);
+    const core::Scene s = core::parseScene(
+        sceneWith(ok, "\"solver\": {\"type\": \"" + c.solver + "\"}"), "inline.json", kSceneDir);
     EXPECT_EQ(s.integrator.type, c.integrator);
     EXPECT_EQ(s.linearSolver ? s.linearSolver->type : "", c.linear);
   }

@@ -3,22 +3,22 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
-#include <algorithm>
-#include <array>
 #include <ostream>
 #include <string>
 #include <vector>
 
 #include "../../src/core/timeline/tearing.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
-#include "support/scene_text.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/scene_text.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -43,10 +43,13 @@ TEST(Scene, LoadsTheSmallScene) {
   EXPECT_DOUBLE_EQ(s.gravity[2], -9.81);
   ASSERT_EQ(s.forceFields.size(), 2u);
   EXPECT_EQ(s.forceFields[0].type, "StretchSprings");
-  EXPECT_DOUBLE_EQ(std::any_cast<const forcefields::StretchParameters&>(s.forceFields[0].parameters).stiffness, 200);
+  EXPECT_DOUBLE_EQ(
+      std::any_cast<const forcefields::StretchParameters&>(s.forceFields[0].parameters).stiffness,
+      200);
   EXPECT_EQ(s.forceFields[1].type, "FastTriangularBendingSprings");
-  EXPECT_EQ(std::any_cast<const forcefields::BendingParameters&>(s.forceFields[1].parameters).areaWeights,
-            forcefields::AreaWeights::Signed);
+  EXPECT_EQ(
+      std::any_cast<const forcefields::BendingParameters&>(s.forceFields[1].parameters).areaWeights,
+      forcefields::AreaWeights::Signed);
   EXPECT_EQ(s.forceFieldLabels(),
             (std::vector<std::string>{"StretchSprings", "FastTriangularBendingSprings"}));
   EXPECT_EQ(s.constraints.size(), 2u);
@@ -68,7 +71,8 @@ TEST(Scene, LoadsTheSmallScene) {
   EXPECT_EQ(s.timeline[1].location.line, 17u);
   EXPECT_EQ(s.timeline[2].type, "remove");
   EXPECT_EQ(s.timeline[3].type, "grasp");
-  EXPECT_EQ(std::any_cast<const core::GraspParameters&>(s.timeline[3].parameters).path.times.size(), 2u);
+  EXPECT_EQ(std::any_cast<const core::GraspParameters&>(s.timeline[3].parameters).path.times.size(),
+            2u);
   EXPECT_EQ(s.timeline.back().type, "remove");
   EXPECT_DOUBLE_EQ(s.timeline.back().timing.at, 0.3);  // at the duration: allowed
   EXPECT_EQ(s.graspNames(), std::vector<std::string>{"pin"});
@@ -76,8 +80,8 @@ TEST(Scene, LoadsTheSmallScene) {
 
 TEST(Scene, LoadsEveryDemoScene) {
   for (const char* name :
-       {"hanging.json", "hanging_cut.json", "tearing.json", "surgery_incision.json", "drape_cut.json",
-        "fold_ground.json", "surgery_flap.json"}) {
+       {"hanging.json", "hanging_cut.json", "tearing.json", "surgery_incision.json",
+        "drape_cut.json", "fold_ground.json", "surgery_flap.json"}) {
     SCOPED_TRACE(name);
     const Scene s = loadScene(kDemoScenes / name);
     EXPECT_GT(s.numSteps(), 0);
@@ -248,7 +252,8 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
       {"\"timeline\": [{\"at\": 0.05, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.5, 0.5, "
        "0]], \"minAngle\": -1}]",
        "6: /timeline/0/minAngle: must be in [0, 60) degrees"},
-      {"\"timeline\": [{\"at\": 0.05, \"action\": \"tearing\", \"threshold\": 0.3, \"minAngle\": 75}]",
+      {"\"timeline\": [{\"at\": 0.05, \"action\": \"tearing\", \"threshold\": 0.3, \"minAngle\": "
+       "75}]",
        "6: /timeline/0/minAngle: must be in [0, 60) degrees"},
       {"\"timeline\": [{\"from\": 0.05, \"to\": 0.01, \"action\": \"cut\", \"polyline\": [[0, "
        "0.5, 0], [0.5, 0.5, 0]]}]",
@@ -393,7 +398,8 @@ TEST(SceneRunner, ProgressiveIncisionLeavesNoTinyTriangles) {
     smallest = 1e300;
     for (topology::TriangleId f : t.triangles()) {
       auto v = t.triangleVertices(f);
-      std::array<topology::Vec3, 3> p{t.restPosition(v[0]), t.restPosition(v[1]), t.restPosition(v[2])};
+      std::array<topology::Vec3, 3> p{t.restPosition(v[0]), t.restPosition(v[1]),
+                                      t.restPosition(v[2])};
       double longest = 0;
       for (int k = 0; k < 3; ++k) {
         const auto& a = p[std::size_t(k)];
@@ -402,7 +408,8 @@ TEST(SceneRunner, ProgressiveIncisionLeavesNoTinyTriangles) {
         edges.push_back(l);
         longest = std::max(longest, l);
       }
-      const double ux = p[1][0] - p[0][0], uy = p[1][1] - p[0][1], wx = p[2][0] - p[0][0], wy = p[2][1] - p[0][1];
+      const double ux = p[1][0] - p[0][0], uy = p[1][1] - p[0][1], wx = p[2][0] - p[0][0],
+                   wy = p[2][1] - p[0][1];
       smallest = std::min(smallest, std::abs(ux * wy - uy * wx) / longest);
     }
     std::nth_element(edges.begin(), edges.begin() + std::ptrdiff_t(edges.size() / 2), edges.end());
@@ -417,7 +424,8 @@ TEST(SceneRunner, ProgressiveIncisionLeavesNoTinyTriangles) {
     ASSERT_GE(smallest, median / 8) << "at t = " << runner.simulation().time();
   }
   EXPECT_GT(runner.cutsDone(), 10);
-  std::cout << "progressive U incision: smallest altitude over the run " << worst << " of the median edge\n";
+  std::cout << "progressive U incision: smallest altitude over the run " << worst
+            << " of the median edge\n";
 }
 
 TEST(SceneRunner, TearingRunsAcrossThePull) {

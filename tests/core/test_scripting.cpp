@@ -9,8 +9,8 @@
 #include <fstream>
 #include <vector>
 
-#include "cutsim/core/scene.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/scene.hpp"
 #include "support/scene_text.hpp"
 
 namespace cutsim::test {
@@ -22,7 +22,8 @@ std::string cloth(const std::string& extra = "") {
   return scene(
       "\"gravity\": [0, 0, -9.81],\n"
       "  \"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 100},\n"
-      "                  {\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 0.01}],\n"
+      "                  {\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": "
+      "0.01}],\n"
       "  \"constraints\": [{\"type\": \"fixed\", \"near\": [[0, 1, 0], [1, 1, 0]]}]" +
       (extra.empty() ? "" : ",\n  " + extra));
 }
@@ -62,7 +63,8 @@ TEST(Scripting, ActionsGivenWhileRunning) {
   const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
   SceneRunner r(s);
   for (int i = 0; i < 3; ++i) r.advance();
-  EXPECT_NE(actionError(r, "{\"action\": \"cut\", \"at\": 0.0, \"polyline\": [[0, 0.5, 0], [0.5, 0.5, 0]]}")
+  EXPECT_NE(actionError(
+                r, "{\"action\": \"cut\", \"at\": 0.0, \"polyline\": [[0, 0.5, 0], [0.5, 0.5, 0]]}")
                 .find("<action>:1: /at: time 0 is before the current time 0.03"),
             std::string::npos);
   EXPECT_NE(actionError(r, "{\"action\": \"tearing\",\n \"at\": 1,\n \"threshold\": -2}")
@@ -70,10 +72,15 @@ TEST(Scripting, ActionsGivenWhileRunning) {
             std::string::npos);
   // Due now: it runs at once; later: when its time comes (past the scene's duration too).
   const auto points = r.simulation().topology().numPoints();
-  EXPECT_EQ(actionError(r, "{\"action\": \"cut\", \"at\": 0.03, \"polyline\": [[0, 0.5, 0], [0.5, 0.5, 0]]}"), "");
+  EXPECT_EQ(
+      actionError(
+          r, "{\"action\": \"cut\", \"at\": 0.03, \"polyline\": [[0, 0.5, 0], [0.5, 0.5, 0]]}"),
+      "");
   EXPECT_GT(r.simulation().topology().numPoints(), points);
-  EXPECT_EQ(actionError(r, "{\"action\": \"remove\", \"at\": 0.15, \"sphere\": {\"center\": [0.75, 0.25, 0], "
-                           "\"radius\": 0.2}, \"boundary\": \"centroid\"}"),
+  EXPECT_EQ(actionError(
+                r,
+                "{\"action\": \"remove\", \"at\": 0.15, \"sphere\": {\"center\": [0.75, 0.25, 0], "
+                "\"radius\": 0.2}, \"boundary\": \"centroid\"}"),
             "");
   const auto triangles = r.simulation().topology().numTriangles();
   while (!r.finished()) r.advance();
@@ -82,9 +89,10 @@ TEST(Scripting, ActionsGivenWhileRunning) {
   EXPECT_LT(r.simulation().topology().numTriangles(), triangles);
   EXPECT_NEAR(r.time(), 0.16, 1e-12);
   // A failing action names its own source, and does not stay in the timeline.
-  EXPECT_NE(actionError(r, "{\"action\": \"cut\", \"polyline\": [[5, 5, 0], [6, 5, 0]], \"at\": 0.16}")
-                .find("<action>:1: /: at t = 0.16 the cut failed"),
-            std::string::npos);
+  EXPECT_NE(
+      actionError(r, "{\"action\": \"cut\", \"polyline\": [[5, 5, 0], [6, 5, 0]], \"at\": 0.16}")
+          .find("<action>:1: /: at t = 0.16 the cut failed"),
+      std::string::npos);
   r.stepOnce();
   EXPECT_TRUE(r.simulation().topology().validate().ok());
 }
@@ -95,12 +103,14 @@ TEST(Scripting, ActionsGivenOutOfOrderKeepTheirOwnSpecs) {
   r.start();
   // A progressive cut that runs off the surface, then actions inserted before and after it in
   // time: when the cut fails, its failure names the cut, not another action.
-  r.schedule(core::parseActionEntry(
-      "{\"action\": \"cut\", \"from\": 0, \"to\": 0.05, \"polyline\": [[0.3, 0.5, 0], [0.5, 0.5, 0], [3, 0.5, 0]]}",
-      "<the cut>", 0.0));
+  r.schedule(
+      core::parseActionEntry("{\"action\": \"cut\", \"from\": 0, \"to\": 0.05, \"polyline\": "
+                             "[[0.3, 0.5, 0], [0.5, 0.5, 0], [3, 0.5, 0]]}",
+                             "<the cut>", 0.0));
   for (const char* at : {"0.2", "0.21", "0.22", "0.1", "0.15"})
-    r.schedule(core::parseActionEntry(std::string("{\"action\": \"tearing\", \"threshold\": 10, \"at\": ") + at + "}",
-                                      std::string("<tearing at ") + at + ">", 0.0));
+    r.schedule(core::parseActionEntry(
+        std::string("{\"action\": \"tearing\", \"threshold\": 10, \"at\": ") + at + "}",
+        std::string("<tearing at ") + at + ">", 0.0));
   std::vector<std::string> failures;
   for (int i = 0; i < 25; ++i) {
     try {
@@ -137,13 +147,16 @@ TEST(Scripting, ForceFieldParametersChange) {
   auto& sim = r.simulation();
   const double e = sim.potentialEnergy(1);
   ASSERT_GT(e, 0);
-  r.replaceForceField(1, core::parseForceFieldEntry(
-                             "{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 0.03}", "<f>"));
+  r.replaceForceField(
+      1, core::parseForceFieldEntry(
+             "{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": 0.03}", "<f>"));
   EXPECT_NEAR(sim.potentialEnergy(1), 3 * e, 1e-12 * e);
   EXPECT_EQ(sim.forceFieldLabel(1), "FastTriangularBendingSprings");
   // Another type is refused, and changes nothing.
-  EXPECT_THROW(r.replaceForceField(1, core::parseForceFieldEntry("{\"type\": \"StretchSprings\", \"stiffness\": 1}", "<f>")),
-               InvalidInput);
+  EXPECT_THROW(
+      r.replaceForceField(
+          1, core::parseForceFieldEntry("{\"type\": \"StretchSprings\", \"stiffness\": 1}", "<f>")),
+      InvalidInput);
   EXPECT_NEAR(sim.potentialEnergy(1), 3 * e, 1e-12 * e);
   // The new field follows the topology: cut, then every observer agrees with its rebuild.
   sim.topology().cutPolyline(std::vector<core::Vec3>{{0, 0.5, 0}, {0.6, 0.5, 0}});
@@ -155,9 +168,10 @@ TEST(Scripting, GraspMovedByADisplacement) {
   const core::Scene s = core::parseScene(cloth(), "inline.json", kSceneDir);
   SceneRunner r(s);
   r.start();
-  r.schedule(core::parseActionEntry(
-      "{\"action\": \"grasp\", \"at\": 0, \"name\": \"g\", \"near\": [[0.5, 0, 0]], \"path\": [[0, 0, 0, 0], [0.02, 0, 0, 0.01]]}",
-      "<a>", 0.0));
+  r.schedule(
+      core::parseActionEntry("{\"action\": \"grasp\", \"at\": 0, \"name\": \"g\", \"near\": [[0.5, "
+                             "0, 0]], \"path\": [[0, 0, 0, 0], [0.02, 0, 0, 0.01]]}",
+                             "<a>", 0.0));
   core::Grasp* g = r.simulation().findGrasp("g");
   ASSERT_NE(g, nullptr);
   const auto p = g->points().points().front();
@@ -174,9 +188,11 @@ TEST(Scripting, GraspMovedByADisplacement) {
 }
 
 TEST(Scripting, ConstraintsGivenWhileRunning) {
-  const core::Scene s = core::parseScene(scene("\"gravity\": [0, 0, -9.81]"), "inline.json", kSceneDir);
+  const core::Scene s =
+      core::parseScene(scene("\"gravity\": [0, 0, -9.81]"), "inline.json", kSceneDir);
   SceneRunner r(s);
-  r.applyConstraint(core::parseConstraintEntry("{\"type\": \"fixed\", \"near\": [[0, 0, 0]]}", "<c>"));
+  r.applyConstraint(
+      core::parseConstraintEntry("{\"type\": \"fixed\", \"near\": [[0, 0, 0]]}", "<c>"));
   ASSERT_EQ(r.simulation().fixed().size(), 1u);
   const auto p = r.simulation().fixed().points().front();
   r.advance();
@@ -201,21 +217,28 @@ namespace {
 
 TEST(Robustness, LabelsAndGraspNamesNameCsvColumns) {
   auto error = [](const std::string& extra) { return parseError(scene(extra)); };
-  EXPECT_NE(error("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1, \"label\": \"a,b\"}]")
-                .find("/forceFields/0/label: must not contain a comma"),
-            std::string::npos);
-  EXPECT_NE(error("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1, \"label\": \"x\"},\n"
-                  "  {\"type\": \"FastTriangularBendingSprings\", \"label\": \"x\"}]")
-                .find("/forceFields/1/label: another force field has the label \"x\""),
-            std::string::npos);
-  EXPECT_NE(error("\"timeline\": [{\"at\": 0, \"action\": \"grasp\", \"name\": \"a\\nb\", \"points\": [0], "
-                  "\"path\": [[0, 0, 0, 0]]}]")
-                .find("/timeline/0/name: must not contain a comma"),
-            std::string::npos);
+  EXPECT_NE(
+      error(
+          "\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1, \"label\": \"a,b\"}]")
+          .find("/forceFields/0/label: must not contain a comma"),
+      std::string::npos);
+  EXPECT_NE(
+      error(
+          "\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1, \"label\": \"x\"},\n"
+          "  {\"type\": \"FastTriangularBendingSprings\", \"label\": \"x\"}]")
+          .find("/forceFields/1/label: another force field has the label \"x\""),
+      std::string::npos);
+  EXPECT_NE(
+      error(
+          "\"timeline\": [{\"at\": 0, \"action\": \"grasp\", \"name\": \"a\\nb\", \"points\": [0], "
+          "\"path\": [[0, 0, 0, 0]]}]")
+          .find("/timeline/0/name: must not contain a comma"),
+      std::string::npos);
   // Unlabelled fields of one type are numbered, as before.
-  const core::Scene s = core::parseScene(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1},\n"
-                                               "  {\"type\": \"StretchSprings\", \"stiffness\": 2}]"),
-                                         "inline.json", kSceneDir);
+  const core::Scene s =
+      core::parseScene(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 1},\n"
+                             "  {\"type\": \"StretchSprings\", \"stiffness\": 2}]"),
+                       "inline.json", kSceneDir);
   EXPECT_EQ(s.forceFieldLabels(), (std::vector<std::string>{"StretchSprings", "StretchSprings_2"}));
 }
 
@@ -225,19 +248,27 @@ TEST(Robustness, AProgressiveCutIsCheckedPieceByPieceAmongTheOtherActions) {
   // it, it reaches the hole and leaves the surface. The scene check plays the timeline and fails
   // there, naming the cut and the time, before anything runs.
   const std::string text =
-      "{\"mesh\": {\"grid\": {\"nx\": 21, \"ny\": 21}}, \"mass\": {\"total\": 0.2}, \"timeStep\": 0.01,\n"
+      "{\"mesh\": {\"grid\": {\"nx\": 21, \"ny\": 21}}, \"mass\": {\"total\": 0.2}, \"timeStep\": "
+      "0.01,\n"
       " \"duration\": 0.2, \"timeline\": [\n"
-      "  {\"from\": 0, \"to\": 0.1, \"action\": \"cut\", \"polyline\": [[0, 0.52, 0], [0.9, 0.52, 0]]},\n"
-      "  {\"at\": 0.03, \"action\": \"remove\", \"sphere\": {\"center\": [0.55, 0.52, 0], \"radius\": 0.12}}]}";
+      "  {\"from\": 0, \"to\": 0.1, \"action\": \"cut\", \"polyline\": [[0, 0.52, 0], [0.9, 0.52, "
+      "0]]},\n"
+      "  {\"at\": 0.03, \"action\": \"remove\", \"sphere\": {\"center\": [0.55, 0.52, 0], "
+      "\"radius\": 0.12}}]}";
   const std::string message = parseError(text);
-  EXPECT_NE(message.find("inline.json:3: /timeline/0: at t = 0.1 the cut failed"), std::string::npos) << message;
+  EXPECT_NE(message.find("inline.json:3: /timeline/0: at t = 0.1 the cut failed"),
+            std::string::npos)
+      << message;
   EXPECT_NE(message.find("the timeline played before the run"), std::string::npos) << message;
   // The removal after the cut's end: both pass.
   const std::string later =
-      "{\"mesh\": {\"grid\": {\"nx\": 21, \"ny\": 21}}, \"mass\": {\"total\": 0.2}, \"timeStep\": 0.01,\n"
+      "{\"mesh\": {\"grid\": {\"nx\": 21, \"ny\": 21}}, \"mass\": {\"total\": 0.2}, \"timeStep\": "
+      "0.01,\n"
       " \"duration\": 0.2, \"timeline\": [\n"
-      "  {\"from\": 0, \"to\": 0.1, \"action\": \"cut\", \"polyline\": [[0, 0.52, 0], [0.9, 0.52, 0]]},\n"
-      "  {\"at\": 0.15, \"action\": \"remove\", \"sphere\": {\"center\": [0.55, 0.52, 0], \"radius\": 0.12}}]}";
+      "  {\"from\": 0, \"to\": 0.1, \"action\": \"cut\", \"polyline\": [[0, 0.52, 0], [0.9, 0.52, "
+      "0]]},\n"
+      "  {\"at\": 0.15, \"action\": \"remove\", \"sphere\": {\"center\": [0.55, 0.52, 0], "
+      "\"radius\": 0.12}}]}";
   EXPECT_EQ(parseError(later), "");
   // And the run then makes what the rehearsal made.
   const core::Scene s = core::parseScene(later, "inline.json", kSceneDir);
@@ -249,13 +280,14 @@ TEST(Robustness, AProgressiveCutIsCheckedPieceByPieceAmongTheOtherActions) {
 
 TEST(Robustness, ACutAlongTheBorderIsNotCounted) {
   const core::Scene s = core::parseScene(
-      scene("\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0, 0], [1, 0, 0]]},\n"
+      scene("\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0, 0], [1, 0, "
+            "0]]},\n"
             "  {\"at\": 0.02, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.6, 0.5, 0]]}]"),
       "inline.json", kSceneDir);
   core::SceneRunner r(s);
-  r.advance();  // t = 0.01
+  r.advance();                 // t = 0.01
   EXPECT_EQ(r.cutsDone(), 0);  // along the border: nothing opened
-  r.advance();  // t = 0.02
+  r.advance();                 // t = 0.02
   EXPECT_EQ(r.cutsDone(), 1);
 }
 
@@ -268,28 +300,34 @@ namespace {
 TEST(Robustness, SceneValuesThatWouldFailWhileRunningFailFirst) {
   auto error = [](const std::string& text) { return parseError(text); };
   const std::string tail = "\"mass\": {\"total\": 1}, \"timeStep\": 0.01, \"duration\": 0.1}";
-  EXPECT_NE(error("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3, \"size\": [1e200, 1e200]}}, " + tail)
-                .find("/mesh/grid/size/0: must be at most 1e100"),
-            std::string::npos);
-  EXPECT_NE(error("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3, \"origin\": [0, 1e308, 0]}}, " + tail)
-                .find("/mesh/grid/origin/1: must be at most 1e100"),
-            std::string::npos);
+  EXPECT_NE(
+      error("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3, \"size\": [1e200, 1e200]}}, " + tail)
+          .find("/mesh/grid/size/0: must be at most 1e100"),
+      std::string::npos);
+  EXPECT_NE(
+      error("{\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3, \"origin\": [0, 1e308, 0]}}, " + tail)
+          .find("/mesh/grid/origin/1: must be at most 1e100"),
+      std::string::npos);
   EXPECT_NE(error("{\"name\": \"a\\nb\", \"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}}, " + tail)
                 .find("/name: must not contain control characters"),
             std::string::npos);
-  EXPECT_NE(error("{\"name\": \"" + std::string(300, 'n') + "\", \"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}}, " + tail)
+  EXPECT_NE(error("{\"name\": \"" + std::string(300, 'n') +
+                  "\", \"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}}, " + tail)
                 .find("/name: must be at most 200 bytes"),
             std::string::npos);
   // A mesh without area can carry no mass.
-  const auto dir = std::filesystem::temp_directory_path() / ("cutsim_flat_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("cutsim_flat_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "flat.obj") << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
   try {
-    core::parseScene("{\"mesh\": \"flat.obj\", \"mass\": {\"density\": 1}, \"timeStep\": 0.1, \"duration\": 1}", "flat.json",
-                     dir);
+    core::parseScene(
+        "{\"mesh\": \"flat.obj\", \"mass\": {\"density\": 1}, \"timeStep\": 0.1, \"duration\": 1}",
+        "flat.json", dir);
     ADD_FAILURE() << "a mesh without area was accepted";
   } catch (const InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("/mass/density: the mesh has no area"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/mass/density: the mesh has no area"), std::string::npos)
+        << e.what();
   }
   std::filesystem::remove_all(dir);
 }

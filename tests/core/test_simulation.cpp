@@ -83,11 +83,13 @@ TEST_P(AllSolvers, FixedPointsStayAndGraspsFollowTheirPath) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Solvers, AllSolvers,
-                         ::testing::Values(SolverSettings::Kind::Explicit, SolverSettings::Kind::ImplicitCG,
+                         ::testing::Values(SolverSettings::Kind::Explicit,
+                                           SolverSettings::Kind::ImplicitCG,
                                            SolverSettings::Kind::ImplicitCholmod),
                          [](const auto& solverInfo) {
                            std::string s(core::toString(solverInfo.param));
-                           for (auto& c : s) if (c == '-') c = '_';
+                           for (auto& c : s)
+                             if (c == '-') c = '_';
                            return s;
                          });
 

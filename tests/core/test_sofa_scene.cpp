@@ -11,10 +11,10 @@
 #include <sstream>
 #include <string>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_regression.hpp"
 #include "cutsim/core/sofa_scene.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
 
@@ -29,10 +29,12 @@ const std::filesystem::path kSofa = std::filesystem::path(CUTSIM_TEST_DATA_DIR) 
 
 /// A scratch folder with the SOFA meshes, for scenes written by the tests.
 std::filesystem::path scratch() {
-  const std::filesystem::path d = std::filesystem::temp_directory_path() / ("cutsim_sofa_" + std::to_string(::getpid()));
+  const std::filesystem::path d =
+      std::filesystem::temp_directory_path() / ("cutsim_sofa_" + std::to_string(::getpid()));
   std::filesystem::create_directories(d / "mesh");
   for (const char* m : {"square3.msh", "triangleGrid_10_10.obj"})
-    std::filesystem::copy_file(kSofa / "mesh" / m, d / "mesh" / m, std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(kSofa / "mesh" / m, d / "mesh" / m,
+                               std::filesystem::copy_options::overwrite_existing);
   return d;
 }
 
@@ -43,17 +45,19 @@ std::filesystem::path writeScene(const std::string& name, const std::string& tex
 }
 
 /// A small valid scene; `extra` goes inside the child node, after the MechanicalObject (line 8 on).
-std::string scn(const std::string& extra = "", const std::string& mo = "<MechanicalObject name=\"dofs\" src=\"@../loader\"/>") {
-  return "<?xml version=\"1.0\"?>\n"                                               // 1
-         "<Node name=\"root\" dt=\"0.02\" gravity=\"0 -9.81 0\">\n"                  // 2
-         "  <EulerImplicitSolver rayleighMass=\"0.1\"/>\n"                           // 3
+std::string scn(const std::string& extra = "",
+                const std::string& mo = "<MechanicalObject name=\"dofs\" src=\"@../loader\"/>") {
+  return "<?xml version=\"1.0\"?>\n"                                                       // 1
+         "<Node name=\"root\" dt=\"0.02\" gravity=\"0 -9.81 0\">\n"                        // 2
+         "  <EulerImplicitSolver rayleighMass=\"0.1\"/>\n"                                 // 3
          "  <CGLinearSolver iterations=\"40\" tolerance=\"1e-7\" threshold=\"1e-12\"/>\n"  // 4
          "  <MeshOBJLoader name=\"loader\" filename=\"mesh/triangleGrid_10_10.obj\"/>\n"   // 5
-         "  <Node name=\"cloth\">\n"                                                  // 6
-         "    <MeshTopology src=\"@../loader\"/>\n"                                   // 7
-         "    " + mo + "\n" +                                                          // 8
-         "    <UniformMass totalMass=\"3\"/>\n"                                       // 9
-         "    <FixedProjectiveConstraint indices=\"0 1\"/>\n" +                       // 10
+         "  <Node name=\"cloth\">\n"                                                       // 6
+         "    <MeshTopology src=\"@../loader\"/>\n"                                        // 7
+         "    " +
+         mo + "\n" +                                             // 8
+         "    <UniformMass totalMass=\"3\"/>\n"                  // 9
+         "    <FixedProjectiveConstraint indices=\"0 1\"/>\n" +  // 10
          extra +
          "  </Node>\n"
          "</Node>\n";
@@ -75,7 +79,7 @@ TEST(SofaScene, TranslatesTheFemExampleWithItsNestedNodesAndLinks) {
   const auto& j = s.scene;
   EXPECT_EQ(s.mechanicalObject, "DOFs");
   EXPECT_EQ(j["mesh"]["file"], "mesh/square3.msh");  // src="@../loaderSquare", one node up
-  EXPECT_EQ(j["mesh"]["scale"], 100.0);                // the MechanicalObject's scale
+  EXPECT_EQ(j["mesh"]["scale"], 100.0);              // the MechanicalObject's scale
   EXPECT_EQ(j["mass"]["density"], 0.005);
   EXPECT_EQ(j["gravity"], nlohmann::ordered_json({0.0, 10.0, 10.0}));
   EXPECT_EQ(j["timeStep"], 0.05);
@@ -117,35 +121,45 @@ TEST(SofaScene, TranslatesTheBendingExampleWithABoxROILinkAndAUniformMass) {
 }
 
 TEST(SofaScene, UnusedAttributesAndTheirLinesAreReported) {
-  const SofaSceneImport s = importSofaScene(writeScene("notes.scn", scn("    <FastTriangularBendingSprings bendingStiffness=\"2\" colour=\"red\"/>\n")));
+  const SofaSceneImport s = importSofaScene(writeScene(
+      "notes.scn",
+      scn("    <FastTriangularBendingSprings bendingStiffness=\"2\" colour=\"red\"/>\n")));
   ASSERT_EQ(s.notes.size(), 1u);
-  EXPECT_THAT(s.notes[0], HasSubstr("notes.scn:11: /root/cloth/FastTriangularBendingSprings1/colour"));
+  EXPECT_THAT(s.notes[0],
+              HasSubstr("notes.scn:11: /root/cloth/FastTriangularBendingSprings1/colour"));
   EXPECT_THAT(s.notes[0], HasSubstr("not used"));
 }
 
 TEST(SofaScene, ErrorsNameTheSceneLineAndWhatIsWrong) {
   EXPECT_THAT(importError(scn("    <TetrahedronFEMForceField youngModulus=\"1\"/>\n")),
-              AllOf(HasSubstr("bad.scn:11: /root/cloth/TetrahedronFEMForceField"), HasSubstr("not supported")));
+              AllOf(HasSubstr("bad.scn:11: /root/cloth/TetrahedronFEMForceField"),
+                    HasSubstr("not supported")));
   EXPECT_THAT(importError(scn("", "<MechanicalObject template=\"Vec2d\" src=\"@../loader\"/>")),
               AllOf(HasSubstr("bad.scn:8:"), HasSubstr("template \"Vec2d\" is not supported")));
-  EXPECT_THAT(importError(scn("", "<MechanicalObject template=\"Rigid3d\" src=\"@../loader\"/>")), HasSubstr("Rigid3d"));
+  EXPECT_THAT(importError(scn("", "<MechanicalObject template=\"Rigid3d\" src=\"@../loader\"/>")),
+              HasSubstr("Rigid3d"));
   EXPECT_THAT(importError(scn("    <FixedConstraint indices=\"@box9.indices\"/>\n")),
               AllOf(HasSubstr("bad.scn:11:"), HasSubstr("no component named \"box9\"")));
-  EXPECT_THAT(importError(scn("", "<MechanicalObject src=\"@../nowhere\"/>")), HasSubstr("bad.scn:8:"));
-  EXPECT_THAT(importError(scn("    <BoxROI name=\"b\" box=\"0 0 0 1 1 1\"/>\n    <FixedConstraint indices=\"@b.nothing\"/>\n")),
+  EXPECT_THAT(importError(scn("", "<MechanicalObject src=\"@../nowhere\"/>")),
+              HasSubstr("bad.scn:8:"));
+  EXPECT_THAT(importError(scn("    <BoxROI name=\"b\" box=\"0 0 0 1 1 1\"/>\n    <FixedConstraint "
+                              "indices=\"@b.nothing\"/>\n")),
               AllOf(HasSubstr("bad.scn:12:"), HasSubstr("no field \"nothing\"")));
   std::string text = scn();
   text.replace(text.find("rayleighMass"), 12, "trapezoidalScheme=\"1\" rayleighMass");
   EXPECT_THAT(importError(text), AllOf(HasSubstr("bad.scn:3:"), HasSubstr("trapezoidalScheme")));
   text = scn();
   text.replace(text.find("triangleGrid_10_10.obj"), 22, "missing.obj");
-  EXPECT_THAT(importError(text), AllOf(HasSubstr("bad.scn:5:"), HasSubstr("mesh file \"mesh/missing.obj\" not found")));
+  EXPECT_THAT(importError(text), AllOf(HasSubstr("bad.scn:5:"),
+                                       HasSubstr("mesh file \"mesh/missing.obj\" not found")));
   // Malformed XML: line and column.
   text = scn();
   text.replace(text.find("<UniformMass"), 12, "<UniformMass <");
-  EXPECT_THAT(importError(text), AllOf(StartsWith((scratch() / "bad.scn").string() + ":9:"), HasSubstr("malformed XML")));
+  EXPECT_THAT(importError(text), AllOf(StartsWith((scratch() / "bad.scn").string() + ":9:"),
+                                       HasSubstr("malformed XML")));
   // A check of the translated scene lands on the component's line: a box that selects nothing.
-  EXPECT_THAT(importError(scn("    <BoxROI name=\"b\" box=\"500 500 500 501 501 501\"/>\n    <FixedConstraint indices=\"@b.indices\"/>\n")),
+  EXPECT_THAT(importError(scn("    <BoxROI name=\"b\" box=\"500 500 500 501 501 501\"/>\n    "
+                              "<FixedConstraint indices=\"@b.indices\"/>\n")),
               AllOf(HasSubstr("bad.scn:11: /root/cloth/b/box: selects no point")));
 }
 
@@ -174,7 +188,8 @@ TEST(SofaScene, RunningTheSceneAndItsImportedJsonGivesTheSameStates) {
 
 TEST(SofaScene, AUniformMassGivesNewPointsTheSameMass) {
   // SOFA's UniformMass: every point carries vertexMass, those a cut makes too.
-  Simulation sim(std::make_unique<topology::Topology>(topology::readMesh(kSofa / "mesh" / "triangleGrid_10_10.obj")),
+  Simulation sim(std::make_unique<topology::Topology>(
+                     topology::readMesh(kSofa / "mesh" / "triangleGrid_10_10.obj")),
                  MassLaw::perPoint(0.25));
   topology::Topology& t = sim.topology();
   const auto edges = t.edges();
@@ -189,15 +204,16 @@ TEST(SofaScene, AUniformMassGivesNewPointsTheSameMass) {
 
 TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
   const std::string text =
-      "<Node name=\"root\" dt=\"0.01\" gravity=\"0 0 -9.81\">\n"                       // 1
-      "  <EulerImplicitSolver/>\n"                                                           // 2
+      "<Node name=\"root\" dt=\"0.01\" gravity=\"0 0 -9.81\">\n"                         // 1
+      "  <EulerImplicitSolver/>\n"                                                       // 2
       "  <CGLinearSolver iterations=\"100\" tolerance=\"1e-9\" threshold=\"1e-20\"/>\n"  // 3
-      "  <GridMeshCreator name=\"grid\" resolution=\"5 4\" trianglePattern=\"3\" scale=\"2\"/>\n"  // 4
-      "  <MeshTopology src=\"@grid\"/>\n"                                                   // 5
-      "  <MechanicalObject src=\"@grid\"/>\n"                                               // 6
-      "  <DiagonalMass massDensity=\"0.5\"/>\n"                                             // 7
-      "  <BoxConstraint box=\"2.1 -0.1 -0.1 -0.1 0.1 0.1\"/>\n"                             // 8: reversed x bounds
-      "  <MeshSpringForceField stiffness=\"30\" damping=\"0.5\"/>\n"                     // 9
+      "  <GridMeshCreator name=\"grid\" resolution=\"5 4\" trianglePattern=\"3\" "
+      "scale=\"2\"/>\n"                                               // 4
+      "  <MeshTopology src=\"@grid\"/>\n"                             // 5
+      "  <MechanicalObject src=\"@grid\"/>\n"                         // 6
+      "  <DiagonalMass massDensity=\"0.5\"/>\n"                       // 7
+      "  <BoxConstraint box=\"2.1 -0.1 -0.1 -0.1 0.1 0.1\"/>\n"       // 8: reversed x bounds
+      "  <MeshSpringForceField stiffness=\"30\" damping=\"0.5\"/>\n"  // 9
       "</Node>\n";
   const SofaSceneImport s = importSofaScene(writeScene("tier2.scn", text));
   const auto& j = s.scene;
@@ -227,13 +243,15 @@ TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
   EXPECT_LT(r.simulation().state().x()[3 * 19 + 2], 0.0);  // the free corner falls
   // SOFA's other bending springs and older triangle map too; quads are refused.
   std::string bad = text;
-  bad.replace(bad.find("<MeshSpringForceField stiffness"), 31, "<TriangularBendingSprings stiffness");
+  bad.replace(bad.find("<MeshSpringForceField stiffness"), 31,
+              "<TriangularBendingSprings stiffness");
   const SofaSceneImport tbs = importSofaScene(writeScene("tbs.scn", bad));
   EXPECT_EQ(tbs.scene["forceFields"][0]["type"], "TriangularBendingSprings");
   EXPECT_EQ(tbs.scene["forceFields"][0]["stiffness"], 30.0);
   bad = text;  // SOFA's older triangle: the same element, its thickness kept
-  bad.replace(bad.find("<MeshSpringForceField stiffness=\"30\" damping=\"0.5\"/>"), 51,
-              "<TriangleFEMForceField youngModulus=\"300\" poissonRatio=\"0.2\" thickness=\"0.01\"/>");
+  bad.replace(
+      bad.find("<MeshSpringForceField stiffness=\"30\" damping=\"0.5\"/>"), 51,
+      "<TriangleFEMForceField youngModulus=\"300\" poissonRatio=\"0.2\" thickness=\"0.01\"/>");
   const SofaSceneImport older = importSofaScene(writeScene("older.scn", bad));
   EXPECT_EQ(older.scene["forceFields"][0]["type"], "TriangularFEMForceFieldOptim");
   EXPECT_EQ(older.scene["forceFields"][0]["thickness"], 0.01);
@@ -250,54 +268,70 @@ TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
 
 /// A scene with the solver, the loader and one child node "cloth" holding `body` (from line 7).
 std::string sceneWithBody(const std::string& body, const std::string& rootExtra = "") {
-  return "<?xml version=\"1.0\"?>\n"                                                  // 1
-         "<Node name=\"root\" dt=\" 0.02 \" gravity=\"0 -9.81 0\">\n"                // 2 (spaces kept)
-         "  <EulerImplicitSolver/>\n"                                                  // 3
+  return "<?xml version=\"1.0\"?>\n"                                   // 1
+         "<Node name=\"root\" dt=\" 0.02 \" gravity=\"0 -9.81 0\">\n"  // 2 (spaces kept)
+         "  <EulerImplicitSolver/>\n"                                  // 3
          "  <CGLinearSolver iterations=\"40\" tolerance=\"1e-7\" threshold=\"1e-12\"/>\n"  // 4
          "  <MeshOBJLoader name=\"loader\" filename=\"mesh/triangleGrid_10_10.obj\"/>\n"   // 5
-         "  <Node name=\"cloth\">\n" +                                                 // 6
-         body + "  </Node>\n" + rootExtra + "</Node>\n";
+         "  <Node name=\"cloth\">\n" +                                                     // 6
+         body +
+         "  </Node>\n" + rootExtra + "</Node>\n";
 }
 
 TEST(SofaScene, LinksFollowSofasContextAndPlacementIsChecked) {
-  const std::string state = "    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject name=\"dofs\" src=\"@../loader\"/>\n";
+  const std::string state =
+      "    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject name=\"dofs\" "
+      "src=\"@../loader\"/>\n";
   // A BoxROI in a child node, linked by a relative path; another of the same name elsewhere.
   const SofaSceneImport a = importSofaScene(writeScene(
       "child_box.scn", sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n"
                                              "    <FixedConstraint indices=\"@sub/b.indices\"/>\n"
-                                             "    <Node name=\"sub\"><BoxROI name=\"b\" box=\"-0.5 -0.5 -0.5 100.5 0.005 0.005\"/></Node>\n",
+                                             "    <Node name=\"sub\"><BoxROI name=\"b\" box=\"-0.5 "
+                                             "-0.5 -0.5 100.5 0.005 0.005\"/></Node>\n",
                                      "  <BoxROI name=\"b\" box=\"0 0 0 0 0 0\"/>\n")));
   EXPECT_EQ(a.scene["constraints"][0]["box"][1], nlohmann::ordered_json({100.5, 0.005, 0.005}));
   EXPECT_EQ(a.scene["timeStep"], 0.02);  // " 0.02 ": spaces around a number are fine
   // DiagonalMass with neither massDensity nor totalMass: SOFA's total mass of 1.
-  const SofaSceneImport d = importSofaScene(writeScene("diag.scn", sceneWithBody(state + "    <DiagonalMass/>\n")));
+  const SofaSceneImport d =
+      importSofaScene(writeScene("diag.scn", sceneWithBody(state + "    <DiagonalMass/>\n")));
   EXPECT_EQ(d.scene["mass"]["total"], 1.0);
   // SOFA reads "scale" as a float.
-  const SofaSceneImport f = importSofaScene(writeScene(
-      "float.scn", sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject src=\"@../loader\" scale=\"0.1\"/>\n"
-                                 "    <UniformMass totalMass=\"3\"/>\n")));
+  const SofaSceneImport f = importSofaScene(
+      writeScene("float.scn", sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    "
+                                            "<MechanicalObject src=\"@../loader\" scale=\"0.1\"/>\n"
+                                            "    <UniformMass totalMass=\"3\"/>\n")));
   EXPECT_EQ(f.scene["mesh"]["scale"], double(0.1f));
   EXPECT_EQ(f.mechanicalObject, "MechanicalObject1");  // SOFA's name of an unnamed component
   // A cycle of links, a box without a box, a mass outside the state's node, a solver beside it.
-  EXPECT_THAT(importError(sceneWithBody(state + "    <UniformMass name=\"m\" totalMass=\"@m.totalMass\"/>\n")),
+  EXPECT_THAT(importError(sceneWithBody(
+                  state + "    <UniformMass name=\"m\" totalMass=\"@m.totalMass\"/>\n")),
               HasSubstr("cycle of links"));
-  EXPECT_THAT(importError(sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n    <FixedConstraint indices=\"@b.indices\"/>\n"
-                                                "    <BoxROI name=\"b\"/>\n")),
-              AllOf(HasSubstr("bad.scn:11: /root/cloth/b/box"), HasSubstr("missing attribute")));
+  EXPECT_THAT(
+      importError(sceneWithBody(
+          state +
+          "    <UniformMass totalMass=\"3\"/>\n    <FixedConstraint indices=\"@b.indices\"/>\n"
+          "    <BoxROI name=\"b\"/>\n")),
+      AllOf(HasSubstr("bad.scn:11: /root/cloth/b/box"), HasSubstr("missing attribute")));
   EXPECT_THAT(importError(sceneWithBody(state, "  <UniformMass totalMass=\"3\"/>\n")),
-              AllOf(HasSubstr("bad.scn:10: /root/UniformMass1"), HasSubstr("acts on the MechanicalObject of its own node")));
-  std::string sibling = sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n", "  <Node name=\"other\"><EulerImplicitSolver/></Node>\n");
+              AllOf(HasSubstr("bad.scn:10: /root/UniformMass1"),
+                    HasSubstr("acts on the MechanicalObject of its own node")));
+  std::string sibling = sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n",
+                                      "  <Node name=\"other\"><EulerImplicitSolver/></Node>\n");
   sibling.replace(sibling.find("  <EulerImplicitSolver/>\n"), 25, "");
   EXPECT_THAT(importError(sibling), HasSubstr("steps the states of its node and below"));
-  EXPECT_THAT(importError(sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject template=\"Vec3f\" src=\"@../loader\"/>\n")),
-              HasSubstr("single precision"));
+  EXPECT_THAT(
+      importError(sceneWithBody("    <MeshTopology src=\"@../loader\"/>\n    <MechanicalObject "
+                                "template=\"Vec3f\" src=\"@../loader\"/>\n")),
+      HasSubstr("single precision"));
   // A loader reads its own format; the Optim membrane's "method" is noted, as SOFA warns.
   std::string gmsh = sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n");
   gmsh.replace(gmsh.find("MeshOBJLoader"), 13, "MeshGmshLoader");
-  EXPECT_THAT(importError(gmsh), AllOf(HasSubstr("bad.scn:5:"), HasSubstr("MeshGmshLoader reads .msh files")));
+  EXPECT_THAT(importError(gmsh),
+              AllOf(HasSubstr("bad.scn:5:"), HasSubstr("MeshGmshLoader reads .msh files")));
   const SofaSceneImport m = importSofaScene(writeScene(
       "method.scn", sceneWithBody(state + "    <UniformMass totalMass=\"3\"/>\n"
-                                          "    <TriangularFEMForceFieldOptim youngModulus=\"100\" poissonRatio=\"0.3\" method=\"small\"/>\n")));
+                                          "    <TriangularFEMForceFieldOptim youngModulus=\"100\" "
+                                          "poissonRatio=\"0.3\" method=\"small\"/>\n")));
   ASSERT_EQ(m.notes.size(), 1u);
   EXPECT_THAT(m.notes[0], AllOf(HasSubstr("method.scn:10:"), HasSubstr("large method only")));
 }
@@ -309,8 +343,10 @@ TEST(SofaScene, GmshFilesOfVersionsOneAndTwoAreRead) {
   EXPECT_EQ(m.points.size(), 774u);
   EXPECT_EQ(m.triangles.size(), 1450u);  // the 96 border lines are skipped
   // Node ids (1-based, any order) become indices in the order of the file.
-  std::istringstream v2("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n10 0 0 0\n20 1 0 0\n30 1 1 0\n40 0 1 0\n$EndNodes\n"
-                        "$Elements\n3\n1 15 2 0 1 10\n2 2 2 0 1 10 20 30\n3 2 2 0 1 10 30 40\n$EndElements\n");
+  std::istringstream v2(
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n10 0 0 0\n20 1 0 0\n30 1 1 0\n40 0 1 "
+      "0\n$EndNodes\n"
+      "$Elements\n3\n1 15 2 0 1 10\n2 2 2 0 1 10 20 30\n3 2 2 0 1 10 30 40\n$EndElements\n");
   const topology::MeshData m2 = topology::readGmsh(v2, "v2.msh");
   ASSERT_EQ(m2.triangles.size(), 2u);
   EXPECT_EQ(m2.triangles[1], (topology::TriangleVertices{0, 2, 3}));
@@ -322,7 +358,9 @@ TEST(SofaScene, GmshFilesOfVersionsOneAndTwoAreRead) {
     EXPECT_EQ(e.where(), "bad.msh:7");
     EXPECT_THAT(e.message(), HasSubstr("node id 2 is not among the file's nodes"));
   }
-  std::istringstream quads("$NOD\n4\n1 0 0 0\n2 1 0 0\n3 1 1 0\n4 0 1 0\n$ENDNOD\n$ELM\n1\n1 3 1 1 4 1 2 3 4\n$ENDELM\n");
+  std::istringstream quads(
+      "$NOD\n4\n1 0 0 0\n2 1 0 0\n3 1 1 0\n4 0 1 0\n$ENDNOD\n$ELM\n1\n1 3 1 1 4 1 2 3 "
+      "4\n$ENDELM\n");
   EXPECT_THROW(topology::readGmsh(quads, "q.msh"), InvalidInput);
 }
 
@@ -360,7 +398,8 @@ std::string gunzip(const std::filesystem::path& p) {
 }
 
 TEST(SofaRegression, SofasReferenceIsReadAndWrittenBackByteForByte) {
-  const std::filesystem::path ref = kSofa / "references" / "TriangularFEMForceFieldOptim.scn.reference_0_DOFs_mstate.txt.gz";
+  const std::filesystem::path ref =
+      kSofa / "references" / "TriangularFEMForceFieldOptim.scn.reference_0_DOFs_mstate.txt.gz";
   const std::vector<StateFrame> frames = readReference(ref);
   ASSERT_EQ(frames.size(), 2u);
   EXPECT_EQ(frames[1].time, 4.95);
@@ -379,7 +418,7 @@ TEST(SofaRegression, SofasReferenceIsReadAndWrittenBackByteForByte) {
 TEST(SofaRegression, TheMetricsAreSofasFormulas) {
   StateFrame a{0.0, {0, 0, 0, 1, 1, 1}, {0, 0, 0, 0, 0, 0}};
   StateFrame b = a;
-  b.x[3] += 0.3;   // point 1 moved by (0.3, 0, 0.4): distance 0.5
+  b.x[3] += 0.3;  // point 1 moved by (0.3, 0, 0.4): distance 0.5
   b.x[5] += 0.4;
   b.v[0] += 0.6;
   const RegressionComparison c = compareWithReference({a}, {b}, 0.01, "test");
@@ -398,7 +437,9 @@ TEST(SofaRegression, ListsAreReadWithSofasDefaults) {
   EXPECT_EQ(list[0].steps, 100);
   EXPECT_EQ(list[0].epsilon, 1e-4);
   EXPECT_TRUE(list[0].onlyLastStep);
-  EXPECT_EQ(referencePath("refs", list[0], 0, "DOFs"), std::filesystem::path("refs/TriangularFEMForceFieldOptim.scn.reference_0_DOFs_mstate.txt.gz"));
+  EXPECT_EQ(referencePath("refs", list[0], 0, "DOFs"),
+            std::filesystem::path(
+                "refs/TriangularFEMForceFieldOptim.scn.reference_0_DOFs_mstate.txt.gz"));
   const std::filesystem::path bad = scratch() / "bad.regression-tests";
   std::ofstream(bad) << "# comment\n\nscene.scn 100 x\n";
   try {

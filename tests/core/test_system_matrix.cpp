@@ -37,7 +37,8 @@ struct Fixture {
     s.stiffness = 50.0;
     s.damping = 0.4;
     owned.push_back(std::make_unique<forcefields::StretchSprings>(topo, s));
-    owned.push_back(std::make_unique<forcefields::TriangularFEM>(topo, forcefields::TriangularFEMParameters{}));
+    owned.push_back(
+        std::make_unique<forcefields::TriangularFEM>(topo, forcefields::TriangularFEMParameters{}));
     for (auto& f : owned) fields.push_back(f.get());
     jiggle();
   }
@@ -68,7 +69,8 @@ struct Fixture {
     const Eigen::Index N = A.rows();
     for (Eigen::Index i = 0; i < N; ++i)
       for (Eigen::Index j = 0; j < N; ++j)
-        if (!constrained[std::size_t(i / 3)] && constrained[std::size_t(j / 3)]) b[i] -= A(i, j) * dv[j];
+        if (!constrained[std::size_t(i / 3)] && constrained[std::size_t(j / 3)])
+          b[i] -= A(i, j) * dv[j];
     for (Eigen::Index i = 0; i < N; ++i)
       if (constrained[std::size_t(i / 3)]) {
         A.row(i).setZero();
@@ -94,7 +96,8 @@ Eigen::MatrixXd unpermuted(SystemMatrix& S) {
   return out;
 }
 
-void expectSameAsBruteForce(Fixture& f, SystemMatrix::Ordering ordering, const std::vector<char>& constrained) {
+void expectSameAsBruteForce(Fixture& f, SystemMatrix::Ordering ordering,
+                            const std::vector<char>& constrained) {
   const std::size_t n = f.state.numSlots();
   const Eigen::Index N = Eigen::Index(3 * n);
   std::uniform_real_distribution<double> u(0.5, 2.0);
@@ -120,7 +123,8 @@ void expectSameAsBruteForce(Fixture& f, SystemMatrix::Ordering ordering, const s
 }
 
 TEST(SystemMatrix, EqualsTheBruteForceAssemblyWithBothOrderings) {
-  for (auto ordering : {SystemMatrix::Ordering::NestedDissection, SystemMatrix::Ordering::MinimumDegree}) {
+  for (auto ordering :
+       {SystemMatrix::Ordering::NestedDissection, SystemMatrix::Ordering::MinimumDegree}) {
     Fixture f;
     std::vector<char> constrained(f.state.numSlots(), 0);
     expectSameAsBruteForce(f, ordering, constrained);

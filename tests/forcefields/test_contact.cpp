@@ -3,9 +3,8 @@
 // matrix, the friction's damping against finite differences in the velocities, the pairs against
 // a brute force over every primitive pair (distances by CGAL), the BVH against a rebuild, and the
 // lips of a cut excluded until they separate.
-#include <gtest/gtest.h>
-
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
@@ -123,8 +122,10 @@ TEST(Contact, StiffnessIsSymmetricNegativeSemidefiniteAndEqualToItsMatrix) {
     std::vector<double> dx(c.x.size()), df(c.x.size(), 0.0);
     for (double& a : dx) a = g(rng);
     contact.addDForce(c.x, dx, df, 1.0, 0.0);
-    const Eigen::VectorXd ref = K * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
-    EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm());
+    const Eigen::VectorXd ref =
+        K * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
+    EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(),
+              1e-10 * ref.norm());
   }
 }
 
@@ -166,7 +167,8 @@ TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
       TripletAccumulator k, b;
       contact.addKToMatrix(at, k, 1.0);
       contact.addBToMatrix(at, b, 1.0);
-      return std::pair<Eigen::MatrixXd, Eigen::MatrixXd>(k.toSparse(topology::Index(n)), b.toSparse(topology::Index(n)));
+      return std::pair<Eigen::MatrixXd, Eigen::MatrixXd>(k.toSparse(topology::Index(n)),
+                                                         b.toSparse(topology::Index(n)));
     };
     auto check = [&](std::span<const double> at, const Eigen::MatrixXd& K, const Eigen::MatrixXd& B,
                      const std::vector<std::pair<double, double>>& factors, const char* where) {
@@ -174,13 +176,17 @@ TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
         std::vector<double> dx(c.x.size()), df(c.x.size(), 0.0);
         for (double& a : dx) a = g(rng);
         contact.addDForce(at, dx, df, kf, bf);
-        const Eigen::VectorXd ref = (kf * K + bf * B) * Eigen::Map<const Eigen::VectorXd>(dx.data(), Eigen::Index(dx.size()));
-        EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm())
+        const Eigen::VectorXd ref = (kf * K + bf * B) * Eigen::Map<const Eigen::VectorXd>(
+                                                            dx.data(), Eigen::Index(dx.size()));
+        EXPECT_LT(
+            (Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(),
+            1e-10 * ref.norm())
             << "seed " << seed << ", " << where << ", factors " << kf << ", " << bf;
       }
     };
-    const std::vector<std::pair<double, double>> implicit{{1, 0}, {-2e-6, -1e-3}, {-2e-6, -1e-3}, {1, 0},
-                                                          {-2e-6, -1e-3}, {0, 1}, {3, 0.5}, {-2e-6, -1e-3}};
+    const std::vector<std::pair<double, double>> implicit{{1, 0},   {-2e-6, -1e-3}, {-2e-6, -1e-3},
+                                                          {1, 0},   {-2e-6, -1e-3}, {0, 1},
+                                                          {3, 0.5}, {-2e-6, -1e-3}};
     contact.beginStep(c.x, velocities(true), 0.0, 1e-3);
     const ContactMeasure m0 = contact.measure(c.x, std::vector<double>(c.x.size(), 0.0));
     ASSERT_GT(m0.active, 10u);
@@ -216,7 +222,8 @@ TEST(Contact, StiffnessAgainstAPlaneIsExact) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-0.02, 0.02);
   for (PointId p : topo.points())
-    for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)] + u(rng);
+    for (int k = 0; k < 3; ++k)
+      x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)] + u(rng);
   Obstacle plane;
   plane.shape = Obstacle::Shape::Plane;
   plane.normal = {0.1, 0.2, 1.0};
@@ -235,7 +242,8 @@ TEST(Contact, StiffnessAgainstAPlaneIsExact) {
     contact.addForce(xp, v, fp);
     contact.addForce(xm, v, fm);
     for (std::size_t j = 0; j < x.size(); ++j)
-      EXPECT_NEAR(K(Eigen::Index(j), Eigen::Index(i)), (fp[j] - fm[j]) / (2 * h), 1e-5 * K.norm()) << i << ", " << j;
+      EXPECT_NEAR(K(Eigen::Index(j), Eigen::Index(i)), (fp[j] - fm[j]) / (2 * h), 1e-5 * K.norm())
+          << i << ", " << j;
   }
 }
 
@@ -286,8 +294,10 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
     std::vector<double> dv(x.size()), df(x.size(), 0.0);
     for (double& a : dv) a = n(rng);
     contact.addDForce(x, dv, df, 0.0, 1.0);
-    const Eigen::VectorXd ref = B * Eigen::Map<const Eigen::VectorXd>(dv.data(), Eigen::Index(dv.size()));
-    EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(), 1e-10 * ref.norm());
+    const Eigen::VectorXd ref =
+        B * Eigen::Map<const Eigen::VectorXd>(dv.data(), Eigen::Index(dv.size()));
+    EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(df.data(), Eigen::Index(df.size())) - ref).norm(),
+              1e-10 * ref.norm());
   }
 }
 
@@ -303,20 +313,25 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
 ///   distance to a corner or an edge is at that corner or edge (as where two layers are
 ///   aligned, point over point: rounding must not make a point meet a corner's triangles and
 ///   edges besides the corner).
-void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& what, bool expectFlatPairs = false,
-                                std::size_t* touchingFlat = nullptr, std::size_t* partial = nullptr) {
+void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& what,
+                                bool expectFlatPairs = false, std::size_t* touchingFlat = nullptr,
+                                std::size_t* partial = nullptr) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   const double within = d;
   Contact contact(*c.topo, params(d), {});
   std::vector<double> v(c.x.size(), 0.0);
   contact.beginStep(c.x, v, 0.0, 1e-3);  // at rest: every margin is d / 2, pairs are kept within d
   auto P = [&](PointId p) { return K::Point_3(c.x[3 * p], c.x[3 * p + 1], c.x[3 * p + 2]); };
-  auto dist = [](const auto& a, const auto& b) { return std::sqrt(CGAL::to_double(CGAL::squared_distance(a, b))); };
+  auto dist = [](const auto& a, const auto& b) {
+    return std::sqrt(CGAL::to_double(CGAL::squared_distance(a, b)));
+  };
   const auto tris = c.topo->triangles();
   std::vector<std::array<PointId, 3>> T;
   for (topology::TriangleId t : tris) T.push_back(c.topo->triangleVertices(t));
   auto triangle = [&](std::size_t t) { return K::Triangle_3(P(T[t][0]), P(T[t][1]), P(T[t][2])); };
-  auto holds = [&](std::size_t t, PointId p) { return T[t][0] == p || T[t][1] == p || T[t][2] == p; };
+  auto holds = [&](std::size_t t, PointId p) {
+    return T[t][0] == p || T[t][1] == p || T[t][2] == p;
+  };
   // Triangles around each point and each edge (by its sorted points).
   std::map<PointId, std::vector<std::size_t>> around;
   std::map<std::pair<PointId, PointId>, std::vector<std::size_t>> beside;
@@ -331,7 +346,9 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
   // the penalty's pairs, each times its share: the layers' normal force measure() reports.
   const double stiffness = params(d).stiffness;
   auto law = [&](double s) {
-    return s >= d ? 0.0 : stiffness * (d - s) * (d - s) / s + stiffness / 3 * std::pow(d - s, 3) / (s * s);
+    return s >= d
+               ? 0.0
+               : stiffness * (d - s) * (d - s) / s + stiffness / 3 * std::pow(d - s, 3) / (s * s);
   };
   double normal = 0.0;
   std::set<std::pair<PointId, std::pair<PointId, PointId>>> edgeFeatures;
@@ -352,9 +369,14 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       for (int k = 0; k < 3 && corner < 0; ++k)
         if (snaps(dist(P(p), P(T[t][std::size_t(k)])))) corner = k;
       for (int k = 0; k < 3 && corner < 0 && edge < 0; ++k)
-        if (snaps(dist(P(p), K::Segment_3(P(T[t][std::size_t(k)]), P(T[t][std::size_t((k + 1) % 3)]))))) edge = k;
-      if (corner >= 0) cornerFeatures.insert({p, T[t][std::size_t(corner)]});
-      else if (edge >= 0) edgeFeatures.insert({p, std::minmax(T[t][std::size_t(edge)], T[t][std::size_t((edge + 1) % 3)])});
+        if (snaps(dist(P(p),
+                       K::Segment_3(P(T[t][std::size_t(k)]), P(T[t][std::size_t((k + 1) % 3)])))))
+          edge = k;
+      if (corner >= 0)
+        cornerFeatures.insert({p, T[t][std::size_t(corner)]});
+      else if (edge >= 0)
+        edgeFeatures.insert(
+            {p, std::minmax(T[t][std::size_t(edge)], T[t][std::size_t((edge + 1) % 3)])});
       else {
         ++features;
         normal += law(dt);
@@ -364,7 +386,8 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
   for (const auto& [p, e] : edgeFeatures) {
     const double de = dist(P(p), K::Segment_3(P(e.first), P(e.second)));
     bool kept = true;
-    for (std::size_t u : beside[e]) kept = kept && !holds(u, p) && dist(P(p), triangle(u)) >= de * (1 - tol);
+    for (std::size_t u : beside[e])
+      kept = kept && !holds(u, p) && dist(P(p), triangle(u)) >= de * (1 - tol);
     if (kept) {
       ++features;
       normal += law(de);
@@ -374,8 +397,10 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
     if (q < p) continue;  // once per two points (from the lower)
     const double dq = dist(P(p), P(q));
     bool kept = true;
-    for (std::size_t u : around[q]) kept = kept && !holds(u, p) && dist(P(p), triangle(u)) >= dq * (1 - tol);
-    for (std::size_t u : around[p]) kept = kept && (holds(u, q) || dist(P(q), triangle(u)) >= dq * (1 - tol));
+    for (std::size_t u : around[q])
+      kept = kept && !holds(u, p) && dist(P(p), triangle(u)) >= dq * (1 - tol);
+    for (std::size_t u : around[p])
+      kept = kept && (holds(u, q) || dist(P(q), triangle(u)) >= dq * (1 - tol));
     if (kept) {
       ++features;
       normal += law(dq);
@@ -399,7 +424,8 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       const K::Vector_3 w = P(far) - P(p);
       u[std::size_t(j)] = w - (CGAL::to_double(w * e) / CGAL::to_double(e * e)) * e;
     }
-    const double l0 = std::sqrt(CGAL::to_double(u[0].squared_length())), l1 = std::sqrt(CGAL::to_double(u[1].squared_length()));
+    const double l0 = std::sqrt(CGAL::to_double(u[0].squared_length())),
+                 l1 = std::sqrt(CGAL::to_double(u[1].squared_length()));
     const double open = std::acos(std::clamp(CGAL::to_double(u[0] * u[1]) / (l0 * l1), -1.0, 1.0));
     const double bend = M_PI - open;
     if (!(bend < M_PI / 2)) return 0.0;
@@ -418,7 +444,8 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
       const double de = dist(sa, sb);
       if (!(de < within)) continue;
       ++all;
-      const double ends = std::min({dist(P(a[0]), sb), dist(P(a[1]), sb), dist(P(b[0]), sa), dist(P(b[1]), sa)});
+      const double ends =
+          std::min({dist(P(a[0]), sb), dist(P(a[1]), sb), dist(P(b[0]), sa), dist(P(b[1]), sa)});
       if (!(de < ends * (1 - tol))) continue;
       // (and only when their triangles share no point: else their corners' pairs may not exist)
       bool apart = true;
@@ -457,7 +484,8 @@ TEST(Contact, PairsEqualABruteForceOverEveryPrimitivePair) {
   std::size_t partial = 0;
   for (unsigned seed = 1; seed <= 3; ++seed) {
     std::size_t p = 0;
-    expectPairsEqualBruteForce(crumpled(seed, 11), 0.06, "seed " + std::to_string(seed), false, nullptr, &p);
+    expectPairsEqualBruteForce(crumpled(seed, 11), 0.06, "seed " + std::to_string(seed), false,
+                               nullptr, &p);
     partial += p;
   }
   EXPECT_GT(partial, 0u) << "some pairs of edges must have a share between 0 and 1";
@@ -504,7 +532,8 @@ TEST(Contact, PairsEqualABruteForceWhereTwoFlatLayersLieAcrossEachOther) {
   // theirs.
   const double d = 0.06, h = 0.1;
   const Crumpled c = foldedGrid(false, [&](const Vec3& r, bool upper) {
-    return upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, d} : std::array<double, 3>{r[0], r[1], 0.5 * d};
+    return upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, d}
+                 : std::array<double, 3>{r[0], r[1], 0.5 * d};
   });
   expectPairsEqualBruteForce(c, d, "shifted fold", true);
 }
@@ -559,7 +588,9 @@ TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
     std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
     for (PointId p : topo.points())
       for (int c = 0; c < 3; ++c)
-        x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] + (p < n ? 0.0 : c == 2 ? s - 2 * d : jitter(rng));
+        x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] + (p < n    ? 0.0
+                                                                            : c == 2 ? s - 2 * d
+                                                                                     : jitter(rng));
     Contact contact(topo, params(d, k), {});
     contact.beginStep(x, v, 0.0, 1e-3);
     contact.addForce(x, v, f);
@@ -583,13 +614,15 @@ TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheToleranc
   // other corners are out of reach.
   const double d = 0.05, k = 2.0, s = 0.5 * d;
   MeshData m;
-  m.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.5, 2 * d}, {0.5, 0.5, 5 * d}, {0.52, 0.5, 5 * d}};
+  m.points = {{0, 0, 0},         {1, 0, 0},         {1, 1, 0},         {0, 1, 0},
+              {0.5, 0.5, 2 * d}, {0.5, 0.5, 5 * d}, {0.52, 0.5, 5 * d}};
   m.triangles = {{0, 1, 2}, {0, 2, 3}, {4, 6, 5}};
   Topology topo(m);
   const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
   const Eigen::Vector3d across = Eigen::Vector3d(1, -1, 0).normalized();  // (off the diagonal 0-2)
   for (const bool corner : {false, true})
-    for (const double delta : {0.0, 1e-13, 2e-6, 3.2e-6, 3.9e-6, 4.4e-6, 4.6e-6, 5.5e-6, 6e-6, 8e-6, 1e-4, 1e-3}) {
+    for (const double delta :
+         {0.0, 1e-13, 2e-6, 3.2e-6, 3.9e-6, 4.4e-6, 4.6e-6, 5.5e-6, 6e-6, 8e-6, 1e-4, 1e-3}) {
       for (const double side : {1.0, -1.0}) {
         // Over the diagonal's middle, or near its corner 2 (inside the square).
         Eigen::Vector3d at = corner ? Eigen::Vector3d(1 - 0.3 * delta * s, 1 - 0.7 * delta * s, s)
@@ -597,15 +630,17 @@ TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheToleranc
         if (corner && side < 0) at = Eigen::Vector3d(1 - 0.7 * delta * s, 1 - 0.3 * delta * s, s);
         std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
         for (PointId p : topo.points())
-          for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
+          for (int c = 0; c < 3; ++c)
+            x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
         const Eigen::Vector3d shift = at - Eigen::Vector3d(0.5, 0.5, 2 * d);
         for (PointId p : {PointId(4), PointId(5), PointId(6)})
           for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] += shift[c];
         Contact contact(topo, params(d, k), {});
         contact.beginStep(x, v, 0.0, 1e-3);
         contact.addForce(x, v, f);
-        const std::string where = std::string(corner ? "near the corner" : "off the diagonal") + ", delta " +
-                                  std::to_string(delta) + " s, side " + std::to_string(side);
+        const std::string where = std::string(corner ? "near the corner" : "off the diagonal") +
+                                  ", delta " + std::to_string(delta) + " s, side " +
+                                  std::to_string(side);
         EXPECT_EQ(contact.measure(x, v).active, 1u) << where;
         EXPECT_NEAR(f[3 * 4 + 2], law, 1e-6 * law) << where;
       }
@@ -632,7 +667,8 @@ TEST(Contact, TheSearchCacheGivesTheSamePairsAsASearch) {
     ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
     ASSERT_EQ(ma.active, mb.active) << "step " << step;
     EXPECT_GT(mb.active, 0u);
-    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0), db(x.size(), 0.0);
+    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0),
+        db(x.size(), 0.0);
     a.addForce(x, v, fa);
     b.addForce(x, v, fb);
     for (double& q : dx) q = n(rng);
@@ -668,12 +704,15 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
   Topology topo(twoSheets(0.3 * d, 0.2 * d, 2 * d));  // (apart at rest: no exclusion)
   std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0);
   for (PointId p : topo.points())
-    for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] - (p >= n && c == 2 ? 1.9 * d : 0.0);
+    for (int c = 0; c < 3; ++c)
+      x[3 * p + std::size_t(c)] =
+          topo.restPosition(p)[std::size_t(c)] - (p >= n && c == 2 ? 1.9 * d : 0.0);
   ContactParameters cached = params(d), fresh = cached;
   fresh.searchSlack = 0.0;
   std::mt19937 rng(11);
   std::normal_distribution<double> jitter;
-  for (const std::array<topology::Index, 3> far : {std::array<topology::Index, 3>{20, 40, 41}, {10, 11, 70}, {30, 50, 60}}) {
+  for (const std::array<topology::Index, 3> far :
+       {std::array<topology::Index, 3>{20, 40, 41}, {10, 11, 70}, {30, 50, 60}}) {
     Contact a(topo, cached, {}), b(topo, fresh, {});
     a.beginStep(x, v, 0.0, 1e-3);
     b.beginStep(x, v, 0.0, 1e-3);
@@ -681,7 +720,8 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
     for (double& q : xa) q += 1e-4 * d * jitter(rng);
     for (const topology::Index p : far) xa[3 * (n + p) + 2] -= 0.12 * d;
     std::vector<double> xb = xa;
-    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {}), cb = b.limitDisplacement(x, xb, vb, 1e-3, {});
+    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {}),
+                      cb = b.limitDisplacement(x, xb, vb, 1e-3, {});
     EXPECT_GE(ca, 3u) << "points " << far[0] << ", " << far[1] << ", " << far[2];
     EXPECT_EQ(ca, cb) << "points " << far[0] << ", " << far[1] << ", " << far[2];
     for (std::size_t i = 0; i < x.size(); ++i) {
@@ -710,8 +750,9 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
   for (PointId p : topo.points()) {
     const Vec3 r = topo.restPosition(p);
     const bool upper = r[0] > 1e-9;
-    const std::array<double, 3> q = upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, 1.5 * d}
-                                          : std::array<double, 3>{r[0], r[1], 0.5 * d};
+    const std::array<double, 3> q =
+        upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, 1.5 * d}
+              : std::array<double, 3>{r[0], r[1], 0.5 * d};
     for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = q[std::size_t(c)];
   }
   ContactParameters one = params(d, 1e3, 0.3), two = one, three = one;
@@ -753,7 +794,8 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
     }
     // The solve's proposal: every point down by a quarter of d, jittered; bounded alike.
     std::vector<double> xa = x, va(x.size(), 0.0);
-    for (std::size_t i = 0; i < x.size(); ++i) xa[i] += (i % 3 == 2 ? -0.25 * d : 0.0) + 0.05 * d * n(rng);
+    for (std::size_t i = 0; i < x.size(); ++i)
+      xa[i] += (i % 3 == 2 ? -0.25 * d : 0.0) + 0.05 * d * n(rng);
     const std::vector<double> proposal = xa;
     const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {});
     for (const Contact* o : {&b, &c3}) {
@@ -816,7 +858,8 @@ TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
     EXPECT_GT(ma.active, 1000u) << "the sheet must lie on the ball";
     ASSERT_EQ(ma.obstacleNormal, mb.obstacleNormal) << "step " << step;
     ASSERT_EQ(ma.obstacleFriction, mb.obstacleFriction) << "step " << step;
-    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0), db(x.size(), 0.0);
+    std::vector<double> fa(x.size(), 0.0), fb(x.size(), 0.0), dx(x.size()), da(x.size(), 0.0),
+        db(x.size(), 0.0);
     a.addForce(x, v, fa);
     b.addForce(x, v, fb);
     ASSERT_TRUE(same(fa, fb)) << "forces, step " << step;
@@ -829,11 +872,13 @@ TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
     std::vector<double> xa = x, va(x.size(), 0.0), vb(x.size(), 0.0);
     for (std::size_t i = 0; i < x.size(); i += 3) {
       const Eigen::Vector3d q(x[i], x[i + 1], x[i + 2]);
-      const Eigen::Vector3d dxp = -d / 3 * q.normalized() + 0.05 * d * Eigen::Vector3d(n(rng), n(rng), n(rng));
+      const Eigen::Vector3d dxp =
+          -d / 3 * q.normalized() + 0.05 * d * Eigen::Vector3d(n(rng), n(rng), n(rng));
       for (int c = 0; c < 3; ++c) xa[i + std::size_t(c)] += dxp[c];
     }
     std::vector<double> xb = xa;
-    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {}), cb = b.limitDisplacement(x, xb, vb, 1e-3, {});
+    const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {}),
+                      cb = b.limitDisplacement(x, xb, vb, 1e-3, {});
     ASSERT_EQ(ca, cb) << "step " << step;
     EXPECT_GT(ca, 100u) << "the ball must bound points";
     ASSERT_TRUE(same(xa, xb) && same(va, vb)) << "bounded positions, step " << step;
@@ -899,7 +944,8 @@ TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {
     v.resize(c.x.size(), 0.0);
     for (PointId p : c.topo->points())
       if (c.x[3 * p] == 0.0 && c.x[3 * p + 1] == 0.0 && c.x[3 * p + 2] == 0.0)
-        for (int k = 0; k < 3; ++k) c.x[3 * p + std::size_t(k)] = c.topo->restPosition(p)[std::size_t(k)];
+        for (int k = 0; k < 3; ++k)
+          c.x[3 * p + std::size_t(k)] = c.topo->restPosition(p)[std::size_t(k)];
   }
   contact.beginStep(c.x, v, 0.0, 1e-3);
   const auto report = c.topo->validate();
@@ -932,7 +978,8 @@ TEST(Contact, TheLipsOfACutAreExcludedUntilTheySeparate) {
   for (double a : f) EXPECT_EQ(a, 0.0);
   // Open the cut: the part above y = 0.5 moves up by 3 d; its lips are no longer excluded.
   for (PointId p : topo.points())
-    if (topo.restPosition(p)[1] > 0.5 + 1e-9 || std::find(cut.copies.begin(), cut.copies.end(), p) != cut.copies.end())
+    if (topo.restPosition(p)[1] > 0.5 + 1e-9 ||
+        std::find(cut.copies.begin(), cut.copies.end(), p) != cut.copies.end())
       x[3 * p + 2] += 0.06;
   contact.beginStep(x, v, 0.0, 1e-3);
   m = contact.measure(x, v);
@@ -960,7 +1007,8 @@ TEST(Contact, DisplacementBoundKeepsEveryPairApart) {
   EXPECT_GT(clamped, 0u);
   const auto& b = contact.bounds();
   for (PointId p : c.topo->points()) {
-    const double moved = std::hypot(x1[3 * p] - c.x[3 * p], x1[3 * p + 1] - c.x[3 * p + 1], x1[3 * p + 2] - c.x[3 * p + 2]);
+    const double moved = std::hypot(x1[3 * p] - c.x[3 * p], x1[3 * p + 1] - c.x[3 * p + 1],
+                                    x1[3 * p + 2] - c.x[3 * p + 2]);
     EXPECT_LE(moved, b[p] * (1 + 1e-12));
     if (moved >= b[p] * (1 - 1e-12))
       EXPECT_NEAR(v1[3 * p] * 1e-2, x1[3 * p] - c.x[3 * p], 1e-15) << "velocity of a clamped point";

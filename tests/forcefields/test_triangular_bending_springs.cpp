@@ -25,7 +25,8 @@ TEST(TriangularBendingSprings, ForceIsTheSpringBetweenTheWingsOfEachHinge) {
   topology::Topology topo(test::grid(5, 2.0, 0.15, 4));
   TriangularBendingSprings f(topo, params(0.3));
   const std::vector<double> rest = test::restOf(topo);
-  const std::vector<double> x = test::perturbed(rest, 0.2, 3), v = test::randomVector(rest.size(), 1.0, 9);
+  const std::vector<double> x = test::perturbed(rest, 0.2, 3),
+                            v = test::randomVector(rest.size(), 1.0, 9);
   std::vector<double> got(x.size(), 0.0), twin(x.size(), 0.0);
   f.addForce(x, v, got);
   std::size_t hinges = 0;
@@ -48,7 +49,8 @@ TEST(TriangularBendingSprings, ForceIsTheSpringBetweenTheWingsOfEachHinge) {
     }
     L0 = std::sqrt(L0);
     l = std::sqrt(l);
-    for (int k = 0; k < 3; ++k) rel += (v[3 * w[1] + std::size_t(k)] - v[3 * w[0] + std::size_t(k)]) * d[k] / l;
+    for (int k = 0; k < 3; ++k)
+      rel += (v[3 * w[1] + std::size_t(k)] - v[3 * w[0] + std::size_t(k)]) * d[k] / l;
     const double I = 40.0 * (l - L0) + 0.3 * rel;
     for (int k = 0; k < 3; ++k) {
       twin[3 * w[0] + std::size_t(k)] += I * d[k] / l;

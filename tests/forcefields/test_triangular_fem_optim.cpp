@@ -7,9 +7,9 @@
 
 #include <cmath>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/forcefields/triangular_fem_optim.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
@@ -60,7 +60,8 @@ TEST(TriangularFemOptim, ForcesAgreeWithTheTwinsToSecondOrderInTheStrain) {
     }());
     const double scale = test::maxAbs(test::forceAt(t.twin, x));
     EXPECT_LT(err, 0.05 * scale) << eps;
-    if (previous > 0) EXPECT_NEAR(previous / err, 4.0, 1.0) << "the difference is not of second order";
+    if (previous > 0)
+      EXPECT_NEAR(previous / err, 4.0, 1.0) << "the difference is not of second order";
     previous = err;
   }
 }
@@ -70,7 +71,8 @@ TEST(TriangularFemOptim, ItsDForceIsItsMatrixAndItsEnergyGradientIsItsForceAtSma
   const std::vector<double> x = test::perturbed(t.rest, 0.05, 4);
   const std::vector<double> dx = test::randomVector(3 * t.n(), 1.0, 8);
   EXPECT_LT(test::dForceVsMatrixError(t.optim, x, dx, t.n()), 1e-12);
-  EXPECT_LT(test::maxAsymmetry(test::assembledK(t.optim, x, t.n())), 1e-9 * test::maxAbsCoeff(test::assembledK(t.optim, x, t.n())));
+  EXPECT_LT(test::maxAsymmetry(test::assembledK(t.optim, x, t.n())),
+            1e-9 * test::maxAbsCoeff(test::assembledK(t.optim, x, t.n())));
   // Not a gradient away from rest (the frame turns along ab): only close, to O(strain).
   EXPECT_LT(test::forceVsEnergyError(t.optim, x, 1e-6), 0.1);
   EXPECT_FALSE(t.optim.stiffnessIsExact());

@@ -11,13 +11,13 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
-#include "support/scene_text.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/scene_text.hpp"
 
 namespace cutsim::test {
 namespace {
@@ -25,7 +25,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
-
 
 struct NoFpTraps {
   int saved = fegetexcept();
@@ -186,7 +185,8 @@ TEST(BadSceneInput, ANumberBeyondTheDoubleRangeIsRejected) {
   NoFpTraps noTraps;  // the JSON lexer's strtod raises the overflow flag on 1e999
   EXPECT_THAT(parseError("{\n\"mesh\": {\"grid\": {\"nx\": 3, \"ny\": 3}},\n\"timeStep\": 1e999, "
                          "\"duration\": 1}"),
-              StartsWith("inline.json:3: invalid JSON: number overflow parsing '1e999' (beyond the range of doubles"));
+              StartsWith("inline.json:3: invalid JSON: number overflow parsing '1e999' (beyond the "
+                         "range of doubles"));
   EXPECT_THAT(parseError(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": "
                                "-1e999}]")),
               StartsWith("inline.json:6: "));

@@ -1,10 +1,11 @@
 // cutsim_soak: a long run of random topology operations (not part of CI; scripts/soak.sh runs it
 // under the sanitizers). Sheets of random size are cut, torn, split, carved, repaired and
 // compacted by the tests' random operation generator, with every observer of the core subscribed
-// (the state, the mass, every force field, contact, and the event mirror); a share of the operations is failed at a random failure
-// point (the undo journal must leave the digest and every observer unchanged). After every
-// operation the topology and every observer are validated. Prints progress every ten seconds and
-// a summary at the end; exit code 1 on the first problem, with what is needed to replay it.
+// (the state, the mass, every force field, contact, and the event mirror); a share of the
+// operations is failed at a random failure point (the undo journal must leave the digest and every
+// observer unchanged). After every operation the topology and every observer are validated. Prints
+// progress every ten seconds and a summary at the end; exit code 1 on the first problem, with what
+// is needed to replay it.
 //
 //   cutsim_soak [--ops N] [--seed S] [--inject P] [--validate-every K]
 #include <chrono>
@@ -37,13 +38,14 @@ using namespace cutsim;
 struct Options {
   std::uint64_t ops = 1000000;
   std::uint64_t seed = 1;
-  double inject = 0.25;       // share of the operations failed at a random point
+  double inject = 0.25;  // share of the operations failed at a random point
   std::uint64_t validateEvery = 1;
 };
 
 [[noreturn]] void usage(const std::string& problem) {
-  std::cerr << "cutsim_soak: " << problem
-            << "\nusage: cutsim_soak [--ops N] [--seed S] [--inject P (0..1)] [--validate-every K]\n";
+  std::cerr
+      << "cutsim_soak: " << problem
+      << "\nusage: cutsim_soak [--ops N] [--seed S] [--inject P (0..1)] [--validate-every K]\n";
   std::exit(2);
 }
 
@@ -54,11 +56,16 @@ Options parse(int argc, char** argv) {
     if (i + 1 >= argc) usage("'" + a + "' needs a value");
     const std::string v = argv[++i];
     char* end = nullptr;
-    if (a == "--ops") o.ops = std::strtoull(v.c_str(), &end, 10);
-    else if (a == "--seed") o.seed = std::strtoull(v.c_str(), &end, 10);
-    else if (a == "--inject") o.inject = std::strtod(v.c_str(), &end);
-    else if (a == "--validate-every") o.validateEvery = std::strtoull(v.c_str(), &end, 10);
-    else usage("unknown option '" + a + "'");
+    if (a == "--ops")
+      o.ops = std::strtoull(v.c_str(), &end, 10);
+    else if (a == "--seed")
+      o.seed = std::strtoull(v.c_str(), &end, 10);
+    else if (a == "--inject")
+      o.inject = std::strtod(v.c_str(), &end);
+    else if (a == "--validate-every")
+      o.validateEvery = std::strtoull(v.c_str(), &end, 10);
+    else
+      usage("unknown option '" + a + "'");
     if (end == nullptr || *end != '\0') usage("'" + v + "' is not a number (" + a + ")");
   }
   if (!(o.inject >= 0 && o.inject <= 1)) usage("--inject must be in [0, 1]");
@@ -71,10 +78,10 @@ struct Totals {
 };
 
 void report(const Totals& t, double seconds, const char* label) {
-  std::cout << label << t.ops << " operations on " << t.sheets << " sheets in " << seconds
-            << " s (" << (seconds > 0 ? double(t.ops) / seconds : 0.0) << " /s): " << t.applied
-            << " applied, " << t.rejected << " refused, " << t.skipped << " skipped, "
-            << t.injected << " failed on purpose and rolled back" << std::endl;
+  std::cout << label << t.ops << " operations on " << t.sheets << " sheets in " << seconds << " s ("
+            << (seconds > 0 ? double(t.ops) / seconds : 0.0) << " /s): " << t.applied
+            << " applied, " << t.rejected << " refused, " << t.skipped << " skipped, " << t.injected
+            << " failed on purpose and rolled back" << std::endl;
 }
 
 [[noreturn]] void fail(const std::string& what, std::uint64_t sheetSeed, int side, int step,
@@ -148,7 +155,8 @@ int main(int argc, char** argv) {
         ++totals.skipped;
       }
       if (op.outcome == test::RandomOp::Outcome::Rejected) {
-        if (t.digest() != digest) fail("a refused operation changed the mesh", sheetSeed, side, step, op.what);
+        if (t.digest() != digest)
+          fail("a refused operation changed the mesh", sheetSeed, side, step, op.what);
         if (mirror.transactions != transactions)
           fail("a refused operation delivered events", sheetSeed, side, step, op.what);
         if (op.what.find("internal error") != std::string::npos)

@@ -24,10 +24,10 @@ std::string Intersection::describe() const {
   return s.str();
 }
 
-std::vector<Intersection> findIntersections(const std::vector<std::array<double, 3>>& points,
-                                            const std::vector<std::array<std::size_t, 3>>& triangles,
-                                            const std::function<bool(std::size_t, std::size_t)>& skip,
-                                            std::size_t limit) {
+std::vector<Intersection> findIntersections(
+    const std::vector<std::array<double, 3>>& points,
+    const std::vector<std::array<std::size_t, 3>>& triangles,
+    const std::function<bool(std::size_t, std::size_t)>& skip, std::size_t limit) {
   auto P = [&](std::size_t i) { return P3(points[i][0], points[i][1], points[i][2]); };
   std::vector<Box> boxes;
   boxes.reserve(triangles.size());
@@ -72,10 +72,10 @@ std::vector<Intersection> findIntersections(const std::vector<std::array<double,
   return out;
 }
 
-std::vector<Intersection> simulationIntersections(const core::Simulation& sim, bool skipLips,
-                                                  const std::vector<std::array<double, 3>>& obstaclePoints,
-                                                  const std::vector<std::array<std::size_t, 3>>& obstacleTriangles,
-                                                  double restNear) {
+std::vector<Intersection> simulationIntersections(
+    const core::Simulation& sim, bool skipLips,
+    const std::vector<std::array<double, 3>>& obstaclePoints,
+    const std::vector<std::array<std::size_t, 3>>& obstacleTriangles, double restNear) {
   const auto& topo = sim.topology();
   const auto x = sim.state().x();
   std::vector<std::array<double, 3>> points(topo.pointCapacity());
@@ -119,34 +119,40 @@ std::vector<Intersection> simulationIntersections(const core::Simulation& sim, b
         for (std::size_t a : A)
           for (std::size_t b : B) {
             sharePoint = sharePoint || a == b;
-            copies = copies || (a != b && CGAL::to_double(CGAL::squared_distance(R(a), R(b))) <= touch2);
+            copies =
+                copies || (a != b && CGAL::to_double(CGAL::squared_distance(R(a), R(b))) <= touch2);
           }
         if (copies) continue;  // two sides of a cut through a point that was duplicated
         std::vector<std::size_t> shared;
         for (std::size_t a : A)
           if (std::find(B.begin(), B.end(), a) != B.end()) shared.push_back(a);
         if (shared.size() == 1) {
-          // The two sides of a cut that ends at the shared point: the rest triangles touch beyond it.
+          // The two sides of a cut that ends at the shared point: the rest triangles touch beyond
+          // it.
           auto opposite = [&](const std::array<std::size_t, 3>& T) {
             std::vector<std::size_t> o;
             for (std::size_t k : T)
               if (k != shared[0]) o.push_back(k);
             return o;
           };
-          auto segTri2 = [&](const std::vector<std::size_t>& e, const std::array<std::size_t, 3>& T) {
+          auto segTri2 = [&](const std::vector<std::size_t>& e,
+                             const std::array<std::size_t, 3>& T) {
             const T3 tri(R(T[0]), R(T[1]), R(T[2]));
             const S3 seg(R(e[0]), R(e[1]));
             if (CGAL::do_intersect(seg, tri)) return 0.0;
             double d2 = std::min(CGAL::to_double(CGAL::squared_distance(R(e[0]), tri)),
                                  CGAL::to_double(CGAL::squared_distance(R(e[1]), tri)));
             for (int k = 0; k < 3; ++k)
-              d2 = std::min(d2, CGAL::to_double(CGAL::squared_distance(seg, S3(R(T[std::size_t(k)]), R(T[std::size_t((k + 1) % 3)])))));
+              d2 =
+                  std::min(d2, CGAL::to_double(CGAL::squared_distance(
+                                   seg, S3(R(T[std::size_t(k)]), R(T[std::size_t((k + 1) % 3)])))));
             return d2;
           };
           if (segTri2(opposite(A), B) <= touch2 || segTri2(opposite(B), A) <= touch2) continue;
         }
         if (!sharePoint &&
-            CGAL::to_double(CGAL::squared_distance(T3(R(A[0]), R(A[1]), R(A[2])), T3(R(B[0]), R(B[1]), R(B[2])))) <= touch2)
+            CGAL::to_double(CGAL::squared_distance(T3(R(A[0]), R(A[1]), R(A[2])),
+                                                   T3(R(B[0]), R(B[1]), R(B[2])))) <= touch2)
           continue;
       }
       kept.push_back(f);
@@ -156,8 +162,10 @@ std::vector<Intersection> simulationIntersections(const core::Simulation& sim, b
   if (found.size() > 10) found.resize(10);
   for (auto& f : found) {
     // Surface triangles by their ids, obstacle triangles after every surface slot.
-    f.a = f.a < surfaceTriangles ? std::size_t(ids[f.a]) : topo.triangleCapacity() + (f.a - surfaceTriangles);
-    f.b = f.b < surfaceTriangles ? std::size_t(ids[f.b]) : topo.triangleCapacity() + (f.b - surfaceTriangles);
+    f.a = f.a < surfaceTriangles ? std::size_t(ids[f.a])
+                                 : topo.triangleCapacity() + (f.a - surfaceTriangles);
+    f.b = f.b < surfaceTriangles ? std::size_t(ids[f.b])
+                                 : topo.triangleCapacity() + (f.b - surfaceTriangles);
   }
   return found;
 }

@@ -23,7 +23,8 @@ struct Intersection {
 /// The intersecting pairs of the triangles (corner indices into points), at most `limit`.
 /// skip(i, j) excludes a pair.
 std::vector<Intersection> findIntersections(
-    const std::vector<std::array<double, 3>>& points, const std::vector<std::array<std::size_t, 3>>& triangles,
+    const std::vector<std::array<double, 3>>& points,
+    const std::vector<std::array<std::size_t, 3>>& triangles,
     const std::function<bool(std::size_t, std::size_t)>& skip = {}, std::size_t limit = 10);
 
 /// The simulation's live triangles at its current positions, excluding pairs of triangles that
@@ -31,9 +32,9 @@ std::vector<Intersection> findIntersections(
 /// lips of a cut, which the contact excludes until they separate; 0 skips only the triangles that
 /// touch there) when `skipLips`; optionally also against obstacle triangles
 /// (extra points and triangles appended, checked like the rest but never among themselves).
-std::vector<Intersection> simulationIntersections(const core::Simulation& sim, bool skipLips = true,
-                                                  const std::vector<std::array<double, 3>>& obstaclePoints = {},
-                                                  const std::vector<std::array<std::size_t, 3>>& obstacleTriangles = {},
-                                                  double restNear = 0.0);
+std::vector<Intersection> simulationIntersections(
+    const core::Simulation& sim, bool skipLips = true,
+    const std::vector<std::array<double, 3>>& obstaclePoints = {},
+    const std::vector<std::array<std::size_t, 3>>& obstacleTriangles = {}, double restNear = 0.0);
 
 }  // namespace cutsim::test

@@ -21,9 +21,7 @@ namespace cutsim::test {
 class MirrorObserver : public topology::TopologyObserver {
  public:
   using Topology = topology::Topology;
-  explicit MirrorObserver(const Topology& t) {
-    restAll(t);
-  }
+  explicit MirrorObserver(const Topology& t) { restAll(t); }
 
   std::string observerName() const override { return "mirror"; }
 
@@ -33,7 +31,8 @@ class MirrorObserver : public topology::TopologyObserver {
       auto id = e.triangles[i];
       expect(id < tri.size() && triAlive[id], "destroyed triangle " + s(id) + " was not alive");
       expect(!t.isTriangleAlive(id), "destroyed triangle " + s(id) + " still alive in the mesh");
-      expect(id < tri.size() && tri[id] == e.vertices[i], "destroyed triangle " + s(id) + " vertices differ");
+      expect(id < tri.size() && tri[id] == e.vertices[i],
+             "destroyed triangle " + s(id) + " vertices differ");
       if (id < triAlive.size()) triAlive[id] = false;
     }
   }
@@ -43,14 +42,16 @@ class MirrorObserver : public topology::TopologyObserver {
       auto id = e.edges[i];
       expect(id < edge.size() && edgeAlive[id], "destroyed edge " + s(id) + " was not alive");
       expect(!t.isEdgeAlive(id), "destroyed edge " + s(id) + " still alive in the mesh");
-      expect(id < edge.size() && edge[id] == e.vertices[i], "destroyed edge " + s(id) + " endpoints differ");
+      expect(id < edge.size() && edge[id] == e.vertices[i],
+             "destroyed edge " + s(id) + " endpoints differ");
       if (id < edgeAlive.size()) edgeAlive[id] = false;
     }
   }
   void onPointsDestroyed(const Topology& t, const topology::PointsDestroyed& e) override {
     stage(3, e.points);
     for (auto id : e.points) {
-      expect(id < pointAlive.size() && pointAlive[id], "destroyed point " + s(id) + " was not alive");
+      expect(id < pointAlive.size() && pointAlive[id],
+             "destroyed point " + s(id) + " was not alive");
       expect(!t.isPointAlive(id), "destroyed point " + s(id) + " still alive in the mesh");
       if (id < pointAlive.size()) pointAlive[id] = false;
     }
@@ -60,7 +61,8 @@ class MirrorObserver : public topology::TopologyObserver {
     expect(e.offsets.size() == e.points.size() + 1, "offsets size");
     for (std::size_t i = 0; i < e.points.size(); ++i) {
       auto id = e.points[i];
-      expect(id >= pointAlive.size() || !pointAlive[id], "created point " + s(id) + " reuses a live slot");
+      expect(id >= pointAlive.size() || !pointAlive[id],
+             "created point " + s(id) + " reuses a live slot");
       grow(id + 1, pointAlive, rest);
       pointAlive[id] = true;
       if (e.offsets[i] == e.offsets[i + 1]) {
@@ -71,13 +73,15 @@ class MirrorObserver : public topology::TopologyObserver {
       double wsum = 0;
       for (auto k = e.offsets[i]; k < e.offsets[i + 1]; ++k) {
         auto a = e.ancestors[k];
-        expect(a < transactionStartPoints, "ancestor " + s(a) + " of point " + s(id) + " is new in this transaction");
+        expect(a < transactionStartPoints,
+               "ancestor " + s(a) + " of point " + s(id) + " is new in this transaction");
         expect(a < rest.size(), "ancestor out of range");
         if (a >= rest.size()) continue;
         for (int c = 0; c < 3; ++c) p[c] += e.weights[k] * rest[a][c];
         wsum += e.weights[k];
       }
-      expect(std::abs(wsum - 1.0) < 1e-12, "weights of point " + s(id) + " sum to " + std::to_string(wsum));
+      expect(std::abs(wsum - 1.0) < 1e-12,
+             "weights of point " + s(id) + " sum to " + std::to_string(wsum));
       rest[id] = p;
     }
   }
@@ -105,8 +109,8 @@ class MirrorObserver : public topology::TopologyObserver {
     }
   }
   template <class... V>
-  static void renumber(std::span<const topology::Index> map, topology::Index n, std::vector<bool>& alive,
-                       V&... data) {
+  static void renumber(std::span<const topology::Index> map, topology::Index n,
+                       std::vector<bool>& alive, V&... data) {
     std::vector<bool> a2(n, false);
     auto move = [&](auto& d) {
       std::remove_reference_t<decltype(d)> d2(n);
@@ -123,13 +127,21 @@ class MirrorObserver : public topology::TopologyObserver {
     stageRenumber(1);
     renumber(r.oldToNew, r.newSize, pointAlive, rest);
     auto mapPoint = [&](topology::PointId& p) { p = r.oldToNew[p]; };
-    for (std::size_t e = 0; e < edge.size(); ++e) if (edgeAlive[e]) { mapPoint(edge[e][0]); mapPoint(edge[e][1]); }
-    for (std::size_t t = 0; t < tri.size(); ++t) if (triAlive[t]) for (auto& p : tri[t]) mapPoint(p);
+    for (std::size_t e = 0; e < edge.size(); ++e)
+      if (edgeAlive[e]) {
+        mapPoint(edge[e][0]);
+        mapPoint(edge[e][1]);
+      }
+    for (std::size_t t = 0; t < tri.size(); ++t)
+      if (triAlive[t])
+        for (auto& p : tri[t]) mapPoint(p);
   }
   void onEdgesRenumbered(const Topology&, const topology::Renumbering& r) override {
     stageRenumber(2);
     renumber(r.oldToNew, r.newSize, edgeAlive, edge);
-    for (std::size_t t = 0; t < tri.size(); ++t) if (triAlive[t]) for (auto& e : triEdges[t]) e = r.oldToNew[e];
+    for (std::size_t t = 0; t < tri.size(); ++t)
+      if (triAlive[t])
+        for (auto& e : triEdges[t]) e = r.oldToNew[e];
   }
   void onTrianglesRenumbered(const Topology&, const topology::Renumbering& r) override {
     stageRenumber(3);
@@ -144,10 +156,14 @@ class MirrorObserver : public topology::TopologyObserver {
 
   void validate(const Topology& t, std::vector<std::string>& problems) const override {
     for (auto& e : errors) problems.push_back("event contract: " + e);
-    if (pointAlive.size() > t.pointCapacity()) problems.push_back("more point slots than the topology");
+    if (pointAlive.size() > t.pointCapacity())
+      problems.push_back("more point slots than the topology");
     for (topology::Index p = 0; p < t.pointCapacity(); ++p) {
       bool a = p < pointAlive.size() && pointAlive[p];
-      if (a != t.isPointAlive(p)) { problems.push_back("point " + s(p) + " alive mismatch"); continue; }
+      if (a != t.isPointAlive(p)) {
+        problems.push_back("point " + s(p) + " alive mismatch");
+        continue;
+      }
       if (!a) continue;
       auto r = t.restPosition(p);
       for (int c = 0; c < 3; ++c)
@@ -156,14 +172,23 @@ class MirrorObserver : public topology::TopologyObserver {
     }
     for (topology::Index e = 0; e < t.edgeCapacity(); ++e) {
       bool a = e < edgeAlive.size() && edgeAlive[e];
-      if (a != t.isEdgeAlive(e)) { problems.push_back("edge " + s(e) + " alive mismatch"); continue; }
-      if (a && edge[e] != t.edgeVertices(e)) problems.push_back("edge " + s(e) + " endpoints differ");
+      if (a != t.isEdgeAlive(e)) {
+        problems.push_back("edge " + s(e) + " alive mismatch");
+        continue;
+      }
+      if (a && edge[e] != t.edgeVertices(e))
+        problems.push_back("edge " + s(e) + " endpoints differ");
     }
     for (topology::Index f = 0; f < t.triangleCapacity(); ++f) {
       bool a = f < triAlive.size() && triAlive[f];
-      if (a != t.isTriangleAlive(f)) { problems.push_back("triangle " + s(f) + " alive mismatch"); continue; }
-      if (a && tri[f] != t.triangleVertices(f)) problems.push_back("triangle " + s(f) + " vertices differ");
-      if (a && triEdges[f] != t.triangleEdges(f)) problems.push_back("triangle " + s(f) + " edges differ");
+      if (a != t.isTriangleAlive(f)) {
+        problems.push_back("triangle " + s(f) + " alive mismatch");
+        continue;
+      }
+      if (a && tri[f] != t.triangleVertices(f))
+        problems.push_back("triangle " + s(f) + " vertices differ");
+      if (a && triEdges[f] != t.triangleEdges(f))
+        problems.push_back("triangle " + s(f) + " edges differ");
     }
   }
 
@@ -172,10 +197,13 @@ class MirrorObserver : public topology::TopologyObserver {
 
  private:
   static std::string s(std::size_t i) { return std::to_string(i); }
-  void expect(bool ok, const std::string& what) { if (!ok) errors.push_back(what); }
+  void expect(bool ok, const std::string& what) {
+    if (!ok) errors.push_back(what);
+  }
   template <class Ids>
   void stage(int k, const Ids& ids) {
-    expect(k > stage_, "event kind " + s(k) + " delivered after kind " + s(stage_) + " in one transaction");
+    expect(k > stage_,
+           "event kind " + s(k) + " delivered after kind " + s(stage_) + " in one transaction");
     expect(renumberStage_ == 0, "creation/destruction mixed with renumbering");
     expect(!ids.empty(), "empty event list delivered");
     expect(std::is_sorted(ids.begin(), ids.end()), "event list not sorted");
@@ -194,14 +222,24 @@ class MirrorObserver : public topology::TopologyObserver {
   void restAll(const Topology& t) {
     pointAlive.assign(t.pointCapacity(), false);
     rest.assign(t.pointCapacity(), {0, 0, 0});
-    for (auto p : t.points()) { pointAlive[p] = true; rest[p] = t.restPosition(p); }
+    for (auto p : t.points()) {
+      pointAlive[p] = true;
+      rest[p] = t.restPosition(p);
+    }
     edgeAlive.assign(t.edgeCapacity(), false);
     edge.assign(t.edgeCapacity(), {});
-    for (auto e : t.edges()) { edgeAlive[e] = true; edge[e] = t.edgeVertices(e); }
+    for (auto e : t.edges()) {
+      edgeAlive[e] = true;
+      edge[e] = t.edgeVertices(e);
+    }
     triAlive.assign(t.triangleCapacity(), false);
     tri.assign(t.triangleCapacity(), {});
     triEdges.assign(t.triangleCapacity(), {});
-    for (auto f : t.triangles()) { triAlive[f] = true; tri[f] = t.triangleVertices(f); triEdges[f] = t.triangleEdges(f); }
+    for (auto f : t.triangles()) {
+      triAlive[f] = true;
+      tri[f] = t.triangleVertices(f);
+      triEdges[f] = t.triangleEdges(f);
+    }
     transactionStartPoints = t.pointCapacity();
   }
 
@@ -226,21 +264,42 @@ class EventLog : public topology::TopologyObserver {
     return k;
   }
   void clear() { log.clear(); }
-  void onTrianglesDestroyed(const Topology&, const topology::TrianglesDestroyed& e) override { add("T-", e.triangles); }
-  void onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& e) override { add("E-", e.edges); }
-  void onPointsDestroyed(const Topology&, const topology::PointsDestroyed& e) override { add("P-", e.points); }
-  void onPointsCreated(const Topology&, const topology::PointsCreated& e) override { add("P+", e.points); }
-  void onEdgesCreated(const Topology&, const topology::EdgesCreated& e) override { add("E+", e.edges); }
-  void onTrianglesCreated(const Topology&, const topology::TrianglesCreated& e) override { add("T+", e.triangles); }
-  void onPointsRenumbered(const Topology&, const topology::Renumbering& r) override { log.push_back("P#:" + std::to_string(r.newSize)); }
-  void onEdgesRenumbered(const Topology&, const topology::Renumbering& r) override { log.push_back("E#:" + std::to_string(r.newSize)); }
-  void onTrianglesRenumbered(const Topology&, const topology::Renumbering& r) override { log.push_back("T#:" + std::to_string(r.newSize)); }
-  void onTransactionEnd(const Topology&, const topology::TransactionSummary& s) override { log.push_back("end:" + std::string(s.operation)); }
+  void onTrianglesDestroyed(const Topology&, const topology::TrianglesDestroyed& e) override {
+    add("T-", e.triangles);
+  }
+  void onEdgesDestroyed(const Topology&, const topology::EdgesDestroyed& e) override {
+    add("E-", e.edges);
+  }
+  void onPointsDestroyed(const Topology&, const topology::PointsDestroyed& e) override {
+    add("P-", e.points);
+  }
+  void onPointsCreated(const Topology&, const topology::PointsCreated& e) override {
+    add("P+", e.points);
+  }
+  void onEdgesCreated(const Topology&, const topology::EdgesCreated& e) override {
+    add("E+", e.edges);
+  }
+  void onTrianglesCreated(const Topology&, const topology::TrianglesCreated& e) override {
+    add("T+", e.triangles);
+  }
+  void onPointsRenumbered(const Topology&, const topology::Renumbering& r) override {
+    log.push_back("P#:" + std::to_string(r.newSize));
+  }
+  void onEdgesRenumbered(const Topology&, const topology::Renumbering& r) override {
+    log.push_back("E#:" + std::to_string(r.newSize));
+  }
+  void onTrianglesRenumbered(const Topology&, const topology::Renumbering& r) override {
+    log.push_back("T#:" + std::to_string(r.newSize));
+  }
+  void onTransactionEnd(const Topology&, const topology::TransactionSummary& s) override {
+    log.push_back("end:" + std::string(s.operation));
+  }
 
   /// Number of ids in the last event of that kind ("T+", ...), 0 if none.
   std::size_t count(const std::string& kind) const {
     for (auto it = log.rbegin(); it != log.rend(); ++it)
-      if (it->rfind(kind + ":", 0) == 0) return std::size_t(std::count(it->begin(), it->end(), ',') + 1);
+      if (it->rfind(kind + ":", 0) == 0)
+        return std::size_t(std::count(it->begin(), it->end(), ',') + 1);
     return 0;
   }
 

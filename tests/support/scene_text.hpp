@@ -1,5 +1,6 @@
 #pragma once
-// Scene texts for the parser's tests (tests/core/test_scene.cpp, tests/robustness/test_bad_input.cpp).
+// Scene texts for the parser's tests (tests/core/test_scene.cpp,
+// tests/robustness/test_bad_input.cpp).
 #include <filesystem>
 #include <string>
 
@@ -9,7 +10,8 @@
 namespace cutsim::test {
 
 /// The test data's scene folder (relative mesh paths in inline scenes resolve there).
-inline const std::filesystem::path kSceneDir = std::filesystem::path(CUTSIM_TEST_DATA_DIR) / "scenes";
+inline const std::filesystem::path kSceneDir =
+    std::filesystem::path(CUTSIM_TEST_DATA_DIR) / "scenes";
 
 /// The message of the InvalidInput that parsing `text` (as "inline.json") throws ("" if none).
 inline std::string parseError(const std::string& text) {

@@ -262,8 +262,7 @@ TEST(DenseSlotTable, RandomSequencesWithFlagEqualTheTwin) {
 }
 
 TEST(DenseSlotTable, RandomSequencesWithoutFlagEqualTheTwin) {
-  for (std::uint64_t seed = 101; seed <= 112; ++seed)
-    runTwin<TriangleId, PlainTraits>(seed, 600);
+  for (std::uint64_t seed = 101; seed <= 112; ++seed) runTwin<TriangleId, PlainTraits>(seed, 600);
 }
 
 TEST(DenseSlotTable, ReportsWhatItCannotMap) {

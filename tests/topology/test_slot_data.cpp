@@ -32,7 +32,8 @@ std::array<double, 3> restSum(const Topology& t, const std::array<PointId, N>& v
 class Owner : public topology::TopologyObserver {
  public:
   explicit Owner(Topology& t)
-      : edges(t, "edge vertices"), triangles(t, "triangle vertices"),
+      : edges(t, "edge vertices"),
+        triangles(t, "triangle vertices"),
         points(t, "rest copy", 0.0, topology::NewSlots::Interpolate) {
     for (EdgeId e : t.edges()) write(t, e);
     for (TriangleId f : t.triangles()) write(t, f);
@@ -49,7 +50,8 @@ class Owner : public topology::TopologyObserver {
   void onPointsCreated(const Topology& t, const topology::PointsCreated& e) override {
     for (std::size_t i = 0; i < e.points.size(); ++i)
       if (e.offsets[i] == e.offsets[i + 1])  // a free point: nothing to interpolate from
-        for (std::size_t c = 0; c < 3; ++c) points.at(e.points[i])[c] = t.restPosition(e.points[i])[c];
+        for (std::size_t c = 0; c < 3; ++c)
+          points.at(e.points[i])[c] = t.restPosition(e.points[i])[c];
   }
   void write(const Topology& t, EdgeId e) {
     const auto s = restSum(t, t.edgeVertices(e));
@@ -84,7 +86,8 @@ void expectInStep(const Topology& t, const Owner& o) {
   }
   for (PointId p : t.points()) {
     const auto r = t.restPosition(p);
-    for (std::size_t c = 0; c < 3; ++c) EXPECT_NEAR(o.points.at(p)[c], r[c], 1e-12 * (1 + std::abs(r[c])));
+    for (std::size_t c = 0; c < 3; ++c)
+      EXPECT_NEAR(o.points.at(p)[c], r[c], 1e-12 * (1 + std::abs(r[c])));
   }
   std::vector<std::string> problems;
   o.edges.validate(t, problems);
@@ -123,7 +126,8 @@ TEST(SlotData, CountsASlotMadeAndFreedWithinOneTransaction) {
     const topology::Index capacity = t.pointCapacity();
     const std::size_t points = t.numPoints();
     const RandomOp op = ops.step();
-    grewUnannounced |= t.pointCapacity() - capacity > t.numPoints() - std::min(points, t.numPoints());
+    grewUnannounced |=
+        t.pointCapacity() - capacity > t.numPoints() - std::min(points, t.numPoints());
     SCOPED_TRACE(op.what);
     expectInStep(t, owner);
     if (HasFailure()) return;

@@ -6,7 +6,6 @@
 
 #include <cmath>
 #include <cstring>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -24,9 +23,10 @@ namespace {
 using topology::Topology;
 
 std::filesystem::path tempFile(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("cutsim_ckpt_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  const auto dir =
+      std::filesystem::temp_directory_path() /
+      ("cutsim_ckpt_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+       ::testing::UnitTest::GetInstance()->current_test_info()->name());
   std::filesystem::create_directories(dir);
   return dir / name;
 }
@@ -103,7 +103,8 @@ TEST(Archive, DamagedForeignAndMisreadArchivesAreRefusedByName) {
   refused("{\"mesh\": {}}\n and more text to be long enough", "not a cutsim checkpoint");
   std::string version = good;
   version[8] = 9;
-  refused(version, "checkpoint format 9, this cutsim reads format " + std::to_string(kArchiveFormat));
+  refused(version,
+          "checkpoint format 9, this cutsim reads format " + std::to_string(kArchiveFormat));
   refused(good + "x", "holds data after its end mark");
   refused(good, "section 'state': a value runs past the section's end");
   // A section not read to its end.
@@ -202,12 +203,14 @@ TEST(TopologyCheckpoint, ALoadedArchiveWhoseStructureDisagreesIsRefused) {
     std::uint32_t next = 0;
     std::memcpy(&next, g.bytes.data() + SavedGrid::halfedge(0) + 8, 4);
     g.set(SavedGrid::halfedge(0) + 8, std::uint32_t((next + 2) % (2 * SavedGrid::ne)));
-    EXPECT_NE(g.load().find("section 'topology': the half-edge links do not agree"), std::string::npos);
+    EXPECT_NE(g.load().find("section 'topology': the half-edge links do not agree"),
+              std::string::npos);
   }
   {
     SavedGrid g;
     g.set(SavedGrid::scalar(7), std::uint64_t(0));  // the points' free list starts at a live point
-    EXPECT_NE(g.load().find("section 'topology': the free list of points is broken"), std::string::npos);
+    EXPECT_NE(g.load().find("section 'topology': the free list of points is broken"),
+              std::string::npos);
   }
   {
     SavedGrid g;

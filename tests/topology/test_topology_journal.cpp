@@ -28,9 +28,9 @@ struct Disarm {
 
 /// The failures injected into one random sequence and how the operations ended.
 struct InjectionTally {
-  std::size_t injected = 0;   ///< operations failed at an injected point (all rolled back)
-  std::size_t operations = 0; ///< operations that then ran to their end (applied or refused)
-  std::size_t maxPoints = 0;  ///< the most failure points one operation passed
+  std::size_t injected = 0;    ///< operations failed at an injected point (all rolled back)
+  std::size_t operations = 0;  ///< operations that then ran to their end (applied or refused)
+  std::size_t maxPoints = 0;   ///< the most failure points one operation passed
   std::array<std::size_t, kNumOpKinds> perKind{};  ///< injected failures per kind of operation
 };
 
@@ -69,12 +69,14 @@ InjectionTally injectEverywhere(std::uint64_t seed, int side, int steps) {
       }
       ++tally.injected;
       ++tally.perKind[static_cast<std::size_t>(op.kind)];
-      EXPECT_EQ(t.digest(), digest) << "step " << step << ", failure at point " << k << ": " << op.what;
+      EXPECT_EQ(t.digest(), digest)
+          << "step " << step << ", failure at point " << k << ": " << op.what;
       EXPECT_EQ(mirror.transactions, transactions) << "an event was delivered: " << op.what;
       EXPECT_EQ(state.x().size(), points);
       const topology::ValidationReport r = t.validate();
       EXPECT_TRUE(r.ok()) << "step " << step << ", failure at point " << k << ": " << op.what
-                          << "\n" << r.summary();
+                          << "\n"
+                          << r.summary();
       if (::testing::Test::HasFailure()) return tally;
     }
     const topology::ValidationReport r = t.validate();

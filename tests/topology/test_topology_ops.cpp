@@ -64,7 +64,9 @@ Vec3 centroid(const Topology& t, topology::TriangleId f) {
   return c;
 }
 
-PointId gridId(int n, int i, int j) { return PointId(j * n + i); }
+PointId gridId(int n, int i, int j) {
+  return PointId(j * n + i);
+}
 
 TEST(TopologyOps, AddPointsThenTriangles) {
   Watched w(grid(2));
@@ -89,11 +91,13 @@ TEST(TopologyOps, AddPointsThenTriangles) {
 TEST(TopologyOps, AddTrianglesRejectsBadRequestsWithoutChange) {
   Watched w(grid(2));
   auto before = w.t.numTriangles();
-  std::vector<topology::TriangleVertices> wrongSide{{0, 1, 3}};  // edge 0->1 already used by (0,1,3)
+  std::vector<topology::TriangleVertices> wrongSide{
+      {0, 1, 3}};  // edge 0->1 already used by (0,1,3)
   EXPECT_THROW(w.t.addTriangles(wrongSide), TopologyError);
   auto far = w.t.addPoints(std::vector<Vec3>{{5, 5, 0}, {6, 5, 0}, {5, 6, 0}});
   w.log.clear();
-  std::vector<topology::TriangleVertices> bowtie{{3, far[0], far[1]}};  // touches the mesh at 3 only
+  std::vector<topology::TriangleVertices> bowtie{
+      {3, far[0], far[1]}};  // touches the mesh at 3 only
   EXPECT_THROW(w.t.addTriangles(bowtie), TopologyError);
   std::vector<topology::TriangleVertices> missing{{0, 1, 99}};
   EXPECT_THROW(w.t.addTriangles(missing), TopologyError);
@@ -281,17 +285,25 @@ TEST(TopologyOps, CompactRenumbersDensely) {
   EXPECT_TRUE(w.log.log.empty());
 }
 
-std::vector<Vec3> line(std::initializer_list<Vec3> pts) { return pts; }
+std::vector<Vec3> line(std::initializer_list<Vec3> pts) {
+  return pts;
+}
 
 double distanceToPolyline(const Vec3& p, const std::vector<Vec3>& poly) {
   double best = 1e300;
   for (std::size_t i = 0; i + 1 < poly.size(); ++i) {
     Vec3 a = poly[i], b = poly[i + 1];
     double ab2 = 0, t = 0;
-    for (int k = 0; k < 3; ++k) { ab2 += (b[k] - a[k]) * (b[k] - a[k]); t += (p[k] - a[k]) * (b[k] - a[k]); }
+    for (int k = 0; k < 3; ++k) {
+      ab2 += (b[k] - a[k]) * (b[k] - a[k]);
+      t += (p[k] - a[k]) * (b[k] - a[k]);
+    }
     t = std::clamp(t / ab2, 0.0, 1.0);
     double d = 0;
-    for (int k = 0; k < 3; ++k) { double x = a[k] + t * (b[k] - a[k]) - p[k]; d += x * x; }
+    for (int k = 0; k < 3; ++k) {
+      double x = a[k] + t * (b[k] - a[k]) - p[k];
+      d += x * x;
+    }
     best = std::min(best, std::sqrt(d));
   }
   return best;
@@ -344,7 +356,8 @@ TEST(TopologyCut, CurvedSurfaceIsFollowed) {
   }
   Watched w(m);
   double a = 0.43 * 3.14159265358979;
-  auto poly = line({{0, 2 * std::cos(a), 2 * std::sin(a)}, {5.5, 2 * std::cos(a), 2 * std::sin(a)}});
+  auto poly =
+      line({{0, 2 * std::cos(a), 2 * std::sin(a)}, {5.5, 2 * std::cos(a), 2 * std::sin(a)}});
   auto r = w.t.cutPolyline(poly);
   w.check();
   EXPECT_GE(r.path.size(), 6u);
@@ -354,10 +367,11 @@ TEST(TopologyCut, CurvedSurfaceIsFollowed) {
 TEST(TopologyCut, RejectsPolylinesOffTheSurfaceWithoutChange) {
   Watched w(grid(11));
   auto cap = w.t.pointCapacity();
-  EXPECT_THROW(w.t.cutPolyline(line({{5, 5, 3}, {6, 6, 3}})), TopologyError);     // above it
-  EXPECT_THROW(w.t.cutPolyline(line({{5, 5, 0}, {15, 5, 0}})), TopologyError);    // leaves it
-  EXPECT_THROW(w.t.cutPolyline(line({{5, 5, 0}})), TopologyError);                // one point
-  EXPECT_THROW(w.t.cutPolyline(line({{1, 1, 0}, {8, 8, 0}, {8, 1, 0}, {1, 8, 0}})), TopologyError);  // crosses itself
+  EXPECT_THROW(w.t.cutPolyline(line({{5, 5, 3}, {6, 6, 3}})), TopologyError);   // above it
+  EXPECT_THROW(w.t.cutPolyline(line({{5, 5, 0}, {15, 5, 0}})), TopologyError);  // leaves it
+  EXPECT_THROW(w.t.cutPolyline(line({{5, 5, 0}})), TopologyError);              // one point
+  EXPECT_THROW(w.t.cutPolyline(line({{1, 1, 0}, {8, 8, 0}, {8, 1, 0}, {1, 8, 0}})),
+               TopologyError);  // crosses itself
   try {
     w.t.cutPolyline(line({{5, 5, 0}, {15, 5, 0}}));
   } catch (const TopologyError& e) {
@@ -420,7 +434,8 @@ TEST(TopologyOps, IncisionOfAStripFromBorderToBorder) {
 TEST(TopologyOps, IncisionOfAClosedSurfaceOpensASlit) {
   MeshData oct;
   oct.points = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  oct.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  oct.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                   {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
   Watched w(oct);
   // From the north pole over (1,0,0) to the south pole: the poles are the slit's tips.
   auto r = w.t.incise(std::vector<PointId>{4, 0, 5});

@@ -2,9 +2,9 @@
 // half-edge structure is validated and the event-built mirror must equal the mesh.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <iostream>
-#include <cmath>
 #include <random>
 
 #include "support/fixtures.hpp"
@@ -33,7 +33,8 @@ std::vector<PointId> randomPath(const Topology& t, std::mt19937_64& rng, int max
       auto v = t.edgeVertices(e);
       PointId other = v[0] == path.back() ? v[1] : v[0];
       auto key = std::minmax(other, path.back());
-      if (std::find(used.begin(), used.end(), std::pair(key.first, key.second)) != used.end()) continue;
+      if (std::find(used.begin(), used.end(), std::pair(key.first, key.second)) != used.end())
+        continue;
       used.emplace_back(key.first, key.second);
       path.push_back(other);
       extended = true;
@@ -117,7 +118,8 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
           int k = 1 + int(rng() % 2);
           for (int i = 0; i < k; ++i) {
             double a = 6.283185307179586 * u(rng), len = 10.0 / n * (0.5 + 2.0 * u(rng));
-            poly.push_back({poly.back()[0] + len * std::cos(a), poly.back()[1] + len * std::sin(a), p[2]});
+            poly.push_back(
+                {poly.back()[0] + len * std::cos(a), poly.back()[1] + len * std::sin(a), p[2]});
           }
           what = "cutPolyline";
           topology::CutOptions options;
@@ -156,13 +158,15 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
       EXPECT_EQ(t.numPoints(), before[0]) << what;
       EXPECT_EQ(t.numEdges(), before[1]) << what;
       EXPECT_EQ(t.numTriangles(), before[2]) << what;
-      EXPECT_EQ(mirror.transactions, transactionsBefore) << what << ": a rejected request sent events";
+      EXPECT_EQ(mirror.transactions, transactionsBefore)
+          << what << ": a rejected request sent events";
       EXPECT_EQ(std::string(e.what()).find("internal"), std::string::npos) << what;
       ++rejected[op];
       if (std::getenv("CUTSIM_DEBUG_RANDOM")) std::cout << what << "\n";
     }
     auto r = t.validate();
-    ASSERT_TRUE(r.ok()) << "seed " << seed << " step " << step << " after " << what << ":\n" << r.summary();
+    ASSERT_TRUE(r.ok()) << "seed " << seed << " step " << step << " after " << what << ":\n"
+                        << r.summary();
     if (t.numTriangles() > before[2] + largestGrowth) {
       largestGrowth = t.numTriangles() - before[2];
       largestWhat = what;
@@ -177,7 +181,8 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
   }
   std::cout << "seed " << seed << ": done";
   for (int op = 0; op < 8; ++op) std::cout << " " << done[op] << "/" << rejected[op];
-  std::cout << " (succeeded/rejected per operation), " << t.numTriangles() << " triangles left; one "
+  std::cout << " (succeeded/rejected per operation), " << t.numTriangles()
+            << " triangles left; one "
             << "operation added at most " << largestGrowth << " (" << largestWhat << ")\n";
   // A repair grades the mesh down to the smallest feature an operation leaves, no further: on
   // these sheets of a few hundred triangles one operation adds at most about 250 (a removal whose

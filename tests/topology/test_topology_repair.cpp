@@ -149,10 +149,10 @@ TEST(TopologyRepair, UIncisionLeavesNoSliver) {
     std::cout << "U incision, target " << target << ": " << q.triangles << " new triangles, min "
               << q.minAngle << " deg, mean min " << q.meanMin << " deg; repair: flips "
               << result.repair.flips << ", collapses " << result.repair.collapses
-              << ", relocations " << result.repair.relocations << ", splits " << result.repair.splits
-              << "; patch min " << result.repair.minAngleBefore << " -> " << result.repair.minAngleAfter
-              << ", below target " << result.repair.belowTargetBefore << " -> "
-              << result.repair.belowTargetAfter << "\n";
+              << ", relocations " << result.repair.relocations << ", splits "
+              << result.repair.splits << "; patch min " << result.repair.minAngleBefore << " -> "
+              << result.repair.minAngleAfter << ", below target " << result.repair.belowTargetBefore
+              << " -> " << result.repair.belowTargetAfter << "\n";
     if (target > 0)
       for (auto& s : q.shortfalls) std::cout << "  " << s << "\n";
     if (std::getenv("CUTSIM_REPAIR_DEBUG"))
@@ -164,8 +164,9 @@ TEST(TopologyRepair, UIncisionLeavesNoSliver) {
         std::cout << "  T" << f.index() << ":";
         for (int k = 0; k < 3; ++k) {
           auto p = t.restPosition(v[std::size_t(k)]);
-          std::cout << " " << v[std::size_t(k)].index() << (t.isBoundaryPoint(v[std::size_t(k)]) ? "b" : "")
-                    << "(" << p[0] * 1000 << "," << p[1] * 1000 << ";" << cornerAngle(t, f, k) / kDeg << ")";
+          std::cout << " " << v[std::size_t(k)].index()
+                    << (t.isBoundaryPoint(v[std::size_t(k)]) ? "b" : "") << "(" << p[0] * 1000
+                    << "," << p[1] * 1000 << ";" << cornerAngle(t, f, k) / kDeg << ")";
         }
         std::cout << "\n";
       }
@@ -187,7 +188,8 @@ namespace {
 /// than `gap` to the polylines in `avoid` (cuts already made: the new one stays on the surface):
 /// `points` points, steps of `step` (+-50%), turning by up to `turn` radians at each point.
 std::vector<Vec3> randomPolyline(std::mt19937_64& rng, double size, int points, double step,
-                                 double turn, double gap, const std::vector<std::vector<Vec3>>& avoid = {}) {
+                                 double turn, double gap,
+                                 const std::vector<std::vector<Vec3>>& avoid = {}) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double margin = 0.05 * size;
   auto inside = [&](const Vec3& p) {
@@ -201,7 +203,8 @@ std::vector<Vec3> randomPolyline(std::mt19937_64& rng, double size, int points, 
   };
   auto pointToSegment = [](const Vec3& p, const Vec3& a, const Vec3& b) {
     const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
-    const double t = l2 > 0 ? std::clamp(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2, 0.0, 1.0) : 0.0;
+    const double t =
+        l2 > 0 ? std::clamp(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2, 0.0, 1.0) : 0.0;
     return std::hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy);
   };
   auto segmentGap = [&](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -211,18 +214,21 @@ std::vector<Vec3> randomPolyline(std::mt19937_64& rng, double size, int points, 
   auto clearOf = [&](const Vec3& a, const Vec3& b) {
     for (const auto& other : avoid)
       for (std::size_t j = 0; j + 1 < other.size(); ++j)
-        if (crosses(other[j], other[j + 1], a, b) || segmentGap(other[j], other[j + 1], a, b) < gap) return false;
+        if (crosses(other[j], other[j + 1], a, b) || segmentGap(other[j], other[j + 1], a, b) < gap)
+          return false;
     return true;
   };
   for (int attempt = 0;; ++attempt) {
-    std::vector<Vec3> poly{{margin + (size - 2 * margin) * u(rng), margin + (size - 2 * margin) * u(rng), 0}};
+    std::vector<Vec3> poly{
+        {margin + (size - 2 * margin) * u(rng), margin + (size - 2 * margin) * u(rng), 0}};
     if (!clearOf(poly[0], poly[0])) continue;
     double heading = 2 * std::numbers::pi * u(rng);
     bool ok = true;
     for (int i = 1; i < points && ok; ++i) {
       heading += turn * (2 * u(rng) - 1);
       const double len = step * (0.5 + u(rng));
-      Vec3 next{poly.back()[0] + len * std::cos(heading), poly.back()[1] + len * std::sin(heading), 0};
+      Vec3 next{poly.back()[0] + len * std::cos(heading), poly.back()[1] + len * std::sin(heading),
+                0};
       if (!inside(next)) break;
       if (!clearOf(poly.back(), next)) break;  // (stop short of a cut already made)
       for (std::size_t j = 0; j + 2 < poly.size() && ok; ++j)
@@ -242,7 +248,9 @@ std::vector<Vec3> randomPolyline(std::mt19937_64& rng, double size, int points, 
 /// of the triangles the cut makes reaches the target, except where the input excuses it (the
 /// figures are printed).
 TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
-  const double target = std::getenv("CUTSIM_REPAIR_TARGET") ? std::atof(std::getenv("CUTSIM_REPAIR_TARGET")) : kDefaultTarget;
+  const double target = std::getenv("CUTSIM_REPAIR_TARGET")
+                            ? std::atof(std::getenv("CUTSIM_REPAIR_TARGET"))
+                            : kDefaultTarget;
   std::mt19937_64 rng(7);
   int cuts = 0, precut = 0;
   std::size_t made = 0, short_ = 0;
@@ -260,8 +268,10 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
     options.repair.minAngle = target;
     std::vector<std::vector<Vec3>> earlier;
     if (trial % 4 == 3) {  // a cut mesh: one random cut first
-      earlier.push_back(randomPolyline(rng, 10.0, 8 + int(rng() % 20), cell * 1.5, 1.0, 0.5 * cell));
-      ASSERT_NO_THROW(t.cutPolyline(earlier[0], options)) << "trial " << trial << " (the first cut)";
+      earlier.push_back(
+          randomPolyline(rng, 10.0, 8 + int(rng() % 20), cell * 1.5, 1.0, 0.5 * cell));
+      ASSERT_NO_THROW(t.cutPolyline(earlier[0], options))
+          << "trial " << trial << " (the first cut)";
       ++precut;
     }
     auto poly = randomPolyline(rng, 10.0, 8 + int(rng() % 30), cell * (jagged ? 0.7 : 1.5),
@@ -282,8 +292,9 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
     made += q.triangles;
     short_ += q.shortfalls.size();
     if (std::getenv("CUTSIM_REPAIR_TRIALS"))
-      std::cout << "trial " << trial << ": " << q.triangles << " made, min " << q.minAngle << ", short "
-                << q.shortfalls.size() << ", insertions " << r.repair.insertions << ", splits " << r.repair.splits << "\n";
+      std::cout << "trial " << trial << ": " << q.triangles << " made, min " << q.minAngle
+                << ", short " << q.shortfalls.size() << ", insertions " << r.repair.insertions
+                << ", splits " << r.repair.splits << "\n";
     if (std::getenv("CUTSIM_REPAIR_DEBUG") && !floor.shortfalls.empty())
       for (TriangleId f : createdSince(t, before)) {
         auto v = t.triangleVertices(f);
@@ -293,8 +304,8 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
         std::cout << "  T" << f.index() << ":";
         for (PointId x : v) {
           auto p = t.restPosition(x);
-          std::cout << " " << x.index() << (t.isBoundaryPoint(x) ? "b" : "") << "(" << p[0] << "," << p[1]
-                    << " fan " << fanAngle(t, x) / kDeg << ")";
+          std::cout << " " << x.index() << (t.isBoundaryPoint(x) ? "b" : "") << "(" << p[0] << ","
+                    << p[1] << " fan " << fanAngle(t, x) / kDeg << ")";
           std::cout << "[";
           for (auto tt : t.trianglesAroundPoint(x)) {
             double m2 = 1e9;
@@ -307,11 +318,12 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
         for (auto& pt : poly) std::cout << "(" << pt[0] << "," << pt[1] << ") ";
         std::cout << "\n";
       }
-    EXPECT_TRUE(floor.shortfalls.empty()) << "trial " << trial << " (" << (jagged ? "jagged" : "smooth")
-                                          << ", jitter " << jitter << ", " << poly.size() << " points): "
-                                          << floor.shortfalls.front();
+    EXPECT_TRUE(floor.shortfalls.empty())
+        << "trial " << trial << " (" << (jagged ? "jagged" : "smooth") << ", jitter " << jitter
+        << ", " << poly.size() << " points): " << floor.shortfalls.front();
   }
-  std::cout << cuts << " random cuts (" << precut << " on a cut sheet), " << made << " triangles made; smallest angle of the patch "
+  std::cout << cuts << " random cuts (" << precut << " on a cut sheet), " << made
+            << " triangles made; smallest angle of the patch "
             << "before repair " << worstBefore << " deg, after " << worst << " deg; mean smallest "
             << "angle " << meanBefore << " -> " << meanAfter << " deg; corners under " << target
             << " deg not excused by the input: " << short_ << "\n";
@@ -350,7 +362,8 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
           std::vector<Vec3> poly{p};
           for (int i = 0, k = 1 + int(rng() % 3); i < k; ++i) {
             const double a = 2 * std::numbers::pi * u(rng), len = cell * (0.5 + 2.0 * u(rng));
-            poly.push_back({poly.back()[0] + len * std::cos(a), poly.back()[1] + len * std::sin(a), 0});
+            poly.push_back(
+                {poly.back()[0] + len * std::cos(a), poly.back()[1] + len * std::sin(a), 0});
           }
           what = "cutPolyline";
           topology::CutOptions options;
@@ -381,15 +394,17 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
       } catch (const TopologyError&) {
         continue;  // refused requests are tested elsewhere (they change nothing)
       }
-      ASSERT_TRUE(t.validate().ok()) << "seed " << seed << " step " << step << " after " << what << ": "
-                                     << t.validate().summary();
-      if (op != 2) EXPECT_NEAR(totalArea(t), area, 1e-9 * area) << "seed " << seed << " step " << step << " " << what;
+      ASSERT_TRUE(t.validate().ok()) << "seed " << seed << " step " << step << " after " << what
+                                     << ": " << t.validate().summary();
+      if (op != 2)
+        EXPECT_NEAR(totalArea(t), area, 1e-9 * area)
+            << "seed " << seed << " step " << step << " " << what;
       Quality q = quality(t, createdSince(t, before), target);
       made += q.triangles;
       worst = std::min(worst, q.minAngle);
-      EXPECT_TRUE(q.shortfalls.empty()) << "seed " << seed << " step " << step << " after " << what << ": "
-                                        << q.shortfalls.size() << " corners under the target, "
-                                        << q.shortfalls.front();
+      EXPECT_TRUE(q.shortfalls.empty())
+          << "seed " << seed << " step " << step << " after " << what << ": " << q.shortfalls.size()
+          << " corners under the target, " << q.shortfalls.front();
     }
   }
   std::cout << ops[0] << " cuts, " << ops[1] << " tears, " << ops[2] << " removals: " << made
@@ -439,13 +454,15 @@ TEST(TopologyRepair, CarvingCutsAlongTheRegionBoundary) {
       const double d = phi(t.restPosition(p));
       EXPECT_GT(d, -1e-9 * r) << "trial " << trial << ": point " << p.index() << " inside";
       if (p.index() >= pointsBefore && t.isBoundaryPoint(p) && std::abs(d) < 0.5 * cell)
-        EXPECT_LT(std::abs(d), 1e-9 * r) << "trial " << trial << ": border point " << p.index() << " off the circle";
+        EXPECT_LT(std::abs(d), 1e-9 * r)
+            << "trial " << trial << ": border point " << p.index() << " off the circle";
     }
     // The area removed is that of a polygon inscribed in the circle: at most pi r^2, short of it
     // by at most the segments between the polygon and the circle (sides up to ~1.5 cells).
     const double gone = area - totalArea(t), disc = std::numbers::pi * r * r;
     EXPECT_LE(gone, disc * (1 + 1e-9)) << "trial " << trial;
-    EXPECT_GE(gone, disc - 2 * std::numbers::pi * r * (1.5 * cell) * (1.5 * cell) / (8 * r)) << "trial " << trial;
+    EXPECT_GE(gone, disc - 2 * std::numbers::pi * r * (1.5 * cell) * (1.5 * cell) / (8 * r))
+        << "trial " << trial;
     Quality q = quality(t, createdSince(t, before), kDefaultTarget);
     made += q.triangles;
     short_ += q.shortfalls.size();
@@ -462,7 +479,8 @@ TEST(TopologyRepair, CarvingCutsAlongTheRegionBoundary) {
     jag.removeTriangles(inside);
     for (PointId p : jag.points())
       if (jag.isBoundaryPoint(p) && std::abs(phi(jag.restPosition(p))) < 2 * cell)
-        worstCentroidDeviation = std::max(worstCentroidDeviation, std::abs(phi(jag.restPosition(p))) / cell);
+        worstCentroidDeviation =
+            std::max(worstCentroidDeviation, std::abs(phi(jag.restPosition(p))) / cell);
   }
   std::cout << "30 carved discs: " << made << " triangles made, smallest angle " << worst
             << " deg, corners under " << kDefaultTarget << " deg: " << short_
@@ -489,7 +507,8 @@ TEST(TopologyRepair, CutsEndingExactlyOnTheBorderAreMade) {
     topology::CutOptions options;
     options.repair.minAngle = kDefaultTarget;
     topology::IncisionResult r;
-    ASSERT_NO_THROW(r = t.cutPolyline(poly, options)) << "trial " << trial << ": to (" << x << ", 0)";
+    ASSERT_NO_THROW(r = t.cutPolyline(poly, options))
+        << "trial " << trial << ": to (" << x << ", 0)";
     ASSERT_TRUE(t.validate().ok());
     ASSERT_FALSE(r.path.empty());
     EXPECT_TRUE(t.isBoundaryPoint(r.path.back()));
@@ -529,8 +548,9 @@ TEST(TopologyRepair, WavyPolylinesAcrossAGridAreCut) {
             EXPECT_NEAR(totalArea(t), area, 1e-9 * area);
             if (minAngle > 0) {
               const Quality q = quality(t, createdSince(t, before), minAngle);
-              EXPECT_TRUE(q.shortfalls.empty()) << "amplitude " << amplitude << ", " << waves << " waves at y = "
-                                                << y0 << ": " << q.shortfalls.front();
+              EXPECT_TRUE(q.shortfalls.empty())
+                  << "amplitude " << amplitude << ", " << waves << " waves at y = " << y0 << ": "
+                  << q.shortfalls.front();
             }
             ++cuts;
           }

@@ -16,7 +16,8 @@ MeshData grid(int nx, int ny, std::mt19937& rng, double jitter, double fold) {
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
       const double x = double(i) / (nx - 1), y = double(j) / (ny - 1);
-      m.points.push_back({x + jitter * u(rng) / nx, y + jitter * u(rng) / ny, fold * std::sin(6 * x) * y});
+      m.points.push_back(
+          {x + jitter * u(rng) / nx, y + jitter * u(rng) / ny, fold * std::sin(6 * x) * y});
     }
   for (int j = 0; j + 1 < ny; ++j)
     for (int i = 0; i + 1 < nx; ++i) {
@@ -30,8 +31,9 @@ MeshData grid(int nx, int ny, std::mt19937& rng, double jitter, double fold) {
 TEST(TriangleGrid, NearestEqualsTheBruteForce) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-0.3, 1.3), small(-0.05, 0.05);
-  for (const auto& [nx, ny, jitter, fold] : {std::tuple{9, 9, 0.0, 0.0}, std::tuple{31, 17, 0.4, 0.0},
-                                             std::tuple{25, 25, 0.3, 0.3}, std::tuple{3, 40, 0.2, 1.0}}) {
+  for (const auto& [nx, ny, jitter, fold] :
+       {std::tuple{9, 9, 0.0, 0.0}, std::tuple{31, 17, 0.4, 0.0}, std::tuple{25, 25, 0.3, 0.3},
+        std::tuple{3, 40, 0.2, 1.0}}) {
     const MeshData m = grid(nx, ny, rng, jitter, fold);
     const TriangleGrid g(m);
     for (int q = 0; q < 400; ++q) {

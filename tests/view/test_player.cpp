@@ -14,23 +14,24 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
-#include "cutsim/base/errors.hpp"
 #include "cutsim/view/player.hpp"
 
 namespace {
 
 using namespace cutsim;
 using namespace cutsim::view;
-using ::testing::HasSubstr;
 using nlohmann::json;
+using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
 const fs::path kScenes = fs::path(CUTSIM_TEST_DATA_DIR) / "scenes";
 
 fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("cutsim_test_player_" + name + "_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("cutsim_test_player_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -109,8 +110,12 @@ void expectThreeScripts(const std::string& page) {
   std::string lower = page;
   for (char& c : lower) c = char(std::tolower(static_cast<unsigned char>(c)));
   std::size_t opens = 0, closes = 0;
-  for (std::size_t at = lower.find("<script"); at != std::string::npos; at = lower.find("<script", at + 1)) ++opens;
-  for (std::size_t at = lower.find("</script"); at != std::string::npos; at = lower.find("</script", at + 1)) ++closes;
+  for (std::size_t at = lower.find("<script"); at != std::string::npos;
+       at = lower.find("<script", at + 1))
+    ++opens;
+  for (std::size_t at = lower.find("</script"); at != std::string::npos;
+       at = lower.find("</script", at + 1))
+    ++closes;
   EXPECT_EQ(opens, 3u);
   EXPECT_EQ(closes, 3u);
   EXPECT_EQ(lower.find("<!--"), std::string::npos);
@@ -136,7 +141,8 @@ Frame syntheticFrame(double t, std::size_t n, std::vector<std::uint32_t> triangl
     f.held.push_back(std::uint8_t(p == 0 ? 1 : p == 1 ? 2 : 0));
   }
   f.triangles = std::move(triangles);
-  for (std::size_t k = 0; k < f.triangles.size() / 3; ++k) f.strain.push_back(0.01f * float(k) + shift);
+  for (std::size_t k = 0; k < f.triangles.size() / 3; ++k)
+    f.strain.push_back(0.01f * float(k) + shift);
   f.borders = {0, 1, 1, 2};
   f.lips = {0, 1};
   f.hasBorders = true;
@@ -170,14 +176,17 @@ TEST(PlayerPacker, ArraysDecodeToTheFramesAndUnchangedOnesAreShared) {
     EXPECT_EQ(m["fixed"].get<std::size_t>(), 1u);
     EXPECT_EQ(m["grasped"].get<std::size_t>(), 1u);
     // Per-triangle speed and displacement: the means of their points' norms (brute force).
-    const auto speed = decode<float>(blob, m["speed"]), disp = decode<float>(blob, m["displacement"]);
+    const auto speed = decode<float>(blob, m["speed"]),
+               disp = decode<float>(blob, m["displacement"]);
     ASSERT_EQ(speed.size(), f.triangles.size() / 3);
     for (std::size_t k = 0; k < speed.size(); ++k) {
       double s = 0, d = 0;
       for (int c = 0; c < 3; ++c) {
         const std::size_t p = f.triangles[3 * k + std::size_t(c)];
         s += std::hypot(f.v[3 * p], f.v[3 * p + 1], f.v[3 * p + 2]) / 3;
-        d += std::hypot(f.x[3 * p] - f.rest[3 * p], f.x[3 * p + 1] - f.rest[3 * p + 1], f.x[3 * p + 2] - f.rest[3 * p + 2]) / 3;
+        d += std::hypot(f.x[3 * p] - f.rest[3 * p], f.x[3 * p + 1] - f.rest[3 * p + 1],
+                        f.x[3 * p + 2] - f.rest[3 * p + 2]) /
+             3;
       }
       EXPECT_NEAR(speed[k], s, 1e-6 * (1 + s));
       EXPECT_NEAR(disp[k], d, 1e-6 * (1 + d));
@@ -192,8 +201,12 @@ TEST(PlayerPacker, ArraysDecodeToTheFramesAndUnchangedOnesAreShared) {
 
 TEST(PlayerPacker, Base64IsRfc4648) {
   // The test vectors of RFC 4648, section 10.
-  const std::pair<const char*, const char*> vectors[] = {{"", ""},         {"f", "Zg=="},         {"fo", "Zm8="},
-                                                         {"foo", "Zm9v"}, {"foob", "Zm9vYg=="}, {"fooba", "Zm9vYmE="},
+  const std::pair<const char*, const char*> vectors[] = {{"", ""},
+                                                         {"f", "Zg=="},
+                                                         {"fo", "Zm8="},
+                                                         {"foo", "Zm9v"},
+                                                         {"foob", "Zm9vYg=="},
+                                                         {"fooba", "Zm9vYmE="},
                                                          {"foobar", "Zm9vYmFy"}};
   for (const auto& [in, out] : vectors) EXPECT_EQ(base64(in), out) << in;
   std::string bytes;
@@ -216,7 +229,8 @@ TEST(PlayerPacker, ChosenFramesFitTheBudgetWithTheFirstAndTheLast) {
           // Within the budget, or two frames (the first and the last) when one frame exceeds it.
           EXPECT_LE(double(chosen.size()) * perFrame, std::max(double(budget), 2 * perFrame))
               << count << " frames of " << perFrame << " in " << budget;
-          EXPECT_GE(double(chosen.size() + 1) * perFrame * 2, std::min(double(budget), double(count) * perFrame))
+          EXPECT_GE(double(chosen.size() + 1) * perFrame * 2,
+                    std::min(double(budget), double(count) * perFrame))
               << "not needlessly few";
         }
       }
@@ -299,7 +313,8 @@ TEST(PlayerRun, PageEmbedsEveryFrameWithItsCsvRow) {
   EXPECT_THAT(page, HasSubstr("<!DOCTYPE html>"));
   // Nothing to fetch: the only addresses in the page are XML namespaces (SVG's, XHTML's).
   for (const char* scheme : {"http://", "https://", "//cdn", "src=\"", "href=\""}) {
-    for (std::size_t at = page.find(scheme); at != std::string::npos; at = page.find(scheme, at + 1))
+    for (std::size_t at = page.find(scheme); at != std::string::npos;
+         at = page.find(scheme, at + 1))
       EXPECT_EQ(page.compare(at, 18, "http://www.w3.org/"), 0) << page.substr(at, 60);
   }
   expectThreeScripts(page);
@@ -308,7 +323,8 @@ TEST(PlayerRun, PageEmbedsEveryFrameWithItsCsvRow) {
   ASSERT_EQ(meta["frames"].size(), recorded.size());
   const Series s = readSeries(dir / "steps.csv");
   const auto column = [&](const std::string& name) {
-    return s.columns[std::size_t(std::find(s.names.begin(), s.names.end(), name) - s.names.begin())];
+    return s
+        .columns[std::size_t(std::find(s.names.begin(), s.names.end(), name) - s.names.begin())];
   };
   for (std::size_t i = 0; i < recorded.size(); ++i) {
     const json& f = meta["frames"][i];
@@ -323,7 +339,8 @@ TEST(PlayerRun, PageEmbedsEveryFrameWithItsCsvRow) {
   }
   // The series, whole: the CSV's triangles column, decoded.
   const auto& names = meta["series"]["names"];
-  const std::size_t c = std::size_t(std::find(names.begin(), names.end(), "triangles") - names.begin());
+  const std::size_t c =
+      std::size_t(std::find(names.begin(), names.end(), "triangles") - names.begin());
   EXPECT_EQ(decode<double>(blob, meta["series"]["columns"][c]), column("triangles"));
   EXPECT_FALSE(meta["run"]["partial"].get<bool>());
   fs::remove_all(dir);
@@ -345,7 +362,8 @@ TEST(PlayerRun, ABudgetKeepsEveryKthFrameAndTheLast) {
   EXPECT_EQ(meta["run"]["framesShown"].get<std::size_t>(), r.framesShown);
   const auto indices = meta["run"]["frameIndices"].get<std::vector<std::size_t>>();
   ASSERT_EQ(indices.size(), r.framesShown);
-  for (std::size_t i = 1; i + 1 < indices.size(); ++i) EXPECT_EQ(indices[i] - indices[i - 1], r.stride);
+  for (std::size_t i = 1; i + 1 < indices.size(); ++i)
+    EXPECT_EQ(indices[i] - indices[i - 1], r.stride);
   fs::remove_all(dir);
 }
 
@@ -365,7 +383,8 @@ TEST(PlayerRun, TextThatWouldCloseTheScriptIsEscaped) {
   FramePacker packer;
   packer.add(syntheticFrame(0.0, 3, {0, 1, 2}, 0.0f));
   json meta = packer.meta();
-  meta["run"] = {{"name", "a </script><b>"}, {"description", "</SCRIPT> and </script > x <!--<script> y"}};
+  meta["run"] = {{"name", "a </script><b>"},
+                 {"description", "</SCRIPT> and </script > x <!--<script> y"}};
   std::ostringstream out;
   writePlayerPage(out, meta, packer.blob());
   const std::string page = out.str();
@@ -392,43 +411,53 @@ TEST(PlayerRun, BadFoldersAreNamedWithWhatIsWrong) {
   EXPECT_THAT(message(dir), HasSubstr("not a cutsim run folder"));
   std::ofstream(dir / "steps.csv") << "time\n0\n";
   EXPECT_THAT(message(dir), HasSubstr("the run wrote no frames"));
-  std::ofstream(dir / "surface.pvd") << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\">\n<Collection>\n"
-                                        "</Collection>\n</VTKFile>\n";
+  std::ofstream(dir / "surface.pvd")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\">\n<Collection>\n"
+         "</Collection>\n</VTKFile>\n";
   EXPECT_THAT(message(dir), HasSubstr("surface.pvd: the collection lists no frames"));
-  std::ofstream(dir / "surface.pvd") << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\">\n<Collection>\n"
-                                        "<DataSet timestep=\"zero\" file=\"surface_000000.vtp\"/>\n"
-                                        "</Collection>\n</VTKFile>\n";
+  std::ofstream(dir / "surface.pvd")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\">\n<Collection>\n"
+         "<DataSet timestep=\"zero\" file=\"surface_000000.vtp\"/>\n"
+         "</Collection>\n</VTKFile>\n";
   EXPECT_THAT(message(dir), HasSubstr("surface.pvd:4: timestep \"zero\" is not a finite number"));
-  std::ofstream(dir / "surface.pvd") << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\">\n<Collection>\n"
-                                        "<DataSet timestep=\"0\" file=\"surface_000000.vtp\"/>\n"
-                                        "</Collection>\n</VTKFile>\n";
+  std::ofstream(dir / "surface.pvd")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\">\n<Collection>\n"
+         "<DataSet timestep=\"0\" file=\"surface_000000.vtp\"/>\n"
+         "</Collection>\n</VTKFile>\n";
   // A frame whose arrays are cut short: its file and line.
   std::ofstream(dir / "surface_000000.vtp")
       << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
          "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n<Points>\n"
-         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" format=\"ascii\">\n"
+         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n"
          "0 0 0 1 0 0 0 1\n</DataArray>\n</Points>\n</Piece>\n</PolyData>\n</VTKFile>\n";
   const RunFolder run = scanRun(dir);
   try {
     readFrame(run, 0);
     ADD_FAILURE() << "a short array was read";
   } catch (const InvalidInput& e) {
-    EXPECT_THAT(e.what(), HasSubstr("surface_000000.vtp:6: DataArray position has 8 values, the piece needs 9"));
+    EXPECT_THAT(
+        e.what(),
+        HasSubstr("surface_000000.vtp:6: DataArray position has 8 values, the piece needs 9"));
   }
   // A flag beyond a byte is an error, not wrapped to another flag.
   std::ofstream(dir / "surface_000000.vtp")
       << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
          "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n<PointData>\n"
-         "<DataArray type=\"Int32\" Name=\"constraint\" format=\"ascii\">0 1 257</DataArray>\n</PointData>\n<Points>\n"
-         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" format=\"ascii\">\n"
+         "<DataArray type=\"Int32\" Name=\"constraint\" format=\"ascii\">0 1 "
+         "257</DataArray>\n</PointData>\n<Points>\n"
+         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n"
          "0 0 0 1 0 0 0 1 0\n</DataArray>\n</Points>\n<Polys>\n"
-         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2</DataArray>\n</Polys>\n"
+         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 "
+         "2</DataArray>\n</Polys>\n"
          "</Piece>\n</PolyData>\n</VTKFile>\n";
   try {
     readFrame(scanRun(dir), 0);
     ADD_FAILURE() << "a flag of 257 was read";
   } catch (const InvalidInput& e) {
-    EXPECT_THAT(e.what(), HasSubstr("surface_000000.vtp:6: DataArray constraint: \"257\" is not an index or flag in range"));
+    EXPECT_THAT(e.what(), HasSubstr("surface_000000.vtp:6: DataArray constraint: \"257\" is not an "
+                                    "index or flag in range"));
   }
   fs::remove_all(dir);
 }

@@ -66,7 +66,6 @@ struct EdgeUse {
   std::array<std::uint8_t, 2> corner{};      ///< local index of the edge's first vertex in each
 };
 
-
 }  // namespace
 
 void checkManifold(const MeshData& mesh) {

@@ -434,15 +434,21 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
     return false;
   };
   const auto count = [&](const char* what) {
-    if (!nextRecord()) throw InvalidInput(reader.where(), std::string("truncated file: expected the number of ") + what);
+    if (!nextRecord())
+      throw InvalidInput(reader.where(),
+                         std::string("truncated file: expected the number of ") + what);
     const auto n = parseInteger(tokens[0]);
-    if (tokens.size() != 1 || !n || *n < 0) reader.fail(std::string("malformed number of ") + what + " " + inQuotes(line));
-    if (static_cast<unsigned long long>(*n) > kInvalidIndex) reader.fail(std::string("too many ") + what);
+    if (tokens.size() != 1 || !n || *n < 0)
+      reader.fail(std::string("malformed number of ") + what + " " + inQuotes(line));
+    if (static_cast<unsigned long long>(*n) > kInvalidIndex)
+      reader.fail(std::string("too many ") + what);
     return static_cast<std::size_t>(*n);
   };
   const auto expectEnd = [&](std::string_view end) {
-    if (!nextRecord()) throw InvalidInput(reader.where(), "truncated file: expected " + std::string(end));
-    if (tokens[0] != end) reader.fail("expected " + std::string(end) + ", found " + inQuotes(tokens[0]));
+    if (!nextRecord())
+      throw InvalidInput(reader.where(), "truncated file: expected " + std::string(end));
+    if (tokens[0] != end)
+      reader.fail("expected " + std::string(end) + ", found " + inQuotes(tokens[0]));
   };
   constexpr std::size_t kReserveCap = std::size_t{1} << 20;
   std::vector<std::pair<long long, std::size_t>> ids;  // (file id, index), sorted after the nodes
@@ -451,17 +457,24 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
   while (nextRecord()) {
     const std::string_view section = tokens[0];
     if (section == "$MeshFormat") {
-      if (!nextRecord() || tokens.size() < 3) throw InvalidInput(reader.where(), "malformed $MeshFormat: expected 'version file-type data-size'");
+      if (!nextRecord() || tokens.size() < 3)
+        throw InvalidInput(reader.where(),
+                           "malformed $MeshFormat: expected 'version file-type data-size'");
       const auto v = parseDouble(tokens[0]);
       if (!v || *v < 2 || *v >= 3)
-        reader.fail("Gmsh format version " + inQuotes(tokens[0]) + " is not supported (versions 1 and 2 are)");
-      if (tokens[1] != "0") reader.fail("binary Gmsh files are not supported (file-type " + inQuotes(tokens[1]) + "); save as ASCII");
+        reader.fail("Gmsh format version " + inQuotes(tokens[0]) +
+                    " is not supported (versions 1 and 2 are)");
+      if (tokens[1] != "0")
+        reader.fail("binary Gmsh files are not supported (file-type " + inQuotes(tokens[1]) +
+                    "); save as ASCII");
       version = 2;
       expectEnd("$EndMeshFormat");
     } else if (section == "$NOD" || section == "$Nodes") {
       if (haveNodes) reader.fail("a second node section");
-      if (section == "$NOD") version = 1;
-      else if (version != 2) reader.fail("$Nodes without a $MeshFormat section before it");
+      if (section == "$NOD")
+        version = 1;
+      else if (version != 2)
+        reader.fail("$Nodes without a $MeshFormat section before it");
       haveNodes = true;
       const std::size_t n = count("nodes");
       mesh.points.reserve(std::min(n, kReserveCap));
@@ -469,8 +482,11 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
       ids.reserve(std::min(n, kReserveCap));
       for (std::size_t i = 0; i < n; ++i) {
         if (!nextRecord())
-          throw InvalidInput(reader.where(), "truncated file: expected " + std::to_string(n) + " nodes, found " + std::to_string(i));
-        if (tokens.size() != 4) reader.fail("node record has " + std::to_string(tokens.size()) + " numbers; expected 'id x y z'");
+          throw InvalidInput(reader.where(), "truncated file: expected " + std::to_string(n) +
+                                                 " nodes, found " + std::to_string(i));
+        if (tokens.size() != 4)
+          reader.fail("node record has " + std::to_string(tokens.size()) +
+                      " numbers; expected 'id x y z'");
         const auto id = parseInteger(tokens[0]);
         if (!id) reader.fail("malformed node id " + inQuotes(tokens[0]));
         ids.push_back({*id, mesh.points.size()});
@@ -481,7 +497,8 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
       std::sort(ids.begin(), ids.end());
       for (std::size_t i = 1; i < ids.size(); ++i)
         if (ids[i].first == ids[i - 1].first)
-          throw InvalidInput(reader.whereAt(mesh.pointLines[ids[i].second]), "node id " + std::to_string(ids[i].first) + " is given twice");
+          throw InvalidInput(reader.whereAt(mesh.pointLines[ids[i].second]),
+                             "node id " + std::to_string(ids[i].first) + " is given twice");
     } else if (section == "$ELM" || section == "$Elements") {
       if (!haveNodes) reader.fail("elements before the nodes");
       if (haveElements) reader.fail("a second element section");
@@ -489,7 +506,8 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
       const std::size_t n = count("elements");
       for (std::size_t i = 0; i < n; ++i) {
         if (!nextRecord())
-          throw InvalidInput(reader.where(), "truncated file: expected " + std::to_string(n) + " elements, found " + std::to_string(i));
+          throw InvalidInput(reader.where(), "truncated file: expected " + std::to_string(n) +
+                                                 " elements, found " + std::to_string(i));
         // v1: id type physical elementary nodes n1 .. ; v2: id type ntags tag.. n1 ..
         std::vector<long long> v;
         for (auto t : tokens) {
@@ -501,24 +519,33 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
         const long long type = v[1];
         std::size_t first = 0, nodes = 0;
         if (version == 1) {
-          if (v.size() < 5) reader.fail("element record too short; expected 'id type physical elementary nodes n1 ...'");
+          if (v.size() < 5)
+            reader.fail(
+                "element record too short; expected 'id type physical elementary nodes n1 ...'");
           first = 5;
           nodes = static_cast<std::size_t>(std::max(0LL, v[4]));
         } else {
           first = 3 + static_cast<std::size_t>(std::max(0LL, v[2]));
           nodes = v.size() > first ? v.size() - first : 0;
         }
-        if (v.size() != first + nodes) reader.fail("element record lists " + std::to_string(v.size() > first ? v.size() - first : 0) + " nodes where its header announces " + std::to_string(nodes));
+        if (v.size() != first + nodes)
+          reader.fail("element record lists " +
+                      std::to_string(v.size() > first ? v.size() - first : 0) +
+                      " nodes where its header announces " + std::to_string(nodes));
         if (type == 15 || type == 1) continue;  // points and lines: border markers
         if (type != 2)
-          reader.fail("element type " + std::to_string(type) + " is not supported (a surface mesh has triangles, type 2; lines and points are skipped)");
+          reader.fail("element type " + std::to_string(type) +
+                      " is not supported (a surface mesh has triangles, type 2; lines and points "
+                      "are skipped)");
         if (nodes != 3) reader.fail("a triangle (type 2) with " + std::to_string(nodes) + " nodes");
         TriangleVertices t{};
         std::array<long long, 3> shown{};
         for (std::size_t k = 0; k < 3; ++k) {
           shown[k] = v[first + k];
-          auto it = std::lower_bound(ids.begin(), ids.end(), std::pair<long long, std::size_t>{shown[k], 0});
-          if (it == ids.end() || it->first != shown[k]) reader.fail("node id " + std::to_string(shown[k]) + " is not among the file's nodes");
+          auto it = std::lower_bound(ids.begin(), ids.end(),
+                                     std::pair<long long, std::size_t>{shown[k], 0});
+          if (it == ids.end() || it->first != shown[k])
+            reader.fail("node id " + std::to_string(shown[k]) + " is not among the file's nodes");
           t[k] = static_cast<PointId>(it->second);
         }
         checkDistinct(reader, t, shown);
@@ -531,10 +558,16 @@ MeshData readGmsh(std::istream& in, const std::string& sourceName) {
       const std::string end = "$End" + std::string(section.substr(1));
       bool closed = false;
       while (nextRecord())
-        if (tokens[0] == end) { closed = true; break; }
-      if (!closed) throw InvalidInput(reader.where(), "truncated file: section " + inQuotes(section) + " has no " + end);
+        if (tokens[0] == end) {
+          closed = true;
+          break;
+        }
+      if (!closed)
+        throw InvalidInput(reader.where(),
+                           "truncated file: section " + inQuotes(section) + " has no " + end);
     } else {
-      reader.fail("unexpected " + inQuotes(section) + " outside a section; expected $NOD, $ELM, $MeshFormat, $Nodes or $Elements");
+      reader.fail("unexpected " + inQuotes(section) +
+                  " outside a section; expected $NOD, $ELM, $MeshFormat, $Nodes or $Elements");
     }
   }
   requireVertices(mesh);
@@ -564,8 +597,8 @@ MeshData readMesh(const std::filesystem::path& path) {
   if (ext == ".off") return readOff(in, name);
   if (ext == ".msh") return readGmsh(in, name);
   if (ext.empty()) throw InvalidInput(name, "no file extension; expected .obj, .off or .msh");
-  throw InvalidInput(name,
-                     "unknown mesh file extension " + inQuotes(ext) + "; expected .obj, .off or .msh");
+  throw InvalidInput(
+      name, "unknown mesh file extension " + inQuotes(ext) + "; expected .obj, .off or .msh");
 }
 
 // ---- writing ----

@@ -34,10 +34,10 @@ template <class Tag, auto Member>
 struct Reach {
   friend constexpr auto member(Tag) { return Member; }
 };
-#define CUTSIM_MESH_MEMBER(TAG, NAME)            \
-  struct TAG {                                   \
-    friend constexpr auto member(TAG);           \
-  };                                             \
+#define CUTSIM_MESH_MEMBER(TAG, NAME)  \
+  struct TAG {                         \
+    friend constexpr auto member(TAG); \
+  };                                   \
   template struct Reach<TAG, &Mesh::NAME>;
 CUTSIM_MESH_MEMBER(VConn, vconn_)
 CUTSIM_MESH_MEMBER(HConn, hconn_)
@@ -72,8 +72,12 @@ struct Arrays {
   decltype(field<ERemoved>(std::declval<Mesh&>())) eremoved;
   decltype(field<FRemoved>(std::declval<Mesh&>())) fremoved;
   explicit Arrays(Mesh& m)
-      : vconn(field<VConn>(m)), hconn(field<HConn>(m)), fconn(field<FConn>(m)),
-        vremoved(field<VRemoved>(m)), eremoved(field<ERemoved>(m)), fremoved(field<FRemoved>(m)) {}
+      : vconn(field<VConn>(m)),
+        hconn(field<HConn>(m)),
+        fconn(field<FConn>(m)),
+        vremoved(field<VRemoved>(m)),
+        eremoved(field<ERemoved>(m)),
+        fremoved(field<FRemoved>(m)) {}
 };
 
 /// The mesh's removal counters, free lists' heads and garbage flag.
@@ -82,7 +86,7 @@ struct Header {
   Mesh::size_type freeV = 0, freeE = 0, freeF = 0;
   bool garbage = false;
   static Header of(const Mesh& m) {
-    return {field<RemovedVertices>(m), field<RemovedEdges>(m), field<RemovedFaces>(m),
+    return {field<RemovedVertices>(m),  field<RemovedEdges>(m),  field<RemovedFaces>(m),
             field<VerticesFreelist>(m), field<EdgesFreelist>(m), field<FacesFreelist>(m),
             field<Garbage>(m)};
   }
@@ -186,9 +190,21 @@ class MeshJournal {
   using VRec = std::remove_cvref_t<decltype(std::declval<VConnT&>()[VI()])>;
   using HRec = std::remove_cvref_t<decltype(std::declval<HConnT&>()[HI()])>;
   using FRec = std::remove_cvref_t<decltype(std::declval<FConnT&>()[FI()])>;
-  struct VertexRecord { Mesh::size_type index; VRec conn; bool removed; };
-  struct EdgeRecord { Mesh::size_type index; HRec conn0, conn1; bool removed; };
-  struct FaceRecord { Mesh::size_type index; FRec conn; bool removed; };
+  struct VertexRecord {
+    Mesh::size_type index;
+    VRec conn;
+    bool removed;
+  };
+  struct EdgeRecord {
+    Mesh::size_type index;
+    HRec conn0, conn1;
+    bool removed;
+  };
+  struct FaceRecord {
+    Mesh::size_type index;
+    FRec conn;
+    bool removed;
+  };
 
   bool active_ = false;
   Mesh::size_type nv_ = 0, ne_ = 0, nf_ = 0;

@@ -1,15 +1,14 @@
 // Topology: construction, queries, observers, transactions and event delivery, validation,
 // compaction. Operations are in topology_ops.cpp and topology_cut.cpp.
-#include "topology_impl.hpp"
-
-#include "cutsim/base/union_find.hpp"
-
 #include <CGAL/boost/graph/Euler_operations.h>
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <sstream>
+
+#include "cutsim/base/union_find.hpp"
+#include "topology_impl.hpp"
 
 namespace cutsim::topology {
 
@@ -31,7 +30,9 @@ Subscription& Subscription::operator=(Subscription&& o) noexcept {
   }
   return *this;
 }
-Subscription::~Subscription() { reset(); }
+Subscription::~Subscription() {
+  reset();
+}
 void Subscription::reset() {
   if (auto r = registry_.lock(); r && observer_) {
     auto& obs = r->observers;
@@ -40,7 +41,9 @@ void Subscription::reset() {
   registry_.reset();
   observer_ = nullptr;
 }
-bool Subscription::active() const { return observer_ != nullptr && !registry_.expired(); }
+bool Subscription::active() const {
+  return observer_ != nullptr && !registry_.expired();
+}
 
 std::string ValidationReport::summary() const {
   std::ostringstream s;
@@ -96,9 +99,9 @@ MeshData soup(std::span<const Vec3> pts, std::span<const TriangleVertices> tris)
   for (std::size_t i = 0; i < tris.size(); ++i) {
     for (PointId v : tris[i])
       if (v >= pts.size())
-        throw InvalidInput("triangle " + std::to_string(i),
-                           "vertex index " + std::to_string(v) + " out of range [0, " +
-                               std::to_string(pts.size()) + ")");
+        throw InvalidInput("triangle " + std::to_string(i), "vertex index " + std::to_string(v) +
+                                                                " out of range [0, " +
+                                                                std::to_string(pts.size()) + ")");
     if (tris[i][0] == tris[i][1] || tris[i][1] == tris[i][2] || tris[i][0] == tris[i][2])
       throw InvalidInput("triangle " + std::to_string(i), "repeated vertex in a triangle");
   }
@@ -116,17 +119,37 @@ Topology& Topology::operator=(Topology&&) noexcept = default;
 // ------------------------------------------------------------------------------------------
 // Queries
 
-std::size_t Topology::numPoints() const { return impl_->mesh.number_of_vertices(); }
-std::size_t Topology::numEdges() const { return impl_->mesh.number_of_edges(); }
-std::size_t Topology::numTriangles() const { return impl_->mesh.number_of_faces(); }
-Index Topology::pointCapacity() const { return Index(impl_->mesh.num_vertices()); }
-Index Topology::edgeCapacity() const { return Index(impl_->mesh.num_edges()); }
-Index Topology::triangleCapacity() const { return Index(impl_->mesh.num_faces()); }
-bool Topology::isPointAlive(PointId p) const { return impl_->vertexAlive(VI(p)); }
-bool Topology::isEdgeAlive(EdgeId e) const { return impl_->edgeAlive(EI(e)); }
-bool Topology::isTriangleAlive(TriangleId t) const { return impl_->faceAlive(FI(t)); }
+std::size_t Topology::numPoints() const {
+  return impl_->mesh.number_of_vertices();
+}
+std::size_t Topology::numEdges() const {
+  return impl_->mesh.number_of_edges();
+}
+std::size_t Topology::numTriangles() const {
+  return impl_->mesh.number_of_faces();
+}
+Index Topology::pointCapacity() const {
+  return Index(impl_->mesh.num_vertices());
+}
+Index Topology::edgeCapacity() const {
+  return Index(impl_->mesh.num_edges());
+}
+Index Topology::triangleCapacity() const {
+  return Index(impl_->mesh.num_faces());
+}
+bool Topology::isPointAlive(PointId p) const {
+  return impl_->vertexAlive(VI(p));
+}
+bool Topology::isEdgeAlive(EdgeId e) const {
+  return impl_->edgeAlive(EI(e));
+}
+bool Topology::isTriangleAlive(TriangleId t) const {
+  return impl_->faceAlive(FI(t));
+}
 
-std::uint64_t Topology::revision() const { return impl_->revision; }
+std::uint64_t Topology::revision() const {
+  return impl_->revision;
+}
 
 std::uint64_t Topology::digest() const {
   const Mesh& m = impl_->mesh;
@@ -136,7 +159,9 @@ std::uint64_t Topology::digest() const {
     for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
   };
   auto add = [&](std::uint64_t x) { mix(&x, sizeof x); };
-  add(m.num_vertices()); add(m.num_edges()); add(m.num_faces());
+  add(m.num_vertices());
+  add(m.num_edges());
+  add(m.num_faces());
   const detail::Header header = detail::Header::of(m);
   for (Mesh::size_type x : {header.removedV, header.removedE, header.removedF, header.freeV,
                             header.freeE, header.freeF})
@@ -153,7 +178,10 @@ std::uint64_t Topology::digest() const {
   }
   for (Mesh::size_type i = 0; i < m.num_halfedges(); ++i) {
     const HI e(i);
-    add(m.face(e).idx()); add(m.target(e).idx()); add(m.next(e).idx()); add(m.prev(e).idx());
+    add(m.face(e).idx());
+    add(m.target(e).idx());
+    add(m.next(e).idx());
+    add(m.prev(e).idx());
   }
   for (Mesh::size_type i = 0; i < m.num_edges(); ++i) add(m.is_removed(EI(i)) ? 1 : 0);
   for (Mesh::size_type i = 0; i < m.num_faces(); ++i) {
@@ -322,7 +350,8 @@ double Topology::Impl::localEdgeLength(VI v) const {
   incomingHalfedges(v, hs);
   if (hs.empty()) return 0.0;
   double sum = 0;
-  for (HI h : hs) sum += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(h)), mesh.point(v)));
+  for (HI h : hs)
+    sum += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(h)), mesh.point(v)));
   return sum / double(hs.size());
 }
 
@@ -355,7 +384,9 @@ Subscription Topology::subscribe(TopologyObserver& observer) {
   return Subscription(impl_->registry, &observer);
 }
 
-std::size_t Topology::numObservers() const { return impl_->registry->observers.size(); }
+std::size_t Topology::numObservers() const {
+  return impl_->registry->observers.size();
+}
 
 // ------------------------------------------------------------------------------------------
 // Failure injection
@@ -370,7 +401,9 @@ void injectFailureAt(std::uint64_t n) {
   gFailurePointsPassed = 0;
 }
 
-std::uint64_t failurePointsPassed() { return gFailurePointsPassed; }
+std::uint64_t failurePointsPassed() {
+  return gFailurePointsPassed;
+}
 
 void failurePoint(const char* where) {
   ++gFailurePointsPassed;
@@ -386,7 +419,8 @@ void Topology::Impl::begin(std::string op) {
   if (registry->delivering)
     throw TopologyError("'" + op + "' called from an observer while events are delivered: " +
                         "observers must not change the topology");
-  if (open) throw TopologyError("internal error: nested transaction '" + op + "' in '" + operation + "'");
+  if (open)
+    throw TopologyError("internal error: nested transaction '" + op + "' in '" + operation + "'");
   open = true;
   operation = std::move(op);
   vBefore = Index(mesh.num_vertices());
@@ -397,9 +431,15 @@ void Topology::Impl::begin(std::string op) {
 
 void Topology::Impl::clearTransaction() noexcept {
   open = false;
-  trisDestroyed.clear(); trisDestroyedV.clear(); trisDestroyedE.clear(); trisDestroyedP.clear();
-  edgesDestroyed.clear(); edgesDestroyedV.clear(); pointsDestroyed.clear();
-  ancestry.clear(); touched.clear();
+  trisDestroyed.clear();
+  trisDestroyedV.clear();
+  trisDestroyedE.clear();
+  trisDestroyedP.clear();
+  edgesDestroyed.clear();
+  edgesDestroyedV.clear();
+  pointsDestroyed.clear();
+  ancestry.clear();
+  touched.clear();
   journal.clear();
 }
 
@@ -419,7 +459,9 @@ VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ances
   double x = 0, y = 0, z = 0;
   for (auto [a, w] : ancestors) {
     const Point3& p = mesh.point(VI(a));
-    x += w * p.x(); y += w * p.y(); z += w * p.z();
+    x += w * p.x();
+    y += w * p.y();
+    z += w * p.z();
     if (a >= vBefore) {
       auto it = ancestry.find(a);
       if (it != ancestry.end() && !it->second.empty()) {
@@ -433,8 +475,10 @@ VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ances
   std::sort(flat.begin(), flat.end());
   std::vector<std::pair<PointId, double>> merged;
   for (auto& [a, w] : flat) {
-    if (!merged.empty() && merged.back().first == a) merged.back().second += w;
-    else merged.emplace_back(a, w);
+    if (!merged.empty() && merged.back().first == a)
+      merged.back().second += w;
+    else
+      merged.emplace_back(a, w);
   }
   VI v = mesh.add_vertex(Point3(x, y, z));
   ancestry[PointId(v.idx())] = std::move(merged);
@@ -459,7 +503,8 @@ void Topology::Impl::detachFace(FI f) {
   auto removeEdge = [&](EI e) {
     if (e.idx() < eBefore) {
       edgesDestroyed.push_back(EdgeId(e.idx()));
-      HI eh(2 * e.idx());  // the edge's first halfedge (an Edge_index built from a halfedge keeps it)
+      HI eh(2 *
+            e.idx());  // the edge's first halfedge (an Edge_index built from a halfedge keeps it)
       edgesDestroyedV.push_back({PointId(mesh.source(eh).idx()), PointId(mesh.target(eh).idx())});
     }
     mesh.remove_edge(e);
@@ -502,8 +547,10 @@ std::vector<FI> Topology::Impl::attachFaces(const std::vector<std::array<VI, 3>>
       failurePoint("a triangle attached");
       for (VI v : faces[i]) journal.recordStar(mesh, v);
       FI f = CGAL::Euler::add_face(faces[i], mesh);
-      if (f == Mesh::null_face()) next.push_back(i);
-      else out[i] = f;
+      if (f == Mesh::null_face())
+        next.push_back(i);
+      else
+        out[i] = f;
     }
     if (next.size() == pending.size()) {
       const auto& t = faces[next.front()];
@@ -601,10 +648,14 @@ template <class Id, class Data>
 void sortTogether(std::vector<Id>& ids, std::vector<Data>& data) {
   std::vector<std::size_t> order(ids.size());
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return ids[a] < ids[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return ids[a] < ids[b]; });
   std::vector<Id> i2;
   std::vector<Data> d2;
-  for (std::size_t k : order) { i2.push_back(ids[k]); d2.push_back(data[k]); }
+  for (std::size_t k : order) {
+    i2.push_back(ids[k]);
+    d2.push_back(data[k]);
+  }
   ids.swap(i2);
   data.swap(d2);
 }
@@ -643,10 +694,11 @@ class Delivery {
   void finish(const std::string& operation) {
     registry_.delivering = false;
     if (failures_ == 0) return;
-    throw ObserverError("observer '" + first_ + "' failed on the event '" + event_ + "' of '" +
-                        operation + "': " + message_ +
-                        (failures_ > 1 ? " (and " + std::to_string(failures_ - 1) + " more failures)" : "") +
-                        "; the operation was carried out and every other observer followed it");
+    throw ObserverError(
+        "observer '" + first_ + "' failed on the event '" + event_ + "' of '" + operation +
+        "': " + message_ +
+        (failures_ > 1 ? " (and " + std::to_string(failures_ - 1) + " more failures)" : "") +
+        "; the operation was carried out and every other observer followed it");
   }
 
  private:
@@ -708,7 +760,10 @@ void Topology::Impl::commit(Topology& self) {
       if (!mesh.is_removed(VI(v))) {
         pointC.push_back(v);
         if (auto it = ancestry.find(v); it != ancestry.end())
-          for (auto [a, ww] : it->second) { anc.push_back(a); w.push_back(ww); }
+          for (auto [a, ww] : it->second) {
+            anc.push_back(a);
+            w.push_back(ww);
+          }
         offsets.push_back(std::uint32_t(anc.size()));
       }
     {
@@ -716,13 +771,20 @@ void Topology::Impl::commit(Topology& self) {
       std::iota(order.begin(), order.end(), 0);
       std::sort(order.begin(), order.end(),
                 [&](std::size_t a, std::size_t b) { return trisDestroyed[a] < trisDestroyed[b]; });
-      std::vector<TriangleId> t2; std::vector<TriangleVertices> v2; std::vector<TriangleEdges> e2;
+      std::vector<TriangleId> t2;
+      std::vector<TriangleVertices> v2;
+      std::vector<TriangleEdges> e2;
       std::vector<std::array<Point3, 3>> p2;
       for (std::size_t k : order) {
-        t2.push_back(trisDestroyed[k]); v2.push_back(trisDestroyedV[k]);
-        e2.push_back(trisDestroyedE[k]); p2.push_back(trisDestroyedP[k]);
+        t2.push_back(trisDestroyed[k]);
+        v2.push_back(trisDestroyedV[k]);
+        e2.push_back(trisDestroyedE[k]);
+        p2.push_back(trisDestroyedP[k]);
       }
-      trisDestroyed.swap(t2); trisDestroyedV.swap(v2); trisDestroyedE.swap(e2); trisDestroyedP.swap(p2);
+      trisDestroyed.swap(t2);
+      trisDestroyedV.swap(v2);
+      trisDestroyedE.swap(e2);
+      trisDestroyedP.swap(p2);
     }
     sortTogether(edgesDestroyed, edgesDestroyedV);
     std::sort(pointsDestroyed.begin(), pointsDestroyed.end());
@@ -739,7 +801,8 @@ void Topology::Impl::commit(Topology& self) {
   // is dropped (it is rebuilt when next needed).
   if (grid.built()) {
     try {
-      for (std::size_t i = 0; i < trisDestroyed.size(); ++i) grid.erase(trisDestroyedP[i], FI(trisDestroyed[i]));
+      for (std::size_t i = 0; i < trisDestroyed.size(); ++i)
+        grid.erase(trisDestroyedP[i], FI(trisDestroyed[i]));
       for (TriangleId t : triC) grid.insert(mesh, FI(t));
     } catch (...) {
       grid.clear();
@@ -756,22 +819,30 @@ void Topology::Impl::commit(Topology& self) {
   summary.trianglesCreated = triC.size();
 
   // The journal is cleared before delivery: observers see a closed transaction.
-  std::vector<TriangleId> tD; tD.swap(trisDestroyed);
-  std::vector<TriangleVertices> tDV; tDV.swap(trisDestroyedV);
-  std::vector<TriangleEdges> tDE; tDE.swap(trisDestroyedE);
-  std::vector<EdgeId> eD; eD.swap(edgesDestroyed);
-  std::vector<EdgeVertices> eDV; eDV.swap(edgesDestroyedV);
-  std::vector<PointId> pD; pD.swap(pointsDestroyed);
+  std::vector<TriangleId> tD;
+  tD.swap(trisDestroyed);
+  std::vector<TriangleVertices> tDV;
+  tDV.swap(trisDestroyedV);
+  std::vector<TriangleEdges> tDE;
+  tDE.swap(trisDestroyedE);
+  std::vector<EdgeId> eD;
+  eD.swap(edgesDestroyed);
+  std::vector<EdgeVertices> eDV;
+  eDV.swap(edgesDestroyedV);
+  std::vector<PointId> pD;
+  pD.swap(pointsDestroyed);
   clearTransaction();
   ++revision;
 
   Delivery d(*registry, std::move(observers));
-  if (!tD.empty()) d.each("triangles destroyed", [&](auto& o) { o.onTrianglesDestroyed(self, {tD, tDV, tDE}); });
+  if (!tD.empty())
+    d.each("triangles destroyed", [&](auto& o) { o.onTrianglesDestroyed(self, {tD, tDV, tDE}); });
   if (!eD.empty()) d.each("edges destroyed", [&](auto& o) { o.onEdgesDestroyed(self, {eD, eDV}); });
   if (!pD.empty()) d.each("points destroyed", [&](auto& o) { o.onPointsDestroyed(self, {pD}); });
   if (!pointC.empty())
     d.each("points created", [&](auto& o) { o.onPointsCreated(self, {pointC, offsets, anc, w}); });
-  if (!edgeC.empty()) d.each("edges created", [&](auto& o) { o.onEdgesCreated(self, {edgeC, edgeCV}); });
+  if (!edgeC.empty())
+    d.each("edges created", [&](auto& o) { o.onEdgesCreated(self, {edgeC, edgeCV}); });
   if (!triC.empty())
     d.each("triangles created", [&](auto& o) { o.onTrianglesCreated(self, {triC, triCV, triCE}); });
   d.each("transaction end", [&](auto& o) { o.onTransactionEnd(self, summary); });
@@ -810,16 +881,20 @@ void Topology::compact() {
   // A removed element that was not moved keeps map[i] == i, which may be < live count only if
   // it was swapped; mark removed ones explicitly before collecting.
   std::vector<bool> vdead(nV), edead(nE), fdead(nF);
-  std::vector<TopologyObserver*> observers = I.registry->observers;  // (allocates: before the change)
+  std::vector<TopologyObserver*> observers =
+      I.registry->observers;       // (allocates: before the change)
   failurePoint("the compaction");  // the last point at which nothing has changed
   for (std::size_t i = 0; i < nV; ++i) vdead[i] = m.is_removed(VI(Index(i)));
   for (std::size_t i = 0; i < nE; ++i) edead[i] = m.is_removed(EI(Index(i)));
   for (std::size_t i = 0; i < nF; ++i) fdead[i] = m.is_removed(FI(Index(i)));
   m.collect_garbage(visitor);
   ++I.revision;
-  for (std::size_t i = 0; i < nV; ++i) if (vdead[i]) vmap[i] = kInvalidIndex;
-  for (std::size_t i = 0; i < nE; ++i) if (edead[i]) emap[i] = kInvalidIndex;
-  for (std::size_t i = 0; i < nF; ++i) if (fdead[i]) fmap[i] = kInvalidIndex;
+  for (std::size_t i = 0; i < nV; ++i)
+    if (vdead[i]) vmap[i] = kInvalidIndex;
+  for (std::size_t i = 0; i < nE; ++i)
+    if (edead[i]) emap[i] = kInvalidIndex;
+  for (std::size_t i = 0; i < nF; ++i)
+    if (fdead[i]) fmap[i] = kInvalidIndex;
   I.grid.clear();
   I.grid.chooseCellSize(0.0);  // chosen again for the compacted mesh, at its next build
 
@@ -844,7 +919,8 @@ ValidationReport Topology::validate() const {
   if (!m.is_valid(false)) bad("CGAL's Surface_mesh::is_valid() fails");
   for (FI f : m.faces()) {
     HI h = m.halfedge(f);
-    if (m.next(m.next(m.next(h))) != h) bad("triangle " + std::to_string(f.idx()) + " is not a triangle");
+    if (m.next(m.next(m.next(h))) != h)
+      bad("triangle " + std::to_string(f.idx()) + " is not a triangle");
     auto t = impl_->verticesOf(f);
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
       bad("triangle " + std::to_string(f.idx()) + " has a repeated vertex");
@@ -867,8 +943,11 @@ ValidationReport Topology::validate() const {
       bad("point " + std::to_string(v.idx()) + " has two edges to the same neighbour");
     std::size_t borders = 0;
     for (HI h : hs) borders += m.is_border(h) ? 1 : 0;
-    if (borders > 1) bad("point " + std::to_string(v.idx()) + " is a bowtie (" + std::to_string(borders) + " boundary fans)");
-    if (hs.size() >= 1 && m.target(hs.front()) != v) bad("point " + std::to_string(v.idx()) + ": halfedge does not point to it");
+    if (borders > 1)
+      bad("point " + std::to_string(v.idx()) + " is a bowtie (" + std::to_string(borders) +
+          " boundary fans)");
+    if (hs.size() >= 1 && m.target(hs.front()) != v)
+      bad("point " + std::to_string(v.idx()) + ": halfedge does not point to it");
   }
   for (auto* o : impl_->registry->observers) {
     std::vector<std::string> problems;
@@ -944,7 +1023,8 @@ Topology Topology::load(ArchiveReader& in) {
   const std::uint64_t freeV = in.u64(), freeE = in.u64(), freeF = in.u64();
   const bool garbage = in.boolean();
   const double cell = in.f64();
-  if (!(cell >= 0 && std::isfinite(cell))) in.fail("the locator's cell size is " + std::to_string(cell));
+  if (!(cell >= 0 && std::isfinite(cell)))
+    in.fail("the locator's cell size is " + std::to_string(cell));
   const auto vh = in.u32s(), vr = in.u32s();
   const auto pts = in.f64s();
   const auto h = in.u32s(), er = in.u32s(), fh = in.u32s(), fr = in.u32s();
@@ -963,7 +1043,8 @@ Topology Topology::load(ArchiveReader& in) {
       if (x > 1) in.fail(std::string("a ") + what + " removal flag holds " + std::to_string(x));
       count += x;
     }
-    if (count != removed) in.fail(std::string("the ") + what + " removal count disagrees with the flags");
+    if (count != removed)
+      in.fail(std::string("the ") + what + " removal count disagrees with the flags");
   };
   flags(vr, removedV, "point");
   flags(er, removedE, "edge");
@@ -1008,8 +1089,9 @@ Topology Topology::load(ArchiveReader& in) {
   }
   // The free lists (CGAL's remove_* links every removed element into its kind's list): each
   // must run through removed elements only, exactly as many as the counter says, then end.
-  auto freeList = [&](std::uint64_t head, std::uint64_t removed, std::uint64_t n, std::uint64_t step,
-                      const auto& isRemoved, const auto& link, const char* what) {
+  auto freeList = [&](std::uint64_t head, std::uint64_t removed, std::uint64_t n,
+                      std::uint64_t step, const auto& isRemoved, const auto& link,
+                      const char* what) {
     std::uint64_t x = head, count = 0;
     while (x != null) {
       if (x >= n || x % step != 0 || !isRemoved(x / step) || count >= removed)
@@ -1019,14 +1101,22 @@ Topology Topology::load(ArchiveReader& in) {
     }
     if (count != removed) in.fail(std::string("the free list of ") + what + " misses removed ones");
   };
-  freeList(freeV, removedV, nv, 1, [&](std::uint64_t i) { return vr[i] != 0; },
-           [&](std::uint64_t i) { return vh[i]; }, "points");
-  freeList(freeE, removedE, nh, 2, [&](std::uint64_t i) { return er[i] != 0; },
-           [&](std::uint64_t i) { return h[4 * i + 2]; }, "edges");
-  freeList(freeF, removedF, nf, 1, [&](std::uint64_t i) { return fr[i] != 0; },
-           [&](std::uint64_t i) { return fh[i]; }, "triangles");
-  detail::Header{Mesh::size_type(removedV), Mesh::size_type(removedE), Mesh::size_type(removedF),
-                 Mesh::size_type(freeV), Mesh::size_type(freeE), Mesh::size_type(freeF), garbage}
+  freeList(
+      freeV, removedV, nv, 1, [&](std::uint64_t i) { return vr[i] != 0; },
+      [&](std::uint64_t i) { return vh[i]; }, "points");
+  freeList(
+      freeE, removedE, nh, 2, [&](std::uint64_t i) { return er[i] != 0; },
+      [&](std::uint64_t i) { return h[4 * i + 2]; }, "edges");
+  freeList(
+      freeF, removedF, nf, 1, [&](std::uint64_t i) { return fr[i] != 0; },
+      [&](std::uint64_t i) { return fh[i]; }, "triangles");
+  detail::Header{Mesh::size_type(removedV),
+                 Mesh::size_type(removedE),
+                 Mesh::size_type(removedF),
+                 Mesh::size_type(freeV),
+                 Mesh::size_type(freeE),
+                 Mesh::size_type(freeF),
+                 garbage}
       .applyTo(m);
   I.revision = revision;
   I.grid.chooseCellSize(cell);
@@ -1040,7 +1130,8 @@ Topology Topology::load(ArchiveReader& in) {
   }
   for (std::uint64_t i = 0; i < nv; ++i) {
     const VI v{Mesh::size_type(i)};
-    if (!vr[i] && m.halfedge(v).is_valid() && (m.is_removed(m.edge(m.halfedge(v))) || m.target(m.halfedge(v)) != v))
+    if (!vr[i] && m.halfedge(v).is_valid() &&
+        (m.is_removed(m.edge(m.halfedge(v))) || m.target(m.halfedge(v)) != v))
       in.fail("point " + std::to_string(i) + " has a halfedge that does not end at it");
   }
   // Each live triangle is the face of exactly the three halfedges of its cycle.
@@ -1049,22 +1140,25 @@ Topology Topology::load(ArchiveReader& in) {
     if (er[i / 2]) continue;
     const HI e{Mesh::size_type(i)};
     if (m.face(e).is_valid()) {
-      if (m.face(m.next(e)) != m.face(e)) in.fail("halfedge " + std::to_string(i) + " and the next have other triangles");
+      if (m.face(m.next(e)) != m.face(e))
+        in.fail("halfedge " + std::to_string(i) + " and the next have other triangles");
       ++claims[m.face(e).idx()];
     }
     ++incoming[m.target(e).idx()];
   }
   for (std::uint64_t i = 0; i < nf; ++i) {
     const FI f{Mesh::size_type(i)};
-    if (!fr[i] && (claims[i] != 3 || m.is_removed(m.edge(m.halfedge(f))) || m.face(m.halfedge(f)) != f ||
-                   m.next(m.next(m.next(m.halfedge(f)))) != m.halfedge(f)))
+    if (!fr[i] &&
+        (claims[i] != 3 || m.is_removed(m.edge(m.halfedge(f))) || m.face(m.halfedge(f)) != f ||
+         m.next(m.next(m.next(m.halfedge(f)))) != m.halfedge(f)))
       in.fail("triangle " + std::to_string(i) + " is not a triangle of its halfedges");
   }
   // Each live point's halfedges form one circle (the journal and every walk go round it).
   for (std::uint64_t i = 0; i < nv; ++i) {
     const VI v{Mesh::size_type(i)};
     if (vr[i] || !m.halfedge(v).is_valid()) {
-      if (!vr[i] && incoming[i] != 0) in.fail("point " + std::to_string(i) + " has edges but no halfedge");
+      if (!vr[i] && incoming[i] != 0)
+        in.fail("point " + std::to_string(i) + " has edges but no halfedge");
       continue;
     }
     HI e = m.halfedge(v);
@@ -1073,7 +1167,8 @@ Topology Topology::load(ArchiveReader& in) {
       if (++walked > incoming[i]) break;
       e = m.opposite(m.next(e));
     } while (e != m.halfedge(v));
-    if (walked != incoming[i]) in.fail("point " + std::to_string(i) + "'s halfedges do not form one circle");
+    if (walked != incoming[i])
+      in.fail("point " + std::to_string(i) + "'s halfedges do not form one circle");
   }
   if (t.digest() != savedDigest) in.fail("the structure read back differs from the one saved");
   const ValidationReport r = t.validate();

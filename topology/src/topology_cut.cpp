@@ -76,8 +76,13 @@ double segmentDistance2(const Point3& p1, const Point3& q1, const Point3& p2, co
       double b = d1 * d2, denom = a * e - b * b;
       s = denom > eps ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
       t = (b * s + f) / e;
-      if (t < 0) { t = 0; s = std::clamp(-c / a, 0.0, 1.0); }
-      else if (t > 1) { t = 1; s = std::clamp((b - c) / a, 0.0, 1.0); }
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
     }
   }
   Vector3 d = (p1 + s * d1) - (p2 + t * d2);
@@ -112,7 +117,10 @@ Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, con
   for (int j = 0; j < 3; ++j)
     if (d[j] < 0 && lp[j] > eps) {
       double sj = lp[j] / -d[j];
-      if (sj < sExit) { sExit = sj; exitJ = j; }
+      if (sj < sExit) {
+        sExit = sj;
+        exitJ = j;
+      }
     }
   if (exitJ < 0) {
     s.reached = true;
@@ -190,7 +198,10 @@ void TriangleGrid::erase(const std::array<Point3, 3>& c, FI f) {
         if (it == cells_.end()) continue;
         auto& v = it->second;
         auto pos = std::find(v.begin(), v.end(), f);
-        if (pos != v.end()) { *pos = v.back(); v.pop_back(); }
+        if (pos != v.end()) {
+          *pos = v.back();
+          v.pop_back();
+        }
         if (v.empty()) cells_.erase(it);
       }
 }
@@ -227,11 +238,11 @@ struct PatchTooSmall {};
 /// One split of the planned insertion, in the patch's vertices.
 struct PlannedSplit {
   bool onEdge = false;
-  VI a, b;                   // onEdge: the edge a-b split at parameter u from a
+  VI a, b;  // onEdge: the edge a-b split at parameter u from a
   double u = 0.0;
-  std::array<VI, 3> corners; // otherwise: the triangle with these corners, at these weights
+  std::array<VI, 3> corners;  // otherwise: the triangle with these corners, at these weights
   std::array<double, 3> weights{};
-  VI created;                // the patch vertex it created
+  VI created;  // the patch vertex it created
 };
 
 class Walker {
@@ -251,7 +262,10 @@ class Walker {
     for (FI f : cand) {
       auto c = corners(m, f);
       double d = CGAL::squared_distance(closestOnTriangle(c, p), p);
-      if (d < best) { best = d; bestF = f; }
+      if (d < best) {
+        best = d;
+        bestF = f;
+      }
     }
     if (!bestF.is_valid())
       throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
@@ -260,12 +274,14 @@ class Walker {
     double tol = 0.25 * longestEdge(c);
     if (std::sqrt(best) > tol)
       throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
-                          " is not on the surface (nearest triangle " + std::to_string(bestF.idx()) +
-                          " is " + std::to_string(std::sqrt(best)) + " away)");
+                          " is not on the surface (nearest triangle " +
+                          std::to_string(bestF.idx()) + " is " + std::to_string(std::sqrt(best)) +
+                          " away)");
     Point3 onSurface = closestOnTriangle(c, p);
     auto l = barycentric(c, onSurface);
-    if (!l) throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
-                                " lies on a degenerate triangle " + std::to_string(bestF.idx()));
+    if (!l)
+      throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
+                          " lies on a degenerate triangle " + std::to_string(bestF.idx()));
     for (double& x : *l) x = std::max(0.0, x);
     double s = (*l)[0] + (*l)[1] + (*l)[2];
     for (double& x : *l) x /= s;
@@ -276,7 +292,8 @@ class Walker {
   std::vector<Location> around(const Location& loc) {
     const double eps = 1e-10;
     std::vector<int> zeros;
-    for (int j = 0; j < 3; ++j) if (loc.bary[j] <= eps) zeros.push_back(j);
+    for (int j = 0; j < 3; ++j)
+      if (loc.bary[j] <= eps) zeros.push_back(j);
     std::vector<Location> out;
     HI h = m.halfedge(loc.face);
     std::array<VI, 3> fv{m.source(h), m.target(h), m.target(m.next(h))};
@@ -297,7 +314,8 @@ class Walker {
           for (double& x : *l) x = std::max(0.0, x);
           HI gh = m.halfedge(g);
           std::array<VI, 3> gv{m.source(gh), m.target(gh), m.target(m.next(gh))};
-          for (int t = 0; t < 3; ++t) if (gv[t] != a && gv[t] != b) (*l)[t] = 0.0;
+          for (int t = 0; t < 3; ++t)
+            if (gv[t] != a && gv[t] != b) (*l)[t] = 0.0;
           double s = (*l)[0] + (*l)[1] + (*l)[2];
           for (double& x : *l) x /= s;
           out.push_back({g, *l});
@@ -317,7 +335,8 @@ class Walker {
       HI fh = m.halfedge(f);
       std::array<VI, 3> fv{m.source(fh), m.target(fh), m.target(m.next(fh))};
       std::array<double, 3> l{0, 0, 0};
-      for (int t = 0; t < 3; ++t) if (fv[t] == v) l[t] = 1.0;
+      for (int t = 0; t < 3; ++t)
+        if (fv[t] == v) l[t] = 1.0;
       out.push_back({f, l});
     }
     return out;
@@ -345,15 +364,19 @@ class Walker {
       std::size_t guard = 0;
       while (true) {
         if (++guard > 100000 + 4 * m.number_of_faces())
-          throw TopologyError("cutPolyline: the walk along segment " + std::to_string(k) + " does not end");
+          throw TopologyError("cutPolyline: the walk along segment " + std::to_string(k) +
+                              " does not end");
         auto st = bestStep(around(loc), poly[k]);
         Point3 here = fromBary(corners(m, loc.face), loc.bary);
         if (!st)
-          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
-                              " leaves the surface at " + fmt(here));
+          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" +
+                              std::to_string(k) + " leaves the surface at " + fmt(here));
         Location next{st->first.face, st->second.at};
         corridor.push_back(next.face);
-        if (st->second.reached) { loc = next; break; }
+        if (st->second.reached) {
+          loc = next;
+          break;
+        }
         // Crossing the exit edge: the face across must exist.
         int j = st->second.exitEdge;
         HI fh = m.halfedge(next.face);
@@ -362,14 +385,15 @@ class Walker {
         HI across = I.findHalfedge(b, a);
         bool atVertex = next.bary[(j + 1) % 3] <= 1e-10 || next.bary[(j + 2) % 3] <= 1e-10;
         if (!atVertex && (!across.is_valid() || !m.face(across).is_valid()))
-          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
-                              " leaves the surface at " + fmt(fromBary(corners(m, next.face), next.bary)) +
+          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" +
+                              std::to_string(k) + " leaves the surface at " +
+                              fmt(fromBary(corners(m, next.face), next.bary)) +
                               " through border edge (" + std::to_string(a.idx()) + ", " +
                               std::to_string(b.idx()) + ")");
         if (fromBary(corners(m, next.face), next.bary) == here && guard > 3) {
           // No progress from a vertex: the direction leaves the surface there.
-          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" + std::to_string(k) +
-                              " leaves the surface at " + fmt(here));
+          throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" +
+                              std::to_string(k) + " leaves the surface at " + fmt(here));
         }
         loc = next;
       }
@@ -451,7 +475,10 @@ class Walker {
                               ", where a crossing snapped to");
         const auto& [l, s] = *st;
         VI v = insertAt({l.face, s.at});
-        if (v != cur) { path.push_back(v); cur = v; }
+        if (v != cur) {
+          path.push_back(v);
+          cur = v;
+        }
         if (s.reached) break;
       }
     }
@@ -471,20 +498,20 @@ class Walker {
   double snap_;
 };
 
-
 /// A copy of the triangles around a cut, on which the inserting walk is planned. A patch vertex
 /// whose triangles are not all in the patch is on its frontier: its border status in the patch is
 /// not the mesh's, so the walk stops (PatchTooSmall) before it uses a triangle touching one. Such
 /// a vertex gets one copy per fan of patch triangles around it, so that the patch is manifold.
 struct Patch {
   Topology::Impl impl;
-  std::vector<VI> toMesh;       // patch vertex -> mesh vertex (the vertices the patch started with)
-  std::vector<char> frontier;   // by patch vertex
+  std::vector<VI> toMesh;      // patch vertex -> mesh vertex (the vertices the patch started with)
+  std::vector<char> frontier;  // by patch vertex
   std::unordered_map<std::uint32_t, FI> faceOf;  // mesh triangle -> patch triangle
   bool hasFrontier = false;
 };
 
-std::unique_ptr<Patch> buildPatch(const Topology::Impl& I, const std::unordered_set<std::uint32_t>& faces) {
+std::unique_ptr<Patch> buildPatch(const Topology::Impl& I,
+                                  const std::unordered_set<std::uint32_t>& faces) {
   const Mesh& m = I.mesh;
   auto P = std::make_unique<Patch>();
   std::vector<std::uint32_t> sorted(faces.begin(), faces.end());
@@ -571,7 +598,8 @@ Location inPatch(const Patch& P, const Mesh& m, const Location& l) {
   Location out{pf, {}};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      if (P.toMesh[pv[std::size_t(i)].idx()] == mv[std::size_t(j)]) out.bary[std::size_t(i)] = l.bary[std::size_t(j)];
+      if (P.toMesh[pv[std::size_t(i)].idx()] == mv[std::size_t(j)])
+        out.bary[std::size_t(i)] = l.bary[std::size_t(j)];
   return out;
 }
 
@@ -637,17 +665,19 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   for (std::size_t i = 0; i < polyline.size(); ++i) {
     for (double c : polyline[i])
       if (!std::isfinite(c))
-        throw TopologyError("cutPolyline: point " + std::to_string(i) + " has a non-finite coordinate");
+        throw TopologyError("cutPolyline: point " + std::to_string(i) +
+                            " has a non-finite coordinate");
     Point3 p = toPoint(polyline[i]);
     if (poly.empty() || p != poly.back()) poly.push_back(p);
   }
   if (poly.size() < 2) throw TopologyError("cutPolyline: a polyline needs two distinct points");
-  if (I.mesh.number_of_faces() == 0) throw TopologyError("cutPolyline: the surface has no triangles");
+  if (I.mesh.number_of_faces() == 0)
+    throw TopologyError("cutPolyline: the surface has no triangles");
   // A polyline that crosses itself would need the walk to split its own path: rejected.
   if (auto crossing = selfCrossing(poly))
     throw TopologyError("cutPolyline: the polyline crosses itself (segments " +
-                        std::to_string(crossing->first) + " and " + std::to_string(crossing->second) +
-                        "); cut it as separate polylines");
+                        std::to_string(crossing->first) + " and " +
+                        std::to_string(crossing->second) + "); cut it as separate polylines");
   Walker checked(I, options.snapTolerance);
   checked.check(poly);  // throws before anything changes; its corridor serves the plan below
 
@@ -675,7 +705,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
         planned = planner->insert(line, inPatch(*patch, I.mesh, walker.start));
         return;
       } catch (const PatchTooSmall&) {
-        if (!patch->hasFrontier) throw TopologyError("internal error: cutPolyline's patch cannot grow");
+        if (!patch->hasFrontier)
+          throw TopologyError("internal error: cutPolyline's patch cannot grow");
         growByOneRing(I, faces);
       }
     }
@@ -683,7 +714,8 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   bool done = false;
   // With the repair on, an end snaps only onto the border (so that a cut ending just inside it
   // reaches it): elsewhere it stays on the polyline, where the repair may straighten the lips.
-  std::vector<Point3> snapped = snapEnds(I, poly, options.snapTolerance, options.repair.minAngle > 0);
+  std::vector<Point3> snapped =
+      snapEnds(I, poly, options.snapTolerance, options.repair.minAngle > 0);
   // (Snapping may make the ends meet or touch another segment: then only the polyline as given.)
   if (snapped != poly && snapped.front() != snapped.back() && !selfCrossing(snapped)) {
     try {
@@ -764,13 +796,16 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       if (s.onEdge) {
         VI a = mapped(s.a), b = mapped(s.b);
         HI h = I.findHalfedge(a, b);
-        if (!h.is_valid()) throw TopologyError("internal error: cutPolyline's plan lost an edge; nothing was changed");
+        if (!h.is_valid())
+          throw TopologyError(
+              "internal error: cutPolyline's plan lost an edge; nothing was changed");
         v = I.splitEdgeNoTxn(I.mesh.edge(h), a, s.u);
       } else {
         std::array<VI, 3> c{mapped(s.corners[0]), mapped(s.corners[1]), mapped(s.corners[2])};
         HI h = I.findHalfedge(c[0], c[1]);
         if (!h.is_valid() || !I.mesh.face(h).is_valid() || I.mesh.target(I.mesh.next(h)) != c[2])
-          throw TopologyError("internal error: cutPolyline's plan lost a triangle; nothing was changed");
+          throw TopologyError(
+              "internal error: cutPolyline's plan lost a triangle; nothing was changed");
         v = I.splitFaceNoTxn(I.mesh.face(h), c, s.weights);
       }
       toMesh[s.created.idx()] = v;

@@ -3,8 +3,8 @@
 // topology_*.cpp files that include it) where CGAL's headers are seen.
 #include <functional>
 #include <optional>
-#include <type_traits>
 #include <string>
+#include <type_traits>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -28,7 +28,10 @@ class TriangleGrid {
   /// Builds the grid; its cell size is chosen at the first build (twice the mean edge length)
   /// and kept from then on, so that a saved and loaded topology locates points alike.
   void build(const Mesh& mesh);
-  void clear() { built_ = false; cells_.clear(); }
+  void clear() {
+    built_ = false;
+    cells_.clear();
+  }
   void insert(const Mesh& mesh, FI f);
   void erase(const std::array<Point3, 3>& corners, FI f);
   /// Triangles whose box meets the cube of half-size r around p.
@@ -158,7 +161,11 @@ struct Topology::Impl {
 /// Throws TopologyError naming `operation` when the options are out of range.
 void checkRepairOptions(const RepairOptions& options, const char* operation);
 
-inline Vec3 toVec(const Point3& p) { return {p.x(), p.y(), p.z()}; }
-inline Point3 toPoint(const Vec3& v) { return Point3(v[0], v[1], v[2]); }
+inline Vec3 toVec(const Point3& p) {
+  return {p.x(), p.y(), p.z()};
+}
+inline Point3 toPoint(const Vec3& v) {
+  return Point3(v[0], v[1], v[2]);
+}
 
 }  // namespace cutsim::topology

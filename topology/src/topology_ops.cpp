@@ -9,22 +9,26 @@
 #include <set>
 #include <unordered_set>
 
-#include "topology_impl.hpp"
-
 #include "cutsim/base/union_find.hpp"
+#include "topology_impl.hpp"
 
 namespace cutsim::topology {
 
 namespace {
-std::string pt(Index i) { return std::to_string(i); }
-std::string edgeName(Index a, Index b) { return "(" + pt(a) + ", " + pt(b) + ")"; }
+std::string pt(Index i) {
+  return std::to_string(i);
+}
+std::string edgeName(Index a, Index b) {
+  return "(" + pt(a) + ", " + pt(b) + ")";
+}
 }  // namespace
 
 std::vector<PointId> Topology::addPoints(std::span<const Vec3> restPositions) {
   for (std::size_t i = 0; i < restPositions.size(); ++i)
     for (double c : restPositions[i])
       if (!std::isfinite(c))
-        throw TopologyError("addPoints: point " + std::to_string(i) + " has a non-finite coordinate");
+        throw TopologyError("addPoints: point " + std::to_string(i) +
+                            " has a non-finite coordinate");
   Impl& I = *impl_;
   return I.committed(*this, "addPoints", [&] {
     std::vector<PointId> out;
@@ -41,10 +45,11 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
   std::unordered_map<Index, std::vector<std::array<Index, 2>>> newAround;  // v -> other two
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     const auto& t = triangles[i];
-    const std::string where = "addTriangles: triangle " + std::to_string(i) + " " +
-                              "(" + pt(t[0]) + ", " + pt(t[1]) + ", " + pt(t[2]) + ")";
+    const std::string where = "addTriangles: triangle " + std::to_string(i) + " " + "(" + pt(t[0]) +
+                              ", " + pt(t[1]) + ", " + pt(t[2]) + ")";
     for (PointId v : t)
-      if (!I.vertexAlive(VI(v))) throw TopologyError(where + ": point " + pt(v) + " does not exist");
+      if (!I.vertexAlive(VI(v)))
+        throw TopologyError(where + ": point " + pt(v) + " does not exist");
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
       throw TopologyError(where + ": repeated vertex");
     for (int k = 0; k < 3; ++k) {
@@ -55,7 +60,8 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
       HI h = I.findHalfedge(VI(a), VI(b));
       if (h.is_valid() && !m.is_border(h))
         throw TopologyError(where + ": edge " + edgeName(a, b) + " already has triangle " +
-                            pt(m.face(h).idx()) + " on that side (non-manifold or wrongly oriented)");
+                            pt(m.face(h).idx()) +
+                            " on that side (non-manifold or wrongly oriented)");
       newAround[t[k]].push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
     }
   }
@@ -69,7 +75,8 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
         auto tv = I.verticesOf(f);
         std::array<Index, 2> o{};
         int k = 0;
-        for (PointId x : tv) if (x != v) o[k++] = x;
+        for (PointId x : tv)
+          if (x != v) o[k++] = x;
         around.push_back(o);
       }
     UnionFind fans(around.size());
@@ -104,10 +111,11 @@ RepairReport Topology::removeTriangles(std::span<const TriangleId> triangles,
   std::vector<TriangleId> ts(triangles.begin(), triangles.end());
   std::sort(ts.begin(), ts.end());
   if (std::adjacent_find(ts.begin(), ts.end()) != ts.end())
-    throw TopologyError("removeTriangles: triangle " + pt(*std::adjacent_find(ts.begin(), ts.end())) +
-                        " is listed twice");
+    throw TopologyError("removeTriangles: triangle " +
+                        pt(*std::adjacent_find(ts.begin(), ts.end())) + " is listed twice");
   for (TriangleId t : ts)
-    if (!I.faceAlive(FI(t))) throw TopologyError("removeTriangles: triangle " + pt(t) + " does not exist");
+    if (!I.faceAlive(FI(t)))
+      throw TopologyError("removeTriangles: triangle " + pt(t) + " does not exist");
   if (ts.empty()) return {};
   return I.committed(*this, "removeTriangles", [&] {
     for (TriangleId t : ts) I.detachFace(FI(t));
@@ -169,7 +177,8 @@ PointId Topology::splitEdge(EdgeId e, double t) {
 
 PointId Topology::splitTriangle(TriangleId t, const std::array<double, 3>& bary) {
   Impl& I = *impl_;
-  if (!I.faceAlive(FI(t))) throw TopologyError("splitTriangle: triangle " + pt(t) + " does not exist");
+  if (!I.faceAlive(FI(t)))
+    throw TopologyError("splitTriangle: triangle " + pt(t) + " does not exist");
   double s = bary[0] + bary[1] + bary[2];
   if (!(bary[0] > 0 && bary[1] > 0 && bary[2] > 0) || !(std::abs(s - 1.0) < 1e-9))
     throw TopologyError("splitTriangle: barycentric weights of triangle " + pt(t) +
@@ -193,7 +202,8 @@ void Topology::Impl::inciseNoTxn(std::vector<VI> path, IncisionResult& result) {
     HI h = findHalfedge(path[i], path[i + 1]);
     if (!h.is_valid())
       throw TopologyError("internal error in '" + operation + "': path points " +
-                          pt(path[i].idx()) + " and " + pt(path[i + 1].idx()) + " are not joined by an edge");
+                          pt(path[i].idx()) + " and " + pt(path[i + 1].idx()) +
+                          " are not joined by an edge");
     cutEdges.insert(mesh.edge(h).idx());
     FI right = mesh.face(mesh.opposite(h));  // h runs along the path: its face is on the left
     if (right.is_valid()) {
@@ -202,8 +212,9 @@ void Topology::Impl::inciseNoTxn(std::vector<VI> path, IncisionResult& result) {
     }
   }
   for (VI v : path) result.path.push_back(PointId(v.idx()));
-  splitFans(path, [&](EI e) { return cutEdges.count(e.idx()) > 0; }, keep, &result.copies,
-            &result.copiedFrom);
+  splitFans(
+      path, [&](EI e) { return cutEdges.count(e.idx()) > 0; }, keep, &result.copies,
+      &result.copiedFrom);
 }
 
 IncisionResult Topology::incise(std::span<const PointId> path) {
@@ -216,14 +227,17 @@ IncisionResult Topology::incise(std::span<const PointId> path) {
                           ") does not exist");
     if (i == 0) continue;
     PointId a = path[i - 1], b = path[i];
-    if (a == b) throw TopologyError("incise: point " + pt(a) + " is repeated at path position " + std::to_string(i));
+    if (a == b)
+      throw TopologyError("incise: point " + pt(a) + " is repeated at path position " +
+                          std::to_string(i));
     HI h = I.findHalfedge(VI(a), VI(b));
     if (!h.is_valid())
       throw TopologyError("incise: the path is not connected: no edge joins points " + pt(a) +
                           " and " + pt(b) + " (path positions " + std::to_string(i - 1) + ", " +
                           std::to_string(i) + ")");
     if (I.mesh.is_border(I.mesh.edge(h)))
-      throw TopologyError("incise: edge " + edgeName(a, b) + " of the path is on the border: there is nothing to open");
+      throw TopologyError("incise: edge " + edgeName(a, b) +
+                          " of the path is on the border: there is nothing to open");
     if (!used.insert({std::min(a, b), std::max(a, b)}).second)
       throw TopologyError("incise: edge " + edgeName(a, b) + " appears twice in the path");
   }
@@ -236,7 +250,9 @@ IncisionResult Topology::incise(std::span<const PointId> path) {
   });
 }
 
-IncisionResult Topology::tear(EdgeId e) { return tear(e, RepairOptions{}); }
+IncisionResult Topology::tear(EdgeId e) {
+  return tear(e, RepairOptions{});
+}
 
 IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
   checkRepairOptions(repair, "tear");
@@ -257,8 +273,8 @@ IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
 
 namespace cutsim::topology {
 
-RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
-                             std::size_t* removed) {
+RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
+                             const RepairOptions& repair, std::size_t* removed) {
   checkRepairOptions(repair, "carve");
   if (!phi) throw TopologyError("carve: no region function given");
   Impl& I = *impl_;
@@ -275,7 +291,10 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
   // The crossed edges (one end inside, phi <= 0, the other outside), and where phi first rises
   // above zero along each (bisection on the function itself: exact where the boundary is flat).
   // Points in `skip` (moved onto the boundary) cross nothing.
-  struct Crossing { VI a, b; double t; };
+  struct Crossing {
+    VI a, b;
+    double t;
+  };
   std::unordered_set<Index> onBoundary;
   auto findCrossings = [&](bool& anyInside) {
     std::vector<Crossing> out;
@@ -287,12 +306,16 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
       double fa = value[a.idx()], fb = value[b.idx()];
       anyInside |= fa <= 0 || fb <= 0;
       if ((fa <= 0) == (fb <= 0)) continue;
-      if (fa > 0) { std::swap(a, b); std::swap(fa, fb); }  // a inside
+      if (fa > 0) {
+        std::swap(a, b);
+        std::swap(fa, fb);
+      }  // a inside
       const Vec3 pa = toVec(m.point(a)), pb = toVec(m.point(b));
       double lo = 0, hi = 1;
       for (int it = 0; it < 40; ++it) {
         const double mid = 0.5 * (lo + hi);
-        const Vec3 q{pa[0] + mid * (pb[0] - pa[0]), pa[1] + mid * (pb[1] - pa[1]), pa[2] + mid * (pb[2] - pa[2])};
+        const Vec3 q{pa[0] + mid * (pb[0] - pa[0]), pa[1] + mid * (pb[1] - pa[1]),
+                     pa[2] + mid * (pb[2] - pa[2])};
         (phi(q) <= 0 ? lo : hi) = mid;
       }
       // Never exactly on an end (the split needs 0 < t < 1); slivers are the repair's to fix.
@@ -314,26 +337,34 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
     // only while a neighbour stays inside (so the region keeps a point inside it).
     std::unordered_set<Index> locked;
     for (PointId p : repair.locked) locked.insert(p.index());
-    struct Snap { double dist; VI v, w; double s; };
+    struct Snap {
+      double dist;
+      VI v, w;
+      double s;
+    };
     std::vector<Snap> snaps;
     for (const Crossing& c : crossings) {
       const double len = std::sqrt(CGAL::squared_distance(m.point(c.a), m.point(c.b)));
       if (c.t < 0.25) snaps.push_back({c.t * len, c.a, c.b, c.t});            // a is inside
       if (c.t > 0.75) snaps.push_back({(1 - c.t) * len, c.b, c.a, 1 - c.t});  // b is outside
     }
-    std::sort(snaps.begin(), snaps.end(), [](const Snap& x, const Snap& y) { return x.dist < y.dist; });
+    std::sort(snaps.begin(), snaps.end(),
+              [](const Snap& x, const Snap& y) { return x.dist < y.dist; });
     std::unordered_set<Index> moved;
     for (const Snap& sn : snaps) {
-      if (moved.count(sn.v.idx()) || moved.count(sn.w.idx()) || onBoundary.count(sn.w.idx())) continue;
-      if (locked.count(sn.v.idx()) || m.is_border(sn.v, true) || !I.findHalfedge(sn.v, sn.w).is_valid()) continue;
+      if (moved.count(sn.v.idx()) || moved.count(sn.w.idx()) || onBoundary.count(sn.w.idx()))
+        continue;
+      if (locked.count(sn.v.idx()) || m.is_border(sn.v, true) ||
+          !I.findHalfedge(sn.v, sn.w).is_valid())
+        continue;
       if (value[sn.v.idx()] <= 0) {
         // An inside point moves only if another inside point next to it stays inside: the
         // region keeps a point inside it, so its triangles are still recognised as inside.
         bool keeps = false;
         for (HI h : CGAL::halfedges_around_target(m.halfedge(sn.v), m)) {
           const VI w = m.source(h);
-          if (w != sn.w && !onBoundary.count(w.idx()) && !moved.count(w.idx()) && value.count(w.idx()) &&
-              value[w.idx()] <= 0)
+          if (w != sn.w && !onBoundary.count(w.idx()) && !moved.count(w.idx()) &&
+              value.count(w.idx()) && value[w.idx()] <= 0)
             keeps = true;
         }
         if (!keeps) continue;
@@ -346,7 +377,8 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
         if (!f.is_valid()) continue;
         star.push_back(f);
         HI fh = m.halfedge(f);
-        std::array<Point3, 3> x{m.point(m.source(fh)), m.point(m.target(fh)), m.point(m.target(m.next(fh)))};
+        std::array<Point3, 3> x{m.point(m.source(fh)), m.point(m.target(fh)),
+                                m.point(m.target(m.next(fh)))};
         const auto n0 = CGAL::cross_product(x[1] - x[0], x[2] - x[0]);
         for (auto& q : x)
           if (q == m.point(sn.v)) q = target;
@@ -354,8 +386,9 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
         if (!(n0 * n1 > 0.1 * std::sqrt(n0.squared_length() * n1.squared_length()))) ok = false;
         if (!star.empty()) {  // flat star: the move stays on the rest surface
           HI gh = m.halfedge(star.front());
-          const auto g0 = CGAL::cross_product(m.point(m.target(gh)) - m.point(m.source(gh)),
-                                              m.point(m.target(m.next(gh))) - m.point(m.source(gh)));
+          const auto g0 =
+              CGAL::cross_product(m.point(m.target(gh)) - m.point(m.source(gh)),
+                                  m.point(m.target(m.next(gh))) - m.point(m.source(gh)));
           if (!(g0 * n0 >= std::cos(2.0 * 3.141592653589793 / 180) *
                                std::sqrt(g0.squared_length() * n0.squared_length())))
             ok = false;
@@ -383,11 +416,13 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi, cons
       auto tv = I.verticesOf(f);
       int in = -1;
       for (PointId p : tv)
-        if (auto it = inside.find(p.index()); it != inside.end()) in = std::max(in, int(it->second));
+        if (auto it = inside.find(p.index()); it != inside.end())
+          in = std::max(in, int(it->second));
       if (in < 0) {
         Vec3 c{0, 0, 0};
         for (PointId p : tv)
-          for (int k = 0; k < 3; ++k) c[std::size_t(k)] += toVec(m.point(VI(p)))[std::size_t(k)] / 3;
+          for (int k = 0; k < 3; ++k)
+            c[std::size_t(k)] += toVec(m.point(VI(p)))[std::size_t(k)] / 3;
         in = phi(c) <= 0 ? 1 : 0;
       }
       if (in == 1) gone.push_back(f);

@@ -35,8 +35,8 @@ namespace {
 using Vector3 = Kernel::Vector_3;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr double kStraight = 1e-6;   // rad: a border point whose border edges are this straight
-constexpr double kImprove = 1e-4;    // rad: a change must raise the local worst angle this much
+constexpr double kStraight = 1e-6;  // rad: a border point whose border edges are this straight
+constexpr double kImprove = 1e-4;   // rad: a change must raise the local worst angle this much
 // Ruppert's refinement is proven to end for a smallest angle up to arcsin(1 / (2 sqrt 2)) =
 // 20.7 degrees; it aims no higher (above, it can refine without end).
 constexpr double kRefinable = 20.7 * std::numbers::pi / 180.0;
@@ -47,7 +47,8 @@ double angleBetween(const Vector3& u, const Vector3& v) {
 
 /// Smallest angle of triangle (a, b, c), radians.
 double minAngle(const Point3& a, const Point3& b, const Point3& c) {
-  return std::min({angleBetween(b - a, c - a), angleBetween(c - b, a - b), angleBetween(a - c, b - c)});
+  return std::min(
+      {angleBetween(b - a, c - a), angleBetween(c - b, a - b), angleBetween(a - c, b - c)});
 }
 
 Vector3 normal(const Point3& a, const Point3& b, const Point3& c) {
@@ -64,7 +65,10 @@ bool aligned(const Vector3& n1, const Vector3& n2, double tol) {
 class Repairer {
  public:
   Repairer(Topology::Impl& impl, const RepairOptions& o, std::unordered_map<Index, Index>& replaced)
-      : I_(impl), m_(impl.mesh), target_(o.minAngle * kDeg), flat_(o.flatness * kDeg),
+      : I_(impl),
+        m_(impl.mesh),
+        target_(o.minAngle * kDeg),
+        flat_(o.flatness * kDeg),
         replaced_(replaced) {
     for (PointId p : o.locked) locked_.insert(p.index());
   }
@@ -166,7 +170,9 @@ class Repairer {
   }
   const Point3& P(VI v) const { return m_.point(v); }
   /// Where v is among the corners c (0, 1 or 2; v must be one of them).
-  static int cornerIndex(const std::array<VI, 3>& c, VI v) { return c[0] == v ? 0 : c[1] == v ? 1 : 2; }
+  static int cornerIndex(const std::array<VI, 3>& c, VI v) {
+    return c[0] == v ? 0 : c[1] == v ? 1 : 2;
+  }
   double quality(FI f) const {
     auto c = cornersOf(f);
     return minAngle(P(c[0]), P(c[1]), P(c[2]));
@@ -230,7 +236,8 @@ class Repairer {
     for (FI f : patchFaces()) {
       auto c = cornersOf(f);
       for (int k = 0; k < 3; ++k)
-        ls.push_back(std::sqrt(CGAL::squared_distance(P(c[std::size_t(k)]), P(c[std::size_t((k + 1) % 3)]))));
+        ls.push_back(std::sqrt(
+            CGAL::squared_distance(P(c[std::size_t(k)]), P(c[std::size_t((k + 1) % 3)]))));
     }
     if (ls.empty()) return 0.0;
     std::nth_element(ls.begin(), ls.begin() + std::ptrdiff_t(ls.size() / 2), ls.end());
@@ -355,7 +362,8 @@ class Repairer {
     if (gone.size() == fs.size()) return false;  // a would leave nothing behind
     const double after = starQuality(a, P(b), fs, gone);
     const double before = worstOf(fs);
-    if (sizeMode_ ? !(after >= std::min(target_, before)) : !(after > before + kImprove)) return false;
+    if (sizeMode_ ? !(after >= std::min(target_, before)) : !(after > before + kImprove))
+      return false;
     // b must keep one fan: a border a on a border b joins b's border neighbours only along a-b.
     std::unordered_map<std::uint64_t, VI> subst;
     std::vector<FI> moved;
@@ -393,7 +401,8 @@ class Repairer {
       t1 = P(b) - P(a);
       t1 = t1 / std::sqrt(t1.squared_length());
     } else {
-      const Vector3 any = std::abs(n.x()) < 0.9 * std::sqrt(n.squared_length()) ? Vector3(1, 0, 0) : Vector3(0, 1, 0);
+      const Vector3 any = std::abs(n.x()) < 0.9 * std::sqrt(n.squared_length()) ? Vector3(1, 0, 0)
+                                                                                : Vector3(0, 1, 0);
       t1 = CGAL::cross_product(n, any);
       t1 = t1 / std::sqrt(t1.squared_length());
       t2 = CGAL::cross_product(n, t1);
@@ -413,10 +422,17 @@ class Repairer {
     double bestQ = before;
     if (!border) {
       double x = 0, y = 0, z = 0;
-      for (VI w : ns) { x += P(w).x(); y += P(w).y(); z += P(w).z(); }
+      for (VI w : ns) {
+        x += P(w).x();
+        y += P(w).y();
+        z += P(w).z();
+      }
       const double k = double(ns.size());
       const Point3 mean(x / k, y / k, z / k);
-      if (const double q = score(mean); q > bestQ) { best = mean; bestQ = q; }
+      if (const double q = score(mean); q > bestQ) {
+        best = mean;
+        bestQ = q;
+      }
     }
     for (double step = 0.25 * h; step > 1e-3 * h; step *= 0.5) {
       for (bool moved = true; moved;) {
@@ -424,9 +440,14 @@ class Repairer {
         const int dirs = border ? 2 : 8;
         for (int d = 0; d < dirs; ++d) {
           Vector3 dir = border ? (d == 0 ? t1 : -t1)
-                               : std::cos(d * std::numbers::pi / 4) * t1 + std::sin(d * std::numbers::pi / 4) * t2;
+                               : std::cos(d * std::numbers::pi / 4) * t1 +
+                                     std::sin(d * std::numbers::pi / 4) * t2;
           const Point3 p = best + step * dir;
-          if (const double q = score(p); q > bestQ + 1e-9) { best = p; bestQ = q; moved = true; }
+          if (const double q = score(p); q > bestQ + 1e-9) {
+            best = p;
+            bestQ = q;
+            moved = true;
+          }
         }
       }
     }
@@ -436,14 +457,17 @@ class Repairer {
       // On edge v-a or v-b: weights along it.
       const bool towardA = (best - P(v)) * (P(a) - P(v)) > 0;
       VI w = towardA ? a : b;
-      const double t = std::sqrt(CGAL::squared_distance(P(v), best) / CGAL::squared_distance(P(v), P(w)));
+      const double t =
+          std::sqrt(CGAL::squared_distance(P(v), best) / CGAL::squared_distance(P(v), P(w)));
       ancestors = {{PointId(v.idx()), 1.0 - t}, {PointId(w.idx()), t}};
     } else if (!locateInStar(fs, best, ancestors)) {
       return false;
     }
     double x = 0, y = 0, z = 0;  // where the new point will be (summed as newPoint sums)
     for (auto& [p, w] : ancestors) {
-      x += w * P(VI(p)).x(); y += w * P(VI(p)).y(); z += w * P(VI(p)).z();
+      x += w * P(VI(p)).x();
+      y += w * P(VI(p)).y();
+      z += w * P(VI(p)).z();
     }
     if (!(starQuality(v, Point3(x, y, z), fs) > before + kImprove)) return false;
     VI nv = I_.newPoint(ancestors);
@@ -467,7 +491,8 @@ class Repairer {
       const double s = w[0] + w[1] + w[2];
       out.clear();
       for (int k = 0; k < 3; ++k)
-        if (w[std::size_t(k)] > 0) out.emplace_back(PointId(c[std::size_t(k)].idx()), w[std::size_t(k)] / s);
+        if (w[std::size_t(k)] > 0)
+          out.emplace_back(PointId(c[std::size_t(k)].idx()), w[std::size_t(k)] / s);
       return true;
     }
     return false;
@@ -524,8 +549,8 @@ class Repairer {
     if (!aligned(normalOf(f), normalOf(g), flat_)) return false;
     auto quad = [&](const Point3& p) {
       double q = 1e300;
-      const std::array<std::array<Point3, 3>, 4> tris{{{P(a), p, P(apex)}, {p, P(b), P(apex)},
-                                                      {P(b), p, P(d)}, {p, P(a), P(d)}}};
+      const std::array<std::array<Point3, 3>, 4> tris{
+          {{P(a), p, P(apex)}, {p, P(b), P(apex)}, {P(b), p, P(d)}, {p, P(a), P(d)}}};
       for (const auto& t : tris) {
         if (!aligned(normal(t[0], t[1], t[2]), n, 60 * kDeg)) return -1.0;
         q = std::min(q, minAngle(t[0], t[1], t[2]));
@@ -547,7 +572,11 @@ class Repairer {
         for (int k = 0; k < 8; ++k) {
           const Point3 p = best + step * (std::cos(k * std::numbers::pi / 4) * t1 +
                                           std::sin(k * std::numbers::pi / 4) * t2);
-          if (const double q = quad(p); q > bestQ + 1e-9) { best = p; bestQ = q; moved = true; }
+          if (const double q = quad(p); q > bestQ + 1e-9) {
+            best = p;
+            bestQ = q;
+            moved = true;
+          }
         }
       }
     if (!(bestQ > before + kImprove)) return false;
@@ -567,7 +596,6 @@ class Repairer {
     ++report_.relocations;
     return true;
   }
-
 
   // ---- Delaunay refinement (Ruppert's algorithm, on the flat parts of the patch) ----
   //
@@ -590,7 +618,8 @@ class Repairer {
   double angleAt(FI f, VI v) const {
     auto c = cornersOf(f);
     const int k = cornerIndex(c, v);
-    return angleBetween(P(c[std::size_t((k + 1) % 3)]) - P(v), P(c[std::size_t((k + 2) % 3)]) - P(v));
+    return angleBetween(P(c[std::size_t((k + 1) % 3)]) - P(v),
+                        P(c[std::size_t((k + 2) % 3)]) - P(v));
   }
   /// The sum of the angles at v of its triangles.
   double fan(VI v) const {
@@ -627,14 +656,17 @@ class Repairer {
     VI a = m_.source(h), b = m_.target(h), c = m_.target(m_.next(h));
     VI d = m_.target(m_.next(m_.opposite(h)));
     if (c == d || I_.findHalfedge(c, d).is_valid()) return false;
-    const double opposite = angleBetween(P(a) - P(c), P(b) - P(c)) + angleBetween(P(a) - P(d), P(b) - P(d));
+    const double opposite =
+        angleBetween(P(a) - P(c), P(b) - P(c)) + angleBetween(P(a) - P(d), P(b) - P(d));
     if (!(opposite > std::numbers::pi + 1e-9)) return false;
     // The other diagonal must be Delaunay itself: a quadrilateral that is not quite flat can fail
     // the test both ways, and its flips would go back and forth.
-    const double across = angleBetween(P(c) - P(a), P(d) - P(a)) + angleBetween(P(c) - P(b), P(d) - P(b));
+    const double across =
+        angleBetween(P(c) - P(a), P(d) - P(a)) + angleBetween(P(c) - P(b), P(d) - P(b));
     if (!(across < std::numbers::pi - 1e-9)) return false;
     const Vector3 n = normalOf(m_.face(h)) + normalOf(m_.face(m_.opposite(h)));
-    return aligned(normal(P(c), P(a), P(d)), n, 60 * kDeg) && aligned(normal(P(d), P(b), P(c)), n, 60 * kDeg);
+    return aligned(normal(P(c), P(a), P(d)), n, 60 * kDeg) &&
+           aligned(normal(P(d), P(b), P(c)), n, 60 * kDeg);
   }
   /// f was made since the operation began.
   bool madeHere(FI f) const { return f.is_valid() && f.idx() >= I_.fBefore; }
@@ -649,7 +681,8 @@ class Repairer {
       work.pop_back();
       HI h = I_.findHalfedge(u, w);
       if (!h.is_valid() || m_.is_border(m_.edge(h))) continue;
-      if (!inPatch(u) && !inPatch(w) && !madeHere(m_.face(h)) && !madeHere(m_.face(m_.opposite(h)))) continue;
+      if (!inPatch(u) && !inPatch(w) && !madeHere(m_.face(h)) && !madeHere(m_.face(m_.opposite(h))))
+        continue;
       if (!delaunayFlippable(h)) continue;
       VI c = m_.target(m_.next(h)), d = m_.target(m_.next(m_.opposite(h)));
       flipNow(h);
@@ -686,7 +719,8 @@ class Repairer {
     const Vector3 ab = b - a, ac = c - a, n = CGAL::cross_product(ab, ac);
     const double n2 = n.squared_length(), l2 = std::max(ab.squared_length(), ac.squared_length());
     if (!(n2 > 1e-20 * l2 * l2)) return false;
-    const Vector3 num = ac.squared_length() * CGAL::cross_product(n, ab) + ab.squared_length() * CGAL::cross_product(ac, n);
+    const Vector3 num = ac.squared_length() * CGAL::cross_product(n, ab) +
+                        ab.squared_length() * CGAL::cross_product(ac, n);
     out = a + num / (2.0 * n2);
     return true;
   }
@@ -778,7 +812,8 @@ class Repairer {
         VI a = m_.source(h), b = m_.target(h);
         if (isSegment(h)) {
           const Point3 mid = CGAL::midpoint(P(a), P(b));
-          if (CGAL::squared_distance(q, mid) < 0.25 * CGAL::squared_distance(P(a), P(b)) * (1 - 1e-9))
+          if (CGAL::squared_distance(q, mid) <
+              0.25 * CGAL::squared_distance(P(a), P(b)) * (1 - 1e-9))
             return splitSegment(a, b);
           continue;
         }
@@ -839,7 +874,8 @@ class Repairer {
     // indices, at the end) and those around points that join the patch, and loses the dead ones.
     const std::vector<FI> faces = patchFaces();
     std::set<std::pair<double, std::uint32_t>> bad;
-    std::unordered_set<std::uint32_t> hopeless;  // could not be refined (an attempt changes nothing)
+    std::unordered_set<std::uint32_t>
+        hopeless;  // could not be refined (an attempt changes nothing)
     for (FI f : faces)
       if (const double q = quality(f); q < goal) bad.emplace(q, f.idx());
     std::size_t budget = 8 * faces.size() + 64;
@@ -852,12 +888,18 @@ class Repairer {
       bool did = false;
       for (auto it = bad.begin(); it != bad.end() && !did;) {
         const FI f(it->second);
-        if (!alive(f)) { it = bad.erase(it); continue; }
+        if (!alive(f)) {
+          it = bad.erase(it);
+          continue;
+        }
         for (HI h : CGAL::halfedges_around_face(m_.halfedge(f), m_)) {
           if (!isSegment(h)) continue;
           VI a = m_.source(h), b = m_.target(h), o = m_.target(m_.next(h));
           if (angleBetween(P(a) - P(o), P(b) - P(o)) <= 0.5 * std::numbers::pi + 1e-9) continue;
-          if (splitSegment(a, b)) { did = true; break; }
+          if (splitSegment(a, b)) {
+            did = true;
+            break;
+          }
         }
         ++it;
       }
@@ -866,8 +908,10 @@ class Repairer {
       for (auto it = bad.begin(); it != bad.end() && !did; ++it) {
         const FI f(it->second);
         if (!alive(f) || hopeless.count(f.idx())) continue;
-        if (!excused(f, goal) && refineTriangle(f)) did = true;
-        else hopeless.insert(f.idx());
+        if (!excused(f, goal) && refineTriangle(f))
+          did = true;
+        else
+          hopeless.insert(f.idx());
       }
       if (!did) break;
       --budget;
@@ -912,11 +956,12 @@ Index follow(const std::unordered_map<Index, Index>& replaced, Index p) {
 
 void checkRepairOptions(const RepairOptions& o, const char* operation) {
   if (!(o.minAngle >= 0.0 && o.minAngle < 60.0))
-    throw TopologyError(std::string(operation) + ": the repair's minAngle " + std::to_string(o.minAngle) +
+    throw TopologyError(std::string(operation) + ": the repair's minAngle " +
+                        std::to_string(o.minAngle) +
                         " must be in [0, 60) degrees (0 turns the repair off)");
   if (!(o.flatness >= 0.0 && o.flatness < 90.0))
-    throw TopologyError(std::string(operation) + ": the repair's flatness " + std::to_string(o.flatness) +
-                        " must be in [0, 90) degrees");
+    throw TopologyError(std::string(operation) + ": the repair's flatness " +
+                        std::to_string(o.flatness) + " must be in [0, 90) degrees");
 }
 
 RepairReport Topology::Impl::repairNoTxn(const std::vector<VI>& seeds, const RepairOptions& options,
@@ -947,8 +992,9 @@ void Topology::Impl::repairIncision(const RepairOptions& options, IncisionResult
   remap(result.insertedPoints, false);
   // A point that disappeared into another may now be listed twice.
   std::sort(result.insertedPoints.begin(), result.insertedPoints.end());
-  result.insertedPoints.erase(std::unique(result.insertedPoints.begin(), result.insertedPoints.end()),
-                              result.insertedPoints.end());
+  result.insertedPoints.erase(
+      std::unique(result.insertedPoints.begin(), result.insertedPoints.end()),
+      result.insertedPoints.end());
 }
 
 RepairReport Topology::repair(std::span<const PointId> around, const RepairOptions& options) {

@@ -18,7 +18,8 @@ std::pair<double, double> nearestTriangleBruteForce(const MeshData& mesh, const 
   for (const auto& t : mesh.triangles) {
     const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]];
     const double d = dist2(p, closestOnTriangle(p, a, b, c));
-    if (d < best || (d == best && geometry::longestEdge(a, b, c) > edge)) {  // ties: the longer edge
+    if (d < best ||
+        (d == best && geometry::longestEdge(a, b, c) > edge)) {  // ties: the longer edge
       best = d;
       edge = geometry::longestEdge(a, b, c);
     }
@@ -67,7 +68,8 @@ TriangleGrid::TriangleGrid(const MeshData& mesh) : mesh_(mesh) {
 std::pair<double, double> TriangleGrid::nearest(const Vec3& p) const {
   if (cells_.empty()) return nearestTriangleBruteForce(mesh_, p);
   for (std::size_t a = 0; a < 3; ++a)
-    if (!(p[a] >= lo_[a] - 2 * h_ && p[a] <= hi_[a] + 2 * h_)) return nearestTriangleBruteForce(mesh_, p);
+    if (!(p[a] >= lo_[a] - 2 * h_ && p[a] <= hi_[a] + 2 * h_))
+      return nearestTriangleBruteForce(mesh_, p);
   const std::array<long, 3> c{cellOf(p[0], 0), cellOf(p[1], 1), cellOf(p[2], 2)};
   double best = std::numeric_limits<double>::infinity(), edge = 0.0;
   const long rings = std::max({n_[0], n_[1], n_[2]}) + 2;
@@ -75,7 +77,8 @@ std::pair<double, double> TriangleGrid::nearest(const Vec3& p) const {
     for (long x = std::max(0L, c[0] - r); x <= std::min(n_[0] - 1, c[0] + r); ++x) {
       for (long y = std::max(0L, c[1] - r); y <= std::min(n_[1] - 1, c[1] + r); ++y) {
         for (long z = std::max(0L, c[2] - r); z <= std::min(n_[2] - 1, c[2] + r); ++z) {
-          if (std::max({std::labs(x - c[0]), std::labs(y - c[1]), std::labs(z - c[2])}) != r) continue;
+          if (std::max({std::labs(x - c[0]), std::labs(y - c[1]), std::labs(z - c[2])}) != r)
+            continue;
           const auto it = cells_.find(key(x, y, z));
           if (it == cells_.end()) continue;
           for (std::uint32_t i : it->second) {

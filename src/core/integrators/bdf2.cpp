@@ -1,7 +1,6 @@
 // Second-order backward differentiation, linearised once per step (integrator.hpp).
-#include "cutsim/core/integrator.hpp"
-
 #include "checkpoint_io.hpp"
+#include "cutsim/core/integrator.hpp"
 
 namespace cutsim::core {
 
@@ -59,7 +58,8 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
       }
   const SystemOperator A = systemOperator(model, xs, beta, c);
   solve(A, b, dv, stats);
-  requireFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change", std::string(name()));
+  requireFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change",
+                std::string(name()));
   out.v = v + dv;
   if (second)
     out.x = (4.0 * x - xPrev_) / 3.0 + beta * out.v;
@@ -92,13 +92,14 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
 
 namespace cutsim::core {
 namespace {
-const bool registered =
-    registerImplicitIntegrator<BDF2>("bdf2", "second-order backward differentiation, linearised once per step (Choi and Ko)");
+const bool registered = registerImplicitIntegrator<BDF2>(
+    "bdf2", "second-order backward differentiation, linearised once per step (Choi and Ko)");
 }  // namespace
 
 void BDF2::saveState(ArchiveWriter& out) const {
   ImplicitIntegrator::saveState(out);
-  for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) checkpoint::saveVector(out, *v);
+  for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_})
+    checkpoint::saveVector(out, *v);
   out.f64(dtLast_);
   out.u64(revision_);
   out.boolean(have_);

@@ -39,14 +39,14 @@ void ExplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, Ste
 
 namespace cutsim::core {
 namespace {
-const bool registered = IntegratorRegistry::instance().add({
-    "explicit-euler",
-    "symplectic Euler: cheap steps, stable only below a time step set by the stiffest spring",
-    {},
-    {},
-    [](const ParameterSource&) -> std::any { return {}; },
-    [](const std::any&, std::unique_ptr<LinearSolver>) -> std::unique_ptr<Integrator> {
-      return std::make_unique<ExplicitEuler>();
-    }});
+const bool registered = IntegratorRegistry::instance().add(
+    {"explicit-euler",
+     "symplectic Euler: cheap steps, stable only below a time step set by the stiffest spring",
+     {},
+     {},
+     [](const ParameterSource&) -> std::any { return {}; },
+     [](const std::any&, std::unique_ptr<LinearSolver>) -> std::unique_ptr<Integrator> {
+       return std::make_unique<ExplicitEuler>();
+     }});
 }  // namespace
 }  // namespace cutsim::core

@@ -28,7 +28,8 @@ void ImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, Ste
       }
   const SystemOperator A = systemOperator(model, xs, h, c);
   solve(A, b, dv, stats);
-  requireFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change", std::string(name()));
+  requireFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change",
+                std::string(name()));
   out.v = v + dv;
   out.x = x + h * out.v;
   // Constraint forces: what the unconstrained equation misses at constrained DOFs, per time.
@@ -46,7 +47,8 @@ void ImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, Ste
 
 namespace cutsim::core {
 namespace {
-const bool registered =
-    registerImplicitIntegrator<ImplicitEuler>("implicit-euler", "backward Euler linearised once per step (Baraff and Witkin): first order, very stable");
+const bool registered = registerImplicitIntegrator<ImplicitEuler>(
+    "implicit-euler",
+    "backward Euler linearised once per step (Baraff and Witkin): first order, very stable");
 }  // namespace
 }  // namespace cutsim::core

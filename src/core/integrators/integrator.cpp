@@ -1,11 +1,11 @@
 // What the integrators share: step flags, the failure policy, the implicit base, the shorthand
 // settings of the first scenes (integrator.hpp).
 #include "cutsim/core/integrator.hpp"
-#include "cutsim/base/archive.hpp"
 
 #include <cmath>
 #include <sstream>
 
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
 #include "cutsim/core/registries.hpp"
@@ -31,9 +31,12 @@ std::string StepStats::flagText() const {
 
 std::string_view toString(SolveFailurePolicy p) {
   switch (p) {
-    case SolveFailurePolicy::Warn: return "warn";
-    case SolveFailurePolicy::Fail: return "fail";
-    case SolveFailurePolicy::Fallback: return "fallback";
+    case SolveFailurePolicy::Warn:
+      return "warn";
+    case SolveFailurePolicy::Fail:
+      return "fail";
+    case SolveFailurePolicy::Fallback:
+      return "fallback";
   }
   return "?";
 }
@@ -42,7 +45,8 @@ SolveFailurePolicy parseSolveFailurePolicy(std::string_view name) {
   if (name == "warn") return SolveFailurePolicy::Warn;
   if (name == "fail") return SolveFailurePolicy::Fail;
   if (name == "fallback") return SolveFailurePolicy::Fallback;
-  throw InvalidInput("onSolveFailure", "unknown value \"" + std::string(name) + "\" (warn, fail, fallback)");
+  throw InvalidInput("onSolveFailure",
+                     "unknown value \"" + std::string(name) + "\" (warn, fail, fallback)");
 }
 
 void ImplicitSettings::validate() const {
@@ -57,7 +61,8 @@ void NewtonSettings::validate() const {
   requireFinitePositive("tolerance", tolerance);
 }
 
-ImplicitIntegrator::ImplicitIntegrator(ImplicitSettings settings, std::unique_ptr<LinearSolver> solver)
+ImplicitIntegrator::ImplicitIntegrator(ImplicitSettings settings,
+                                       std::unique_ptr<LinearSolver> solver)
     : settings_(settings), solver_(std::move(solver)) {
   settings_.validate();
   if (!solver_) throw InvalidInput("linearSolver", "an implicit integrator needs a linear solver");
@@ -68,10 +73,10 @@ SystemOperator ImplicitIntegrator::systemOperator(const Model& model, std::span<
                                                   double c, const StepConstraints& constraints) {
   auto m = model.mass().perPoint();
   diagonalMass_.resize(m.size());
-  for (std::size_t p = 0; p < m.size(); ++p) diagonalMass_[p] = (1 + c * settings_.rayleighMass) * m[p];
+  for (std::size_t p = 0; p < m.size(); ++p)
+    diagonalMass_[p] = (1 + c * settings_.rayleighMass) * m[p];
   return SystemOperator(model.fields(), x, diagonalMass_, constraints.constrained,
-                        c * c + c * settings_.rayleighStiffness, c,
-                        model.topology().revision());
+                        c * c + c * settings_.rayleighStiffness, c, model.topology().revision());
 }
 
 Eigen::VectorXd ImplicitIntegrator::dampedForce(const Model& model) const {
@@ -82,8 +87,10 @@ Eigen::VectorXd ImplicitIntegrator::dampedForce(const Model& model) const {
   std::span<double> fs(f.data(), xs.size());
   model.addForce(xs, vs, fs);
   for (std::size_t p = 0; p < m.size(); ++p)
-    for (std::size_t k = 0; k < 3; ++k) fs[3 * p + k] -= settings_.rayleighMass * m[p] * vs[3 * p + k];
-  if (settings_.rayleighStiffness > 0) model.addDForce(xs, vs, fs, settings_.rayleighStiffness, 0.0);
+    for (std::size_t k = 0; k < 3; ++k)
+      fs[3 * p + k] -= settings_.rayleighMass * m[p] * vs[3 * p + k];
+  if (settings_.rayleighStiffness > 0)
+    model.addDForce(xs, vs, fs, settings_.rayleighStiffness, 0.0);
   requireFinite(fs, "force", "");
   return f;
 }
@@ -104,8 +111,8 @@ std::string describe(const LinearSolver& s, const SolveReport& r) {
 }
 }  // namespace
 
-void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv,
-                               StepStats& stats) {
+void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b,
+                               Eigen::VectorXd& dv, StepStats& stats) {
   const Eigen::VectorXd guess = dv;
   SolveReport r = solver_->solve(A, b, dv);
   stats.iterations += r.iterations;
@@ -118,7 +125,9 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   // A residual that is not a number says that the system's values overflow the range of doubles:
   // no policy can keep such a step (and it must not reach an output).
   if (!std::isfinite(r.residual))
-    throw StepFailure{describe(*solver_, r) + ": the linear system's values overflow the range of doubles", false};
+    throw StepFailure{
+        describe(*solver_, r) + ": the linear system's values overflow the range of doubles",
+        false};
   record(r);
   if (r.converged && !r.indefinite) return;
   if (r.indefinite) stats.flags |= StepStats::Indefinite;
@@ -129,7 +138,8 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
       if (solver_->direct() && r.indefinite) throw StepFailure{describe(*solver_, r), true};
       return;
     case SolveFailurePolicy::Fail:
-      throw StepFailure{describe(*solver_, r) + " (the scene's onSolveFailure is \"fail\")", r.indefinite};
+      throw StepFailure{describe(*solver_, r) + " (the scene's onSolveFailure is \"fail\")",
+                        r.indefinite};
     case SolveFailurePolicy::Fallback:
       break;
   }
@@ -145,15 +155,17 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   stats.flags |= StepStats::FellBack;
   record(f);
   if (f.indefinite || !f.converged)
-    throw StepFailure{describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4),
-                      f.indefinite};
+    throw StepFailure{
+        describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4),
+        f.indefinite};
 }
 
 // ---- the shorthand of the first scenes ----
 
 void SolverSettings::validate() const {
   if (cgMaxIterations < 1)
-    throw InvalidInput("solver.iterations", "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
+    throw InvalidInput("solver.iterations",
+                       "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
   requireFinitePositive("solver.tolerance", cgTolerance);
   requireFiniteNonNegative("solver.rayleighMass", rayleighMass);
   requireFiniteNonNegative("solver.rayleighStiffness", rayleighStiffness);
@@ -162,9 +174,12 @@ void SolverSettings::validate() const {
 
 std::string_view toString(SolverSettings::Kind kind) {
   switch (kind) {
-    case SolverSettings::Kind::Explicit: return "explicit";
-    case SolverSettings::Kind::ImplicitCG: return "implicit-cg";
-    case SolverSettings::Kind::ImplicitCholmod: return "implicit-cholmod";
+    case SolverSettings::Kind::Explicit:
+      return "explicit";
+    case SolverSettings::Kind::ImplicitCG:
+      return "implicit-cg";
+    case SolverSettings::Kind::ImplicitCholmod:
+      return "implicit-cholmod";
   }
   return "?";
 }
@@ -187,7 +202,8 @@ std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& s) {
   is.fallbackAbove = s.fallbackAbove;
   std::unique_ptr<LinearSolver> ls;
   if (s.kind == SolverSettings::Kind::ImplicitCG)
-    ls = std::make_unique<ConjugateGradient>(CGSettings{s.cgMaxIterations, s.cgTolerance, s.cgWarmStart});
+    ls = std::make_unique<ConjugateGradient>(
+        CGSettings{s.cgMaxIterations, s.cgTolerance, s.cgWarmStart});
   else
     ls = std::make_unique<CholmodSolver>();
   return std::make_unique<ImplicitEuler>(is, std::move(ls));
@@ -196,12 +212,20 @@ std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& s) {
 // ---- registration: the keys the implicit integrators share ----
 
 std::vector<KeyInfo> implicitKeys() {
-  return {{"rayleighMass", KeyType::Number, "mass-proportional damping factor, >= 0 (default 0)"},
-          {"rayleighStiffness", KeyType::Number, "stiffness-proportional damping factor, >= 0 (default 0)"},
-          {"onSolveFailure", KeyType::Choice,
-           "warn, fail or fallback (default): what a linear solve that misses its tolerance does", {"fallback", "warn", "fail"}},
-          {"fallbackAbove", KeyType::Number, "relative residual above which fallback re-solves with the fallbackSolver (default 1e-3)"},
-          {"fallbackSolver", KeyType::String, "the linear solver that re-solves, by name, with its defaults (default cholmod)", {"cholmod", "cg"}}};
+  return {
+      {"rayleighMass", KeyType::Number, "mass-proportional damping factor, >= 0 (default 0)"},
+      {"rayleighStiffness", KeyType::Number,
+       "stiffness-proportional damping factor, >= 0 (default 0)"},
+      {"onSolveFailure",
+       KeyType::Choice,
+       "warn, fail or fallback (default): what a linear solve that misses its tolerance does",
+       {"fallback", "warn", "fail"}},
+      {"fallbackAbove", KeyType::Number,
+       "relative residual above which fallback re-solves with the fallbackSolver (default 1e-3)"},
+      {"fallbackSolver",
+       KeyType::String,
+       "the linear solver that re-solves, by name, with its defaults (default cholmod)",
+       {"cholmod", "cg"}}};
 }
 
 std::unique_ptr<LinearSolver> makeFallbackSolver(const std::string& name) {
@@ -214,7 +238,8 @@ ImplicitSettings readImplicitSettings(const ParameterSource& s) {
   ImplicitSettings p;
   p.rayleighMass = s.nonNegative("rayleighMass", p.rayleighMass);
   p.rayleighStiffness = s.nonNegative("rayleighStiffness", p.rayleighStiffness);
-  p.onSolveFailure = parseSolveFailurePolicy(s.choice("onSolveFailure", "fallback", {"warn", "fail", "fallback"}));
+  p.onSolveFailure =
+      parseSolveFailurePolicy(s.choice("onSolveFailure", "fallback", {"warn", "fail", "fallback"}));
   p.fallbackAbove = s.positive("fallbackAbove", p.fallbackAbove);
   for (const char* key : {"fallbackAbove", "fallbackSolver"})
     if (s.has(key) && p.onSolveFailure != SolveFailurePolicy::Fallback)
@@ -224,14 +249,15 @@ ImplicitSettings readImplicitSettings(const ParameterSource& s) {
     p.fallbackSolver = s.string("fallbackSolver");
     if (!LinearSolverRegistry::instance().find(p.fallbackSolver)) {
       std::string names;
-      for (const std::string& n : LinearSolverRegistry::instance().names()) names += (names.empty() ? "" : ", ") + n;
-      s.fail("fallbackSolver", "unknown linear solver \"" + p.fallbackSolver + "\" (" + names + ")");
+      for (const std::string& n : LinearSolverRegistry::instance().names())
+        names += (names.empty() ? "" : ", ") + n;
+      s.fail("fallbackSolver",
+             "unknown linear solver \"" + p.fallbackSolver + "\" (" + names + ")");
     }
   }
   s.check([&] { p.validate(); });
   return p;
 }
-
 
 void ImplicitIntegrator::saveState(ArchiveWriter& out) const {
   out.str(solver_->name());

@@ -22,7 +22,8 @@ struct ExactStiffness {
     if (active) model.setExactStiffness(true);
   }
   ~ExactStiffness() {
-    for (std::size_t i = 0; i < before.size(); ++i) model.forceField(i).setExactStiffness(before[i]);
+    for (std::size_t i = 0; i < before.size(); ++i)
+      model.forceField(i).setExactStiffness(before[i]);
   }
   /// The fields' positive semi-definite stiffness for the rest of the step (an iteration whose
   /// exact system is indefinite).
@@ -46,11 +47,20 @@ using Vec = Eigen::VectorXd;
 /// constraint forces.
 class IncrementalPotential {
  public:
-  IncrementalPotential(const Model& model, const StepConstraints& c, double h, const ImplicitSettings& s)
-      : model_(model), c_(c), h_(h), rM_(s.rayleighMass), rK_(s.rayleighStiffness),
-        n_(model.numSlots()), N_(Eigen::Index(3 * n_)), m_(model.mass().perPoint()),
+  IncrementalPotential(const Model& model, const StepConstraints& c, double h,
+                       const ImplicitSettings& s)
+      : model_(model),
+        c_(c),
+        h_(h),
+        rM_(s.rayleighMass),
+        rK_(s.rayleighStiffness),
+        n_(model.numSlots()),
+        N_(Eigen::Index(3 * n_)),
+        m_(model.mass().perPoint()),
         xn_(Eigen::Map<const Vec>(model.state().x().data(), N_)),
-        vn_(Eigen::Map<const Vec>(model.state().v().data(), N_)), zero_(Vec::Zero(N_)), lag_(Vec::Zero(N_)) {
+        vn_(Eigen::Map<const Vec>(model.state().v().data(), N_)),
+        zero_(Vec::Zero(N_)),
+        lag_(Vec::Zero(N_)) {
     // Forces that are not linear in the velocities (contact friction) enter linearised about
     // v_n, as in the linearised integrators: F(x, v) ~ F(x, 0) + [F(x_n, v_n) - F(x_n, 0) -
     // B(x_n) v_n] + B(x_n) v. The bracket is zero for linear damping; for Coulomb friction it is
@@ -60,7 +70,8 @@ class IncrementalPotential {
     model_.addForce(span(xn_), span(zero_), std::span<double>(withoutV.data(), withoutV.size()));
     model_.addDForce(span(xn_), span(vn_), std::span<double>(bv.data(), bv.size()), 0.0, 1.0);
     lag_ = withV - withoutV - bv;
-    if (lag_.lpNorm<Eigen::Infinity>() <= 1e-12 * std::max(withV.lpNorm<Eigen::Infinity>(), 1e-300)) lag_.setZero();
+    if (lag_.lpNorm<Eigen::Infinity>() <= 1e-12 * std::max(withV.lpNorm<Eigen::Infinity>(), 1e-300))
+      lag_.setZero();
   }
 
   /// v_n on the free points, the velocity that reaches the target on the prescribed ones.
@@ -77,8 +88,9 @@ class IncrementalPotential {
   Vec position(const Vec& v) const { return xn_ + h_ * v; }
   double phi(const Vec& v) const {
     const Vec dvn = v - vn_;
-    return 0.5 * massDot(dvn, dvn) + 0.5 * h_ * rM_ * massDot(v, v) + model_.potentialEnergy(span(position(v))) -
-           0.5 * h_ * v.dot(damping(v)) - h_ * lag_.dot(v);
+    return 0.5 * massDot(dvn, dvn) + 0.5 * h_ * rM_ * massDot(v, v) +
+           model_.potentialEnergy(span(position(v))) - 0.5 * h_ * v.dot(damping(v)) -
+           h_ * lag_.dot(v);
   }
   /// r = h (F(x) + M g - rM M v + D v) - M (v - v_n); with `all`, on the prescribed points too.
   Vec residual(const Vec& v, bool all = false) const {
@@ -99,7 +111,8 @@ class IncrementalPotential {
     const Vec3& g = model_.gravity();
     const double gNorm = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     double scale = 0;
-    for (std::size_t p = 0; p < n_; ++p) scale += m_[p] * (vn_.segment<3>(Eigen::Index(3 * p)).norm() + h_ * gNorm);
+    for (std::size_t p = 0; p < n_; ++p)
+      scale += m_[p] * (vn_.segment<3>(Eigen::Index(3 * p)).norm() + h_ * gNorm);
     return 1e-14 * std::max(scale, 1e-300);
   }
   Eigen::Index size() const { return N_; }
@@ -161,7 +174,8 @@ bool lineSearch(const IncrementalPotential& P, const Iterate& at, const Vec& del
 
 }  // namespace
 
-void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) {
+void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out,
+                               StepStats& stats) {
   const double h = in.dt;
   const StepConstraints& c = *in.constraints;
   const IncrementalPotential P(model, c, h, settings_);
@@ -198,7 +212,8 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
       delta.setZero();
       solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
     }
-    requireFinite({delta.data(), std::size_t(delta.size())}, "velocity change", std::string(name()));
+    requireFinite({delta.data(), std::size_t(delta.size())}, "velocity change",
+                  std::string(name()));
     Iterate next;
     if (newton_.lineSearch) {
       if (!(it.r.dot(delta) > 0) && exact.active) {
@@ -250,31 +265,35 @@ struct NewtonParameters {
 
 std::vector<KeyInfo> newtonKeys() {
   std::vector<KeyInfo> keys = implicitKeys();
-  keys.push_back({"maxIterations", KeyType::Integer, "Newton iterations per step at most, >= 1 (default 20)"});
-  keys.push_back({"tolerance", KeyType::Number, "relative residual that ends the iterations, > 0 (default 1e-8)"});
-  keys.push_back({"exactStiffness", KeyType::Boolean, "use the fields' exact K where they have one (default true)"});
-  keys.push_back({"lineSearch", KeyType::Boolean, "backtracking line search on the incremental potential (default true)"});
+  keys.push_back(
+      {"maxIterations", KeyType::Integer, "Newton iterations per step at most, >= 1 (default 20)"});
+  keys.push_back({"tolerance", KeyType::Number,
+                  "relative residual that ends the iterations, > 0 (default 1e-8)"});
+  keys.push_back({"exactStiffness", KeyType::Boolean,
+                  "use the fields' exact K where they have one (default true)"});
+  keys.push_back({"lineSearch", KeyType::Boolean,
+                  "backtracking line search on the incremental potential (default true)"});
   return keys;
 }
 
-const bool registered = IntegratorRegistry::instance().add({
-    "newton",
-    "backward Euler solved to convergence by Newton's method with a line search",
-    newtonKeys(),
-    {"linearSolver"},
-    [](const ParameterSource& s) -> std::any {
-      NewtonParameters p;
-      p.implicit = readImplicitSettings(s);
-      p.newton.maxIterations = int(s.integer("maxIterations", 1, 1000000, p.newton.maxIterations));
-      p.newton.tolerance = s.positive("tolerance", p.newton.tolerance);
-      p.newton.exactStiffness = s.boolean("exactStiffness", p.newton.exactStiffness);
-      p.newton.lineSearch = s.boolean("lineSearch", p.newton.lineSearch);
-      s.check([&] { p.newton.validate(); });
-      return p;
-    },
-    [](const std::any& a, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
-      const auto& p = std::any_cast<const NewtonParameters&>(a);
-      return std::make_unique<NewtonImplicitEuler>(p.implicit, p.newton, std::move(ls));
-    }});
+const bool registered = IntegratorRegistry::instance().add(
+    {"newton",
+     "backward Euler solved to convergence by Newton's method with a line search",
+     newtonKeys(),
+     {"linearSolver"},
+     [](const ParameterSource& s) -> std::any {
+       NewtonParameters p;
+       p.implicit = readImplicitSettings(s);
+       p.newton.maxIterations = int(s.integer("maxIterations", 1, 1000000, p.newton.maxIterations));
+       p.newton.tolerance = s.positive("tolerance", p.newton.tolerance);
+       p.newton.exactStiffness = s.boolean("exactStiffness", p.newton.exactStiffness);
+       p.newton.lineSearch = s.boolean("lineSearch", p.newton.lineSearch);
+       s.check([&] { p.newton.validate(); });
+       return p;
+     },
+     [](const std::any& a, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
+       const auto& p = std::any_cast<const NewtonParameters&>(a);
+       return std::make_unique<NewtonImplicitEuler>(p.implicit, p.newton, std::move(ls));
+     }});
 }  // namespace
 }  // namespace cutsim::core

@@ -3,19 +3,20 @@
 #include <cmath>
 
 #include "checkpoint_io.hpp"
-
 #include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 
 PointSet::PointSet(topology::Topology& topology, std::string name)
-    : name_(std::move(name)), flags_(topology, "PointSet '" + name_ + "' flags", 0),
+    : name_(std::move(name)),
+      flags_(topology, "PointSet '" + name_ + "' flags", 0),
       data_(topology, "PointSet '" + name_ + "' data", Vec3{0, 0, 0}) {
   subscription_ = topology.subscribe(*this);
 }
 
 void PointSet::add(PointId p, const Vec3& data) {
-  if (p >= flags_.numSlots()) throw TopologyError(name_ + ": point " + std::to_string(p) + " does not exist");
+  if (p >= flags_.numSlots())
+    throw TopologyError(name_ + ": point " + std::to_string(p) + " does not exist");
   if (!flags_[p]) ++count_;
   flags_[p] = 1;
   data_[p] = data;
@@ -61,7 +62,8 @@ void PointSet::onPointsDestroyed(const topology::Topology&, const topology::Poin
 }
 
 void PointSet::validate(const topology::Topology& t, std::vector<std::string>& problems) const {
-  if (flags_.numSlots() != t.pointCapacity()) problems.push_back("size differs from the point capacity");
+  if (flags_.numSlots() != t.pointCapacity())
+    problems.push_back("size differs from the point capacity");
   std::size_t n = 0;
   const auto f = flags_.values();
   for (std::size_t p = 0; p < f.size(); ++p) {
@@ -80,20 +82,23 @@ Vec3 DisplacementPath::at(double t) const {
   while (times[k] < t) ++k;
   double s = (t - times[k - 1]) / (times[k] - times[k - 1]);
   Vec3 out;
-  for (int c = 0; c < 3; ++c)
-    out[c] = (1 - s) * displacements[k - 1][c] + s * displacements[k][c];
+  for (int c = 0; c < 3; ++c) out[c] = (1 - s) * displacements[k - 1][c] + s * displacements[k][c];
   return out;
 }
 
-Grasp::Grasp(topology::Topology& topology, std::string name, double startTime, DisplacementPath path)
+Grasp::Grasp(topology::Topology& topology, std::string name, double startTime,
+             DisplacementPath path)
     : points_(topology, std::move(name)), start_(startTime), path_(std::move(path)) {
   if (path_.times.size() != path_.displacements.size())
-    throw InvalidInput("grasp '" + points_.name() + "'", "path times and displacements differ in number");
+    throw InvalidInput("grasp '" + points_.name() + "'",
+                       "path times and displacements differ in number");
   for (std::size_t i = 0; i < path_.times.size(); ++i) {
     if (!std::isfinite(path_.times[i]) || (i > 0 && !(path_.times[i] > path_.times[i - 1])))
-      throw InvalidInput("grasp '" + points_.name() + "'", "path times must be finite and increasing");
+      throw InvalidInput("grasp '" + points_.name() + "'",
+                         "path times must be finite and increasing");
     for (double c : path_.displacements[i])
-      if (!std::isfinite(c)) throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
+      if (!std::isfinite(c))
+        throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
   }
 }
 
@@ -101,7 +106,8 @@ void Grasp::moveBy(double now, const Vec3& delta, double duration) {
   if (!std::isfinite(now) || !(duration >= 0) || !std::isfinite(duration))
     throw InvalidInput("grasp '" + points_.name() + "'", "a move needs a finite duration >= 0");
   for (double c : delta)
-    if (!std::isfinite(c)) throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
+    if (!std::isfinite(c))
+      throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
   const double tau = now - start_;
   const Vec3 d0 = path_.at(tau);
   DisplacementPath next;

@@ -1,12 +1,11 @@
 #include "cutsim/core/mass.hpp"
 
 #include <cmath>
-
-#include "checkpoint_io.hpp"
 #include <numeric>
 
-#include "cutsim/base/numbers.hpp"
+#include "checkpoint_io.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
 
 namespace cutsim::core {
 
@@ -26,18 +25,21 @@ double LumpedMass::densityForTotal(const topology::Topology& t, double totalMass
   requireFinitePositive("mass.total", totalMass);
   double area = 0;
   for (auto f : t.triangles()) area += triangleArea(t, f);
-  if (!(area > 0)) throw InvalidInput("mass.total", "the mesh has no area to spread a total mass over");
+  if (!(area > 0))
+    throw InvalidInput("mass.total", "the mesh has no area to spread a total mass over");
   return totalMass / area;
 }
 
-LumpedMass::LumpedMass(topology::Topology& t, double density) : LumpedMass(t, MassLaw::areaDensity(density)) {}
+LumpedMass::LumpedMass(topology::Topology& t, double density)
+    : LumpedMass(t, MassLaw::areaDensity(density)) {}
 
 LumpedMass::LumpedMass(topology::Topology& t, MassLaw law)
     : law_(law),
       density_(law.kind == MassLaw::Kind::AreaDensity ? law.value : 0.0),
       mass_(t, "mass per point"),
       triangleArea_(t, "mass: triangle rest areas") {
-  requireFinitePositive(law.kind == MassLaw::Kind::AreaDensity ? "mass.density" : "mass.perPoint", law.value);
+  requireFinitePositive(law.kind == MassLaw::Kind::AreaDensity ? "mass.density" : "mass.perPoint",
+                        law.value);
   for (auto f : t.triangles()) {
     double a = triangleArea(t, f);
     triangleArea_[f] = a;
@@ -62,14 +64,17 @@ double LumpedMass::restArea() const {
   return std::accumulate(a.begin(), a.end(), 0.0);
 }
 
-void LumpedMass::onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed& e) {
+void LumpedMass::onTrianglesDestroyed(const topology::Topology&,
+                                      const topology::TrianglesDestroyed& e) {
   for (std::size_t i = 0; i < e.triangles.size(); ++i) {
-    const double a = triangleArea_[e.triangles[i]];  // reset by the SlotData at the transaction's end
+    const double a =
+        triangleArea_[e.triangles[i]];  // reset by the SlotData at the transaction's end
     for (auto p : e.vertices[i]) mass_[p] = std::max(0.0, mass_[p] - density_ * a / 3.0);
   }
 }
 
-void LumpedMass::onTrianglesCreated(const topology::Topology& t, const topology::TrianglesCreated& e) {
+void LumpedMass::onTrianglesCreated(const topology::Topology& t,
+                                    const topology::TrianglesCreated& e) {
   for (std::size_t i = 0; i < e.triangles.size(); ++i) {
     double a = triangleArea(t, e.triangles[i]);
     triangleArea_[e.triangles[i]] = a;
@@ -102,7 +107,8 @@ void LumpedMass::saveState(ArchiveWriter& out) const {
 }
 void LumpedMass::loadState(ArchiveReader& in) {
   density_ = in.f64();
-  if (!(density_ >= 0) || !std::isfinite(density_)) in.fail("mass: a density of " + std::to_string(density_));
+  if (!(density_ >= 0) || !std::isfinite(density_))
+    in.fail("mass: a density of " + std::to_string(density_));
   checkpoint::loadValues(in, mass_.values(), "masses");
   checkpoint::loadValues(in, triangleArea_.values(), "triangle areas");
 }

@@ -13,10 +13,7 @@
 #include "cutsim/base/union_find.hpp"
 
 namespace cutsim::core {
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 MeshInfo computeMeshInfo(const topology::MeshData& mesh) {
   const std::size_t nv = mesh.points.size();

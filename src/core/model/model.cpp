@@ -1,11 +1,10 @@
 // Model: topology, state, mass, force fields, gravity and constraints (model.hpp).
 #include "cutsim/core/model.hpp"
 
-#include "cutsim/base/archive.hpp"
-
 #include <algorithm>
 #include <cmath>
 
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
@@ -18,7 +17,8 @@ void requireFinite(std::span<const double> a, const char* what, const std::strin
 Model::Model(std::unique_ptr<topology::Topology> topology, double density)
     : Model(std::move(topology), MassLaw::areaDensity(density)) {}
 
-Model::Model(std::unique_ptr<topology::Topology> topology, MassLaw mass) : topology_(std::move(topology)) {
+Model::Model(std::unique_ptr<topology::Topology> topology, MassLaw mass)
+    : topology_(std::move(topology)) {
   if (!topology_) throw InvalidInput("mesh", "no topology");
   state_ = std::make_unique<MechanicalState>(*topology_);
   if (mass.value > 0) mass_ = std::make_unique<LumpedMass>(*topology_, mass);
@@ -49,9 +49,11 @@ void Model::replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceF
   if (i >= fields_.size()) throw InvalidInput("forceFields", "no force field " + std::to_string(i));
   if (!field) throw InvalidInput(labels_[i], "no force field");
   if (!fields_[i]->replaceable())
-    throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() + " cannot be replaced (a step hook holds it)");
+    throw InvalidInput(
+        labels_[i], "a " + fields_[i]->typeName() + " cannot be replaced (a step hook holds it)");
   if (field->typeName() != fields_[i]->typeName())
-    throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() + " can only be replaced by another (got a " +
+    throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() +
+                                       " can only be replaced by another (got a " +
                                        field->typeName() + ")");
   fields_[i] = std::move(field);
   fieldPointers_[i] = fields_[i].get();
@@ -59,7 +61,8 @@ void Model::replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceF
 
 Grasp& Model::addGrasp(const std::string& name, std::span<const PointId> points,
                        DisplacementPath path, double now) {
-  if (findGrasp(name)) throw InvalidInput("grasp '" + name + "'", "a grasp of that name is already active");
+  if (findGrasp(name))
+    throw InvalidInput("grasp '" + name + "'", "a grasp of that name is already active");
   auto g = std::make_unique<Grasp>(*topology_, name, now, std::move(path));
   auto x = state_->x();
   for (PointId p : points) {
@@ -72,7 +75,8 @@ Grasp& Model::addGrasp(const std::string& name, std::span<const PointId> points,
 }
 
 void Model::releaseGrasp(const std::string& name) {
-  auto it = std::find_if(grasps_.begin(), grasps_.end(), [&](auto& g) { return g->name() == name; });
+  auto it =
+      std::find_if(grasps_.begin(), grasps_.end(), [&](auto& g) { return g->name() == name; });
   if (it == grasps_.end())
     throw InvalidInput("grasp '" + name + "'", "no active grasp of that name to release");
   grasps_.erase(it);
@@ -84,7 +88,8 @@ Grasp* Model::findGrasp(const std::string& name) {
   return nullptr;
 }
 
-void Model::addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const {
+void Model::addForce(std::span<const double> x, std::span<const double> v,
+                     std::span<double> f) const {
   for (std::size_t i = 0; i < fields_.size(); ++i) {
     fields_[i]->addForce(x, v, f);
     requireFinite(f, "force", labels_[i]);
@@ -107,7 +112,8 @@ double Model::potentialEnergy(std::span<const double> x) const {
   if (mass_) {
     auto m = mass_->perPoint();
     for (std::size_t p = 0; p < m.size(); ++p)
-      e -= m[p] * (gravity_[0] * x[3 * p] + gravity_[1] * x[3 * p + 1] + gravity_[2] * x[3 * p + 2]);
+      e -=
+          m[p] * (gravity_[0] * x[3 * p] + gravity_[1] * x[3 * p + 1] + gravity_[2] * x[3 * p + 2]);
   }
   return e;
 }
@@ -145,7 +151,8 @@ double Model::kineticEnergy() const {
   auto v = state_->v();
   double e = 0;
   for (std::size_t p = 0; p < m.size(); ++p)
-    e += 0.5 * m[p] * (v[3 * p] * v[3 * p] + v[3 * p + 1] * v[3 * p + 1] + v[3 * p + 2] * v[3 * p + 2]);
+    e += 0.5 * m[p] *
+         (v[3 * p] * v[3 * p] + v[3 * p + 1] * v[3 * p + 1] + v[3 * p + 2] * v[3 * p + 2]);
   return e;
 }
 
@@ -159,7 +166,9 @@ double Model::gravityEnergy() const {
   return e;
 }
 
-double Model::fieldEnergy(std::size_t i) const { return fields_.at(i)->potentialEnergy(state_->x()); }
+double Model::fieldEnergy(std::size_t i) const {
+  return fields_.at(i)->potentialEnergy(state_->x());
+}
 
 std::vector<double> Model::totalForce() const {
   std::vector<double> f(state_->x().size(), 0.0);
@@ -175,7 +184,8 @@ std::vector<double> Model::totalForce() const {
 std::vector<std::string> Model::notCheckpointable() const {
   std::vector<std::string> out;
   for (std::size_t i = 0; i < fields_.size(); ++i)
-    if (!fields_[i]->checkpointable()) out.push_back(labels_[i] + " (" + fields_[i]->typeName() + ")");
+    if (!fields_[i]->checkpointable())
+      out.push_back(labels_[i] + " (" + fields_[i]->typeName() + ")");
   return out;
 }
 
@@ -218,7 +228,8 @@ void Model::loadState(ArchiveReader& in) {
   for (double v : state_->v())
     if (!std::isfinite(v)) in.fail("a velocity is not finite");
   in.open("mass");
-  if (in.boolean() != (mass_ != nullptr)) in.fail("the saved simulation and the scene differ in having a mass");
+  if (in.boolean() != (mass_ != nullptr))
+    in.fail("the saved simulation and the scene differ in having a mass");
   if (mass_) mass_->loadState(in);
   in.close();
   if (mass_) mass_->validate(*topology_, problems);
@@ -238,7 +249,8 @@ void Model::loadState(ArchiveReader& in) {
     DisplacementPath path;
     path.times = in.f64s();
     const std::uint64_t m = in.u64();
-    if (m != path.times.size()) in.fail("grasp '" + name + "': its path's times and displacements differ in number");
+    if (m != path.times.size())
+      in.fail("grasp '" + name + "': its path's times and displacements differ in number");
     path.displacements.resize(m);
     for (Vec3& d : path.displacements) in.raw(d.data(), sizeof(double) * 3);
     Vec3 reaction;
@@ -258,7 +270,8 @@ void Model::loadState(ArchiveReader& in) {
     in.open("field" + std::to_string(i));
     const std::string type = in.str();
     if (type != fields_[i]->typeName())
-      in.fail("force field " + std::to_string(i) + " was a " + type + ", the scene's is a " + fields_[i]->typeName());
+      in.fail("force field " + std::to_string(i) + " was a " + type + ", the scene's is a " +
+              fields_[i]->typeName());
     fields_[i]->loadState(in);
     in.close();
   }

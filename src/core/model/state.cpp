@@ -12,12 +12,14 @@ MechanicalState::MechanicalState(topology::Topology& topology)
       rest_(topology, "state rest", 0.0, topology::NewSlots::Interpolate) {
   for (auto p : topology.points()) {
     auto r = topology.restPosition(p);
-    for (int c = 0; c < 3; ++c) x_.at(p)[std::size_t(c)] = rest_.at(p)[std::size_t(c)] = r[std::size_t(c)];
+    for (int c = 0; c < 3; ++c)
+      x_.at(p)[std::size_t(c)] = rest_.at(p)[std::size_t(c)] = r[std::size_t(c)];
   }
   subscription_ = topology.subscribe(*this);
 }
 
-void MechanicalState::onPointsCreated(const topology::Topology& t, const topology::PointsCreated& e) {
+void MechanicalState::onPointsCreated(const topology::Topology& t,
+                                      const topology::PointsCreated& e) {
   // The SlotData have grown and interpolated the new points from their ancestors; a free point
   // (no ancestor) starts at rest at its rest position.
   for (std::size_t i = 0; i < e.points.size(); ++i) {
@@ -30,7 +32,8 @@ void MechanicalState::onPointsCreated(const topology::Topology& t, const topolog
   }
 }
 
-void MechanicalState::validate(const topology::Topology& t, std::vector<std::string>& problems) const {
+void MechanicalState::validate(const topology::Topology& t,
+                               std::vector<std::string>& problems) const {
   if (x_.numSlots() != std::size_t(t.pointCapacity())) {
     problems.push_back("size " + std::to_string(x_.numSlots()) + " != point capacity " +
                        std::to_string(t.pointCapacity()));
@@ -46,7 +49,8 @@ void MechanicalState::validate(const topology::Topology& t, std::vector<std::str
     auto r = t.restPosition(p);
     for (int c = 0; c < 3; ++c) {
       if (std::abs(r[c] - rest()[3 * p + c]) > 1e-9 * (1.0 + std::abs(r[c])))
-        problems.push_back("point " + std::to_string(p) + ": rest position differs from the topology's");
+        problems.push_back("point " + std::to_string(p) +
+                           ": rest position differs from the topology's");
       if (!std::isfinite(x()[3 * p + c]) || !std::isfinite(v()[3 * p + c]))
         problems.push_back("point " + std::to_string(p) + ": non-finite state");
     }
@@ -56,7 +60,8 @@ void MechanicalState::validate(const topology::Topology& t, std::vector<std::str
 void MechanicalState::saveState(ArchiveWriter& out) const {
   checkpoint::saveValues(out, x());
   checkpoint::saveValues(out, v());
-  checkpoint::saveValues(out, rest());  // interpolated for new points: within rounding of the topology's
+  checkpoint::saveValues(out,
+                         rest());  // interpolated for new points: within rounding of the topology's
 }
 void MechanicalState::loadState(ArchiveReader& in) {
   checkpoint::loadValues(in, x(), "positions");

@@ -5,25 +5,24 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <map>
-#include <optional>
-
-#include <array>
-#include <charconv>
-#include <cstdio>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 #include <sstream>
 
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/contact_step.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
-#include "cutsim/base/archive.hpp"
-#include "cutsim/base/errors.hpp"
 #include "timeline/tearing.hpp"
 
 namespace cutsim::core {
@@ -165,9 +164,12 @@ void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
   for (topology::TriangleId t : n.triangles) {
     const double e = maxPrincipalStrain(sim.topology(), x, t);
     if (!std::isfinite(e))
-      throw SolverError("at t = " + formatNumber(sim.time()) + " the strain of triangle " + std::to_string(t) +
-                        " is not finite: its deformation is beyond the range of doubles, the simulation has blown up (no "
-                        "frame is written; with an explicit integrator, try a smaller time step or an implicit solver)");
+      throw SolverError("at t = " + formatNumber(sim.time()) + " the strain of triangle " +
+                        std::to_string(t) +
+                        " is not finite: its deformation is beyond the range of doubles, the "
+                        "simulation has blown up (no "
+                        "frame is written; with an explicit integrator, try a smaller time step or "
+                        "an implicit solver)");
     out << formatNumber(e) << '\n';
   }
   out << "        </DataArray>\n"
@@ -234,11 +236,13 @@ double distanceToSegment(const Vec3& p, const std::array<Vec3, 2>& s) {
 
 }  // namespace
 
-std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const OriginalBorder& original) {
+std::vector<BorderEdge> borderEdges(const topology::Topology& topo,
+                                    const OriginalBorder& original) {
   // The tolerance: a millionth of the original border's extent.
   double extent = 0.0;
   for (const auto& s : original.segments)
-    for (std::size_t k = 0; k < 3; ++k) extent = std::max({extent, std::abs(s[0][k]), std::abs(s[1][k])});
+    for (std::size_t k = 0; k < 3; ++k)
+      extent = std::max({extent, std::abs(s[0][k]), std::abs(s[1][k])});
   const double tolerance = 1e-6 * std::max(extent, 1e-300);
   auto onOriginal = [&](const Vec3& p) {
     for (const auto& s : original.segments)
@@ -287,8 +291,8 @@ void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string
          "</VTKFile>\n";
 }
 
-void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles, double t,
-                       double planeSize) {
+void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles,
+                       double t, double planeSize) {
   std::vector<Vec3> points;
   std::vector<std::array<int, 3>> tris;
   std::vector<std::size_t> owner;
@@ -305,15 +309,18 @@ void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacl
   }
   vtpHeader(out);
   out << "    <Piece NumberOfPoints=\"" << points.size()
-      << "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"" << tris.size() << "\">\n";
+      << "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\""
+      << tris.size() << "\">\n";
   out << "      <CellData Scalars=\"obstacle\">\n"
          "        <DataArray type=\"Int32\" Name=\"obstacle\" format=\"ascii\">\n";
   for (std::size_t o : owner) out << o << '\n';
   out << "        </DataArray>\n"
          "      </CellData>\n"
          "      <Points>\n"
-         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-  for (const Vec3& p : points) out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
+         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n";
+  for (const Vec3& p : points)
+    out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
   out << "        </DataArray>\n"
          "      </Points>\n"
          "      <Polys>\n"
@@ -377,7 +384,8 @@ std::string frameName(const std::string& prefix, std::size_t index, const std::s
 }  // namespace
 
 OutputWriter::OutputWriter(Columns, std::filesystem::path dir, OutputSettings settings,
-                           std::vector<std::string> fieldLabels, std::vector<std::string> graspNames, bool contact,
+                           std::vector<std::string> fieldLabels,
+                           std::vector<std::string> graspNames, bool contact,
                            std::vector<std::string> obstacleNames)
     : dir_(std::move(dir)),
       settings_(settings),
@@ -390,8 +398,8 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
                            std::vector<std::string> fieldLabels,
                            std::vector<std::string> graspNames, bool contact,
                            std::vector<std::string> obstacleNames)
-    : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels), std::move(graspNames), contact,
-                   std::move(obstacleNames)) {
+    : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels),
+                   std::move(graspNames), contact, std::move(obstacleNames)) {
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
   if (ec || !std::filesystem::is_directory(dir_)) {
@@ -421,7 +429,8 @@ void OutputWriter::lockFolder(const char* hint) {
   if (::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
     ::close(lockFd_);
     lockFd_ = -1;
-    throw Error("another run is writing into the output folder " + dir_.string() + " (" + hint + ")");
+    throw Error("another run is writing into the output folder " + dir_.string() + " (" + hint +
+                ")");
   }
 }
 
@@ -442,7 +451,8 @@ Frames loadFrames(ArchiveReader& in, bool blank = false) {
   for (auto& [t, name] : frames) {
     t = in.f64();
     name = in.str();
-    if (blank ? !name.empty() : (name.find('/') != std::string::npos || !OutputWriter::isRunOutput(name)))
+    if (blank ? !name.empty()
+              : (name.find('/') != std::string::npos || !OutputWriter::isRunOutput(name)))
       in.fail("output: \"" + name + "\" is not the name of a frame");
   }
   return frames;
@@ -484,8 +494,9 @@ void OutputWriter::saveState(ArchiveWriter& out) {
   // The last frame's file, which ties the folder to this run (its CSV may be off).
   std::string last;
   if (!surfaceFrames_.empty())
-    last = settings_.vtk ? surfaceFrames_.back().second
-                         : (settings_.obj ? frameName("frame", surfaceFrames_.size() - 1, ".obj") : "");
+    last = settings_.vtk
+               ? surfaceFrames_.back().second
+               : (settings_.obj ? frameName("frame", surfaceFrames_.size() - 1, ".obj") : "");
   out.str(last);
   if (!last.empty()) {
     const auto crc = fileCrc32(dir_ / last);
@@ -501,11 +512,12 @@ void OutputWriter::saveState(ArchiveWriter& out) {
   }
 }
 
-OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
-                           std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames,
-                           ArchiveReader& in)
-    : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels), std::move(graspNames), contact,
-                   std::move(obstacleNames)) {
+OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings,
+                           std::vector<std::string> fieldLabels,
+                           std::vector<std::string> graspNames, bool contact,
+                           std::vector<std::string> obstacleNames, ArchiveReader& in)
+    : OutputWriter(Columns{}, std::move(dir), settings, std::move(fieldLabels),
+                   std::move(graspNames), contact, std::move(obstacleNames)) {
   in.open("output");
   surfaceFrames_ = loadFrames(in, !settings_.vtk);
   borderFrames_ = loadFrames(in);
@@ -517,7 +529,8 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
     networkFrames_[name] = loadFrames(in);
   }
   const std::uint64_t segments = in.u64();
-  if (segments > in.remaining() / (6 * sizeof(double))) in.fail("output: a count of " + std::to_string(segments) + " border segments");
+  if (segments > in.remaining() / (6 * sizeof(double)))
+    in.fail("output: a count of " + std::to_string(segments) + " border segments");
   originalBorder_.segments.resize(segments);
   for (auto& s : originalBorder_.segments)
     for (Vec3& p : s) in.raw(p.data(), sizeof(double) * 3);
@@ -544,7 +557,8 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
   std::vector<std::string> missing;
   auto need = [&](const Frames& frames) {
     for (const auto& f : frames)
-      if (!f.second.empty() && !std::filesystem::exists(dir_ / f.second)) missing.push_back(f.second);
+      if (!f.second.empty() && !std::filesystem::exists(dir_ / f.second))
+        missing.push_back(f.second);
   };
   need(surfaceFrames_);
   need(borderFrames_);
@@ -557,10 +571,13 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
     }
   if (!missing.empty())
     throw Error("cannot resume into " + dir_.string() + ": " + std::to_string(missing.size()) +
-                " frames of the run up to the checkpoint are missing (" + missing.front() + ", ...)");
-  if (!lastFrame.empty() && fileCrc32(dir_ / lastFrame) != std::optional<std::uint32_t>(std::uint32_t(lastCrc)))
-    throw Error("cannot resume into " + dir_.string() + ": its " + lastFrame +
-                " is not the frame the checkpoint's run wrote (another run wrote into the folder since)");
+                " frames of the run up to the checkpoint are missing (" + missing.front() +
+                ", ...)");
+  if (!lastFrame.empty() &&
+      fileCrc32(dir_ / lastFrame) != std::optional<std::uint32_t>(std::uint32_t(lastCrc)))
+    throw Error(
+        "cannot resume into " + dir_.string() + ": its " + lastFrame +
+        " is not the frame the checkpoint's run wrote (another run wrote into the folder since)");
   // The CSV up to the checkpoint: the one being written, a partial one, or a finished one.
   if (settings_.csv) {
     csvTemp_ = dir_ / ".steps.csv.tmp";
@@ -575,8 +592,10 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
       break;
     }
     if (found.empty())
-      throw Error("cannot resume into " + dir_.string() + ": no steps.csv, steps.partial.csv or .steps.csv.tmp there holds "
-                  "the run's rows up to the checkpoint (" + std::to_string(length) + " bytes, byte for byte: changed or removed since)");
+      throw Error("cannot resume into " + dir_.string() +
+                  ": no steps.csv, steps.partial.csv or .steps.csv.tmp there holds "
+                  "the run's rows up to the checkpoint (" +
+                  std::to_string(length) + " bytes, byte for byte: changed or removed since)");
     std::error_code ec;
     std::filesystem::resize_file(found, length, ec);
     if (!ec && found != csvTemp_) std::filesystem::rename(found, csvTemp_, ec);
@@ -590,13 +609,14 @@ OutputWriter::OutputWriter(std::filesystem::path dir, OutputSettings settings, s
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
     const std::string name = entry.path().filename().string();
-    if (!entry.is_regular_file(ec) || !isRunOutput(name) || name == ".steps.csv.tmp" || name == "checkpoint.ckpt" ||
-        name == "run.json")
+    if (!entry.is_regular_file(ec) || !isRunOutput(name) || name == ".steps.csv.tmp" ||
+        name == "checkpoint.ckpt" || name == "run.json")
       continue;
     const auto number = frameNumber(name);
     const bool later = number && *number >= frames;
-    const bool stale = name == "steps.csv" || name == "steps.partial.csv" || name.ends_with(".pvd") ||
-                       name == "player.html" || name == "player.png" || (name.front() == '.' && name.ends_with(".tmp"));
+    const bool stale = name == "steps.csv" || name == "steps.partial.csv" ||
+                       name.ends_with(".pvd") || name == "player.html" || name == "player.png" ||
+                       (name.front() == '.' && name.ends_with(".tmp"));
     if (later || stale) {
       std::error_code removeError;
       if (std::filesystem::remove(entry.path(), removeError)) ++replaced_;
@@ -617,11 +637,12 @@ bool OutputWriter::isRunOutput(const std::string& name) {
     return name.size() >= n && name.compare(name.size() - n, n, suffix) == 0;
   };
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
-  if (name == "steps.csv" || name == "steps.partial.csv" || name == ".steps.csv.tmp" || name == "run.json" ||
-      name == "checkpoint.ckpt")
+  if (name == "steps.csv" || name == "steps.partial.csv" || name == ".steps.csv.tmp" ||
+      name == "run.json" || name == "checkpoint.ckpt")
     return true;
-  if (name == "player.html" || name == "player.png") return true;  // cutsim view's, of the earlier run
-  if (ends(".pvd")) return true;  // the collections, final or partial
+  if (name == "player.html" || name == "player.png")
+    return true;                                 // cutsim view's, of the earlier run
+  if (ends(".pvd")) return true;                 // the collections, final or partial
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
   if (ends(".vtp"))
     return starts("surface_") || starts("borders_") || starts("springs_") || starts("network_") ||
@@ -643,7 +664,8 @@ bool OutputWriter::partialDue(std::size_t frames) {
 std::string OutputWriter::csvHeader() const {
   std::string h = "time,kinetic_energy";
   for (const std::string& l : labels_) h += ",potential_" + l;
-  h += ",gravity_energy,solver_iterations,solver_residual,solver_flags,newton_iterations,active_springs,"
+  h += ",gravity_energy,solver_iterations,solver_residual,solver_flags,newton_iterations,active_"
+       "springs,"
        "points,edges,triangles";
   for (const std::string& g : grasps_) h += "," + g + "_fx," + g + "_fy," + g + "_fz";
   if (contact_) {
@@ -659,8 +681,9 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
     // Every number is checked: no infinity or NaN reaches the CSV (the run stops, naming it).
     auto num = [&](double v, const std::string& column) {
       if (!std::isfinite(v))
-        throw SolverError("step " + std::to_string(r.step) + " (t = " + formatNumber(r.time) + "): " + column + " is " +
-                          formatNumber(v) + ", not a finite number: the run stops before it reaches steps.csv");
+        throw SolverError("step " + std::to_string(r.step) + " (t = " + formatNumber(r.time) +
+                          "): " + column + " is " + formatNumber(v) +
+                          ", not a finite number: the run stops before it reaches steps.csv");
       return formatNumber(v);
     };
     std::ostringstream row;
@@ -670,25 +693,30 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
     }
     const auto* bending = firstBending(sim);
     row << ',' << num(sim.gravityEnergy(), "gravity_energy") << ',' << r.stats.iterations << ','
-        << num(r.stats.residual, "solver_residual") << ',' << r.stats.flagText() << ',' << r.stats.newtonIterations
-        << ',' << (bending ? bending->numActiveSprings() : 0)
-        << ',' << sim.topology().numPoints() << ',' << sim.topology().numEdges() << ','
+        << num(r.stats.residual, "solver_residual") << ',' << r.stats.flagText() << ','
+        << r.stats.newtonIterations << ',' << (bending ? bending->numActiveSprings() : 0) << ','
+        << sim.topology().numPoints() << ',' << sim.topology().numEdges() << ','
         << sim.topology().numTriangles();
     for (const std::string& g : grasps_) {
       const Grasp* grasp = sim.findGrasp(g);
       const Vec3 f = grasp ? grasp->reaction() : Vec3{0, 0, 0};
-      row << ',' << num(f[0], g + "_fx") << ',' << num(f[1], g + "_fy") << ',' << num(f[2], g + "_fz");
+      row << ',' << num(f[0], g + "_fx") << ',' << num(f[1], g + "_fy") << ','
+          << num(f[2], g + "_fz");
     }
     if (contact_) {
       const forcefields::Contact* c = findContact(sim);
       forcefields::ContactMeasure m;
       if (c) m = c->lastStep();
-      row << ',' << m.candidates << ',' << m.active << ',' << m.excluded << ',' << r.stats.clamped << ','
-          << r.stats.splits << ',' << num(m.selfNormal, "self_normal_force") << ','
+      row << ',' << m.candidates << ',' << m.active << ',' << m.excluded << ',' << r.stats.clamped
+          << ',' << r.stats.splits << ',' << num(m.selfNormal, "self_normal_force") << ','
           << num(m.selfFriction, "self_friction_force");
       for (std::size_t k = 0; k < obstacles_.size(); ++k)
-        row << ',' << num(k < m.obstacleNormal.size() ? m.obstacleNormal[k] : 0.0, obstacles_[k] + "_normal_force")
-            << ',' << num(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0, obstacles_[k] + "_friction_force");
+        row << ','
+            << num(k < m.obstacleNormal.size() ? m.obstacleNormal[k] : 0.0,
+                   obstacles_[k] + "_normal_force")
+            << ','
+            << num(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0,
+                   obstacles_[k] + "_friction_force");
     }
     writeCsv(row.str() + '\n');
   }
@@ -708,12 +736,15 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
     const bool partial = partialDue(surfaceFrames_.size());
     const std::string borders = frameName("borders", index, ".vtp");
     if (borderFrames_.empty()) originalBorder_ = restBorder(sim.topology());
-    writeFileAtomically(dir_ / borders, [&](std::ostream& o) { writeBordersVtp(o, sim, originalBorder_); });
+    writeFileAtomically(dir_ / borders,
+                        [&](std::ostream& o) { writeBordersVtp(o, sim, originalBorder_); });
     borderFrames_.emplace_back(r.time, borders);
     if (partial) {
       partialFrames_ = surfaceFrames_.size();
-      writeFileAtomically(dir_ / "surface.partial.pvd", [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
-      writeFileAtomically(dir_ / "borders.partial.pvd", [&](std::ostream& o) { writePvd(o, borderFrames_); });
+      writeFileAtomically(dir_ / "surface.partial.pvd",
+                          [&](std::ostream& o) { writePvd(o, surfaceFrames_); });
+      writeFileAtomically(dir_ / "borders.partial.pvd",
+                          [&](std::ostream& o) { writePvd(o, borderFrames_); });
     }
     if (settings_.springs) {
       // Every field that draws: the first FastTriangularBendingSprings as "springs", the others
@@ -723,16 +754,19 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
         const forcefields::ForceField& field = sim.forceField(i);
         std::vector<std::array<PointId, 2>> segments;
         field.draw(segments);
-        const std::string series = &field == bending ? "springs" : networkSeriesName(sim.forceFieldLabel(i));
+        const std::string series =
+            &field == bending ? "springs" : networkSeriesName(sim.forceFieldLabel(i));
         // A field that has never drawn anything has no series; one that has keeps a frame for
         // every frame of the run, empty or not, so that its collection has no gap.
         if (segments.empty() && &field != bending && !networkFrames_.count(series)) continue;
         auto& frames = networkFrames_[series];
         const std::string name = frameName(series, index, ".vtp");
-        writeFileAtomically(dir_ / name, [&](std::ostream& o) { writeNetworkVtp(o, sim, segments); });
+        writeFileAtomically(dir_ / name,
+                            [&](std::ostream& o) { writeNetworkVtp(o, sim, segments); });
         frames.emplace_back(r.time, name);
         if (partial)
-          writeFileAtomically(dir_ / (series + ".partial.pvd"), [&](std::ostream& o) { writePvd(o, frames); });
+          writeFileAtomically(dir_ / (series + ".partial.pvd"),
+                              [&](std::ostream& o) { writePvd(o, frames); });
       }
     }
     const forcefields::Contact* c = findContact(sim);
@@ -747,14 +781,16 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
           hi[std::size_t(k)] = std::max(hi[std::size_t(k)], q[std::size_t(k)]);
         }
       }
-      for (int k = 0; k < 3; ++k) extent = std::max(extent, hi[std::size_t(k)] - lo[std::size_t(k)]);
+      for (int k = 0; k < 3; ++k)
+        extent = std::max(extent, hi[std::size_t(k)] - lo[std::size_t(k)]);
       const std::string name = frameName("obstacles", index, ".vtp");
       writeFileAtomically(dir_ / name, [&](std::ostream& o) {
         writeObstaclesVtp(o, c->obstacles(), r.time, 3 * std::max(extent, 1e-3));
       });
       obstacleFrames_.emplace_back(r.time, name);
       if (partial)
-        writeFileAtomically(dir_ / "obstacles.partial.pvd", [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+        writeFileAtomically(dir_ / "obstacles.partial.pvd",
+                            [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
     }
   } else {
     surfaceFrames_.emplace_back(r.time, "");
@@ -780,7 +816,8 @@ void OutputWriter::writeCollections(const std::string& suffix, std::size_t frame
     Frames listed;
     for (const auto& f : all)
       if (const auto k = frameNumber(f.second); k && *k < frames) listed.push_back(f);
-    if (!listed.empty()) writeFileAtomically(dir_ / (name + suffix), [&](std::ostream& o) { writePvd(o, listed); });
+    if (!listed.empty())
+      writeFileAtomically(dir_ / (name + suffix), [&](std::ostream& o) { writePvd(o, listed); });
   };
   if (!settings_.vtk) return;
   write("surface", surfaceFrames_);
@@ -811,7 +848,8 @@ void OutputWriter::finish() {
   closeCsv();
   writeCollections(".pvd");
   std::error_code removeError;
-  for (const auto& name : {std::string("surface"), std::string("borders"), std::string("obstacles")})
+  for (const auto& name :
+       {std::string("surface"), std::string("borders"), std::string("obstacles")})
     std::filesystem::remove(dir_ / (name + ".partial.pvd"), removeError);
   for (const auto& entry : networkFrames_)
     std::filesystem::remove(dir_ / (entry.first + ".partial.pvd"), removeError);

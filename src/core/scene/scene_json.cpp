@@ -7,7 +7,6 @@ namespace cutsim::core::detail {
 
 namespace {
 
-
 /// Input iterator over the text that counts the lines of the characters it has delivered.
 struct LineCounter {
   std::size_t line = 1;
@@ -103,7 +102,8 @@ class LineRecordingBuilder : public nlohmann::json_sax<json> {
     const std::size_t colon = message.find(": ");
     if (message.rfind("[json.exception.", 0) == 0 && colon != std::string::npos) {
       message = message.substr(colon + 2);
-    } else if (message.rfind("[json.exception.", 0) == 0 && message.find("] ") != std::string::npos) {
+    } else if (message.rfind("[json.exception.", 0) == 0 &&
+               message.find("] ") != std::string::npos) {
       message = message.substr(message.find("] ") + 2);
     }
     if (message.rfind("number overflow parsing", 0) == 0)
@@ -160,8 +160,9 @@ class LineRecordingBuilder : public nlohmann::json_sax<json> {
     // A scene is a few levels deep; refusing deep nesting early keeps the pointer bookkeeping
     // (a string per level) from growing quadratically on a malicious or broken file.
     if (stack_.size() >= kMaxDepth) {
-      throw InvalidInput(source_ + ":" + std::to_string(counter_.line),
-                         "invalid JSON: nested deeper than " + std::to_string(kMaxDepth) + " levels");
+      throw InvalidInput(
+          source_ + ":" + std::to_string(counter_.line),
+          "invalid JSON: nested deeper than " + std::to_string(kMaxDepth) + " levels");
     }
     const std::string pointer = childPointer();
     lines[pointer] = counter_.line;
@@ -180,7 +181,6 @@ class LineRecordingBuilder : public nlohmann::json_sax<json> {
   std::string duplicateKey_;
   std::size_t duplicateLine_ = 0;
 };
-
 
 }  // namespace
 

@@ -15,9 +15,9 @@
 #include <utility>
 #include <vector>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/registry.hpp"
-#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core::detail {
 
@@ -43,14 +43,14 @@ JsonDocument parseJsonWithLines(std::string_view text, const std::string& source
 Scene parseSceneDocument(const JsonDocument& doc, const std::string& sourceName,
                          const std::filesystem::path& baseDir);
 
-
 class Reader {
  public:
   Reader(std::string source, std::map<std::string, std::size_t> lines,
          std::map<std::string, std::string> labels = {})
       : source_(std::move(source)), lines_(std::move(lines)), labels_(std::move(labels)) {}
 
-  /// The pointer as messages show it: itself, or its nearest labelled ancestor's label and the rest.
+  /// The pointer as messages show it: itself, or its nearest labelled ancestor's label and the
+  /// rest.
   std::string shown(const std::string& pointer) const {
     if (labels_.empty()) return pointer.empty() ? "/" : pointer;
     std::string p = pointer;
@@ -121,7 +121,8 @@ class Reader {
     }
   }
 
-  void checkKeys(const json& obj, const std::string& ptr, const std::vector<std::string>& allowed) const {
+  void checkKeys(const json& obj, const std::string& ptr,
+                 const std::vector<std::string>& allowed) const {
     for (auto it = obj.begin(); it != obj.end(); ++it) {
       if (std::find(allowed.begin(), allowed.end(), it.key()) == allowed.end()) {
         std::string list;
@@ -223,7 +224,6 @@ class Reader {
   std::map<std::string, std::string> labels_;
 };
 
-
 /// The keys of one JSON object as a component's parameters: every key that is not one of the
 /// component's keys (or of `extraKeys`) is an error naming the keys, and the component that owns
 /// it when it belongs to another one.
@@ -247,7 +247,8 @@ class JsonParameterSource : public ParameterSource {
     const json& a = at(key);
     r_.expectArray(a, path(key));
     std::vector<long> out;
-    for (std::size_t i = 0; i < a.size(); ++i) out.push_back(r_.integer(a[i], path(key) + "/" + Reader::idx(i), min, max));
+    for (std::size_t i = 0; i < a.size(); ++i)
+      out.push_back(r_.integer(a[i], path(key) + "/" + Reader::idx(i), min, max));
     return out;
   }
   std::vector<std::vector<double>> rows(std::string_view key, std::size_t width,
@@ -255,20 +256,22 @@ class JsonParameterSource : public ParameterSource {
     const json& a = at(key);
     r_.expectArray(a, path(key));
     if (a.size() < minCount)
-      r_.fail(path(key), "expected at least " + std::to_string(minCount) + " entries, got " + std::to_string(a.size()));
+      r_.fail(path(key), "expected at least " + std::to_string(minCount) + " entries, got " +
+                             std::to_string(a.size()));
     std::vector<std::vector<double>> out;
     for (std::size_t i = 0; i < a.size(); ++i) {
       const std::string rp = path(key) + "/" + Reader::idx(i);
       if (!a[i].is_array() || a[i].size() != width)
         r_.fail(rp, "expected an array of " + std::to_string(width) + " numbers");
       std::vector<double> row;
-      for (std::size_t k = 0; k < width; ++k) row.push_back(r_.number(a[i][k], rp + "/" + Reader::idx(k)));
+      for (std::size_t k = 0; k < width; ++k)
+        row.push_back(r_.number(a[i][k], rp + "/" + Reader::idx(k)));
       out.push_back(std::move(row));
     }
     return out;
   }
-  std::unique_ptr<ParameterSource> object(std::string_view key,
-                                          std::initializer_list<std::string_view> keys) const override {
+  std::unique_ptr<ParameterSource> object(
+      std::string_view key, std::initializer_list<std::string_view> keys) const override {
     const json& o = at(key);
     r_.expectObject(o, path(key));
     r_.checkKeys(o, path(key), keys);
@@ -278,7 +281,9 @@ class JsonParameterSource : public ParameterSource {
   std::vector<Vec3> points(std::string_view key, std::size_t minCount) const override {
     return r_.points(at(key), path(key), minCount);
   }
-  std::pair<Vec3, Vec3> box(std::string_view key) const override { return r_.box(at(key), path(key)); }
+  std::pair<Vec3, Vec3> box(std::string_view key) const override {
+    return r_.box(at(key), path(key));
+  }
   using ParameterSource::boolean;
   using ParameterSource::integer;
   using ParameterSource::number;
@@ -286,15 +291,17 @@ class JsonParameterSource : public ParameterSource {
 
  private:
   const json& at(std::string_view key) const { return r_.require(j_, ptr_, std::string(key)); }
-  std::string path(std::string_view key) const { return ptr_ + "/" + escapePointerToken(std::string(key)); }
+  std::string path(std::string_view key) const {
+    return ptr_ + "/" + escapePointerToken(std::string(key));
+  }
   const Reader& r_;
   const json& j_;
   std::string ptr_;
 };
 
 /// Checks the keys of a component's object against its registry entry: its type key ("type", or
-/// "action" for timeline actions), the entry's keys and `extraKeys`; an unknown key names the expected ones and, if another component of the
-/// registry has it, that component.
+/// "action" for timeline actions), the entry's keys and `extraKeys`; an unknown key names the
+/// expected ones and, if another component of the registry has it, that component.
 template <class Registry>
 void checkComponentKeys(const Reader& r, const json& obj, const std::string& ptr,
                         const Registry& registry, const typename Registry::Entry& entry,
@@ -318,7 +325,8 @@ void checkComponentKeys(const Reader& r, const json& obj, const std::string& ptr
     for (const std::string& o : found) owners += (owners.empty() ? "" : ", ") + o;
     r.fail(ptr + "/" + escapePointerToken(key),
            "unknown key \"" + key + "\" for " + entry.name +
-               (owners.empty() ? "" : " (it belongs to " + owners + ")") + "; expected one of: " + list);
+               (owners.empty() ? "" : " (it belongs to " + owners + ")") +
+               "; expected one of: " + list);
   }
 }
 

@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
-#include "cutsim/core/registries.hpp"
-#include "cutsim/core/scene.hpp"
-#include "cutsim/core/contact_step.hpp"
-#include "cutsim/core/timeline.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/core/contact_step.hpp"
+#include "cutsim/core/registries.hpp"
+#include "cutsim/core/scene.hpp"
+#include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
 
 namespace cutsim::core {
@@ -54,8 +54,8 @@ class SceneRunner::Context final : public ActionContext {
   }
   std::string located(const std::string& message) const {
     const SceneLocation& where = current->location;
-    return (where.pointer.empty() ? "/" : where.pointer) + ": at t = " + describeNumber(r_.time()) + " " +
-           message;
+    return (where.pointer.empty() ? "/" : where.pointer) + ": at t = " + describeNumber(r_.time()) +
+           " " + message;
   }
   void countCut() override { ++r_.cutsDone_; }
   void countTorn(long edges) override { r_.tornEdges_ += edges; }
@@ -65,7 +65,8 @@ class SceneRunner::Context final : public ActionContext {
   SceneRunner& r_;
 };
 
-SceneRunner::SceneRunner(const Scene& scene) : scene_(scene), context_(std::make_unique<Context>(*this)) {
+SceneRunner::SceneRunner(const Scene& scene)
+    : scene_(scene), context_(std::make_unique<Context>(*this)) {
   build(true);
 }
 
@@ -77,7 +78,8 @@ SceneRunner::SceneRunner(const Scene& scene, Rehearsal)
 void SceneRunner::rehearseTimeline(const Scene& scene) {
   SceneRunner r(scene, Rehearsal{});
   double end = 0.0;
-  for (const ActionSpec& a : scene.timeline) end = std::max(end, a.timing.interval ? a.timing.to : a.timing.at);
+  for (const ActionSpec& a : scene.timeline)
+    end = std::max(end, a.timing.interval ? a.timing.to : a.timing.at);
   const long steps = std::min(r.numSteps_, long(std::ceil(end / r.timeStep_ - 1e-9)) + 1);
   r.start();
   while (r.step_ < steps) r.stepOnce();
@@ -102,15 +104,21 @@ void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) 
   for (std::size_t i = 0; physics && i < scene_.forceFields.size(); ++i) {
     const ForceFieldSpec& f = scene_.forceFields[i];
     const auto* entry = forcefields::ForceFieldRegistry::instance().find(f.type);
-    if (!entry) throw InvalidInput(f.location.where(scene_.file.string()), "unknown force field type \"" + f.type + "\"");
+    if (!entry)
+      throw InvalidInput(f.location.where(scene_.file.string()),
+                         "unknown force field type \"" + f.type + "\"");
     sim_->addForceField(entry->build(f.parameters, sim_->topology()), labels[i]);
   }
   if (physics && scene_.contact)
-    addContact(*sim_, std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
-               labels.back());
+    addContact(
+        *sim_,
+        std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
+        labels.back());
   for (const ConstraintSpec& c : scene_.constraints) {
     const auto* entry = ConstraintRegistry::instance().find(c.type);
-    if (!entry) throw InvalidInput(c.location.where(scene_.file.string()), "unknown constraint type \"" + c.type + "\"");
+    if (!entry)
+      throw InvalidInput(c.location.where(scene_.file.string()),
+                         "unknown constraint type \"" + c.type + "\"");
     entry->build(c.parameters)->apply(*sim_);
   }
   if (physics) sim_->setIntegrator(makeIntegrator(scene_));
@@ -124,11 +132,14 @@ std::unique_ptr<Integrator> SceneRunner::makeIntegrator(const Scene& scene) {
   std::unique_ptr<LinearSolver> solver;
   if (scene.linearSolver) {
     const auto* entry = LinearSolverRegistry::instance().find(scene.linearSolver->type);
-    if (!entry) throw InvalidInput("linearSolver", "unknown linear solver type \"" + scene.linearSolver->type + "\"");
+    if (!entry)
+      throw InvalidInput("linearSolver",
+                         "unknown linear solver type \"" + scene.linearSolver->type + "\"");
     solver = entry->build(scene.linearSolver->parameters);
   }
   const auto* entry = IntegratorRegistry::instance().find(scene.integrator.type);
-  if (!entry) throw InvalidInput("integrator", "unknown integrator type \"" + scene.integrator.type + "\"");
+  if (!entry)
+    throw InvalidInput("integrator", "unknown integrator type \"" + scene.integrator.type + "\"");
   return entry->build(scene.integrator.parameters, std::move(solver));
 }
 
@@ -142,7 +153,8 @@ void SceneRunner::setTimeStep(double dt) {
   // The steps of dt that reach the duration (as Scene::numSteps rounds), after those taken.
   const double n = std::max(0.0, (scene_.duration - now) / dt);
   if (n > 1e12)
-    throw InvalidInput("timeStep", "more than 1e12 steps of " + describeNumber(dt) + " to the end of the scene");
+    throw InvalidInput(
+        "timeStep", "more than 1e12 steps of " + describeNumber(dt) + " to the end of the scene");
   const double r = std::round(n);
   numSteps_ = step_ + (std::abs(n - r) <= 1e-9 * std::max(1.0, r) ? long(r) : long(std::ceil(n)));
   timeBase_ = now;
@@ -153,8 +165,9 @@ void SceneRunner::setTimeStep(double dt) {
 void SceneRunner::schedule(ActionSpec action) {
   edited_ = true;
   const double begins = action.startTime();
-  auto at = std::upper_bound(scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), begins,
-                             [](double t, const std::unique_ptr<ActionSpec>& a) { return t < a->startTime(); });
+  auto at = std::upper_bound(
+      scheduled_.begin() + std::ptrdiff_t(nextScheduled_), scheduled_.end(), begins,
+      [](double t, const std::unique_ptr<ActionSpec>& a) { return t < a->startTime(); });
   scheduled_.insert(at, std::make_unique<ActionSpec>(std::move(action)));
   if (!started_)
     start();  // the scene's actions due at time 0 first
@@ -165,13 +178,16 @@ void SceneRunner::schedule(ActionSpec action) {
 void SceneRunner::replaceForceField(std::size_t i, const ForceFieldSpec& spec) {
   edited_ = true;
   const auto* entry = forcefields::ForceFieldRegistry::instance().find(spec.type);
-  if (!entry) throw InvalidInput(spec.location.where(scene_.file.string()), "unknown force field type \"" + spec.type + "\"");
+  if (!entry)
+    throw InvalidInput(spec.location.where(scene_.file.string()),
+                       "unknown force field type \"" + spec.type + "\"");
   if (i >= scene_.forceFields.size())
-    throw InvalidInput("forceFields", "the scene has " + std::to_string(scene_.forceFields.size()) + " force fields (asked for " +
-                                          std::to_string(i) + ")");
+    throw InvalidInput("forceFields", "the scene has " + std::to_string(scene_.forceFields.size()) +
+                                          " force fields (asked for " + std::to_string(i) + ")");
   if (spec.type != scene_.forceFields[i].type)
     throw InvalidInput(spec.location.where(scene_.file.string()),
-                       "/type: force field " + std::to_string(i) + " is a " + scene_.forceFields[i].type +
+                       "/type: force field " + std::to_string(i) + " is a " +
+                           scene_.forceFields[i].type +
                            ": its parameters can change, not its type (got \"" + spec.type + "\")");
   sim_->model().replaceForceField(i, entry->build(spec.parameters, sim_->topology()));
   scene_.forceFields[i].parameters = spec.parameters;
@@ -180,13 +196,17 @@ void SceneRunner::replaceForceField(std::size_t i, const ForceFieldSpec& spec) {
 void SceneRunner::applyConstraint(const ConstraintSpec& constraint) {
   edited_ = true;
   const auto* entry = ConstraintRegistry::instance().find(constraint.type);
-  if (!entry) throw InvalidInput(constraint.location.where(scene_.file.string()), "unknown constraint type \"" + constraint.type + "\"");
+  if (!entry)
+    throw InvalidInput(constraint.location.where(scene_.file.string()),
+                       "unknown constraint type \"" + constraint.type + "\"");
   entry->build(constraint.parameters)->apply(*sim_);
 }
 
 const forcefields::FastTriangularBendingSprings* SceneRunner::bendingField() const {
   for (std::size_t i = 0; i < sim_->numForceFields(); ++i) {
-    if (auto* f = dynamic_cast<const forcefields::FastTriangularBendingSprings*>(&sim_->forceField(i))) return f;
+    if (auto* f =
+            dynamic_cast<const forcefields::FastTriangularBendingSprings*>(&sim_->forceField(i)))
+      return f;
   }
   return nullptr;
 }
@@ -244,7 +264,8 @@ void SceneRunner::runDueActions(double t) {
     const bool fromScene =
         sceneDue && (!scheduledDue || scene_.timeline[nextAction_].startTime() <=
                                           scheduled_[nextScheduled_]->startTime());
-    const ActionSpec& spec = fromScene ? scene_.timeline[nextAction_++] : *scheduled_[nextScheduled_++];
+    const ActionSpec& spec =
+        fromScene ? scene_.timeline[nextAction_++] : *scheduled_[nextScheduled_++];
     std::unique_ptr<TimelineAction> action = spec.build();
     if (rehearsal_ && !action->rehearsed()) continue;
     running_.push_back({&spec, std::move(action)});
@@ -264,9 +285,12 @@ void SceneRunner::runDueActions(double t) {
 std::vector<std::string> SceneRunner::notSavableNow() const {
   std::vector<std::string> out = sim_->notCheckpointable();
   for (const Running& r : running_)
-    if (!r.action->checkpointable()) out.push_back("the " + r.spec->type + " action (" + r.spec->location.pointer + ")");
+    if (!r.action->checkpointable())
+      out.push_back("the " + r.spec->type + " action (" + r.spec->location.pointer + ")");
   if (rehearsal_) out.push_back("a rehearsal");
-  if (edited_) out.push_back("changes made while running (actions given, force fields replaced, constraints applied)");
+  if (edited_)
+    out.push_back(
+        "changes made while running (actions given, force fields replaced, constraints applied)");
   return out;
 }
 
@@ -274,7 +298,8 @@ std::vector<std::string> SceneRunner::notCheckpointable() const {
   std::vector<std::string> out = notSavableNow();
   for (std::size_t i = nextAction_; i < scene_.timeline.size(); ++i) {
     const ActionSpec& a = scene_.timeline[i];
-    if (!a.build()->checkpointable()) out.push_back("the " + a.type + " action (" + a.location.pointer + ")");
+    if (!a.build()->checkpointable())
+      out.push_back("the " + a.type + " action (" + a.location.pointer + ")");
   }
   return out;
 }
@@ -327,25 +352,29 @@ SceneRunner::SceneRunner(const Scene& scene, ArchiveReader& in)
   cutsDone_ = long(in.i64());
   if (step_ < 0 || numSteps_ < step_ || nextAction_ > scene_.timeline.size() || !(timeStep_ > 0) ||
       !std::isfinite(timeStep_) || stepBase_ < 0 || stepBase_ > step_ || !std::isfinite(timeBase_))
-    in.fail("step " + std::to_string(step_) + " of " + std::to_string(numSteps_) + ", next action " +
-            std::to_string(nextAction_) + " of " + std::to_string(scene_.timeline.size()) +
-            ": not a run of this scene");
+    in.fail("step " + std::to_string(step_) + " of " + std::to_string(numSteps_) +
+            ", next action " + std::to_string(nextAction_) + " of " +
+            std::to_string(scene_.timeline.size()) + ": not a run of this scene");
   const std::uint64_t n = in.u64();
-  if (n > nextAction_) in.fail(std::to_string(n) + " started actions, " + std::to_string(nextAction_) + " due so far");
+  if (n > nextAction_)
+    in.fail(std::to_string(n) + " started actions, " + std::to_string(nextAction_) + " due so far");
   for (std::uint64_t k = 0; k < n; ++k) {
     const std::uint64_t i = in.u64();
     const std::string type = in.str();
     if (i >= nextAction_ || type != scene_.timeline[i].type)
-      in.fail("a started action " + type + " at " + std::to_string(i) + " that the scene's timeline does not have");
+      in.fail("a started action " + type + " at " + std::to_string(i) +
+              " that the scene's timeline does not have");
     running_.push_back({&scene_.timeline[i], scene_.timeline[i].build()});
     running_.back().action->loadState(in, *sim_);
   }
   in.close();
-  if (std::abs(sim_->time() - time()) > 1e-9 * std::max(1.0, std::abs(time())) || sim_->steps() != step_)
-    in.fail("the simulation's clock (step " + std::to_string(sim_->steps()) + ") and the timeline's (step " +
-            std::to_string(step_) + ") differ");
+  if (std::abs(sim_->time() - time()) > 1e-9 * std::max(1.0, std::abs(time())) ||
+      sim_->steps() != step_)
+    in.fail("the simulation's clock (step " + std::to_string(sim_->steps()) +
+            ") and the timeline's (step " + std::to_string(step_) + ") differ");
   const topology::ValidationReport report = sim_->topology().validate();
-  if (!report.ok()) in.fail("the restored simulation does not validate: " + report.problems.front());
+  if (!report.ok())
+    in.fail("the restored simulation does not validate: " + report.problems.front());
 }
 
 }  // namespace cutsim::core

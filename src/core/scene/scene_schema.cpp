@@ -2,20 +2,20 @@
 // integrators and linear solvers read through their registries) and loadScene. The format is
 // described in docs/scenes.md.
 #include <algorithm>
-#include <limits>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
 
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
+#include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
 #include "scene/scene_internal.hpp"
 #include "scene/scene_json.hpp"
-#include "cutsim/core/sofa_scene.hpp"
 
 namespace cutsim::core {
 
@@ -48,7 +48,8 @@ void parseGrid(const Reader& r, const json& j, const std::string& ptr, GridSpec&
       g.alternating = true;
     } else if (v == "oneway") {
       g.alternating = false;
-    } else if (v == "downward") {  // SOFA's GridMeshCreator pattern 3: every cell along (i+1,j)-(i,j+1)
+    } else if (v ==
+               "downward") {  // SOFA's GridMeshCreator pattern 3: every cell along (i+1,j)-(i,j+1)
       g.alternating = false;
       g.downward = true;
     } else {
@@ -70,7 +71,8 @@ void parseGrid(const Reader& r, const json& j, const std::string& ptr, GridSpec&
   if (g.width > 1e100) r.fail(ptr + "/size/0", "must be at most 1e100");
   if (g.height > 1e100) r.fail(ptr + "/size/1", "must be at most 1e100");
   for (std::size_t k = 0; k < 3; ++k)
-    if (std::abs(g.origin[k]) > 1e100) r.fail(ptr + "/origin/" + std::to_string(k), "must be at most 1e100 in size");
+    if (std::abs(g.origin[k]) > 1e100)
+      r.fail(ptr + "/origin/" + std::to_string(k), "must be at most 1e100 in size");
 }
 
 ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string& ptr) {
@@ -81,15 +83,17 @@ ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string
   const auto& registry = forcefields::ForceFieldRegistry::instance();
   const auto* entry = registry.find(f.type);
   if (!entry) {
-    r.fail(ptr + "/type", "unknown force field type \"" + f.type + "\" (registered: " +
-                              registeredNames(registry) + ")");
+    r.fail(ptr + "/type", "unknown force field type \"" + f.type +
+                              "\" (registered: " + registeredNames(registry) + ")");
   }
   checkComponentKeys(r, j, ptr, registry, *entry, {"label"});
   if (const json* l = r.find(j, "label")) {
     f.label = r.string(*l, ptr + "/label");
     if (f.label.empty()) r.fail(ptr + "/label", "must not be empty");
-    if (f.label.find_first_of(",\"\n\r") != std::string::npos || f.label.find('\0') != std::string::npos)
-      r.fail(ptr + "/label", "must not contain a comma, a quote or a line break (it names CSV columns and files)");
+    if (f.label.find_first_of(",\"\n\r") != std::string::npos ||
+        f.label.find('\0') != std::string::npos)
+      r.fail(ptr + "/label",
+             "must not contain a comma, a quote or a line break (it names CSV columns and files)");
   }
   f.parameters = entry->read(JsonParameterSource(r, j, ptr));
   return f;
@@ -100,12 +104,14 @@ ForceFieldSpec parseForceField(const Reader& r, const json& j, const std::string
 /// an integrator, or the other way round).
 std::vector<std::string> linearSolversWithKey(const std::string& key) {
   std::vector<std::string> out;
-  for (std::string& o : LinearSolverRegistry::instance().ownersOf(key)) out.push_back("the linear solver " + o);
+  for (std::string& o : LinearSolverRegistry::instance().ownersOf(key))
+    out.push_back("the linear solver " + o);
   return out;
 }
 std::vector<std::string> integratorsWithKey(const std::string& key) {
   std::vector<std::string> out;
-  for (std::string& o : IntegratorRegistry::instance().ownersOf(key)) out.push_back("the integrator " + o);
+  for (std::string& o : IntegratorRegistry::instance().ownersOf(key))
+    out.push_back("the integrator " + o);
   return out;
 }
 
@@ -117,8 +123,10 @@ ComponentSpec parseComponent(const Reader& r, const json& j, const std::string& 
   ComponentSpec c;
   c.location = r.location(ptr);
   c.type = defaultType;
-  if (const json* t = r.find(j, "type")) c.type = r.string(*t, ptr + "/type");
-  else if (defaultType.empty()) r.fail(ptr, "missing key \"type\"");
+  if (const json* t = r.find(j, "type"))
+    c.type = r.string(*t, ptr + "/type");
+  else if (defaultType.empty())
+    r.fail(ptr, "missing key \"type\"");
   const auto* entry = registry.find(c.type);
   if (!entry) {
     r.fail(ptr + "/type", "unknown " + std::string(kind) + " type \"" + c.type +
@@ -134,8 +142,8 @@ ComponentSpec parseComponent(const Reader& r, const json& j, const std::string& 
 void parseSolverShorthand(const Reader& r, const json& j, const std::string& ptr, Scene& s) {
   r.expectObject(j, ptr);
   for (auto it = j.begin(); it != j.end(); ++it) {
-    static const std::vector<std::string> keys{"type", "iterations", "tolerance", "warmStart",
-                                               "rayleighMass", "rayleighStiffness"};
+    static const std::vector<std::string> keys{"type",      "iterations",   "tolerance",
+                                               "warmStart", "rayleighMass", "rayleighStiffness"};
     if (std::find(keys.begin(), keys.end(), it.key()) == keys.end())
       r.fail(ptr + "/" + escapePointerToken(it.key()),
              "unknown key \"" + it.key() +
@@ -149,29 +157,34 @@ void parseSolverShorthand(const Reader& r, const json& j, const std::string& ptr
     try {
       legacy.kind = parseSolverKind(type);
     } catch (const InvalidInput&) {
-      r.fail(ptr + "/type", "unknown solver type \"" + type +
-                                "\" (explicit, implicit-cg, implicit-cholmod; or give \"integrator\" "
-                                "and \"linearSolver\")");
+      r.fail(ptr + "/type",
+             "unknown solver type \"" + type +
+                 "\" (explicit, implicit-cg, implicit-cholmod; or give \"integrator\" "
+                 "and \"linearSolver\")");
     }
   }
   const bool isExplicit = legacy.kind == SolverSettings::Kind::Explicit;
   const bool cg = legacy.kind == SolverSettings::Kind::ImplicitCG;
-  for (const char* key : {"iterations", "tolerance", "warmStart", "rayleighMass", "rayleighStiffness"}) {
-    const bool cgKey = std::string_view(key) == "iterations" || std::string_view(key) == "tolerance" ||
-                       std::string_view(key) == "warmStart";
+  for (const char* key :
+       {"iterations", "tolerance", "warmStart", "rayleighMass", "rayleighStiffness"}) {
+    const bool cgKey = std::string_view(key) == "iterations" ||
+                       std::string_view(key) == "tolerance" || std::string_view(key) == "warmStart";
     if (r.find(j, key) && (isExplicit || (cgKey && !cg)))
-      r.fail(ptr + "/" + key, "the solver \"" + std::string(toString(legacy.kind)) + "\" does not use \"" +
-                                  key + "\" (it is a setting of " +
+      r.fail(ptr + "/" + key, "the solver \"" + std::string(toString(legacy.kind)) +
+                                  "\" does not use \"" + key + "\" (it is a setting of " +
                                   (cgKey ? "the linear solver cg" : "the implicit integrators") +
                                   "; give \"integrator\" and \"linearSolver\" to choose each)");
   }
   CGSettings cgs;
-  if (const json* v = r.find(j, "iterations")) cgs.maxIterations = int(r.integer(*v, ptr + "/iterations", 1, 1000000));
+  if (const json* v = r.find(j, "iterations"))
+    cgs.maxIterations = int(r.integer(*v, ptr + "/iterations", 1, 1000000));
   if (const json* v = r.find(j, "tolerance")) cgs.tolerance = r.positive(*v, ptr + "/tolerance");
   if (const json* v = r.find(j, "warmStart")) cgs.warmStart = r.boolean(*v, ptr + "/warmStart");
   ImplicitSettings is;
-  if (const json* v = r.find(j, "rayleighMass")) is.rayleighMass = r.nonNegative(*v, ptr + "/rayleighMass");
-  if (const json* v = r.find(j, "rayleighStiffness")) is.rayleighStiffness = r.nonNegative(*v, ptr + "/rayleighStiffness");
+  if (const json* v = r.find(j, "rayleighMass"))
+    is.rayleighMass = r.nonNegative(*v, ptr + "/rayleighMass");
+  if (const json* v = r.find(j, "rayleighStiffness"))
+    is.rayleighStiffness = r.nonNegative(*v, ptr + "/rayleighStiffness");
   const SceneLocation loc = r.location(ptr);
   if (isExplicit) {
     s.integrator = {"explicit-euler", std::any{}, loc};
@@ -220,8 +233,10 @@ void parseStepping(const Reader& r, const json& root, Scene& s) {
     s.linearSolver = parseComponent(r, *linear, "/linearSolver", LinearSolverRegistry::instance(),
                                     "linear solver", "", integratorsWithKey);
     if (s.integrator.type == "sofa-euler" && s.linearSolver->type != "sofa-cg")
-      r.fail("/linearSolver/type", "the integrator \"sofa-euler\" solves with \"sofa-cg\" (SOFA's CGLinearSolver), not \"" +
-                                       s.linearSolver->type + "\"");
+      r.fail(
+          "/linearSolver/type",
+          "the integrator \"sofa-euler\" solves with \"sofa-cg\" (SOFA's CGLinearSolver), not \"" +
+              s.linearSolver->type + "\"");
   } else if (s.integrator.type == "sofa-euler") {
     s.linearSolver = ComponentSpec{"sofa-cg", SofaCGSettings{}, s.integrator.location};
   } else if (usesSolver) {
@@ -260,7 +275,8 @@ ActionTiming parseTiming(const Reader& r, const json& j, const std::string& ptr,
   bool hasInterval = false;
   for (const KeyInfo& k : entry.keys) hasInterval = hasInterval || k.name == "from";
   if (hasInterval && (r.find(j, "from") || r.find(j, "to"))) {
-    if (r.find(j, "at")) r.fail(ptr + "/at", "a " + entry.name + " has either \"at\" or \"from\" and \"to\"");
+    if (r.find(j, "at"))
+      r.fail(ptr + "/at", "a " + entry.name + " has either \"at\" or \"from\" and \"to\"");
     timing.interval = true;
     timing.from = actionTime(r, r.require(j, ptr, "from"), ptr + "/from", duration);
     timing.to = actionTime(r, r.require(j, ptr, "to"), ptr + "/to", duration);
@@ -279,7 +295,8 @@ ActionSpec parseAction(const Reader& r, const json& j, const std::string& ptr, d
   const auto& registry = ActionRegistry::instance();
   const auto* entry = registry.find(a.type);
   if (!entry)
-    r.fail(ptr + "/action", "unknown action \"" + a.type + "\" (" + registeredNames(registry) + ")");
+    r.fail(ptr + "/action",
+           "unknown action \"" + a.type + "\" (" + registeredNames(registry) + ")");
   a.timing = parseTiming(r, j, ptr, duration, *entry);
   checkComponentKeys(r, j, ptr, registry, *entry, {}, nullptr, "action");
   a.parameters = entry->read(JsonParameterSource(r, j, ptr));
@@ -294,7 +311,8 @@ ConstraintSpec parseConstraint(const Reader& r, const json& j, const std::string
   const auto& registry = ConstraintRegistry::instance();
   const auto* entry = registry.find(c.type);
   if (!entry)
-    r.fail(ptr + "/type", "unknown constraint type \"" + c.type + "\" (" + registeredNames(registry) + ")");
+    r.fail(ptr + "/type",
+           "unknown constraint type \"" + c.type + "\" (" + registeredNames(registry) + ")");
   checkComponentKeys(r, j, ptr, registry, *entry, {});
   c.parameters = entry->read(JsonParameterSource(r, j, ptr));
   return c;
@@ -398,7 +416,8 @@ std::vector<std::string> Scene::graspNames() const {
   std::vector<std::string> names;
   for (const ActionSpec& a : timeline) {
     const std::string name = a.build()->graspName();
-    if (!name.empty() && std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    if (!name.empty() && std::find(names.begin(), names.end(), name) == names.end())
+      names.push_back(name);
   }
   return names;
 }
@@ -413,7 +432,8 @@ namespace detail {
 namespace {
 
 /// "mesh": a file name, {"file"} or {"grid"}. Returns the pointer that names the mesh.
-std::string parseMesh(const Reader& r, const json& root, const std::filesystem::path& baseDir, Scene& s) {
+std::string parseMesh(const Reader& r, const json& root, const std::filesystem::path& baseDir,
+                      Scene& s) {
   const json& mesh = r.require(root, "", "mesh");
   std::string meshPtr = "/mesh";
   const json* meshFile = nullptr;
@@ -423,7 +443,8 @@ std::string parseMesh(const Reader& r, const json& root, const std::filesystem::
     r.checkKeys(mesh, meshPtr, {"file", "grid", "scale", "rotation", "translation"});
     const json* file = r.find(mesh, "file");
     const json* grid = r.find(mesh, "grid");
-    if ((file != nullptr) == (grid != nullptr)) r.fail(meshPtr, "give exactly one of \"file\" or \"grid\"");
+    if ((file != nullptr) == (grid != nullptr))
+      r.fail(meshPtr, "give exactly one of \"file\" or \"grid\"");
     if (const json* v = r.find(mesh, "scale")) {
       if (v->is_number()) {
         const double k = r.positive(*v, meshPtr + "/scale");
@@ -431,11 +452,14 @@ std::string parseMesh(const Reader& r, const json& root, const std::filesystem::
       } else {
         s.meshTransform.scale = r.vec3(*v, meshPtr + "/scale");
         for (int k = 0; k < 3; ++k)
-          if (!(s.meshTransform.scale[std::size_t(k)] > 0)) r.fail(meshPtr + "/scale/" + Reader::idx(std::size_t(k)), "must be > 0");
+          if (!(s.meshTransform.scale[std::size_t(k)] > 0))
+            r.fail(meshPtr + "/scale/" + Reader::idx(std::size_t(k)), "must be > 0");
       }
     }
-    if (const json* v = r.find(mesh, "rotation")) s.meshTransform.rotation = r.vec3(*v, meshPtr + "/rotation");
-    if (const json* v = r.find(mesh, "translation")) s.meshTransform.translation = r.vec3(*v, meshPtr + "/translation");
+    if (const json* v = r.find(mesh, "rotation"))
+      s.meshTransform.rotation = r.vec3(*v, meshPtr + "/rotation");
+    if (const json* v = r.find(mesh, "translation"))
+      s.meshTransform.translation = r.vec3(*v, meshPtr + "/translation");
     if (file) {
       meshFile = file;
       meshPtr += "/file";
@@ -445,7 +469,8 @@ std::string parseMesh(const Reader& r, const json& root, const std::filesystem::
       s.grid = g;
     }
   } else {
-    r.fail(meshPtr, "expected a file name or an object {\"file\"} or {\"grid\"}, got " + Reader::typeName(mesh));
+    r.fail(meshPtr, "expected a file name or an object {\"file\"} or {\"grid\"}, got " +
+                        Reader::typeName(mesh));
   }
   if (meshFile) {
     const std::string name = r.string(*meshFile, meshPtr);
@@ -472,19 +497,24 @@ void parseMass(const Reader& r, const json& root, Scene& s) {
   if (const json* l = r.find(m, "lumping")) {
     const std::string lumping = r.string(*l, ptr + "/lumping");
     if (lumping != "area" && lumping != "uniform")
-      r.fail(ptr + "/lumping", "unknown value \"" + lumping + "\" (area: by triangle areas; uniform: the same mass on every point)");
+      r.fail(ptr + "/lumping",
+             "unknown value \"" + lumping +
+                 "\" (area: by triangle areas; uniform: the same mass on every point)");
     s.massUniform = lumping == "uniform";
   }
   if (p) s.massUniform = true;
   if (d) {
-    if (s.massUniform) r.fail(ptr + "/density", "a density is spread by area: it does not go with \"lumping\": \"uniform\"");
+    if (s.massUniform)
+      r.fail(ptr + "/density",
+             "a density is spread by area: it does not go with \"lumping\": \"uniform\"");
     s.density = r.positive(*d, ptr + "/density");
   } else if (t) {
     s.massByTotal = true;
     s.totalMass = r.positive(*t, ptr + "/total");
   } else {
     if (const json* l = r.find(m, "lumping"); l && !s.massUniform)
-      r.fail(ptr + "/lumping", "a mass per point is uniform: it does not go with \"lumping\": \"area\"");
+      r.fail(ptr + "/lumping",
+             "a mass per point is uniform: it does not go with \"lumping\": \"area\"");
     s.perPointMass = r.positive(*p, ptr + "/perPoint");
   }
 }
@@ -495,13 +525,17 @@ void parseHeader(const Reader& r, const json& root, const std::string& sourceNam
   s.name = std::filesystem::path(sourceName).stem().string();
   if (const json* v = r.find(root, "name")) {
     s.name = r.string(*v, "/name");
-    if (s.name.empty() || s.name.find_first_of("/\\") != std::string::npos || s.name == "." || s.name == "..")
+    if (s.name.empty() || s.name.find_first_of("/\\") != std::string::npos || s.name == "." ||
+        s.name == "..")
       r.fail("/name", "must be a plain file name (no slash)");
     // It names the output folder: a name every file system takes.
-    if (s.name.size() > 200) r.fail("/name", "must be at most 200 bytes long (it names the output folder)");
+    if (s.name.size() > 200)
+      r.fail("/name", "must be at most 200 bytes long (it names the output folder)");
     for (unsigned char c : s.name)
       if (c < 0x20 || c == 0x7f)
-        r.fail("/name", "must not contain control characters such as a line break (it names the output folder)");
+        r.fail("/name",
+               "must not contain control characters such as a line break (it names the output "
+               "folder)");
   }
   if (const json* v = r.find(root, "description")) s.description = r.string(*v, "/description");
 }
@@ -517,25 +551,30 @@ void parseConstraintsAndTimeline(const Reader& r, const json& root, Scene& s) {
     r.expectArray(*v, "/timeline");
     for (std::size_t i = 0; i < v->size(); ++i)
       s.timeline.push_back(parseAction(r, (*v)[i], "/timeline/" + Reader::idx(i), s.duration));
-    std::stable_sort(s.timeline.begin(), s.timeline.end(),
-                     [](const ActionSpec& a, const ActionSpec& b) { return a.startTime() < b.startTime(); });
+    std::stable_sort(
+        s.timeline.begin(), s.timeline.end(),
+        [](const ActionSpec& a, const ActionSpec& b) { return a.startTime() < b.startTime(); });
   }
 }
 
 void parseContact(const Reader& r, const json& j, const std::string& ptr, Scene& s) {
   r.expectObject(j, ptr);
-  r.checkKeys(j, ptr, {"thickness", "stiffness", "friction", "stickVelocity", "selfContact",
-                       "displacementFraction", "splitAbove", "maxSplits"});
+  r.checkKeys(j, ptr,
+              {"thickness", "stiffness", "friction", "stickVelocity", "selfContact",
+               "displacementFraction", "splitAbove", "maxSplits"});
   forcefields::ContactParameters c;
   c.thickness = r.positive(r.require(j, ptr, "thickness"), ptr + "/thickness");
   c.stiffness = r.positive(r.require(j, ptr, "stiffness"), ptr + "/stiffness");
   if (const json* v = r.find(j, "friction")) c.friction = r.nonNegative(*v, ptr + "/friction");
-  if (const json* v = r.find(j, "stickVelocity")) c.stickVelocity = r.positive(*v, ptr + "/stickVelocity");
+  if (const json* v = r.find(j, "stickVelocity"))
+    c.stickVelocity = r.positive(*v, ptr + "/stickVelocity");
   if (const json* v = r.find(j, "selfContact")) c.selfContact = r.boolean(*v, ptr + "/selfContact");
   if (const json* v = r.find(j, "displacementFraction"))
     c.displacementFraction = r.positive(*v, ptr + "/displacementFraction");
-  if (const json* v = r.find(j, "splitAbove")) c.splitAbove = r.nonNegative(*v, ptr + "/splitAbove");
-  if (const json* v = r.find(j, "maxSplits")) c.maxSplits = int(r.integer(*v, ptr + "/maxSplits", 0, 20));
+  if (const json* v = r.find(j, "splitAbove"))
+    c.splitAbove = r.nonNegative(*v, ptr + "/splitAbove");
+  if (const json* v = r.find(j, "maxSplits"))
+    c.maxSplits = int(r.integer(*v, ptr + "/maxSplits", 0, 20));
   try {
     c.validate();
   } catch (const InvalidInput& e) {
@@ -568,7 +607,8 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
     o.shape = Shape::Mesh;
     keys.insert(keys.end(), {"file", "translation", "scale"});
   } else {
-    r.fail(ptr + "/type", "unknown obstacle type \"" + type + "\" (plane, sphere, box, capsule, mesh)");
+    r.fail(ptr + "/type",
+           "unknown obstacle type \"" + type + "\" (plane, sphere, box, capsule, mesh)");
   }
   r.checkKeys(j, ptr, keys);
   if (const json* v = r.find(j, "name")) o.name = r.string(*v, ptr + "/name");
@@ -586,7 +626,8 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
       o.point = r.vec3(r.require(j, ptr, "center"), ptr + "/center");
       const Vec3 size = r.vec3(r.require(j, ptr, "size"), ptr + "/size");
       for (int c = 0; c < 3; ++c) {
-        if (!(size[std::size_t(c)] > 0)) r.fail(ptr + "/size/" + Reader::idx(std::size_t(c)), "must be > 0");
+        if (!(size[std::size_t(c)] > 0))
+          r.fail(ptr + "/size/" + Reader::idx(std::size_t(c)), "must be > 0");
         o.halfExtents[std::size_t(c)] = size[std::size_t(c)] / 2;
       }
       break;
@@ -613,8 +654,10 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
       for (const Vec3& p : m.points)
         o.vertices.push_back({scale * p[0] + t[0], scale * p[1] + t[1], scale * p[2] + t[2]});
       for (const auto& tri : m.triangles)
-        o.triangles.push_back({int(topology::Index(tri[0])), int(topology::Index(tri[1])), int(topology::Index(tri[2]))});
-      if (o.triangles.empty()) r.fail(ptr + "/file", "the obstacle mesh " + path.string() + " has no triangle");
+        o.triangles.push_back({int(topology::Index(tri[0])), int(topology::Index(tri[1])),
+                               int(topology::Index(tri[2]))});
+      if (o.triangles.empty())
+        r.fail(ptr + "/file", "the obstacle mesh " + path.string() + " has no triangle");
       break;
     }
   }
@@ -627,14 +670,17 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
       if (!row.is_array() || row.size() != 4) r.fail(kp, "expected [time, dx, dy, dz]");
       forcefields::ObstacleKey key;
       key.time = r.number(row[0], kp + "/0");
-      for (int c = 0; c < 3; ++c) key.offset[std::size_t(c)] = r.number(row[std::size_t(c + 1)], kp + "/" + Reader::idx(std::size_t(c + 1)));
+      for (int c = 0; c < 3; ++c)
+        key.offset[std::size_t(c)] =
+            r.number(row[std::size_t(c + 1)], kp + "/" + Reader::idx(std::size_t(c + 1)));
       if (k > 0 && !(key.time > o.path.back().time)) r.fail(kp + "/0", "times must increase");
       o.path.push_back(key);
     }
   }
   if (o.shape == Shape::Plane) {
     const Vec3& n = o.normal;
-    if (!(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-24)) r.fail(ptr + "/normal", "must be a nonzero vector");
+    if (!(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-24))
+      r.fail(ptr + "/normal", "must be a nonzero vector");
   }
   try {
     o.validate();
@@ -651,15 +697,18 @@ void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshDa
   forcefields::Contact contact(topo, *s.contact, s.obstacles);
   std::vector<double> x(3 * topo.pointCapacity(), 0.0);
   for (topology::PointId p : topo.points())
-    for (int c = 0; c < 3; ++c) x[3 * std::size_t(p) + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
+    for (int c = 0; c < 3; ++c)
+      x[3 * std::size_t(p) + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
   const auto found = contact.intersections(x, 1);
   if (found.empty()) return;
   const auto& c = found.front();
   std::string where = "/contact";
   for (std::size_t k = 0; k < s.obstacles.size(); ++k)
-    if (c.what.find("obstacle \"" + s.obstacles[k].name + "\"") != std::string::npos) where = "/obstacles/" + Reader::idx(k);
-  r.fail(where, "the scene starts in intersection: " + c.what +
-                    " (contact can only keep apart what starts apart: move the mesh or the obstacle)");
+    if (c.what.find("obstacle \"" + s.obstacles[k].name + "\"") != std::string::npos)
+      where = "/obstacles/" + Reader::idx(k);
+  r.fail(where,
+         "the scene starts in intersection: " + c.what +
+             " (contact can only keep apart what starts apart: move the mesh or the obstacle)");
 }
 
 }  // namespace
@@ -695,7 +744,8 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
       s.forceFields.push_back(parseForceField(r, (*v)[i], "/forceFields/" + Reader::idx(i)));
       const std::string& label = s.forceFields.back().label;
       if (!label.empty() && !labels.insert(label).second)
-        r.fail("/forceFields/" + Reader::idx(i) + "/label", "another force field has the label \"" + label + "\"");
+        r.fail("/forceFields/" + Reader::idx(i) + "/label",
+               "another force field has the label \"" + label + "\"");
     }
   }
   if (const json* v = r.find(root, "contact")) parseContact(r, *v, "/contact", s);
@@ -708,11 +758,14 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
       const std::string ptr = "/obstacles/" + Reader::idx(i);
       s.obstacles.push_back(parseObstacle(r, (*v)[i], ptr, baseDir));
       s.obstacleLocations.push_back(r.location(ptr));
-      if (s.obstacles.back().name.empty()) s.obstacles.back().name = s.obstacles.back().shapeName() + std::to_string(i);
+      if (s.obstacles.back().name.empty())
+        s.obstacles.back().name = s.obstacles.back().shapeName() + std::to_string(i);
       const std::string& name = s.obstacles.back().name;
       if (name.find_first_of(",\"\n\r") != std::string::npos)
-        r.fail(ptr + "/name", "must not contain a comma, a quote or a line break (it names CSV columns)");
-      if (!names.insert(name).second) r.fail(ptr + "/name", "another obstacle has the name \"" + name + "\"");
+        r.fail(ptr + "/name",
+               "must not contain a comma, a quote or a line break (it names CSV columns)");
+      if (!names.insert(name).second)
+        r.fail(ptr + "/name", "another obstacle has the name \"" + name + "\"");
     }
   }
   parseStepping(r, root, s);
@@ -734,20 +787,26 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
       const auto u = topology::geometry::sub(meshData.points[t[1]], meshData.points[t[0]]);
       const auto w = topology::geometry::sub(meshData.points[t[2]], meshData.points[t[0]]);
       double scale = 0;
-      for (int k = 0; k < 3; ++k) scale = std::max({scale, std::abs(u[std::size_t(k)]), std::abs(w[std::size_t(k)])});
+      for (int k = 0; k < 3; ++k)
+        scale = std::max({scale, std::abs(u[std::size_t(k)]), std::abs(w[std::size_t(k)])});
       if (!(scale <= 1e150)) {
         tooLarge = true;
         break;
       }
-      const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2], cz = u[0] * w[1] - u[1] * w[0];
+      const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
+                   cz = u[0] * w[1] - u[1] * w[0];
       area += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
       if (area > 1e300) tooLarge = true;
     }
-    const std::string massPtr = s.massByTotal ? "/mass/total" : s.perPointMass > 0 ? "/mass/perPoint" : "/mass/density";
-    if (tooLarge) r.fail(meshPtr, "the mesh's area is beyond the range of doubles: no mass can be spread over it");
+    const std::string massPtr = s.massByTotal        ? "/mass/total"
+                                : s.perPointMass > 0 ? "/mass/perPoint"
+                                                     : "/mass/density";
+    if (tooLarge)
+      r.fail(meshPtr,
+             "the mesh's area is beyond the range of doubles: no mass can be spread over it");
     if (!(area > 0)) r.fail(massPtr, "the mesh has no area: it can carry no mass");
-    if (!s.massUniform &&
-        (s.massByTotal ? !(s.totalMass / area > 0) || s.totalMass / area > 1e300 : s.density > 1e300 / area))
+    if (!s.massUniform && (s.massByTotal ? !(s.totalMass / area > 0) || s.totalMass / area > 1e300
+                                         : s.density > 1e300 / area))
       r.fail(massPtr, "the mass per area of this mesh is beyond the range of doubles");
   }
   parseConstraintsAndTimeline(r, root, s);
@@ -755,16 +814,19 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
   // A progressive cut is checked above as one cut at its start; the run makes it piece by piece
   // among the other actions, which may fail where the whole cut does not (a removal across its
   // path, a path that doubles back): the timeline is rehearsed, the surface at rest.
-  const bool progressive = std::any_of(s.timeline.begin(), s.timeline.end(), [](const ActionSpec& a) {
-    return a.type == "cut" && a.timing.interval;
-  });
+  const bool progressive =
+      std::any_of(s.timeline.begin(), s.timeline.end(),
+                  [](const ActionSpec& a) { return a.type == "cut" && a.timing.interval; });
   if (progressive) {
     try {
       SceneRunner::rehearseTimeline(s);
     } catch (const TopologyError& e) {
-      throw InvalidInput(s.file.string(), std::string(e.what()) + " (the timeline played before the run, the surface at rest)");
+      throw InvalidInput(
+          s.file.string(),
+          std::string(e.what()) + " (the timeline played before the run, the surface at rest)");
     } catch (const InvalidInput& e) {
-      throw InvalidInput(e.where(), e.message() + " (the timeline played before the run, the surface at rest)");
+      throw InvalidInput(
+          e.where(), e.message() + " (the timeline played before the run, the surface at rest)");
     }
   }
   if (s.contact) checkContactAtStart(r, s, meshData);
@@ -789,26 +851,30 @@ ActionSpec parseActionEntry(std::string_view text, const std::string& sourceName
     ActionSpec a = parseAction(r, root, "", std::numeric_limits<double>::infinity());
     const double eps = 1e-9 * std::max(1.0, std::abs(now));
     if (a.startTime() < now - eps)
-      r.fail(a.timing.interval ? "/from" : "/at",
-             "time " + Reader::text(a.startTime()) + " is before the current time " + Reader::text(now));
+      r.fail(a.timing.interval ? "/from" : "/at", "time " + Reader::text(a.startTime()) +
+                                                      " is before the current time " +
+                                                      Reader::text(now));
     return a;
   });
 }
 
 ForceFieldSpec parseForceFieldEntry(std::string_view text, const std::string& sourceName) {
-  return parseEntry<ForceFieldSpec>(text, sourceName,
-                                    [](const Reader& r, const json& root) { return parseForceField(r, root, ""); });
+  return parseEntry<ForceFieldSpec>(text, sourceName, [](const Reader& r, const json& root) {
+    return parseForceField(r, root, "");
+  });
 }
 
 ConstraintSpec parseConstraintEntry(std::string_view text, const std::string& sourceName) {
-  return parseEntry<ConstraintSpec>(text, sourceName,
-                                    [](const Reader& r, const json& root) { return parseConstraint(r, root, ""); });
+  return parseEntry<ConstraintSpec>(text, sourceName, [](const Reader& r, const json& root) {
+    return parseConstraint(r, root, "");
+  });
 }
 
 Scene loadScene(const std::filesystem::path& file) {
   {
     std::string ext = file.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
     if (ext == ".scn") return sceneFromSofa(importSofaScene(file));
   }
   return parseScene(readSceneText(file), file.string(), file.parent_path());
@@ -816,7 +882,8 @@ Scene loadScene(const std::filesystem::path& file) {
 
 std::string readSceneText(const std::filesystem::path& file) {
   std::error_code ec;
-  if (std::filesystem::is_directory(file, ec)) throw InvalidInput(file.string(), "is a folder, not a scene file");
+  if (std::filesystem::is_directory(file, ec))
+    throw InvalidInput(file.string(), "is a folder, not a scene file");
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InvalidInput(file.string(), "cannot open the scene file");
   std::ostringstream text;

@@ -17,13 +17,17 @@ StepVerdict ContactStep::afterSolve(const StepProposal& p) {
   verdict.limited = contact_.limitDisplacement(p.x0, p.x1, p.v1, p.dt, p.constrained);
   const forcefields::ContactParameters& P = contact_.parameters();
   const double live = double(p.model.topology().numPoints());
-  verdict.split = verdict.limited > 0 && double(verdict.limited) > P.splitAbove * live && p.depth < P.maxSplits;
+  verdict.split =
+      verdict.limited > 0 && double(verdict.limited) > P.splitAbove * live && p.depth < P.maxSplits;
   return verdict;
 }
 
-void ContactStep::endStep(const StepEnd& e) { contact_.recordStep(e.model.state().x(), e.model.state().v()); }
+void ContactStep::endStep(const StepEnd& e) {
+  contact_.recordStep(e.model.state().x(), e.model.state().v());
+}
 
-ContactStep& addContact(Simulation& sim, std::unique_ptr<forcefields::Contact> contact, std::string label) {
+ContactStep& addContact(Simulation& sim, std::unique_ptr<forcefields::Contact> contact,
+                        std::string label) {
   if (!contact) throw InvalidInput("contact", "no contact");
   if (findContact(sim)) throw InvalidInput("contact", "the simulation has contact already");
   forcefields::Contact& field = *contact;

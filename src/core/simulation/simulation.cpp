@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
 
 namespace cutsim::core {
 
@@ -34,11 +34,14 @@ void Simulation::setIntegrator(std::unique_ptr<Integrator> integrator) {
   integrator_ = std::move(integrator);
 }
 
-void Simulation::setSolver(const SolverSettings& s) { setIntegrator(makeIntegrator(s)); }
+void Simulation::setSolver(const SolverSettings& s) {
+  setIntegrator(makeIntegrator(s));
+}
 
 StepStats Simulation::step(double dt) {
   requireFinitePositive("timeStep", dt);
-  if (!model_->hasMass()) throw SolverError("the simulation has no mass: give a density or a total mass");
+  if (!model_->hasMass())
+    throw SolverError("the simulation has no mass: give a density or a total mass");
   StepStats stats;
   stats.substeps = 0;
   const double t0 = time_;
@@ -101,7 +104,8 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
     if (!e.component.empty()) s << " from " << e.component;
     s << " at point " << e.point;
     if (integrator_->isExplicit())
-      s << "; the explicit integrator is unstable at this time step: try a smaller one or an implicit solver";
+      s << "; the explicit integrator is unstable at this time step: try a smaller one or an "
+           "implicit solver";
     throw SolverError(s.str());
   } catch (const StepFailure& e) {
     throw SolverError(stepName() + e.message);
@@ -158,7 +162,8 @@ std::vector<std::string> Simulation::notCheckpointable() const {
   std::vector<std::string> out = model_->notCheckpointable();
   if (!integrator_->checkpointable()) {
     std::string what = "the integrator " + std::string(integrator_->name());
-    if (const LinearSolver* s = integrator_->linearSolver()) what += " with " + std::string(s->name());
+    if (const LinearSolver* s = integrator_->linearSolver())
+      what += " with " + std::string(s->name());
     out.push_back(what);
   }
   return out;
@@ -193,11 +198,13 @@ void Simulation::loadState(ArchiveReader& in) {
   summary_.worstResidual = in.f64();
   summary_.worstStep = long(in.i64());
   in.close();
-  if (!std::isfinite(time_) || steps_ < 0) in.fail("a time of " + std::to_string(time_) + " after " + std::to_string(steps_) + " steps");
+  if (!std::isfinite(time_) || steps_ < 0)
+    in.fail("a time of " + std::to_string(time_) + " after " + std::to_string(steps_) + " steps");
   in.open("integr");
   const std::string name = in.str();
   if (name != integrator_->name())
-    in.fail("the saved integrator is " + name + ", the scene's " + std::string(integrator_->name()));
+    in.fail("the saved integrator is " + name + ", the scene's " +
+            std::string(integrator_->name()));
   integrator_->loadState(in);
   in.close();
   model_->loadState(in);

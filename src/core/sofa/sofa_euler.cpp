@@ -7,13 +7,13 @@
 #include <cmath>
 #include <memory>
 
-#include "cutsim/core/integrator.hpp"
 #include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/core/integrator.hpp"
 #include "cutsim/core/linear_solver.hpp"
 #include "cutsim/core/model.hpp"
 #include "cutsim/core/registries.hpp"
-#include "cutsim/base/numbers.hpp"
-#include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -28,17 +28,20 @@ struct SofaEulerSettings {
 /// SOFA's MechanicalObject::vDot: point by point, each point's dot product summed in order.
 double vDot(const std::vector<double>& a, const std::vector<double>& b) {
   double r = 0.0;
-  for (std::size_t i = 0; i + 2 < a.size(); i += 3) r += a[i] * b[i] + a[i + 1] * b[i + 1] + a[i + 2] * b[i + 2];
+  for (std::size_t i = 0; i + 2 < a.size(); i += 3)
+    r += a[i] * b[i] + a[i + 1] * b[i + 1] + a[i + 2] * b[i + 2];
   return r;
 }
 
 class SofaEuler final : public Integrator {
  public:
-  SofaEuler(SofaEulerSettings s, std::unique_ptr<LinearSolver> solver) : s_(s), solver_(std::move(solver)) {
+  SofaEuler(SofaEulerSettings s, std::unique_ptr<LinearSolver> solver)
+      : s_(s), solver_(std::move(solver)) {
     cg_ = dynamic_cast<SofaConjugateGradient*>(solver_.get());
     if (!cg_)
-      throw InvalidInput("linearSolver", "sofa-euler solves with sofa-cg (SOFA's CGLinearSolver), not " +
-                                             std::string(solver_ ? solver_->name() : "none"));
+      throw InvalidInput("linearSolver",
+                         "sofa-euler solves with sofa-cg (SOFA's CGLinearSolver), not " +
+                             std::string(solver_ ? solver_->name() : "none"));
   }
   std::string_view name() const override { return "sofa-euler"; }
   LinearSolver* linearSolver() const override { return solver_.get(); }
@@ -63,16 +66,20 @@ class SofaEuler final : public Integrator {
     const auto fields = model.fields();
     const StepConstraints& c = *in.constraints;
     const Vec3 g = model.gravity();
-    const std::size_t massAt = std::min<std::size_t>(std::size_t(std::max(0, s_.massAt)), fields.size());
+    const std::size_t massAt =
+        std::min<std::size_t>(std::size_t(std::max(0, s_.massAt)), fields.size());
 
     // The mass's product res += M dx * factor, as SOFA's masses compute it.
     auto addMDx = [&](std::vector<double>& res, std::span<const double> dx, double factor) {
       for (std::size_t p = 0; p < n; ++p)
         for (int k = 0; k < 3; ++k) {
           const std::size_t i = 3 * p + std::size_t(k);
-          if (factor == 1.0) res[i] += dx[i] * m[p];
-          else if (uniform) res[i] += dx[i] * (m[p] * factor);  // UniformMass
-          else res[i] += (dx[i] * m[p]) * factor;               // DiagonalMass
+          if (factor == 1.0)
+            res[i] += dx[i] * m[p];
+          else if (uniform)
+            res[i] += dx[i] * (m[p] * factor);  // UniformMass
+          else
+            res[i] += (dx[i] * m[p]) * factor;  // DiagonalMass
         }
     };
     // Each component in the node's order: the mass at its place among the force fields.
@@ -99,8 +106,11 @@ class SofaEuler final : public Integrator {
     // b = h (f + (-rm M + (h + rs) K) v), projected.
     std::vector<double> b = f;
     const double rm = s_.rayleighMass, rs = s_.rayleighStiffness;
-    inOrder([&] { if (-rm != 0.0) addMDx(b, vs, -rm); },
-            [&](forcefields::ForceField& ff) { ff.addDForce(xs, vs, b, h * tr + rs, 0.0); });
+    inOrder(
+        [&] {
+          if (-rm != 0.0) addMDx(b, vs, -rm);
+        },
+        [&](forcefields::ForceField& ff) { ff.addDForce(xs, vs, b, h * tr + rs, 0.0); });
     for (double& bi : b) bi *= h;
     project(b);
 
@@ -154,7 +164,8 @@ class SofaEuler final : public Integrator {
       for (int it = 1; it <= cs.maxIterations; ++it) {
         rho = vDot(r, r);
         if (std::sqrt(rho) / normb <= cs.tolerance && !(it == 1 && firstSolve)) break;
-        if (it == 1) pdir = r;
+        if (it == 1)
+          pdir = r;
         else {
           const double beta = rho / rho1;
           for (std::size_t i = 0; i < N; ++i) pdir[i] = r[i] + pdir[i] * beta;
@@ -203,10 +214,13 @@ class SofaEuler final : public Integrator {
 
 const bool registered = IntegratorRegistry::instance().add(
     {"sofa-euler",
-     "SOFA's EulerImplicitSolver with its CGLinearSolver (sofa-cg), operation for operation: SOFA's numbers to the last bit where SOFA's order is kept",
+     "SOFA's EulerImplicitSolver with its CGLinearSolver (sofa-cg), operation for operation: "
+     "SOFA's numbers to the last bit where SOFA's order is kept",
      {{"rayleighMass", KeyType::Number, "mass-proportional damping factor, >= 0 (default 0)"},
-      {"rayleighStiffness", KeyType::Number, "stiffness-proportional damping factor, >= 0 (default 0)"},
-      {"massAt", KeyType::Integer, "the mass's place among the force fields in SOFA's node, >= 0 (default 0: first)"}},
+      {"rayleighStiffness", KeyType::Number,
+       "stiffness-proportional damping factor, >= 0 (default 0)"},
+      {"massAt", KeyType::Integer,
+       "the mass's place among the force fields in SOFA's node, >= 0 (default 0: first)"}},
      {"linearSolver"},
      [](const ParameterSource& s) -> std::any {
        SofaEulerSettings p;
@@ -216,12 +230,14 @@ const bool registered = IntegratorRegistry::instance().add(
        return p;
      },
      [](const std::any& p, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
-       return std::make_unique<SofaEuler>(std::any_cast<const SofaEulerSettings&>(p), std::move(ls));
+       return std::make_unique<SofaEuler>(std::any_cast<const SofaEulerSettings&>(p),
+                                          std::move(ls));
      }});
 
 }  // namespace
 
-std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt, SofaCGSettings cg) {
+std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt,
+                                          SofaCGSettings cg) {
   SofaEulerSettings s;
   s.rayleighMass = rayleighMass;
   s.rayleighStiffness = rayleighStiffness;

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
-#include "cutsim/base/errors.hpp"
 #include "sofa/sofa_text.hpp"
 
 namespace cutsim::core {
@@ -46,22 +46,29 @@ std::vector<RegressionEntry> readRegressionList(const std::filesystem::path& lis
     const auto w = splitWords(line);
     if (w.empty()) continue;
     const std::string where = list.string() + ":" + std::to_string(n);
-    if (w.size() > 5) throw InvalidInput(where, "expected 'SCENE STEPS EPSILON MECA_IN_MAPPING DUMP_ONLY_LAST_STEP', got " + std::to_string(w.size()) + " fields");
+    if (w.size() > 5)
+      throw InvalidInput(
+          where, "expected 'SCENE STEPS EPSILON MECA_IN_MAPPING DUMP_ONLY_LAST_STEP', got " +
+                     std::to_string(w.size()) + " fields");
     RegressionEntry e;
     e.scene = w[0];
     e.line = n;
     if (w.size() > 1) {
       const auto s = parseSofaNumber(w[1]);
-      if (!s || *s < 1 || *s != std::floor(*s) || *s > 1e9) throw InvalidInput(where, "steps: expected a whole number >= 1, got \"" + w[1] + "\"");
+      if (!s || *s < 1 || *s != std::floor(*s) || *s > 1e9)
+        throw InvalidInput(where, "steps: expected a whole number >= 1, got \"" + w[1] + "\"");
       e.steps = long(*s);
     }
     if (w.size() > 2) {
       const auto s = parseSofaNumber(w[2]);
-      if (!s || !(*s >= 0) || !std::isfinite(*s)) throw InvalidInput(where, "epsilon: expected a number >= 0, got \"" + w[2] + "\"");
+      if (!s || !(*s >= 0) || !std::isfinite(*s))
+        throw InvalidInput(where, "epsilon: expected a number >= 0, got \"" + w[2] + "\"");
       e.epsilon = *s;
     }
     for (std::size_t k = 3; k < w.size(); ++k) {
-      if (w[k] != "0" && w[k] != "1") throw InvalidInput(where, std::string(k == 3 ? "mecaInMapping" : "dumpOnlyLastStep") + ": expected 0 or 1, got \"" + w[k] + "\"");
+      if (w[k] != "0" && w[k] != "1")
+        throw InvalidInput(where, std::string(k == 3 ? "mecaInMapping" : "dumpOnlyLastStep") +
+                                      ": expected 0 or 1, got \"" + w[k] + "\"");
       (k == 3 ? e.mechanicalInMapping : e.onlyLastStep) = w[k] == "1";
     }
     out.push_back(e);
@@ -109,7 +116,8 @@ std::vector<StateFrame> readReference(const std::filesystem::path& file) {
   const char* msg = gzerror(gz, &err);
   const std::string message = msg ? msg : "";
   gzclose(gz);
-  if (got < 0 || (err != Z_OK && err != Z_STREAM_END)) throw InvalidInput(file.string(), "corrupt gzip data: " + message);
+  if (got < 0 || (err != Z_OK && err != Z_STREAM_END))
+    throw InvalidInput(file.string(), "corrupt gzip data: " + message);
   std::vector<StateFrame> frames;
   std::istringstream in(text);
   std::string line;
@@ -122,10 +130,12 @@ std::vector<StateFrame> readReference(const std::filesystem::path& file) {
     auto values = [&](std::vector<double>& out) {
       for (std::size_t k = 1; k < w.size(); ++k) {
         const auto d = parseSofaNumber(w[k]);
-        if (!d || !std::isfinite(*d)) throw InvalidInput(where, "malformed or non-finite number \"" + w[k] + "\"");
+        if (!d || !std::isfinite(*d))
+          throw InvalidInput(where, "malformed or non-finite number \"" + w[k] + "\"");
         out.push_back(*d);
       }
-      if (out.size() % 3 != 0) throw InvalidInput(where, std::to_string(out.size()) + " values: not 3 per point");
+      if (out.size() % 3 != 0)
+        throw InvalidInput(where, std::to_string(out.size()) + " values: not 3 per point");
     };
     if (w[0] == "T=") {
       if (w.size() != 2 || !parseSofaNumber(w[1]) || !std::isfinite(*parseSofaNumber(w[1])))
@@ -142,22 +152,28 @@ std::vector<StateFrame> readReference(const std::filesystem::path& file) {
   return frames;
 }
 
-std::filesystem::path referencePath(const std::filesystem::path& refsDir, const RegressionEntry& entry,
-                                    std::size_t index, const std::string& mechanicalObject) {
-  return refsDir / (entry.scene.string() + ".reference_" + std::to_string(index) + "_" + mechanicalObject + "_mstate.txt.gz");
+std::filesystem::path referencePath(const std::filesystem::path& refsDir,
+                                    const RegressionEntry& entry, std::size_t index,
+                                    const std::string& mechanicalObject) {
+  return refsDir / (entry.scene.string() + ".reference_" + std::to_string(index) + "_" +
+                    mechanicalObject + "_mstate.txt.gz");
 }
 
-RegressionComparison compareWithReference(const std::vector<StateFrame>& reference, const std::vector<StateFrame>& run,
-                                          double dt, const std::string& what) {
+RegressionComparison compareWithReference(const std::vector<StateFrame>& reference,
+                                          const std::vector<StateFrame>& run, double dt,
+                                          const std::string& what) {
   RegressionComparison c;
   for (const StateFrame& ref : reference) {
     const StateFrame* mine = nullptr;
     for (const StateFrame& f : run)
       if (std::abs(f.time - ref.time) < 0.5 * dt) mine = &f;
-    if (!mine) throw InvalidInput(what, "the run wrote no frame at the reference's time " + std::to_string(ref.time));
+    if (!mine)
+      throw InvalidInput(
+          what, "the run wrote no frame at the reference's time " + std::to_string(ref.time));
     if (mine->x.size() != ref.x.size())
-      throw InvalidInput(what, "the reference has " + std::to_string(ref.x.size() / 3) + " points at T = " + std::to_string(ref.time) +
-                                   ", the run " + std::to_string(mine->x.size() / 3));
+      throw InvalidInput(what, "the reference has " + std::to_string(ref.x.size() / 3) +
+                                   " points at T = " + std::to_string(ref.time) + ", the run " +
+                                   std::to_string(mine->x.size() / 3));
     const double points = double(ref.x.size() / 3);
     auto meanAbs = [&](const std::vector<double>& a, const std::vector<double>& b) {
       if (a.empty() || a.size() != b.size()) return 0.0;
@@ -166,9 +182,11 @@ RegressionComparison compareWithReference(const std::vector<StateFrame>& referen
       return s / double(a.size());
     };
     c.legacy += meanAbs(ref.x, mine->x) / points;
-    if (!ref.v.empty() && ref.v.size() == mine->v.size()) c.legacy += meanAbs(ref.v, mine->v) / points;
+    if (!ref.v.empty() && ref.v.size() == mine->v.size())
+      c.legacy += meanAbs(ref.v, mine->v) / points;
     for (std::size_t i = 0; i < ref.x.size(); ++i)
-      c.largestPrintedDifference = std::max(c.largestPrintedDifference, std::abs(ref.x[i] - printed(mine->x[i])));
+      c.largestPrintedDifference =
+          std::max(c.largestPrintedDifference, std::abs(ref.x[i] - printed(mine->x[i])));
     double norm2 = 0;
     for (std::size_t p = 0; 3 * p < ref.x.size(); ++p) {
       double d2 = 0;
@@ -189,9 +207,10 @@ RegressionComparison compareWithReference(const std::vector<StateFrame>& referen
   return c;
 }
 
-std::vector<StateFrame> runForRegression(const std::filesystem::path& scene, const RegressionEntry& entry,
-                                         std::string& mechanicalObject, std::vector<std::string>& notes,
-                                         long& flaggedSteps) {
+std::vector<StateFrame> runForRegression(const std::filesystem::path& scene,
+                                         const RegressionEntry& entry,
+                                         std::string& mechanicalObject,
+                                         std::vector<std::string>& notes, long& flaggedSteps) {
   SofaImportOptions options;
   options.steps = entry.steps;
   const SofaSceneImport imported = importSofaScene(scene, options);

@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "checkpoint_io.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
 
 namespace cutsim::core {
 
@@ -46,7 +46,8 @@ SystemOperator::SystemOperator(std::span<forcefields::ForceField* const> fields,
       bFactor_(bFactor),
       revision_(revision) {
   if (x.size() != 3 * mass_.size() || constrained.size() != mass_.size())
-    throw InvalidInput("linear system", "x, mass and constraint flags must cover the same point slots");
+    throw InvalidInput("linear system",
+                       "x, mass and constraint flags must cover the same point slots");
   for (std::size_t k = 0; k < fields_.size(); ++k) {
     try {
       fields_[k]->beginProducts(x_);
@@ -65,7 +66,8 @@ void SystemOperator::apply(const Vec& p, Vec& out) const {
   const Eigen::Index N = size();
   out.resize(N);
   for (std::size_t q = 0; q < mass_.size(); ++q)
-    for (int c = 0; c < 3; ++c) out[Eigen::Index(3 * q + c)] = mass_[q] * p[Eigen::Index(3 * q + c)];
+    for (int c = 0; c < 3; ++c)
+      out[Eigen::Index(3 * q + c)] = mass_[q] * p[Eigen::Index(3 * q + c)];
   if (fields_.empty()) return;
   Vec df = Vec::Zero(N);
   std::span<double> dfs(df.data(), std::size_t(N));
@@ -98,7 +100,8 @@ Vec SystemOperator::freeRhs(const Vec& b, const Vec& dv) const {
   if (prescribed) {
     Vec only = Vec::Zero(size()), Ap;
     for (std::size_t p = 0; p < constrained_.size(); ++p)
-      if (constrained_[p]) only.segment<3>(Eigen::Index(3 * p)) = dv.segment<3>(Eigen::Index(3 * p));
+      if (constrained_[p])
+        only.segment<3>(Eigen::Index(3 * p)) = dv.segment<3>(Eigen::Index(3 * p));
     apply(only, Ap);
     rhs -= Ap;
   }
@@ -112,18 +115,22 @@ void CGSettings::validate() const {
   requireFinitePositive("tolerance", tolerance);
 }
 
-ConjugateGradient::ConjugateGradient(CGSettings settings) : settings_(settings) { settings_.validate(); }
+ConjugateGradient::ConjugateGradient(CGSettings settings) : settings_(settings) {
+  settings_.validate();
+}
 
 SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec& dv) {
   const Eigen::Index N = A.size();
   const std::size_t n = A.numSlots();
   if (b.size() != N || dv.size() != N)
-    throw InvalidInput("linear system", "the right-hand side and the unknowns must have 3 entries per point slot");
+    throw InvalidInput("linear system",
+                       "the right-hand side and the unknowns must have 3 entries per point slot");
   // Norms scaled (stableNorm): entries up to the range of doubles do not overflow them.
   const double bNorm = A.freeRhs(b, dv).stableNorm();
   if (settings_.warmStart && warm_.size() == N)
     for (std::size_t p = 0; p < n; ++p)
-      if (!A.isConstrained(p)) dv.segment<3>(Eigen::Index(3 * p)) = warm_.segment<3>(Eigen::Index(3 * p));
+      if (!A.isConstrained(p))
+        dv.segment<3>(Eigen::Index(3 * p)) = warm_.segment<3>(Eigen::Index(3 * p));
   // Jacobi preconditioner (zero on the constrained points and where the diagonal is not positive).
   Vec invDiag = A.diagonal();
   for (std::size_t p = 0; p < n; ++p)
@@ -175,30 +182,34 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
 
 namespace cutsim::core {
 namespace {
-const bool registered = LinearSolverRegistry::instance().add({
-    "cg",
-    "Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver)",
-    {{"iterations", KeyType::Integer, "iteration cap, >= 1 (default 100)"},
-     {"tolerance", KeyType::Number, "relative residual to stop at, > 0 (default 1e-8)"},
-     {"warmStart", KeyType::Boolean, "start from the previous solve's result (default true)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      CGSettings p;
-      p.maxIterations = int(s.integer("iterations", 1, 1000000, p.maxIterations));
-      p.tolerance = s.positive("tolerance", p.tolerance);
-      p.warmStart = s.boolean("warmStart", p.warmStart);
-      s.check([&] { p.validate(); });
-      return p;
-    },
-    [](const std::any& p) -> std::unique_ptr<LinearSolver> {
-      return std::make_unique<ConjugateGradient>(std::any_cast<const CGSettings&>(p));
-    }});
+const bool registered = LinearSolverRegistry::instance().add(
+    {"cg",
+     "Jacobi-preconditioned conjugate gradients, matrix-free (SOFA's CGLinearSolver)",
+     {{"iterations", KeyType::Integer, "iteration cap, >= 1 (default 100)"},
+      {"tolerance", KeyType::Number, "relative residual to stop at, > 0 (default 1e-8)"},
+      {"warmStart", KeyType::Boolean, "start from the previous solve's result (default true)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       CGSettings p;
+       p.maxIterations = int(s.integer("iterations", 1, 1000000, p.maxIterations));
+       p.tolerance = s.positive("tolerance", p.tolerance);
+       p.warmStart = s.boolean("warmStart", p.warmStart);
+       s.check([&] { p.validate(); });
+       return p;
+     },
+     [](const std::any& p) -> std::unique_ptr<LinearSolver> {
+       return std::make_unique<ConjugateGradient>(std::any_cast<const CGSettings&>(p));
+     }});
 }  // namespace
 
 using checkpoint::loadVector;
 using checkpoint::saveVector;
 
-void ConjugateGradient::saveState(ArchiveWriter& out) const { saveVector(out, warm_); }
-void ConjugateGradient::loadState(ArchiveReader& in) { warm_ = loadVector(in); }
+void ConjugateGradient::saveState(ArchiveWriter& out) const {
+  saveVector(out, warm_);
+}
+void ConjugateGradient::loadState(ArchiveReader& in) {
+  warm_ = loadVector(in);
+}
 
 }  // namespace cutsim::core

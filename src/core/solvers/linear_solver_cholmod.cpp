@@ -1,12 +1,12 @@
 // CholmodSolver: supernodal Cholesky of the system assembled in place (linear_solver.hpp).
 #include <dlfcn.h>
-#include "cutsim/base/archive.hpp"
 
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCore>
 
-#include "cutsim/core/linear_solver.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/linear_solver.hpp"
 #include "solvers/system_matrix.hpp"
 
 namespace cutsim::core {
@@ -18,13 +18,15 @@ void pinBlasThreads() {
   if (done) return;
   done = true;
   using SetThreads = void (*)(int);
-  if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) fn(1);
+  if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads")))
+    fn(1);
   if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "omp_set_num_threads"))) fn(1);
 }
 
 void CholmodSettings::validate() const {
   if (shortLivedPattern < 0)
-    throw InvalidInput("shortLivedPattern", "must be >= 0 (got " + std::to_string(shortLivedPattern) + ")");
+    throw InvalidInput("shortLivedPattern",
+                       "must be >= 0 (got " + std::to_string(shortLivedPattern) + ")");
   if (reorderAfter < 1)
     throw InvalidInput("reorderAfter", "must be >= 1 (got " + std::to_string(reorderAfter) + ")");
 }
@@ -42,7 +44,7 @@ struct CholmodSolver::Impl {
   }
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
   SystemMatrix system;
-  std::uint64_t revision = 0;  // the revision the pattern was built for
+  std::uint64_t revision = 0;   // the revision the pattern was built for
   SystemMatrix::Fields fields;  // the fields it was built for
   int solvesOnPattern = 0;
   bool analysed = false;
@@ -60,7 +62,9 @@ CholmodSolver::CholmodSolver(CholmodSettings settings)
 }
 CholmodSolver::~CholmodSolver() = default;
 
-long CholmodSolver::analyses() const { return impl_->analyses; }
+long CholmodSolver::analyses() const {
+  return impl_->analyses;
+}
 
 SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv) {
   pinBlasThreads();
@@ -101,7 +105,8 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
       S.analysed = false;
     }
     if (S.system.fill(fl, A.x(), A.kFactor(), A.bFactor(), A.diagonalMass())) break;
-    if (attempt > 0) throw SolverError("internal error: a force field's matrix blocks left the pattern it gave");
+    if (attempt > 0)
+      throw SolverError("internal error: a force field's matrix blocks left the pattern it gave");
     rebuild = true;
   }
   const std::vector<char> constrained(A.constrained().begin(), A.constrained().end());
@@ -136,7 +141,8 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
     auto precondition = [&](const Vec& r) {
       Vec rp(r.size());
       const auto& idx = S.system.newIndex();
-      for (std::size_t p = 0; p < n; ++p) rp.segment<3>(3 * Eigen::Index(idx[p])) = r.segment<3>(3 * Eigen::Index(p));
+      for (std::size_t p = 0; p < n; ++p)
+        rp.segment<3>(3 * Eigen::Index(idx[p])) = r.segment<3>(3 * Eigen::Index(p));
       Vec z = S.system.toOriginal(S.cholmod.solve(rp));
       A.project(z);
       return z;
@@ -171,22 +177,24 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
 
 namespace cutsim::core {
 namespace {
-const bool registered = LinearSolverRegistry::instance().add({
-    "cholmod",
-    "supernodal Cholesky (CHOLMOD) in a kept pattern, ordered by METIS: exact solves",
-    {{"shortLivedPattern", KeyType::Integer, "solves under which a replaced pattern counts as short-lived (default 10)"},
-     {"reorderAfter", KeyType::Integer, "solves on a minimum-degree pattern before reordering by METIS (default 20)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      CholmodSettings p;
-      p.shortLivedPattern = int(s.integer("shortLivedPattern", 0, 1000000, p.shortLivedPattern));
-      p.reorderAfter = int(s.integer("reorderAfter", 1, 1000000, p.reorderAfter));
-      s.check([&] { p.validate(); });
-      return p;
-    },
-    [](const std::any& p) -> std::unique_ptr<LinearSolver> {
-      return std::make_unique<CholmodSolver>(std::any_cast<const CholmodSettings&>(p));
-    }});
+const bool registered = LinearSolverRegistry::instance().add(
+    {"cholmod",
+     "supernodal Cholesky (CHOLMOD) in a kept pattern, ordered by METIS: exact solves",
+     {{"shortLivedPattern", KeyType::Integer,
+       "solves under which a replaced pattern counts as short-lived (default 10)"},
+      {"reorderAfter", KeyType::Integer,
+       "solves on a minimum-degree pattern before reordering by METIS (default 20)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       CholmodSettings p;
+       p.shortLivedPattern = int(s.integer("shortLivedPattern", 0, 1000000, p.shortLivedPattern));
+       p.reorderAfter = int(s.integer("reorderAfter", 1, 1000000, p.reorderAfter));
+       s.check([&] { p.validate(); });
+       return p;
+     },
+     [](const std::any& p) -> std::unique_ptr<LinearSolver> {
+       return std::make_unique<CholmodSolver>(std::any_cast<const CholmodSettings&>(p));
+     }});
 }  // namespace
 void CholmodSolver::saveState(ArchiveWriter& out) const {
   const Impl& S = *impl_;

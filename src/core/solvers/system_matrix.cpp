@@ -60,7 +60,10 @@ struct Filler : forcefields::MatrixAccumulator {
 
   template <class Entry>
   void add(PointId i, PointId j, Entry entry) {
-    if (i >= numSlots || j >= numSlots) { missing = true; return; }
+    if (i >= numSlots || j >= numSlots) {
+      missing = true;
+      return;
+    }
     const std::int32_t I = newIndex[i], J = newIndex[j];
     if (I < J) return;
     if (I == J) {
@@ -71,7 +74,10 @@ struct Filler : forcefields::MatrixAccumulator {
       return;
     }
     const std::ptrdiff_t off = offDiagonal(I, J);
-    if (off < 0) { missing = true; return; }
+    if (off < 0) {
+      missing = true;
+      return;
+    }
     for (int c = 0; c < 3; ++c) {
       double* col = values + outer[3 * J + c] + (3 - c) + off;
       for (int r = 0; r < 3; ++r) col[r] += entry(r, c);
@@ -87,8 +93,8 @@ struct Filler : forcefields::MatrixAccumulator {
 
 /// The new index of each point in a fill-reducing order of the point graph given by its pairs
 /// (a < b packed as a << 32 | b): METIS nested dissection or AMD minimum degree.
-std::vector<std::int32_t> fillReducingOrder(const std::vector<std::uint64_t>& pairs, std::size_t numSlots,
-                                            SystemMatrix::Ordering ordering) {
+std::vector<std::int32_t> fillReducingOrder(const std::vector<std::uint64_t>& pairs,
+                                            std::size_t numSlots, SystemMatrix::Ordering ordering) {
   const auto n = std::int32_t(numSlots);
   std::vector<std::int32_t> newIndex(numSlots);
   for (std::int32_t p = 0; p < n; ++p) newIndex[std::size_t(p)] = p;
@@ -111,8 +117,10 @@ std::vector<std::int32_t> fillReducingOrder(const std::vector<std::uint64_t>& pa
     idx_t options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(options);
     options[METIS_OPTION_NUMBERING] = 0;
-    const int rc = METIS_NodeND(&nv, xadj.data(), adjncy.data(), nullptr, options, perm.data(), iperm.data());
-    if (rc != METIS_OK) throw std::runtime_error("METIS_NodeND failed (code " + std::to_string(rc) + ")");
+    const int rc =
+        METIS_NodeND(&nv, xadj.data(), adjncy.data(), nullptr, options, perm.data(), iperm.data());
+    if (rc != METIS_OK)
+      throw std::runtime_error("METIS_NodeND failed (code " + std::to_string(rc) + ")");
   } else {
     static_assert(sizeof(idx_t) == sizeof(int), "amd_order takes int indices");
     double info[AMD_INFO];
@@ -139,7 +147,8 @@ void SystemMatrix::build(const Fields& fields, std::span<const double> x, std::s
   std::sort(pc.pairs.begin(), pc.pairs.end());
   pc.pairs.erase(std::unique(pc.pairs.begin(), pc.pairs.end()), pc.pairs.end());
   for (std::uint64_t pr : pc.pairs)
-    if ((pr >> 32) >= numSlots) throw std::logic_error("a force field couples a point beyond the state");
+    if ((pr >> 32) >= numSlots)
+      throw std::logic_error("a force field couples a point beyond the state");
 
   newIndex_ = fillReducingOrder(pc.pairs, numSlots, ordering);
   ordering_ = ordering;
@@ -212,8 +221,8 @@ bool SystemMatrix::fill(const Fields& fields, std::span<const double> x, double 
   return true;
 }
 
-Eigen::VectorXd SystemMatrix::eliminate(const std::vector<char>& constrained, const Eigen::VectorXd& rhs,
-                                        const Eigen::VectorXd& dv) {
+Eigen::VectorXd SystemMatrix::eliminate(const std::vector<char>& constrained,
+                                        const Eigen::VectorXd& rhs, const Eigen::VectorXd& dv) {
   const Eigen::Index N = A_.rows();
   Eigen::VectorXd b(N), d(N);
   std::vector<char> fixedNew(numSlots_);
@@ -232,12 +241,17 @@ Eigen::VectorXd SystemMatrix::eliminate(const std::vector<char>& constrained, co
       const int row = inner[e];
       const bool rc = fixedNew[std::size_t(row / 3)];
       if (row == col) {
-        if (cc) { values[e] = 1.0; b[col] = d[col]; }
+        if (cc) {
+          values[e] = 1.0;
+          b[col] = d[col];
+        }
         continue;
       }
       if (!rc && !cc) continue;
-      if (!rc) b[row] -= values[e] * d[col];
-      else if (!cc) b[col] -= values[e] * d[row];
+      if (!rc)
+        b[row] -= values[e] * d[col];
+      else if (!cc)
+        b[col] -= values[e] * d[row];
       values[e] = 0.0;
     }
   }

@@ -28,7 +28,8 @@ class SystemMatrix {
   enum class Ordering { NestedDissection, MinimumDegree };
 
   /// Discovers the pattern from the fields at positions x (n point slots) and orders it.
-  void build(const Fields& fields, std::span<const double> x, std::size_t numSlots, Ordering ordering);
+  void build(const Fields& fields, std::span<const double> x, std::size_t numSlots,
+             Ordering ordering);
   bool built() const { return built_; }
   Ordering ordering() const { return ordering_; }
   std::size_t numSlots() const { return numSlots_; }

@@ -6,10 +6,10 @@
 #include <limits>
 #include <optional>
 
-#include "cutsim/core/timeline.hpp"
 #include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
 #include "cutsim/topology/triangle_grid.hpp"
 
@@ -20,7 +20,8 @@ using topology::geometry::closestOnTriangle;
 using topology::geometry::dist2;
 
 std::string vecText(const Vec3& p) {
-  return "(" + describeNumber(p[0]) + ", " + describeNumber(p[1]) + ", " + describeNumber(p[2]) + ")";
+  return "(" + describeNumber(p[0]) + ", " + describeNumber(p[1]) + ", " + describeNumber(p[2]) +
+         ")";
 }
 
 /// Whether a cut changed the mesh (one along the border opens nothing: it is not counted).
@@ -43,8 +44,9 @@ class CutAction final : public TimelineAction {
     for (std::size_t i = 0; i < p_.polyline.size(); ++i) {
       const auto [d, edge] = grid.nearest(p_.polyline[i]);
       if (d > 0.25 * edge)
-        c.fail("polyline/" + std::to_string(i), "the cut misses the surface: point " + vecText(p_.polyline[i]) +
-                                                    " is " + describeNumber(d) + " away from the rest surface");
+        c.fail("polyline/" + std::to_string(i),
+               "the cut misses the surface: point " + vecText(p_.polyline[i]) + " is " +
+                   describeNumber(d) + " away from the rest surface");
     }
     try {
       topology::CutOptions options;
@@ -87,7 +89,8 @@ class CutAction final : public TimelineAction {
       tip_ = t;
     }
     if (!(done_ >= 0 && done_ <= arc_.back()) || !std::isfinite(minPiece_))
-      in.fail("a progressive cut's progress of " + std::to_string(done_) + " along " + std::to_string(arc_.back()));
+      in.fail("a progressive cut's progress of " + std::to_string(done_) + " along " +
+              std::to_string(arc_.back()));
   }
 
   void afterStep(ActionContext& c) override {
@@ -102,8 +105,8 @@ class CutAction final : public TimelineAction {
     // A piece that would end within a quarter of a mean edge of a corner of the polyline ends at
     // the corner: a tip just short of (or just past) a corner would leave, between the two, an
     // edge a fraction of the mesh size long that the repair may not remove (the corner stays, and
-    // so does the tip while it is one), and such a tiny triangle sets the stable explicit time step.
-    // Not the last piece, and no piece or remainder shorter than the smallest piece.
+    // so does the tip while it is one), and such a tiny triangle sets the stable explicit time
+    // step. Not the last piece, and no piece or remainder shorter than the smallest piece.
     for (std::size_t i = 1; s < total && i + 1 < arc_.size(); ++i)
       if (std::abs(arc_[i] - s) < 0.5 * minPiece_ && arc_[i] - done_ >= minPiece_ &&
           total - arc_[i] >= minPiece_) {
@@ -179,33 +182,40 @@ class CutAction final : public TimelineAction {
   std::optional<Vec3> tip_;
 };
 
-const bool registered = ActionRegistry::instance().add({
-    "cut",
-    "a cut along a polyline in rest coordinates, at a time (\"at\") or progressively over an interval "
-    "(\"from\", \"to\": a scalpel at constant speed)",
-    {{"at", KeyType::Number, "time of the cut"},
-     {"from", KeyType::Number, "start of a progressive cut"},
-     {"to", KeyType::Number, "end of a progressive cut"},
-     {"polyline", KeyType::Points, "[[x, y, z], ...] in rest coordinates, at least 2 points", {}, true},
-     {"snapTolerance", KeyType::Number, "how far (relative to the local edge length) the cut's ends snap onto a vertex or "
-                       "the border, in [0, 0.5) (default 0.1); without the quality repair, crossings "
-                       "snap too"},
-     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair around the cut, in [0, 60) "
-                  "(default 20; 0 turns the repair off)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      CutParameters p;
-      p.polyline = s.points("polyline", 2);
-      if (s.has("snapTolerance")) {
-        p.snapTolerance = s.nonNegative("snapTolerance", p.snapTolerance);
-        if (!(p.snapTolerance < 0.5)) s.fail("snapTolerance", "must be < 0.5");
-      }
-      p.minAngle = readMinAngle(s);
-      return p;
-    },
-    [](const std::any& p, const ActionTiming& timing) -> std::unique_ptr<TimelineAction> {
-      return std::make_unique<CutAction>(std::any_cast<const CutParameters&>(p), timing);
-    }});
+const bool registered = ActionRegistry::instance().add(
+    {"cut",
+     "a cut along a polyline in rest coordinates, at a time (\"at\") or progressively over an "
+     "interval "
+     "(\"from\", \"to\": a scalpel at constant speed)",
+     {{"at", KeyType::Number, "time of the cut"},
+      {"from", KeyType::Number, "start of a progressive cut"},
+      {"to", KeyType::Number, "end of a progressive cut"},
+      {"polyline",
+       KeyType::Points,
+       "[[x, y, z], ...] in rest coordinates, at least 2 points",
+       {},
+       true},
+      {"snapTolerance", KeyType::Number,
+       "how far (relative to the local edge length) the cut's ends snap onto a vertex or "
+       "the border, in [0, 0.5) (default 0.1); without the quality repair, crossings "
+       "snap too"},
+      {"minAngle", KeyType::Number,
+       "smallest-angle target (degrees) of the quality repair around the cut, in [0, 60) "
+       "(default 20; 0 turns the repair off)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       CutParameters p;
+       p.polyline = s.points("polyline", 2);
+       if (s.has("snapTolerance")) {
+         p.snapTolerance = s.nonNegative("snapTolerance", p.snapTolerance);
+         if (!(p.snapTolerance < 0.5)) s.fail("snapTolerance", "must be < 0.5");
+       }
+       p.minAngle = readMinAngle(s);
+       return p;
+     },
+     [](const std::any& p, const ActionTiming& timing) -> std::unique_ptr<TimelineAction> {
+       return std::make_unique<CutAction>(std::any_cast<const CutParameters&>(p), timing);
+     }});
 
 }  // namespace
 }  // namespace cutsim::core

@@ -13,11 +13,12 @@
 // When the criterion holds, the crack advances from the tip, perpendicular to the principal
 // direction, in pieces cut by Topology::cutPolyline (through triangles, not along edges, with the
 // quality repair), at most `speed` x dt of length per step (the budget carries over), so the
-// torn length per unit time does not depend on the time step. A piece is half a mean rest edge long (at least), so the path is resolved per cell. A
-// piece that would leave the surface (the crack reaches the border, a hole or another cut) is cut
-// to where its line meets the border, when that is within the piece: the crack ends there. Tips
-// are looked for again whenever the mesh changed other than by this action (a later notch, a
-// removal that took a tip away). `length` must be at least 1.5 mean rest edges.
+// torn length per unit time does not depend on the time step. A piece is half a mean rest edge long
+// (at least), so the path is resolved per cell. A piece that would leave the surface (the crack
+// reaches the border, a hole or another cut) is cut to where its line meets the border, when that
+// is within the piece: the crack ends there. Tips are looked for again whenever the mesh changed
+// other than by this action (a later notch, a removal that took a tip away). `length` must be at
+// least 1.5 mean rest edges.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -25,10 +26,10 @@
 #include <optional>
 #include <unordered_set>
 
-#include "cutsim/core/timeline.hpp"
 #include "cutsim/base/archive.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
 #include "timeline/tearing.hpp"
 
@@ -39,10 +40,18 @@ using topology::Index;
 using topology::PointId;
 using topology::TriangleId;
 
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Vec3 scale(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 sub(const Vec3& a, const Vec3& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+Vec3 add(const Vec3& a, const Vec3& b) {
+  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+Vec3 scale(const Vec3& a, double s) {
+  return {a[0] * s, a[1] * s, a[2] * s};
+}
+double dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
@@ -144,8 +153,10 @@ class FractureAction final : public TimelineAction {
     tips_.assign(n, Tip{});
     for (Tip& t : tips_) {
       const std::uint64_t p = in.u64();
-      if (p >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(PointId(topology::Index(p))))
-        in.fail("fracture: a crack tip at point " + std::to_string(p) + ", which the mesh does not have");
+      if (p >= sim.topology().pointCapacity() ||
+          !sim.topology().isPointAlive(PointId(topology::Index(p))))
+        in.fail("fracture: a crack tip at point " + std::to_string(p) +
+                ", which the mesh does not have");
       t.point = PointId(topology::Index(p));
       in.raw(t.direction.data(), sizeof(double) * 3);
       t.budget = in.f64();
@@ -211,7 +222,8 @@ class FractureAction final : public TimelineAction {
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           m[i][j] += A * (E[0] * e1[std::size_t(i)] * e1[std::size_t(j)] +
-                          E[1] * (e1[std::size_t(i)] * e2[std::size_t(j)] + e2[std::size_t(i)] * e1[std::size_t(j)]) +
+                          E[1] * (e1[std::size_t(i)] * e2[std::size_t(j)] +
+                                  e2[std::size_t(i)] * e1[std::size_t(j)]) +
                           E[2] * e2[std::size_t(i)] * e2[std::size_t(j)]);
       area += A;
       for (PointId p : v)
@@ -279,8 +291,8 @@ class FractureAction final : public TimelineAction {
   }
 
   /// The first point where the ray from `from` along `dir` meets a border edge not at the tip.
-  static std::optional<Vec3> borderHit(const topology::Topology& t, PointId tipPoint, const Vec3& from,
-                                       const Vec3& dir) {
+  static std::optional<Vec3> borderHit(const topology::Topology& t, PointId tipPoint,
+                                       const Vec3& from, const Vec3& dir) {
     double best = std::numeric_limits<double>::infinity();
     std::optional<Vec3> out;
     for (auto e : t.edges()) {
@@ -313,36 +325,50 @@ class FractureAction final : public TimelineAction {
   std::uint64_t revision_ = 0;  // the topology's revision when the tips were last known
 };
 
-const bool registered = ActionRegistry::instance().add({
-    "fracture",
-    "from its time on, cracks run from the tips of slits (notches, cuts) through the triangles, "
-    "perpendicular to the largest principal strain averaged over a disc of radius \"length\" around "
-    "each tip, while that strain exceeds \"criticalStrain\", at most \"speed\" m/s (slit tips are "
-    "looked for again whenever the mesh changes)",
-    {{"at", KeyType::Number, "time fracture starts"},
-     {"criticalStrain", KeyType::Number, "Green strain, averaged over the disc, above which a crack advances, > 0 "
-                        "(required)", {}, true},
-     {"length", KeyType::Number, "radius of the disc around a tip the strain is averaged over (m), > 0 (required): "
-                "a material length, which the mesh must resolve", {}, true},
-     {"speed", KeyType::Number, "largest crack speed (m/s), > 0 (required): the torn length per unit time, whatever "
-               "the time step", {}, true},
-     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair along the crack, in "
-                  "[0, 60) (default 20)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      FractureParameters p;
-      s.require("criticalStrain");
-      s.require("length");
-      s.require("speed");
-      p.criticalStrain = s.positive("criticalStrain", 0.0);
-      p.length = s.positive("length", 0.0);
-      p.speed = s.positive("speed", 0.0);
-      p.minAngle = readMinAngle(s);
-      return p;
-    },
-    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
-      return std::make_unique<FractureAction>(std::any_cast<const FractureParameters&>(p));
-    }});
+const bool registered = ActionRegistry::instance().add(
+    {"fracture",
+     "from its time on, cracks run from the tips of slits (notches, cuts) through the triangles, "
+     "perpendicular to the largest principal strain averaged over a disc of radius \"length\" "
+     "around "
+     "each tip, while that strain exceeds \"criticalStrain\", at most \"speed\" m/s (slit tips are "
+     "looked for again whenever the mesh changes)",
+     {{"at", KeyType::Number, "time fracture starts"},
+      {"criticalStrain",
+       KeyType::Number,
+       "Green strain, averaged over the disc, above which a crack advances, > 0 "
+       "(required)",
+       {},
+       true},
+      {"length",
+       KeyType::Number,
+       "radius of the disc around a tip the strain is averaged over (m), > 0 (required): "
+       "a material length, which the mesh must resolve",
+       {},
+       true},
+      {"speed",
+       KeyType::Number,
+       "largest crack speed (m/s), > 0 (required): the torn length per unit time, whatever "
+       "the time step",
+       {},
+       true},
+      {"minAngle", KeyType::Number,
+       "smallest-angle target (degrees) of the quality repair along the crack, in "
+       "[0, 60) (default 20)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       FractureParameters p;
+       s.require("criticalStrain");
+       s.require("length");
+       s.require("speed");
+       p.criticalStrain = s.positive("criticalStrain", 0.0);
+       p.length = s.positive("length", 0.0);
+       p.speed = s.positive("speed", 0.0);
+       p.minAngle = readMinAngle(s);
+       return p;
+     },
+     [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+       return std::make_unique<FractureAction>(std::any_cast<const FractureParameters&>(p));
+     }});
 
 }  // namespace
 }  // namespace cutsim::core

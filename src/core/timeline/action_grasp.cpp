@@ -1,19 +1,20 @@
 // The "grasp" and "release" actions: points that follow a displacement path from where they are
 // when grasped, and the end of that.
-#include "cutsim/core/timeline.hpp"
 #include "cutsim/base/numbers.hpp"
+#include "cutsim/core/timeline.hpp"
 
 namespace cutsim::core {
 namespace {
 
-/// Fails at the first selected id beyond the mesh (ids are checked against the mesh in the dry run).
+/// Fails at the first selected id beyond the mesh (ids are checked against the mesh in the dry
+/// run).
 void checkIds(DryRunContext& c, const PointSelection& sel) {
   if (sel.kind != PointSelection::Kind::Points) return;
   const std::size_t n = c.restMesh().points.size();
   for (std::size_t i = 0; i < sel.points.size(); ++i)
     if (sel.points[i] >= n)
-      c.fail("points/" + std::to_string(i), "must be between 0 and " + std::to_string(long(n) - 1) + " (got " +
-                                                std::to_string(sel.points[i]) + ")");
+      c.fail("points/" + std::to_string(i), "must be between 0 and " + std::to_string(long(n) - 1) +
+                                                " (got " + std::to_string(sel.points[i]) + ")");
 }
 
 class GraspAction final : public TimelineAction {
@@ -21,7 +22,8 @@ class GraspAction final : public TimelineAction {
   explicit GraspAction(GraspParameters p) : p_(std::move(p)) {}
   bool checkpointable() const override { return true; }  // done once started
   void dryRun(DryRunContext& c) const override {
-    if (c.activeGrasps().count(p_.name)) c.fail("name", "a grasp named \"" + p_.name + "\" is already active");
+    if (c.activeGrasps().count(p_.name))
+      c.fail("name", "a grasp named \"" + p_.name + "\" is already active");
     checkIds(c, p_.selection);
     if (p_.selection.resolve(c.topology()).empty())
       c.fail(std::string(p_.selection.key()), "selects no live point at that time");
@@ -32,7 +34,8 @@ class GraspAction final : public TimelineAction {
     if (p_.selection.kind == PointSelection::Kind::Points)
       for (PointId p : p_.selection.points)
         if (p >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(p))
-          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) + " is not a point of the surface");
+          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) +
+                 " is not a point of the surface");
     const std::vector<PointId> points = p_.selection.resolve(sim.topology());
     if (points.empty()) c.fail("grasp \"" + p_.name + "\" selects no point of the surface");
     // A point is held by one constraint: a grasp cannot drag a fixed point, nor one another grasp
@@ -43,8 +46,9 @@ class GraspAction final : public TimelineAction {
                " is fixed: a point is held by one constraint (select points that are not fixed)");
       for (std::size_t g = 0; g < sim.numGrasps(); ++g)
         if (sim.grasp(g).points().contains(p))
-          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) + " is held by the grasp \"" +
-                 sim.grasp(g).name() + "\": a point is held by one constraint");
+          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) +
+                 " is held by the grasp \"" + sim.grasp(g).name() +
+                 "\": a point is held by one constraint");
     }
     sim.addGrasp(p_.name, points, p_.path);
   }
@@ -79,7 +83,8 @@ DisplacementPath readPath(const ParameterSource& s) {
     const double t = rows[i][0];
     const std::string key = "path/" + std::to_string(i) + "/0";
     if (t < 0) s.fail(key, "path times are relative to the grasp's start: must be >= 0");
-    if (!out.times.empty() && !(t > out.times.back())) s.fail(key, "path times must increase strictly");
+    if (!out.times.empty() && !(t > out.times.back()))
+      s.fail(key, "path times must increase strictly");
     out.times.push_back(t);
     out.displacements.push_back({rows[i][1], rows[i][2], rows[i][3]});
   }
@@ -95,39 +100,50 @@ std::string readName(const ParameterSource& s) {
   return name;
 }
 
-const bool graspRegistered = ActionRegistry::instance().add({
-    "grasp",
-    "points (resolved when it starts) that follow their position then plus a displacement path",
-    {{"at", KeyType::Number, "time the grasp starts"},
-     {"name", KeyType::String, "unique among the active grasps; names the CSV's reaction-force columns", {"forceps"}, true},
-     {"points", KeyType::Integers, "[ids] of the mesh as loaded"},
-     {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
-     {"near", KeyType::Points, "[[x, y, z], ...]: the nearest live point to each position, in rest coordinates"},
-     {"path", KeyType::Rows, "[[t, dx, dy, dz], ...]: times from the grasp's start, strictly increasing", {}, true}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      GraspParameters p;
-      p.name = readName(s);
-      p.selection = PointSelection::read(s);
-      p.path = readPath(s);
-      return p;
-    },
-    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
-      return std::make_unique<GraspAction>(std::any_cast<const GraspParameters&>(p));
-    }});
+const bool graspRegistered = ActionRegistry::instance().add(
+    {"grasp",
+     "points (resolved when it starts) that follow their position then plus a displacement path",
+     {{"at", KeyType::Number, "time the grasp starts"},
+      {"name",
+       KeyType::String,
+       "unique among the active grasps; names the CSV's reaction-force columns",
+       {"forceps"},
+       true},
+      {"points", KeyType::Integers, "[ids] of the mesh as loaded"},
+      {"box", KeyType::Box,
+       "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
+      {"near", KeyType::Points,
+       "[[x, y, z], ...]: the nearest live point to each position, in rest coordinates"},
+      {"path",
+       KeyType::Rows,
+       "[[t, dx, dy, dz], ...]: times from the grasp's start, strictly increasing",
+       {},
+       true}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       GraspParameters p;
+       p.name = readName(s);
+       p.selection = PointSelection::read(s);
+       p.path = readPath(s);
+       return p;
+     },
+     [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+       return std::make_unique<GraspAction>(std::any_cast<const GraspParameters&>(p));
+     }});
 
-const bool releaseRegistered = ActionRegistry::instance().add({
-    "release",
-    "ends an active grasp",
-    {{"at", KeyType::Number, "time of the release"}, {"name", KeyType::String, "the grasp to release", {"forceps"}, true}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      s.require("name");
-      return ReleaseParameters{s.string("name")};
-    },
-    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
-      return std::make_unique<ReleaseAction>(std::any_cast<const ReleaseParameters&>(p));
-    }});
+const bool releaseRegistered = ActionRegistry::instance().add(
+    {"release",
+     "ends an active grasp",
+     {{"at", KeyType::Number, "time of the release"},
+      {"name", KeyType::String, "the grasp to release", {"forceps"}, true}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       s.require("name");
+       return ReleaseParameters{s.string("name")};
+     },
+     [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+       return std::make_unique<ReleaseAction>(std::any_cast<const ReleaseParameters&>(p));
+     }});
 
 }  // namespace
 }  // namespace cutsim::core

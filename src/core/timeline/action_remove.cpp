@@ -1,6 +1,6 @@
 // The "remove" action: carves out the triangles whose rest centroid lies in a sphere or a box.
-#include "cutsim/core/timeline.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/core/timeline.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -15,8 +15,9 @@ class RemoveAction final : public TimelineAction {
     repair.minAngle = p_.minAngle;
     try {
       if (removeIn(c.topology(), repair) == 0)
-        c.fail(key, p_.cutBoundary ? "removes no triangle: no point of the rest mesh lies inside the region"
-                                   : "removes no triangle: no rest centroid lies inside");
+        c.fail(key, p_.cutBoundary
+                        ? "removes no triangle: no point of the rest mesh lies inside the region"
+                        : "removes no triangle: no rest centroid lies inside");
     } catch (const TopologyError& e) {
       c.fail(key, std::string("the removal cannot be made: ") + e.what());
     }
@@ -29,8 +30,10 @@ class RemoveAction final : public TimelineAction {
       c.failTopology(std::string("the removal failed: ") + e.what());
     }
     if (removed == 0)
-      c.fail(p_.cutBoundary ? "the removal removes no triangle: no point of the surface lies inside the region"
-                            : "the removal removes no triangle: no triangle's rest centroid lies inside the region");
+      c.fail(p_.cutBoundary
+                 ? "the removal removes no triangle: no point of the surface lies inside the region"
+                 : "the removal removes no triangle: no triangle's rest centroid lies inside the "
+                   "region");
   }
 
  private:
@@ -50,43 +53,48 @@ class RemoveAction final : public TimelineAction {
   RemoveParameters p_;
 };
 
-const bool registered = ActionRegistry::instance().add({
-    "remove",
-    "carves out the part of the surface inside a sphere or a box (cutting the triangles its boundary "
-    "crosses), or the triangles whose rest centroid lies inside",
-    {{"at", KeyType::Number, "time of the removal"},
-     {"sphere", KeyType::Object, "{\"center\": [x, y, z], \"radius\": r} in rest coordinates"},
-     {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"},
-     {"boundary", KeyType::Choice, "\"cut\" (default): cut the triangles the region's boundary crosses, a clean hole; "
-                  "\"centroid\": remove whole triangles whose rest centroid is inside", {"cut", "centroid"}},
-     {"minAngle", KeyType::Number, "smallest-angle target (degrees) of the quality repair around the hole, in [0, 60) "
-                  "(default 20; 0 turns the repair off)"}},
-    {},
-    [](const ParameterSource& s) -> std::any {
-      RemoveParameters p;
-      if (s.oneOf({"sphere", "box"}) == "sphere") {
-        const auto sphere = s.object("sphere", {"center", "radius"});
-        p.region.kind = Region::Kind::Sphere;
-        sphere->require("center");
-        sphere->require("radius");
-        p.region.center = sphere->vec3("center");
-        p.region.radius = sphere->positive("radius", 0.0);
-      } else {
-        p.region.kind = Region::Kind::Box;
-        std::tie(p.region.boxMin, p.region.boxMax) = s.box("box");
-      }
-      if (s.has("boundary")) {
-        const std::string b = s.string("boundary");
-        if (b != "cut" && b != "centroid")
-          s.fail("boundary", "must be \"cut\" or \"centroid\" (got \"" + b + "\")");
-        p.cutBoundary = b == "cut";
-      }
-      p.minAngle = readMinAngle(s);
-      return p;
-    },
-    [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
-      return std::make_unique<RemoveAction>(std::any_cast<const RemoveParameters&>(p));
-    }});
+const bool registered = ActionRegistry::instance().add(
+    {"remove",
+     "carves out the part of the surface inside a sphere or a box (cutting the triangles its "
+     "boundary "
+     "crosses), or the triangles whose rest centroid lies inside",
+     {{"at", KeyType::Number, "time of the removal"},
+      {"sphere", KeyType::Object, "{\"center\": [x, y, z], \"radius\": r} in rest coordinates"},
+      {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]] in rest coordinates"},
+      {"boundary",
+       KeyType::Choice,
+       "\"cut\" (default): cut the triangles the region's boundary crosses, a clean hole; "
+       "\"centroid\": remove whole triangles whose rest centroid is inside",
+       {"cut", "centroid"}},
+      {"minAngle", KeyType::Number,
+       "smallest-angle target (degrees) of the quality repair around the hole, in [0, 60) "
+       "(default 20; 0 turns the repair off)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       RemoveParameters p;
+       if (s.oneOf({"sphere", "box"}) == "sphere") {
+         const auto sphere = s.object("sphere", {"center", "radius"});
+         p.region.kind = Region::Kind::Sphere;
+         sphere->require("center");
+         sphere->require("radius");
+         p.region.center = sphere->vec3("center");
+         p.region.radius = sphere->positive("radius", 0.0);
+       } else {
+         p.region.kind = Region::Kind::Box;
+         std::tie(p.region.boxMin, p.region.boxMax) = s.box("box");
+       }
+       if (s.has("boundary")) {
+         const std::string b = s.string("boundary");
+         if (b != "cut" && b != "centroid")
+           s.fail("boundary", "must be \"cut\" or \"centroid\" (got \"" + b + "\")");
+         p.cutBoundary = b == "cut";
+       }
+       p.minAngle = readMinAngle(s);
+       return p;
+     },
+     [](const std::any& p, const ActionTiming&) -> std::unique_ptr<TimelineAction> {
+       return std::make_unique<RemoveAction>(std::any_cast<const RemoveParameters&>(p));
+     }});
 
 }  // namespace
 }  // namespace cutsim::core

@@ -12,10 +12,12 @@ class FixedConstraint final : public SceneConstraint {
       const std::size_t n = c.restMesh().points.size();
       for (std::size_t i = 0; i < s_.points.size(); ++i)
         if (s_.points[i] >= n)
-          c.fail("points/" + std::to_string(i), "must be between 0 and " + std::to_string(long(n) - 1) +
-                                                    " (got " + std::to_string(s_.points[i]) + ")");
+          c.fail("points/" + std::to_string(i), "must be between 0 and " +
+                                                    std::to_string(long(n) - 1) + " (got " +
+                                                    std::to_string(s_.points[i]) + ")");
     }
-    if (s_.resolve(c.topology()).empty()) c.fail(std::string(s_.key()), "selects no point of the mesh");
+    if (s_.resolve(c.topology()).empty())
+      c.fail(std::string(s_.key()), "selects no point of the mesh");
   }
   void apply(Simulation& sim) const override {
     const std::vector<PointId> points = s_.resolve(sim.topology());
@@ -23,8 +25,9 @@ class FixedConstraint final : public SceneConstraint {
     for (PointId p : points)
       for (std::size_t g = 0; g < sim.numGrasps(); ++g)
         if (sim.grasp(g).points().contains(p))
-          throw InvalidInput(std::string(s_.key()), "point " + std::to_string(p) + " is held by the grasp \"" +
-                                                        sim.grasp(g).name() + "\": a point is held by one constraint");
+          throw InvalidInput(std::string(s_.key()),
+                             "point " + std::to_string(p) + " is held by the grasp \"" +
+                                 sim.grasp(g).name() + "\": a point is held by one constraint");
     for (PointId p : points) sim.fixed().add(p);
   }
 
@@ -32,17 +35,19 @@ class FixedConstraint final : public SceneConstraint {
   PointSelection s_;
 };
 
-const bool registered = ConstraintRegistry::instance().add({
-    "fixed",
-    "points that do not move",
-    {{"points", KeyType::Integers, "[ids] of the mesh as loaded"},
-     {"box", KeyType::Box, "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
-     {"near", KeyType::Points, "[[x, y, z], ...]: the nearest point to each position, in rest coordinates"}},
-    {},
-    [](const ParameterSource& s) -> std::any { return PointSelection::read(s); },
-    [](const std::any& p) -> std::unique_ptr<SceneConstraint> {
-      return std::make_unique<FixedConstraint>(std::any_cast<const PointSelection&>(p));
-    }});
+const bool registered = ConstraintRegistry::instance().add(
+    {"fixed",
+     "points that do not move",
+     {{"points", KeyType::Integers, "[ids] of the mesh as loaded"},
+      {"box", KeyType::Box,
+       "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
+      {"near", KeyType::Points,
+       "[[x, y, z], ...]: the nearest point to each position, in rest coordinates"}},
+     {},
+     [](const ParameterSource& s) -> std::any { return PointSelection::read(s); },
+     [](const std::any& p) -> std::unique_ptr<SceneConstraint> {
+       return std::make_unique<FixedConstraint>(std::any_cast<const PointSelection&>(p));
+     }});
 
 }  // namespace
 }  // namespace cutsim::core

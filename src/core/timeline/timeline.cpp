@@ -23,7 +23,8 @@ PointSelection PointSelection::read(const ParameterSource& s) {
   const std::string_view key = s.oneOf({"points", "box", "near"});
   if (key == "points") {
     sel.kind = Kind::Points;
-    const std::vector<long> ids = s.integers("points", 0, long(std::numeric_limits<topology::Index>::max()) - 1);
+    const std::vector<long> ids =
+        s.integers("points", 0, long(std::numeric_limits<topology::Index>::max()) - 1);
     if (ids.empty()) s.fail("points", "lists no point");
     for (long id : ids) sel.points.push_back(PointId(id));
   } else if (key == "box") {
@@ -38,9 +39,12 @@ PointSelection PointSelection::read(const ParameterSource& s) {
 
 std::string_view PointSelection::key() const {
   switch (kind) {
-    case Kind::Points: return "points";
-    case Kind::Box: return "box";
-    case Kind::Near: return "near";
+    case Kind::Points:
+      return "points";
+    case Kind::Box:
+      return "box";
+    case Kind::Near:
+      return "near";
   }
   return "";
 }
@@ -102,7 +106,8 @@ double Region::levelSet(const Vec3& p) const {
   return d;
 }
 
-std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region) {
+std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo,
+                                                    const Region& region) {
   std::vector<topology::TriangleId> out;
   for (topology::TriangleId t : topo.triangles()) {
     const auto v = topo.triangleVertices(t);
@@ -132,8 +137,8 @@ double readMinAngle(const ParameterSource& s) {
   if (!s.has("minAngle")) return kDefaultMinAngle;
   const double a = s.number("minAngle");
   if (!(a >= 0.0 && a < 60.0))
-    s.fail("minAngle", "must be in [0, 60) degrees (0 turns the quality repair off); got " +
-                           describeNumber(a));
+    s.fail("minAngle",
+           "must be in [0, 60) degrees (0 turns the quality repair off); got " + describeNumber(a));
   return a;
 }
 

@@ -33,7 +33,8 @@ inline constexpr std::uint32_t kArchiveFormat = 2;
 std::uint32_t crc32Of(std::uint32_t crc, const void* data, std::size_t n);
 /// The CRC-32 of the first n bytes of a file (all of it by default); nothing if the file is
 /// shorter or cannot be read.
-std::optional<std::uint32_t> fileCrc32(const std::filesystem::path& file, std::uint64_t n = ~std::uint64_t(0));
+std::optional<std::uint32_t> fileCrc32(const std::filesystem::path& file,
+                                       std::uint64_t n = ~std::uint64_t(0));
 
 /// Writes one section at a time; save() writes the whole file atomically.
 class ArchiveWriter {

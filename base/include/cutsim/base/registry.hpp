@@ -53,8 +53,8 @@ class ParameterSource {
   virtual std::vector<std::vector<double>> rows(std::string_view key, std::size_t width,
                                                 std::size_t minCount) const = 0;
   /// A nested object, read as a source of its own (its keys are checked against `keys`).
-  virtual std::unique_ptr<ParameterSource> object(std::string_view key,
-                                                  std::initializer_list<std::string_view> keys) const = 0;
+  virtual std::unique_ptr<ParameterSource> object(
+      std::string_view key, std::initializer_list<std::string_view> keys) const = 0;
   /// [x, y, z].
   virtual Vec3 vec3(std::string_view key) const = 0;
   /// At least minCount [x, y, z] points.
@@ -65,13 +65,17 @@ class ParameterSource {
   std::string_view oneOf(std::initializer_list<std::string_view> keys) const;
 
   // ---- conveniences: the value if present, else the fallback ----
-  double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }
+  double number(std::string_view key, double fallback) const {
+    return has(key) ? number(key) : fallback;
+  }
   double nonNegative(std::string_view key, double fallback) const;
   double positive(std::string_view key, double fallback) const;
   long integer(std::string_view key, long min, long max, long fallback) const {
     return has(key) ? integer(key, min, max) : fallback;
   }
-  bool boolean(std::string_view key, bool fallback) const { return has(key) ? boolean(key) : fallback; }
+  bool boolean(std::string_view key, bool fallback) const {
+    return has(key) ? boolean(key) : fallback;
+  }
   /// One of `choices` (the fallback when absent); anything else fails naming the choices.
   std::string choice(std::string_view key, std::string fallback,
                      std::initializer_list<std::string_view> choices) const;
@@ -96,7 +100,8 @@ class ParameterSource {
 class ScalarParameters final : public ParameterSource {
  public:
   using Value = std::variant<double, long, bool, std::string>;
-  explicit ScalarParameters(std::string where, std::map<std::string, Value, std::less<>> values = {})
+  explicit ScalarParameters(std::string where,
+                            std::map<std::string, Value, std::less<>> values = {})
       : where_(std::move(where)), values_(std::move(values)) {}
   bool has(std::string_view key) const override { return values_.count(key) > 0; }
   double number(std::string_view key) const override;
@@ -105,7 +110,8 @@ class ScalarParameters final : public ParameterSource {
   std::string string(std::string_view key) const override;
   [[noreturn]] void fail(std::string_view key, const std::string& message) const override;
   std::vector<long> integers(std::string_view key, long, long) const override { structured(key); }
-  std::vector<std::vector<double>> rows(std::string_view key, std::size_t, std::size_t) const override {
+  std::vector<std::vector<double>> rows(std::string_view key, std::size_t,
+                                        std::size_t) const override {
     structured(key);
   }
   std::unique_ptr<ParameterSource> object(std::string_view key,
@@ -125,8 +131,20 @@ class ScalarParameters final : public ParameterSource {
 
 /// The kind of value a key takes, as a ParameterSource reads it: number(), integer(),
 /// boolean(), choice(), string(), integers(), points() or vec3(), rows(), box(), object().
-enum class KeyType { Number, Integer, Boolean, Choice, String, Integers, Points, Rows, Box, Object };
-/// "number", "integer", "boolean", "choice", "string", "integers", "points", "rows", "box", "object".
+enum class KeyType {
+  Number,
+  Integer,
+  Boolean,
+  Choice,
+  String,
+  Integers,
+  Points,
+  Rows,
+  Box,
+  Object
+};
+/// "number", "integer", "boolean", "choice", "string", "integers", "points", "rows", "box",
+/// "object".
 const char* toString(KeyType type);
 
 /// A key of a component: its name, the kind of value it takes, what it means (for messages and

@@ -11,7 +11,9 @@ namespace cutsim {
 
 class UnionFind {
  public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), std::size_t(0)); }
+  explicit UnionFind(std::size_t n) : parent_(n) {
+    std::iota(parent_.begin(), parent_.end(), std::size_t(0));
+  }
   std::size_t size() const { return parent_.size(); }
   /// The root of x's set.
   std::size_t find(std::size_t x) {

@@ -6,14 +6,15 @@
 // Detection. A bounding volume hierarchy over the live triangles (each box inflated by the
 // triangle's margin), rebuilt when the topology's revision changes and refitted otherwise; it
 // follows the topology's events like every other observer (validate() compares it and its
-// tables with a rebuild). The candidate pairs within their margins are collected once each: vertex-triangle (VT) and edge-edge (EE) pairs of the surface that share no point (each
-// point and edge is owned by one of its triangles, and a pair of triangles is visited once), and
-// each point against each analytic obstacle; a triangle-mesh obstacle gives VT pairs (surface
-// point, obstacle triangle), TV pairs (obstacle point, surface triangle) and EE pairs; a box is
-// such a mesh of twelve triangles; against a sphere or a capsule each triangle's closest feature
-// (interior, edge, corner) makes one pair, each feature once; against a plane, each point. At
-// the step's start the pairs within 1.5 d (plus four times the points' velocities relative to
-// the mean one, times dt) are kept.
+// tables with a rebuild). The candidate pairs within their margins are collected once each:
+// vertex-triangle (VT) and edge-edge (EE) pairs of the surface that share no point (each point and
+// edge is owned by one of its triangles, and a pair of triangles is visited once), and each point
+// against each analytic obstacle; a triangle-mesh obstacle gives VT pairs (surface point, obstacle
+// triangle), TV pairs (obstacle point, surface triangle) and EE pairs; a box is such a mesh of
+// twelve triangles; against a sphere or a capsule each triangle's closest feature (interior, edge,
+// corner) makes one pair, each feature once; against a plane, each point. At the step's start the
+// pairs within 1.5 d (plus four times the points' velocities relative to the mean one, times dt)
+// are kept.
 //
 // Response. For a pair at distance s (unsigned, between closest points; for an analytic obstacle
 // the signed distance of the point) with thickness d and stiffness k:
@@ -111,12 +112,12 @@ struct Obstacle {
   enum class Shape { Plane, Sphere, Box, Capsule, Mesh };
   Shape shape = Shape::Plane;
   std::string name;
-  Vec3 point{0, 0, 0};        ///< plane: a point on it; sphere, box: centre; capsule: one end
-  Vec3 normal{0, 0, 1};       ///< plane: unit normal (the free side)
-  Vec3 halfExtents{0, 0, 0};  ///< box: half sizes along x, y, z (axis-aligned)
-  Vec3 pointB{0, 0, 0};       ///< capsule: the other end
-  double radius = 0.0;        ///< sphere, capsule
-  std::vector<Vec3> vertices;                 ///< mesh
+  Vec3 point{0, 0, 0};         ///< plane: a point on it; sphere, box: centre; capsule: one end
+  Vec3 normal{0, 0, 1};        ///< plane: unit normal (the free side)
+  Vec3 halfExtents{0, 0, 0};   ///< box: half sizes along x, y, z (axis-aligned)
+  Vec3 pointB{0, 0, 0};        ///< capsule: the other end
+  double radius = 0.0;         ///< sphere, capsule
+  std::vector<Vec3> vertices;  ///< mesh
   std::vector<std::array<int, 3>> triangles;  ///< mesh (any triangle soup)
   double friction = 0.0;                      ///< mu against this obstacle: >= 0
   /// Keyframes (ascending times): the offset is interpolated linearly and held before the first
@@ -137,9 +138,9 @@ struct Obstacle {
 
 /// What contact did at given positions and velocities (for the CSV).
 struct ContactMeasure {
-  std::size_t candidates = 0;  ///< pairs within their margins at the step's start
-  std::size_t active = 0;      ///< pairs within the thickness (penalty on)
-  std::size_t excluded = 0;    ///< pairs excluded after a topology change
+  std::size_t candidates = 0;                   ///< pairs within their margins at the step's start
+  std::size_t active = 0;                       ///< pairs within the thickness (penalty on)
+  std::size_t excluded = 0;                     ///< pairs excluded after a topology change
   double selfNormal = 0.0, selfFriction = 0.0;  ///< sums of the pairs' force magnitudes (N)
   std::vector<double> obstacleNormal, obstacleFriction;  ///< per obstacle (N)
 };
@@ -152,7 +153,8 @@ struct ContactProximity {
 
 class Contact final : public ForceField, public topology::TopologyObserver {
  public:
-  Contact(topology::Topology& topology, ContactParameters parameters, std::vector<Obstacle> obstacles);
+  Contact(topology::Topology& topology, ContactParameters parameters,
+          std::vector<Obstacle> obstacles);
   ~Contact() override;
 
   const ContactParameters& parameters() const { return parameters_; }
@@ -169,8 +171,9 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   /// After the step's solve: clamps each unconstrained point's displacement x1 - x0 to its bound
   /// (velocities of clamped points become (x1 - x0) / dt). Returns the number of clamped points.
-  std::size_t limitDisplacement(std::span<const double> x0, std::span<double> x1, std::span<double> v1,
-                                double dt, std::span<const char> constrained) const;
+  std::size_t limitDisplacement(std::span<const double> x0, std::span<double> x1,
+                                std::span<double> v1, double dt,
+                                std::span<const char> constrained) const;
 
   /// Forces and counts at x, v with the current pairs.
   ContactMeasure measure(std::span<const double> x, std::span<const double> v) const;
@@ -191,14 +194,16 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   /// Triangles that intersect each other (sharing no point) or an obstacle at x, or have a
   /// corner inside an analytic obstacle; at most `limit` (the start check of a scene).
-  std::vector<ContactProximity> intersections(std::span<const double> x, std::size_t limit = 5) const;
+  std::vector<ContactProximity> intersections(std::span<const double> x,
+                                              std::size_t limit = 5) const;
 
   /// The bound of each point slot after the last limitDisplacement (infinity: none; for tests).
   const std::vector<double>& bounds() const;
 
   // ---- ForceField ----
   std::string typeName() const override { return "Contact"; }
-  void addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const override;
+  void addForce(std::span<const double> x, std::span<const double> v,
+                std::span<double> f) const override;
   void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
                  double kFactor, double bFactor) const override;
   /// Evaluates the pairs at x once for the solve; its products then skip comparing x.
@@ -215,7 +220,8 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   void onPointsRenumbered(const topology::Topology&, const topology::Renumbering&) override;
   void onTransactionEnd(const topology::Topology&, const topology::TransactionSummary&) override;
   std::string observerName() const override { return "Contact"; }
-  void validate(const topology::Topology& topology, std::vector<std::string>& problems) const override;
+  void validate(const topology::Topology& topology,
+                std::vector<std::string>& problems) const override;
   /// Checkpoints: the exclusions and released pairs, the hierarchy as built, the pair cache and
   /// its schedule, the step's pairs and bounds, the obstacles' paths and poses (what the next
   /// steps depend on; the per-topology tables are rebuilt, as they are after every change).

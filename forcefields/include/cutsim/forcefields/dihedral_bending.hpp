@@ -173,9 +173,8 @@ struct DihedralHingeTraits {
 /// The table and the events (hinge(e), counters(), numEdgeSlots(), the TopologyObserver handlers
 /// and validate()) come from detail::HingeTable, shared with FastTriangularBendingSprings; this
 /// class holds the model's own parts.
-class DihedralBending
-    : public ForceField,
-      public detail::HingeTable<DihedralBending, detail::DihedralHingeTraits> {
+class DihedralBending : public ForceField,
+                        public detail::HingeTable<DihedralBending, detail::DihedralHingeTraits> {
  public:
   /// Validates the parameters, builds the table once from the current mesh (rest positions from
   /// topology.restPosition) and subscribes to the topology, which must outlive this object's use.

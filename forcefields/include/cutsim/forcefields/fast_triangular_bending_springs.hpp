@@ -194,7 +194,6 @@ class FastTriangularBendingSprings
   BendingParameters params_;
 };
 
-extern template class detail::HingeTable<FastTriangularBendingSprings,
-                                         detail::BendingSpringTraits>;
+extern template class detail::HingeTable<FastTriangularBendingSprings, detail::BendingSpringTraits>;
 
 }  // namespace cutsim::forcefields

@@ -28,9 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "cutsim/topology/types.hpp"
 #include "cutsim/base/fwd.hpp"
-
+#include "cutsim/topology/types.hpp"
 
 namespace cutsim::forcefields {
 

@@ -25,12 +25,14 @@ struct TriangularBendingSpringsParameters {
 
 class TriangularBendingSprings final : public FastTriangularBendingSprings {
  public:
-  TriangularBendingSprings(topology::Topology& topology, TriangularBendingSpringsParameters parameters);
+  TriangularBendingSprings(topology::Topology& topology,
+                           TriangularBendingSpringsParameters parameters);
 
   std::string typeName() const override { return "TriangularBendingSprings"; }
-  void addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const override;
-  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df, double kFactor,
-                 double bFactor) const override;
+  void addForce(std::span<const double> x, std::span<const double> v,
+                std::span<double> f) const override;
+  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                 double kFactor, double bFactor) const override;
   double potentialEnergy(std::span<const double> x) const override;
   void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
   /// Nothing: the damping is explicit, as SOFA's.

@@ -204,6 +204,7 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
 
 /// The keys of a TriangularFEM-like registry entry (youngModulus, poissonRatio, thickness,
 /// restScale, and exactHessian if asked), checked.
-TriangularFEMParameters readTriangularFEMParameters(const cutsim::ParameterSource& s, bool withExactHessian);
+TriangularFEMParameters readTriangularFEMParameters(const cutsim::ParameterSource& s,
+                                                    bool withExactHessian);
 
 }  // namespace cutsim::forcefields

@@ -14,7 +14,8 @@
 //                                                        constant-strain triangle),
 //   stress = D strain / (4A) h,  D = [[mu'+g, g, 0], [g, mu'+g, 0], [0, 0, mu'/2]],
 //            mu' = E / (1 + nu), g = E nu / (1 - nu^2)  (plane stress; mu' is twice Lame's mu),
-//   f_b = f0 (cy s0 - cx s2) + f1 (cy s2 - cx s1),  f_c = f0 (bx s2) + f1 (bx s1),  f_a = -f_b - f_c.
+//   f_b = f0 (cy s0 - cx s2) + f1 (cy s2 - cx s1),  f_c = f0 (bx s2) + f1 (bx s1),  f_a = -f_b -
+//   f_c.
 //
 // K is SOFA's: the frame held fixed, K = -h/(4A) F^T B^T D B F (F: the 2 x 3 frame, B the 2D
 // strain-displacement matrix); symmetric, negative semi-definite. The force is not the gradient of
@@ -36,10 +37,11 @@ class TriangularFEMOptim final : public TriangularFEM {
   TriangularFEMOptim(topology::Topology& topology, TriangularFEMParameters parameters);
 
   std::string typeName() const override { return "TriangularFEMForceFieldOptim"; }
-  void addForce(std::span<const double> x, std::span<const double> v, std::span<double> f) const override;
+  void addForce(std::span<const double> x, std::span<const double> v,
+                std::span<double> f) const override;
   /// df += kFactor K dx (SOFA's addDForce, the frame at x).
-  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df, double kFactor,
-                 double bFactor) const override;
+  void addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
+                 double kFactor, double bFactor) const override;
   double potentialEnergy(std::span<const double> x) const override;
   void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
   bool stiffnessIsExact() const override { return false; }

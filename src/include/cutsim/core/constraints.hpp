@@ -7,10 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/base/fwd.hpp"
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
-#include "cutsim/base/fwd.hpp"
-
 
 namespace cutsim::core {
 
@@ -57,8 +56,9 @@ struct DisplacementPath {
 };
 
 /// Grasped points follow anchor + path(t - startTime), where anchor is each point's position when
-/// it was grasped (a copy made later by a cut inherits its original's anchor). The reaction force is the force the grasp exerts on the surface (the sum
-/// over its points of what holds them on the path), reported after each step.
+/// it was grasped (a copy made later by a cut inherits its original's anchor). The reaction force
+/// is the force the grasp exerts on the surface (the sum over its points of what holds them on the
+/// path), reported after each step.
 class Grasp {
  public:
   Grasp(topology::Topology& topology, std::string name, double startTime, DisplacementPath path);

@@ -42,21 +42,21 @@ namespace cutsim::core {
 struct StepStats {
   /// Flags of the step's solves (bits).
   enum Flag : std::uint8_t {
-    MissedTolerance = 1,  ///< a linear solve ended above its tolerance (a capped CG)
-    Indefinite = 2,       ///< CG met p^T A p <= 0, or a factorisation found A indefinite
-    FellBack = 4,         ///< a solve was redone with the direct solver
+    MissedTolerance = 1,     ///< a linear solve ended above its tolerance (a capped CG)
+    Indefinite = 2,          ///< CG met p^T A p <= 0, or a factorisation found A indefinite
+    FellBack = 4,            ///< a solve was redone with the direct solver
     NewtonNotConverged = 8,  ///< Newton's iterations ended above their tolerance
   };
-  int iterations = 0;        ///< linear iterations over the step's solves (1 per direct solve)
-  double residual = 0.0;     ///< relative residual of the step's last linear solve
-  double worstResidual = 0.0;  ///< the largest relative residual of the step's linear solves
-  int solves = 0;            ///< linear solves in the step
-  int newtonIterations = 0;  ///< Newton iterations (newton only)
+  int iterations = 0;           ///< linear iterations over the step's solves (1 per direct solve)
+  double residual = 0.0;        ///< relative residual of the step's last linear solve
+  double worstResidual = 0.0;   ///< the largest relative residual of the step's linear solves
+  int solves = 0;               ///< linear solves in the step
+  int newtonIterations = 0;     ///< Newton iterations (newton only)
   double newtonResidual = 0.0;  ///< |residual| / |first residual| at Newton's end (newton only)
-  bool analysed = false;     ///< a direct solver redid its symbolic analysis this step
-  int clamped = 0;           ///< points whose displacement the contact bound clamped (all substeps)
-  int splits = 0;            ///< times the step (or a part of it) was redone as two halves
-  int substeps = 1;          ///< integrator steps taken for this step
+  bool analysed = false;        ///< a direct solver redid its symbolic analysis this step
+  int clamped = 0;   ///< points whose displacement the contact bound clamped (all substeps)
+  int splits = 0;    ///< times the step (or a part of it) was redone as two halves
+  int substeps = 1;  ///< integrator steps taken for this step
   std::uint8_t flags = 0;
   bool flagged() const { return flags != 0; }
   /// "ok", or the flags joined by '+': "missed-tolerance", "indefinite", "fallback", "newton".
@@ -74,7 +74,7 @@ struct ImplicitSettings {
   double rayleighMass = 0.0;       ///< mass-proportional damping factor (>= 0)
   double rayleighStiffness = 0.0;  ///< stiffness-proportional damping factor (>= 0)
   SolveFailurePolicy onSolveFailure = SolveFailurePolicy::Fallback;
-  double fallbackAbove = 1e-3;     ///< relative residual above which "fallback" re-solves (> 0)
+  double fallbackAbove = 1e-3;  ///< relative residual above which "fallback" re-solves (> 0)
   /// The linear solver that re-solves, by its registered name, with its default settings.
   std::string fallbackSolver = "cholmod";
   void validate() const;
@@ -82,10 +82,10 @@ struct ImplicitSettings {
 
 /// Newton's own settings.
 struct NewtonSettings {
-  int maxIterations = 20;     ///< >= 1
-  double tolerance = 1e-8;    ///< |residual| <= tolerance |first residual| ends the iterations (> 0)
-  bool exactStiffness = true; ///< ask the fields for their exact K
-  bool lineSearch = true;     ///< backtracking line search on the incremental potential
+  int maxIterations = 20;   ///< >= 1
+  double tolerance = 1e-8;  ///< |residual| <= tolerance |first residual| ends the iterations (> 0)
+  bool exactStiffness = true;  ///< ask the fields for their exact K
+  bool lineSearch = true;      ///< backtracking line search on the incremental potential
   void validate() const;
 };
 
@@ -108,7 +108,8 @@ struct StepOutput {
 /// solved at all); the simulation turns it into a SolverError naming the step.
 struct StepFailure {
   std::string message;
-  bool indefinite = false;  ///< the system was not positive definite (Newton then drops the exact K)
+  bool indefinite =
+      false;  ///< the system was not positive definite (Newton then drops the exact K)
 };
 
 class Integrator {
@@ -164,7 +165,7 @@ class ImplicitIntegrator : public Integrator {
   ImplicitSettings settings_;
   std::unique_ptr<LinearSolver> solver_;
   std::unique_ptr<LinearSolver> fallback_;  // settings_.fallbackSolver, made on first use
-  std::vector<double> diagonalMass_;       // scratch for systemOperator()
+  std::vector<double> diagonalMass_;        // scratch for systemOperator()
 };
 
 class ImplicitEuler final : public ImplicitIntegrator {
@@ -215,9 +216,9 @@ class NewtonImplicitEuler final : public ImplicitIntegrator {
 struct SolverSettings {
   enum class Kind { Explicit, ImplicitCG, ImplicitCholmod };
   Kind kind = Kind::ImplicitCG;
-  int cgMaxIterations = 100;   ///< CG iteration cap (>= 1)
-  double cgTolerance = 1e-8;   ///< relative residual |r| / |b| to stop at (> 0)
-  bool cgWarmStart = true;     ///< start CG from the previous step's velocity change
+  int cgMaxIterations = 100;       ///< CG iteration cap (>= 1)
+  double cgTolerance = 1e-8;       ///< relative residual |r| / |b| to stop at (> 0)
+  bool cgWarmStart = true;         ///< start CG from the previous step's velocity change
   double rayleighMass = 0.0;       ///< mass-proportional damping factor (>= 0)
   double rayleighStiffness = 0.0;  ///< stiffness-proportional damping factor (>= 0)
   SolveFailurePolicy onSolveFailure = SolveFailurePolicy::Fallback;
@@ -234,6 +235,7 @@ std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& settings);
 /// SOFA's EulerImplicitSolver with its CGLinearSolver, operation for operation (registered as
 /// "sofa-euler"; src/core/sofa_euler.cpp, docs/sofa.md): massAt is the mass's place among the
 /// force fields in SOFA's node (the order of its sums).
-std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt, SofaCGSettings cg);
+std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt,
+                                          SofaCGSettings cg);
 
 }  // namespace cutsim::core

@@ -72,11 +72,13 @@ class SystemOperator {
 
 /// What one solve did.
 struct SolveReport {
-  int iterations = 0;         ///< CG iterations; 1 for a direct solve
-  double residual = 0.0;      ///< |b - A dv| / |freeRhs| over the free degrees of freedom (0 if that is 0)
-  bool converged = true;      ///< the residual met the solver's tolerance
-  bool indefinite = false;    ///< CG met p^T A p <= 0, or the factorisation found A not positive definite
-  bool analysed = false;      ///< a direct solver redid its symbolic analysis
+  int iterations = 0;  ///< CG iterations; 1 for a direct solve
+  double residual =
+      0.0;  ///< |b - A dv| / |freeRhs| over the free degrees of freedom (0 if that is 0)
+  bool converged = true;  ///< the residual met the solver's tolerance
+  bool indefinite =
+      false;  ///< CG met p^T A p <= 0, or the factorisation found A not positive definite
+  bool analysed = false;  ///< a direct solver redid its symbolic analysis
 };
 
 class LinearSolver {
@@ -103,9 +105,9 @@ class LinearSolver {
 /// preconditioner). Stops when |r| <= tolerance |b| or after maxIterations, or when it meets a
 /// direction of non-positive curvature (reported as indefinite).
 struct CGSettings {
-  int maxIterations = 100;   ///< >= 1
-  double tolerance = 1e-8;   ///< relative residual to stop at, > 0
-  bool warmStart = true;     ///< start from the previous solve's dv on the free points
+  int maxIterations = 100;  ///< >= 1
+  double tolerance = 1e-8;  ///< relative residual to stop at, > 0
+  bool warmStart = true;    ///< start from the previous solve's dv on the free points
   /// Throws InvalidInput (where = the setting's name) for values out of range.
   void validate() const;
 };
@@ -115,7 +117,8 @@ class ConjugateGradient final : public LinearSolver {
   explicit ConjugateGradient(CGSettings settings = {});
   std::string_view name() const override { return "cg"; }
   bool direct() const override { return false; }
-  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b,
+                    Eigen::VectorXd& dv) override;
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override;
   void loadState(ArchiveReader& in) override;
@@ -146,13 +149,14 @@ class SofaConjugateGradient final : public LinearSolver {
   explicit SofaConjugateGradient(SofaCGSettings settings = {});
   std::string_view name() const override { return "sofa-cg"; }
   bool direct() const override { return false; }
-  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b,
+                    Eigen::VectorXd& dv) override;
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override;
   void loadState(ArchiveReader& in) override;
   const SofaCGSettings& settings() const { return settings_; }
-  /// How the last solve ended: "tolerance", "threshold", "iterations" (the cap), "zero-denominator",
-  /// "zero-rhs".
+  /// How the last solve ended: "tolerance", "threshold", "iterations" (the cap),
+  /// "zero-denominator", "zero-rhs".
   std::string_view lastStop() const { return lastStop_; }
 
  private:
@@ -179,7 +183,8 @@ class CholmodSolver final : public LinearSolver {
   ~CholmodSolver() override;
   std::string_view name() const override { return "cholmod"; }
   bool direct() const override { return true; }
-  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv) override;
+  SolveReport solve(const SystemOperator& A, const Eigen::VectorXd& b,
+                    Eigen::VectorXd& dv) override;
   /// Saves the kept pattern's ordering, revision and age: restored, the pattern is built again
   /// in that ordering at the next solve (the factorisation, and so the rounding, are the same).
   bool checkpointable() const override { return true; }

@@ -11,10 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/base/fwd.hpp"
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
-#include "cutsim/base/fwd.hpp"
-
 
 namespace cutsim::core {
 
@@ -44,7 +43,8 @@ class LumpedMass : public topology::TopologyObserver {
   double total() const;
   double restArea() const;
 
-  void onTrianglesDestroyed(const topology::Topology&, const topology::TrianglesDestroyed&) override;
+  void onTrianglesDestroyed(const topology::Topology&,
+                            const topology::TrianglesDestroyed&) override;
   void onTrianglesCreated(const topology::Topology&, const topology::TrianglesCreated&) override;
   void onPointsCreated(const topology::Topology&, const topology::PointsCreated&) override;
   std::string observerName() const override { return "LumpedMass"; }

@@ -60,9 +60,9 @@ class Model {
   /// The model owns its force fields; they were built on topology(). Labels default to the type.
   forcefields::ForceField& addForceField(std::unique_ptr<forcefields::ForceField> field,
                                          std::string label = "");
-  /// Replaces force field i (one that is replaceable()) by `field`, built on topology(), under its label:
-  /// a change of parameters between steps. The new field builds its tables from the mesh as it
-  /// is now (which the old field's incremental tables equal).
+  /// Replaces force field i (one that is replaceable()) by `field`, built on topology(), under its
+  /// label: a change of parameters between steps. The new field builds its tables from the mesh as
+  /// it is now (which the old field's incremental tables equal).
   void replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceField> field);
   std::size_t numForceFields() const { return fields_.size(); }
   forcefields::ForceField& forceField(std::size_t i) { return *fields_[i]; }

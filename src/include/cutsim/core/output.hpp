@@ -65,8 +65,8 @@ void writeBordersVtp(std::ostream& out, const Simulation& sim, const OriginalBor
 /// A ParaView collection: (time, file name relative to the .pvd) per frame.
 void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames);
 /// The obstacles' surfaces at time t (planes drawn as squares of side planeSize).
-void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles, double t,
-                       double planeSize);
+void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles,
+                       double t, double planeSize);
 /// `run.json` in a run's folder: the scene's name, description, gravity, time step and duration
 /// (what the player, cutsim view, shows of the scene, and its "up": against gravity).
 void writeRunInfo(const std::filesystem::path& dir, const Scene& scene);
@@ -84,7 +84,8 @@ struct StepRecord {
 /// folder at the same time is refused) and removes what an earlier run wrote there first.
 ///   surface.pvd, surface_NNNNNN.vtp   springs.pvd, springs_NNNNNN.vtp   frame_NNNNNN.obj
 ///   network_<label>.pvd, network_<label>_NNNNNN.vtp (every other field that draws)
-///   steps.csv (steps.partial.csv for a run stopped before its end): time, kinetic_energy, potential_<label> per force field, gravity_energy,
+///   steps.csv (steps.partial.csv for a run stopped before its end): time, kinetic_energy,
+///   potential_<label> per force field, gravity_energy,
 ///     solver_iterations, solver_residual, solver_flags ("ok" or the StepStats flags joined by
 ///     '+'), newton_iterations, active_springs, points, edges, triangles,
 ///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active);
@@ -106,8 +107,8 @@ class OutputWriter {
   /// byte for byte). A folder that does not hold the run's outputs up to the checkpoint (a frame
   /// missing, the last frame or the CSV not the run's): cutsim::Error naming what is wrong.
   OutputWriter(std::filesystem::path dir, OutputSettings settings,
-               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames, bool contact,
-               std::vector<std::string> obstacleNames, ArchiveReader& in);
+               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames,
+               bool contact, std::vector<std::string> obstacleNames, ArchiveReader& in);
   ~OutputWriter();
   OutputWriter(const OutputWriter&) = delete;
   OutputWriter& operator=(const OutputWriter&) = delete;
@@ -144,8 +145,9 @@ class OutputWriter {
  private:
   struct Columns {};
   /// What both constructors start with: the folder and the CSV's columns (nothing done yet).
-  OutputWriter(Columns, std::filesystem::path dir, OutputSettings settings, std::vector<std::string> fieldLabels,
-               std::vector<std::string> graspNames, bool contact, std::vector<std::string> obstacleNames);
+  OutputWriter(Columns, std::filesystem::path dir, OutputSettings settings,
+               std::vector<std::string> fieldLabels, std::vector<std::string> graspNames,
+               bool contact, std::vector<std::string> obstacleNames);
   void writeFrame(Simulation& sim, const StepRecord& r);
   void lockFolder(const char* hint);
   // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection

@@ -25,7 +25,10 @@ std::unique_ptr<LinearSolver> makeFallbackSolver(const std::string& name);
 template <class T>
 bool registerImplicitIntegrator(std::string name, std::string summary) {
   return IntegratorRegistry::instance().add(
-      {std::move(name), std::move(summary), implicitKeys(), {"linearSolver"},
+      {std::move(name),
+       std::move(summary),
+       implicitKeys(),
+       {"linearSolver"},
        [](const ParameterSource& s) -> std::any { return readImplicitSettings(s); },
        [](const std::any& p, std::unique_ptr<LinearSolver> ls) -> std::unique_ptr<Integrator> {
          return std::make_unique<T>(std::any_cast<const ImplicitSettings&>(p), std::move(ls));

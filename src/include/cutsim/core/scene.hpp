@@ -66,8 +66,8 @@ struct MeshTransform {
 
 /// A force field of the scene: its registered type and the parameters its entry read.
 struct ForceFieldSpec {
-  std::string type;   ///< a name of forcefields::ForceFieldRegistry
-  std::string label;  ///< "" = the type name
+  std::string type;     ///< a name of forcefields::ForceFieldRegistry
+  std::string label;    ///< "" = the type name
   std::any parameters;  ///< the entry's parameter struct (e.g. forcefields::BendingParameters)
   SceneLocation location;
 };
@@ -125,7 +125,7 @@ struct Scene {
   SceneLocation contactLocation;
   std::vector<forcefields::Obstacle> obstacles;  ///< the "obstacles" list (needs "contact")
   std::vector<SceneLocation> obstacleLocations;
-  ComponentSpec integrator;                  ///< by default implicit-euler
+  ComponentSpec integrator;                   ///< by default implicit-euler
   std::optional<ComponentSpec> linearSolver;  ///< for integrators that use one (default cg)
   double timeStep = 0.0, duration = 0.0;
   OutputSettings output;
@@ -267,7 +267,7 @@ class SceneRunner {
   std::vector<std::unique_ptr<ActionSpec>> scheduled_;
   std::size_t nextScheduled_ = 0;
   double timeStep_ = 0.0;
-  long stepBase_ = 0;       // the step and the time at the last change of time step
+  long stepBase_ = 0;  // the step and the time at the last change of time step
   double timeBase_ = 0.0;
   double meanEdge_ = 0.0;
   long tornEdges_ = 0, cutsDone_ = 0;

@@ -16,7 +16,7 @@ namespace cutsim::core {
 
 /// Counts over the steps so far of the solves that did not meet their tolerance.
 struct SolveSummary {
-  long flaggedSteps = 0;   ///< steps with any flag
+  long flaggedSteps = 0;  ///< steps with any flag
   long missedTolerance = 0, indefinite = 0, fellBack = 0, newtonNotConverged = 0;
   double worstResidual = 0.0;  ///< largest relative residual of a flagged step's solves
   long worstStep = 0;          ///< the step (1-based) it happened at

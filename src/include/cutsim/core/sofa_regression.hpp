@@ -49,31 +49,34 @@ void writeReference(const std::filesystem::path& file, const std::vector<StateFr
 std::vector<StateFrame> readReference(const std::filesystem::path& file);
 
 /// The reference file SOFA names for the list entry's scene and its i-th mechanical object.
-std::filesystem::path referencePath(const std::filesystem::path& refsDir, const RegressionEntry& entry,
-                                    std::size_t index, const std::string& mechanicalObject);
+std::filesystem::path referencePath(const std::filesystem::path& refsDir,
+                                    const RegressionEntry& entry, std::size_t index,
+                                    const std::string& mechanicalObject);
 
 struct RegressionComparison {
-  double legacy = 0.0;          ///< SOFA's C++ metric (X and V)
-  double positions = 0.0;       ///< SOFA's Python metric (X only)
-  double largestDistance = 0.0; ///< max over frames and points of |x - x_ref|
+  double legacy = 0.0;           ///< SOFA's C++ metric (X and V)
+  double positions = 0.0;        ///< SOFA's Python metric (X only)
+  double largestDistance = 0.0;  ///< max over frames and points of |x - x_ref|
   /// max over frames and coordinates of |x_ref - x| with x printed to the reference's 6 digits
   /// (0: the run gives the reference's numbers to every printed digit)
   double largestPrintedDifference = 0.0;
   std::size_t worstPoint = 0;
   double worstTime = 0.0;
-  std::size_t frames = 0;       ///< frames compared
+  std::size_t frames = 0;  ///< frames compared
 };
 
 /// Compares a run's frames with the reference's, frame by frame at the reference's times (a
 /// reference time the run did not write, or different point counts: InvalidInput naming `what`).
-RegressionComparison compareWithReference(const std::vector<StateFrame>& reference, const std::vector<StateFrame>& run,
-                                          double dt, const std::string& what);
+RegressionComparison compareWithReference(const std::vector<StateFrame>& reference,
+                                          const std::vector<StateFrame>& run, double dt,
+                                          const std::string& what);
 
 /// Runs a SOFA scene (.scn) for the entry's steps and returns the frames SOFA's WriteState would
 /// write. `mechanicalObject` gets the scene's MechanicalObject name; `notes` the reader's notes;
 /// `flaggedSteps` the steps whose solves missed their tolerance.
-std::vector<StateFrame> runForRegression(const std::filesystem::path& scene, const RegressionEntry& entry,
-                                         std::string& mechanicalObject, std::vector<std::string>& notes,
-                                         long& flaggedSteps);
+std::vector<StateFrame> runForRegression(const std::filesystem::path& scene,
+                                         const RegressionEntry& entry,
+                                         std::string& mechanicalObject,
+                                         std::vector<std::string>& notes, long& flaggedSteps);
 
 }  // namespace cutsim::core

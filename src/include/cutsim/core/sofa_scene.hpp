@@ -33,9 +33,9 @@ struct SofaImportOptions {
 };
 
 struct SofaSceneImport {
-  std::filesystem::path file;    ///< the .scn as given
-  std::filesystem::path jsonDir; ///< the folder the scene's mesh path is relative to
-  nlohmann::ordered_json scene;  ///< the JSON scene (with an "ignored" list)
+  std::filesystem::path file;     ///< the .scn as given
+  std::filesystem::path jsonDir;  ///< the folder the scene's mesh path is relative to
+  nlohmann::ordered_json scene;   ///< the JSON scene (with an "ignored" list)
   /// The .scn line of each JSON value, by JSON pointer (messages of the JSON checks name them).
   std::map<std::string, std::size_t> lines;
   /// The scene's own path of each JSON value ("/root/cloth/FEM"), by JSON pointer.
@@ -47,7 +47,8 @@ struct SofaSceneImport {
 };
 
 /// Reads and translates a SOFA scene. Throws InvalidInput (see the top of this file).
-SofaSceneImport importSofaScene(const std::filesystem::path& file, const SofaImportOptions& options = {});
+SofaSceneImport importSofaScene(const std::filesystem::path& file,
+                                const SofaImportOptions& options = {});
 /// The scene of a translation, through every check of a JSON scene; messages name the .scn's lines.
 Scene sceneFromSofa(const SofaSceneImport& imported);
 

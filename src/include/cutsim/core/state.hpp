@@ -9,10 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/base/fwd.hpp"
 #include "cutsim/topology/slot_data.hpp"
 #include "cutsim/topology/topology.hpp"
-#include "cutsim/base/fwd.hpp"
-
 
 namespace cutsim::core {
 

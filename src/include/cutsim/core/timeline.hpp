@@ -51,7 +51,8 @@ struct Region {
   double levelSet(const Vec3& p) const;
 };
 /// The live triangles whose rest centroid lies in the region.
-std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo, const Region& region);
+std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& topo,
+                                                    const Region& region);
 
 /// The default smallest-angle target of the quality repair after cuts and removals (degrees).
 inline constexpr double kDefaultMinAngle = 20.0;
@@ -74,8 +75,8 @@ class ActionContext {
  public:
   virtual ~ActionContext();
   virtual Simulation& simulation() = 0;
-  virtual double time() const = 0;      ///< the current time
-  virtual double timeStep() const = 0;  ///< the scene's
+  virtual double time() const = 0;          ///< the current time
+  virtual double timeStep() const = 0;      ///< the scene's
   virtual double meanRestEdge() const = 0;  ///< of the mesh the scene starts from
   /// Ends the run with InvalidInput "FILE:LINE: /timeline/i: at t = T " + message (the action
   /// cannot be carried out as the scene gives it).
@@ -145,14 +146,14 @@ struct RemoveParameters {
   double minAngle = kDefaultMinAngle;  ///< quality repair target, degrees (0: off)
 };
 struct TearingParameters {
-  double threshold = 0.0;  ///< Green strain normal to an edge above which it tears
-  int maxPerStep = 4;      ///< edges torn per step at most
+  double threshold = 0.0;              ///< Green strain normal to an edge above which it tears
+  int maxPerStep = 4;                  ///< edges torn per step at most
   double minAngle = kDefaultMinAngle;  ///< quality repair target after each tear (degrees, 0: off)
 };
 struct FractureParameters {
-  double criticalStrain = 0.0;  ///< averaged Green strain above which a crack advances
-  double length = 0.0;          ///< radius of the averaging disc around a tip (m)
-  double speed = 0.0;           ///< largest crack speed (m/s), required
+  double criticalStrain = 0.0;         ///< averaged Green strain above which a crack advances
+  double length = 0.0;                 ///< radius of the averaging disc around a tip (m)
+  double speed = 0.0;                  ///< largest crack speed (m/s), required
   double minAngle = kDefaultMinAngle;  ///< quality repair target along the crack (degrees)
 };
 struct GraspParameters {

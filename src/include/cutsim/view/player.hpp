@@ -24,17 +24,17 @@ inline constexpr std::size_t kMaxSeriesRows = 20000;
 /// One frame of a run, as its files give it: points numbered densely as in the frame's surface.
 struct Frame {
   double time = 0.0;
-  std::vector<float> x;                 ///< 3 per point
-  std::vector<float> rest;              ///< 3 per point (empty: displacement unknown)
-  std::vector<float> v;                 ///< 3 per point (empty: speed unknown)
-  std::vector<std::uint32_t> triangles; ///< 3 per triangle
-  std::vector<float> strain;            ///< per triangle
-  std::vector<std::uint8_t> held;       ///< per point: 0 free, 1 fixed, 2 grasped (may be empty)
-  bool hasBorders = false;              ///< the run has a border frame at this frame's time
-  std::vector<std::uint32_t> borders;   ///< 2 per border edge
-  std::vector<std::uint8_t> lips;       ///< per border edge: 1 a side of a cut or a tear
-  std::vector<std::uint32_t> springs;   ///< 2 per bending spring
-  std::vector<float> obstacleX;         ///< 3 per obstacle point
+  std::vector<float> x;                  ///< 3 per point
+  std::vector<float> rest;               ///< 3 per point (empty: displacement unknown)
+  std::vector<float> v;                  ///< 3 per point (empty: speed unknown)
+  std::vector<std::uint32_t> triangles;  ///< 3 per triangle
+  std::vector<float> strain;             ///< per triangle
+  std::vector<std::uint8_t> held;        ///< per point: 0 free, 1 fixed, 2 grasped (may be empty)
+  bool hasBorders = false;               ///< the run has a border frame at this frame's time
+  std::vector<std::uint32_t> borders;    ///< 2 per border edge
+  std::vector<std::uint8_t> lips;        ///< per border edge: 1 a side of a cut or a tear
+  std::vector<std::uint32_t> springs;    ///< 2 per bending spring
+  std::vector<float> obstacleX;          ///< 3 per obstacle point
   std::vector<std::uint32_t> obstacleTriangles;
 };
 
@@ -52,7 +52,8 @@ struct RunFolder {
   std::vector<std::pair<double, std::string>> surface;  ///< (time, file) per frame
   std::vector<std::pair<double, std::string>> borders, springs, obstacles;  ///< may be empty
   std::optional<std::filesystem::path> csv;
-  nlohmann::json info = nlohmann::json::object();  ///< run.json when the run wrote one (scene name, description, gravity)
+  nlohmann::json info = nlohmann::json::object();  ///< run.json when the run wrote one (scene name,
+                                                   ///< description, gravity)
 };
 
 /// Lists a run folder's frames. Throws InvalidInput ("DIR: ...") for a folder that is missing,
@@ -92,8 +93,9 @@ class FramePacker {
 };
 
 struct PlayerOptions {
-  std::size_t budgetBytes = std::size_t(48) << 20;  ///< the page's size beyond which frames are dropped
-  std::string up = "auto";                           ///< "x", "y", "z", "-z", ... or "auto"
+  std::size_t budgetBytes = std::size_t(48)
+                            << 20;  ///< the page's size beyond which frames are dropped
+  std::string up = "auto";          ///< "x", "y", "z", "-z", ... or "auto"
   std::function<void(std::size_t done, std::size_t total)> progress;
 };
 

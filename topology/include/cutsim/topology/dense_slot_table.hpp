@@ -111,8 +111,7 @@ class DenseSlotTable {
   }
   /// Neither an entry nor a status other than kEmpty.
   bool isEmpty(IdT id) const {
-    return id.index() >= indexOfSlot_.size() ||
-           indexOfSlot_[id.index()] == encode(Traits::kEmpty);
+    return id.index() >= indexOfSlot_.size() || indexOfSlot_[id.index()] == encode(Traits::kEmpty);
   }
 
   // ---- writing ----
@@ -120,7 +119,8 @@ class DenseSlotTable {
   /// slot index grows to id + 1 if needed). Returns the entry's index.
   Index set(IdT id, const Entry& value, bool flagged = false) {
     const Index s = id.index();
-    if (s >= kSlotLimit) throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
+    if (s >= kSlotLimit)
+      throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
     growTo(std::size_t(s) + 1);
     const Index back = s | (flagged && kHasFlag ? kFlagBit : 0u);
     const Index code = indexOfSlot_[s];
@@ -143,7 +143,8 @@ class DenseSlotTable {
   void setStatus(IdT id, Status st) {
     assert(static_cast<unsigned>(st) < 16u);
     const Index s = id.index();
-    if (s >= kSlotLimit) throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
+    if (s >= kSlotLimit)
+      throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
     growTo(std::size_t(s) + 1);
     const Index code = indexOfSlot_[s];
     if (isEntry(code)) removeEntry(code);
@@ -267,22 +268,21 @@ class DenseSlotTable {
   }
   /// checkConsistency, plus against the topology: a slot per slot of its capacity, a live slot
   /// never empty and a dead one always empty, entries on live points only.
-  void validate(const Topology& t, std::vector<std::string>& problems,
-                std::string_view who) const {
+  void validate(const Topology& t, std::vector<std::string>& problems, std::string_view who) const {
     const std::size_t before = problems.size();
     checkConsistency(problems, who);
     if (problems.size() != before) return;
     if (indexOfSlot_.size() < capacity(t)) {
-      problems.push_back(std::string(who) + "the table has " +
-                         std::to_string(indexOfSlot_.size()) + " " + kindName() +
-                         " slots, the topology " + std::to_string(capacity(t)));
+      problems.push_back(std::string(who) + "the table has " + std::to_string(indexOfSlot_.size()) +
+                         " " + kindName() + " slots, the topology " + std::to_string(capacity(t)));
     }
     for (Index s = 0; s < indexOfSlot_.size(); ++s) {
       const bool alive = s < capacity(t) && isAlive(t, s);
       const bool inTable = indexOfSlot_[s] != encode(Traits::kEmpty);
       if (alive != inTable) {
-        problems.push_back(std::string(who) + slotName(s) +
-                           (alive ? " is alive but not in the table" : " is dead but in the table"));
+        problems.push_back(
+            std::string(who) + slotName(s) +
+            (alive ? " is alive but not in the table" : " is dead but in the table"));
       }
     }
     const Index points = t.pointCapacity();

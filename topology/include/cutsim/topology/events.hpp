@@ -100,7 +100,8 @@ class TopologyObserver {
 
   /// Appends to `problems` every way in which this observer's tables disagree with `topology`
   /// (typically by comparing with a from-scratch rebuild). Called by Topology::validate().
-  virtual void validate(const Topology& /*topology*/, std::vector<std::string>& /*problems*/) const {}
+  virtual void validate(const Topology& /*topology*/,
+                        std::vector<std::string>& /*problems*/) const {}
 };
 
 }  // namespace cutsim::topology

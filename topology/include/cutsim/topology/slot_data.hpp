@@ -90,7 +90,8 @@ class SlotData final : public TopologyObserver {
           for (auto k = e.offsets[i]; k < e.offsets[i + 1]; ++k)
             for (std::size_t c = 0; c < Width; ++c)
               sum[c] += e.weights[k] * (*values_)[Width * e.ancestors[k].index() + c];
-          for (std::size_t c = 0; c < Width; ++c) (*values_)[Width * e.points[i].index() + c] = sum[c];
+          for (std::size_t c = 0; c < Width; ++c)
+            (*values_)[Width * e.points[i].index() + c] = sum[c];
         }
       }
     }

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/fwd.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/types.hpp"
-#include "cutsim/base/fwd.hpp"
 
 namespace cutsim::topology {
 
@@ -56,11 +56,11 @@ struct RepairOptions {
 /// every triangle around the points the operation touched).
 struct RepairReport {
   std::size_t flips = 0, collapses = 0, relocations = 0, splits = 0;
-  std::size_t insertions = 0;         ///< points inserted at circumcentres (Delaunay refinement)
-  bool budgetSpent = false;           ///< refinement stopped at its budget, not when done
-  std::size_t triangles = 0;          ///< triangles of the patch after the repair
-  double minAngleBefore = 0.0, minAngleAfter = 0.0;    ///< smallest angle of the patch
-  double meanMinBefore = 0.0, meanMinAfter = 0.0;      ///< mean of the triangles' smallest angles
+  std::size_t insertions = 0;  ///< points inserted at circumcentres (Delaunay refinement)
+  bool budgetSpent = false;    ///< refinement stopped at its budget, not when done
+  std::size_t triangles = 0;   ///< triangles of the patch after the repair
+  double minAngleBefore = 0.0, minAngleAfter = 0.0;  ///< smallest angle of the patch
+  double meanMinBefore = 0.0, meanMinAfter = 0.0;    ///< mean of the triangles' smallest angles
   std::size_t belowTargetBefore = 0, belowTargetAfter = 0;  ///< triangles under the target
 };
 
@@ -166,9 +166,10 @@ class Topology {
   /// every edge with one end inside and one outside is split where phi, followed along the edge,
   /// becomes positive (bisection), which leaves the boundary as a chain of edges (a point within
   /// a quarter of an edge of a crossing first moves onto it, unless it is on the border, locked
-  /// by `repair.locked`, its star is not flat, or it is the last inside point around); the triangles
-  /// inside go, then the quality repair runs around the hole. One transaction. Returns the
-  /// repair's report and the number of triangles removed (0: no point is inside; nothing changes).
+  /// by `repair.locked`, its star is not flat, or it is the last inside point around); the
+  /// triangles inside go, then the quality repair runs around the hole. One transaction. Returns
+  /// the repair's report and the number of triangles removed (0: no point is inside; nothing
+  /// changes).
   RepairReport carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
                      std::size_t* removed = nullptr);
   /// Inserts a point on e at v0 + t (v1 - v0), t in (0, 1); the one or two triangles split too.

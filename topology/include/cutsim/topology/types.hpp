@@ -22,7 +22,7 @@ class Id {
  public:
   constexpr Id() = default;
   template <std::integral T>
-  constexpr Id(T value) : value_(Index(value)) {}  // NOLINT: ids are integers by design
+  constexpr Id(T value) : value_(Index(value)) {}      // NOLINT: ids are integers by design
   constexpr operator Index() const { return value_; }  // NOLINT
   constexpr Index index() const { return value_; }
   constexpr Id& operator++() {
