@@ -182,7 +182,7 @@ def test_step_controllers(small_scene):
     sim.step(4)
     assert calls == [("begin", 0), ("end", 1), ("begin", 1), ("end", 2), ("begin", 2), ("end", 3),
                      ("begin", 3), ("end", 4)]
-    assert sim.cuts_done == 0 and sim.validate() == []  # cuts_done counts the timeline's cuts
+    assert sim.cuts_done == 1 and sim.validate() == []  # the script's cut is an action, counted
 
 
 def test_no_reentrant_step(small_scene):

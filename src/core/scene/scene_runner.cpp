@@ -59,6 +59,9 @@ class SceneRunner::Context final : public ActionContext {
   }
   void countCut() override { ++r_.cutsDone_; }
   void countTorn(long edges) override { r_.tornEdges_ += edges; }
+  void recordIncision(const topology::IncisionResult& result) override {
+    r_.incisions_.push_back(result);
+  }
   const ActionSpec* current = nullptr;
 
  private:
@@ -251,6 +254,7 @@ StepStats SceneRunner::stepOnce() {
 }
 
 void SceneRunner::runDueActions(double t) {
+  incisions_.clear();  // takeIncisions() gives what the actions played now made
   const double eps = 1e-9 * timeStep_;
   std::vector<std::exception_ptr> failures;  // the actions that fail; the others due still start
   // The scene's timeline and the actions given while running, merged by start time (the scene's

@@ -147,6 +147,7 @@ class CutAction final : public TimelineAction {
     try {
       topology::IncisionResult result = c.simulation().topology().cutPolyline(polyline, options(c));
       if (opened(result)) c.countCut();
+      c.recordIncision(result);
       return result;
     } catch (const TopologyError& e) {
       c.failTopology(std::string("the cut failed: ") + e.what());

@@ -5,9 +5,9 @@
 //
 // loadScene() parses and validates a whole scene before anything runs: every problem is an
 // InvalidInput whose what() is "SCENE.json:LINE: /json/pointer: message". Force fields,
-// integrators and linear solvers are read and built through their registries (registry.hpp,
-// registries.hpp). SceneRunner builds the core::Simulation from a validated scene (nothing the
-// scene does not ask for) and plays it.
+// integrators and linear solvers are read and built through their registries
+// (cutsim/base/registry.hpp, registries.hpp). SceneRunner builds the core::Simulation from a
+// validated scene (nothing the scene does not ask for) and plays it.
 #include <any>
 #include <cstddef>
 #include <filesystem>
@@ -15,6 +15,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "cutsim/core/constraints.hpp"
@@ -222,6 +223,9 @@ class SceneRunner {
   /// Edges torn so far, cuts done so far (pieces of progressive cuts count one each).
   long tornEdges() const { return tornEdges_; }
   long cutsDone() const { return cutsDone_; }
+  /// What the cuts and tears among the actions last played made (the actions due at a time: a
+  /// schedule() plays them at once), in order; forgets them.
+  std::vector<topology::IncisionResult> takeIncisions() { return std::exchange(incisions_, {}); }
 
   // ---- checkpoints (docs/robustness.md) ----
   /// What of this run cannot be saved: components without checkpoints (by label or name),
@@ -271,6 +275,7 @@ class SceneRunner {
   double timeBase_ = 0.0;
   double meanEdge_ = 0.0;
   long tornEdges_ = 0, cutsDone_ = 0;
+  std::vector<topology::IncisionResult> incisions_;  // of the actions last played
   bool edited_ = false;  // changed while running (schedule, replaceForceField, applyConstraint)
 };
 

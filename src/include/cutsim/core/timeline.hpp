@@ -85,6 +85,9 @@ class ActionContext {
   [[noreturn]] virtual void failTopology(const std::string& message) const = 0;
   virtual void countCut() = 0;
   virtual void countTorn(long edges) = 0;
+  /// What a cut or a tear made (its path, its copies, the repair's figures), for the front end
+  /// that scheduled the action (SceneRunner::takeIncisions: Python's sim.cut and sim.tear).
+  virtual void recordIncision(const topology::IncisionResult& result) = 0;
 };
 
 /// What an action's check before the run may use.
