@@ -617,7 +617,8 @@ std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& s) {
     p["warmStart"] = true;
   }
   const auto& entry = *cutsim::core::LinearSolverRegistry::instance().find(type);
-  return entry.build(entry.read(cutsim::ScalarParameters("linear solver " + s, std::move(p))));
+  return entry.build(
+      entry.readValues(cutsim::ScalarParameters("linear solver " + s, std::move(p))));
 }
 
 /// The method's integrator, built through the registry as a scene's would be.
@@ -637,7 +638,7 @@ std::unique_ptr<Integrator> makeMethod(const Method& m) {
     p["lineSearch"] = m.newton.lineSearch;
   }
   return entry->build(
-      entry->read(cutsim::ScalarParameters("integrator " + m.label(), std::move(p))),
+      entry->readValues(cutsim::ScalarParameters("integrator " + m.label(), std::move(p))),
       std::move(solver));
 }
 

@@ -104,7 +104,7 @@ long ScalarParameters::integer(std::string_view key, long min, long max) const {
   const long* p = std::get_if<long>(&value(key));
   if (!p) fail(key, "expected an integer");
   if (*p < min || *p > max)
-    fail(key, "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " +
+    fail(key, "must be between " + std::to_string(min) + " and " + std::to_string(max) + " (got " +
                   std::to_string(*p) + ")");
   return *p;
 }
@@ -127,6 +127,19 @@ void ScalarParameters::fail(std::string_view key, const std::string& message) co
 
 void ScalarParameters::structured(std::string_view key) const {
   fail(key, "expects an array or an object, which plain values cannot give");
+}
+
+void requireDeclared(const ScalarParameters& values, const std::vector<KeyInfo>& keys) {
+  for (const std::string& key : values.keys()) {
+    bool known = false;
+    std::string list;
+    for (const KeyInfo& k : keys) {
+      known = known || k.name == key;
+      list += (list.empty() ? "" : ", ") + k.name;
+    }
+    if (!known)
+      values.fail(key, "unknown key; expected one of: " + (list.empty() ? "(none)" : list));
+  }
 }
 
 }  // namespace cutsim

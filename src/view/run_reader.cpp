@@ -1,4 +1,5 @@
-// Reads a run folder as `cutsim run` writes it (src/core/output.cpp): the ParaView collections
+// Reads a run folder as `cutsim run` writes it (src/core/output/output.cpp): the ParaView
+// collections
 // (.pvd), their ASCII VTK PolyData frames (.vtp) and steps.csv. XML through pugixml; every error
 // names the file, and the line where there is one.
 #include <algorithm>

@@ -108,6 +108,15 @@ INSTANTIATE_TEST_SUITE_P(
             "Newton",
             "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"cholmod\"}"},
         std::pair{"Explicit", "\"integrator\": {\"type\": \"explicit-euler\"}"},
+        // A CG capped at 2 iterations falls back at every step: CHOLMOD (the default, saved as
+        // before the fallback was named) and a named CG, whose warm start is saved with its name.
+        std::pair{"FallbackCholmod",
+                  "\"integrator\": {\"type\": \"implicit-euler\", \"rayleighMass\": 0.5}, "
+                  "\"linearSolver\": {\"type\": \"cg\", \"iterations\": 2}"},
+        std::pair{
+            "FallbackCG",
+            "\"integrator\": {\"type\": \"implicit-euler\", \"rayleighMass\": 0.5, "
+            "\"fallbackSolver\": \"cg\"}, \"linearSolver\": {\"type\": \"cg\", \"iterations\": 2}"},
         std::pair{
             "Contact",
             "\"solver\": {\"type\": \"implicit-cg\", \"iterations\": 200, \"tolerance\": 1e-10}, "

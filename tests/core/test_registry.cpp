@@ -47,6 +47,13 @@ std::string requiredKeys(const std::string& type, const std::string& except = ""
   return out;
 }
 
+/// The names joined by ", ", each with a prefix ("the linear solver ").
+std::string joined(const std::vector<std::string>& names, const std::string& prefix = "") {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + prefix + n;
+  return out;
+}
+
 std::string sceneWith(const std::string& forceFields, const std::string& stepping) {
   return "{\n"
          "  \"mesh\": {\"grid\": {\"nx\": 6, \"ny\": 6, \"size\": [0.5, 0.5]}},\n"
@@ -109,8 +116,8 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
     return sceneWith(ok, "\"timeline\": [" + action + "]");
   };
   EXPECT_THAT(parseError(timeline("{\"at\": 0, \"action\": \"explode\"}")),
-              HasSubstr("/timeline/0/action: unknown action \"explode\" (cut, fracture, grasp, "
-                        "release, remove, tearing)"));
+              HasSubstr("/timeline/0/action: unknown action \"explode\" (" +
+                        joined(core::ActionRegistry::instance().names()) + ")"));
   EXPECT_THAT(
       parseError(
           timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
@@ -258,40 +265,44 @@ struct BadCase {
 
 TEST(Registry, BadComponentsNameTheAlternatives) {
   const std::string ok = "{\"type\": \"StretchSprings\", \"stiffness\": 20}";
+  // The alternatives the messages name, from the registries (a new component changes nothing here).
+  const auto& fields = forcefields::ForceFieldRegistry::instance();
+  const auto& integrators = core::IntegratorRegistry::instance();
+  const auto& solvers = core::LinearSolverRegistry::instance();
+  std::vector<std::string> solving, ownersOfYoung = fields.ownersOf("youngModulus"),
+                                    ownersOfRayleigh = integrators.ownersOf("rayleighMass");
+  for (const auto& [name, entry] : integrators.entries())
+    if (!entry.uses.empty()) solving.push_back(name);
   const std::vector<BadCase> cases = {
       {"{\"type\": \"Magnet\"}", "", "inline.json:6: /forceFields/0/type: ",
-       "unknown force field type \"Magnet\" (registered: DihedralBending, "
-       "FastTriangularBendingSprings, "
-       "StretchSprings, TriangularBendingSprings, TriangularFEM, TriangularFEMForceFieldOptim)"},
+       "unknown force field type \"Magnet\" (registered: " + joined(fields.names()) + ")"},
       {"{\"type\": \"FastTriangularBendingSprings\", \"youngModulus\": 3}", "",
        "inline.json:6: /forceFields/0/youngModulus: ",
-       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to "
-       "TriangularFEM, TriangularFEMForceFieldOptim); expected one of: "
-       "type, label, bendingStiffness"},
+       "unknown key \"youngModulus\" for FastTriangularBendingSprings (it belongs to " +
+           joined(ownersOfYoung) + "); expected one of: type, label, bendingStiffness"},
       {"{\"type\": \"TriangularFEM\", \"poissonRatio\": 0.5}", "",
        "inline.json:6: /forceFields/0/poissonRatio: ", "0.5"},
       {ok, "\"integrator\": {\"type\": \"rk4\"}", "inline.json:7: /integrator/type: ",
-       "unknown integrator type \"rk4\" (registered: bdf2, explicit-euler, implicit-euler, newton, "
-       "sofa-euler)"},
+       "unknown integrator type \"rk4\" (registered: " + joined(integrators.names()) + ")"},
       {ok, "\"integrator\": {\"type\": \"newton\"}, \"linearSolver\": {\"type\": \"pardiso\"}",
        "inline.json:7: /linearSolver/type: ",
-       "unknown linear solver type \"pardiso\" (registered: cg, cholmod, sofa-cg)"},
+       "unknown linear solver type \"pardiso\" (registered: " + joined(solvers.names()) + ")"},
       {ok, "\"integrator\": {\"type\": \"implicit-euler\", \"iterations\": 20}",
        "inline.json:7: /integrator/iterations: ",
-       "unknown key \"iterations\" for implicit-euler (it belongs to the linear solver cg, the "
-       "linear solver sofa-cg); expected one of: type, rayleighMass"},
+       "unknown key \"iterations\" for implicit-euler (it belongs to " +
+           joined(solvers.ownersOf("iterations"), "the linear solver ") +
+           "); expected one of: type, rayleighMass"},
       {ok, "\"integrator\": {\"type\": \"explicit-euler\"}, \"linearSolver\": {\"type\": \"cg\"}",
        "inline.json:7: /linearSolver: ",
-       "the integrator \"explicit-euler\" uses no linear solver (the integrators that do: bdf2, "
-       "implicit-euler, "
-       "newton, sofa-euler)"},
+       "the integrator \"explicit-euler\" uses no linear solver (the integrators that do: " +
+           joined(solving) + ")"},
       {ok, "\"integrator\": {\"type\": \"explicit-euler\", \"rayleighMass\": 0.1}",
        "inline.json:7: /integrator/rayleighMass: ",
-       "unknown key \"rayleighMass\" for explicit-euler (it belongs to "
-       "bdf2, implicit-euler, newton, sofa-euler)"},
+       "unknown key \"rayleighMass\" for explicit-euler (it belongs to " +
+           joined(ownersOfRayleigh) + ")"},
       {ok, "\"integrator\": {\"type\": \"bdf2\", \"fallbackSolver\": \"pardiso\"}",
        "inline.json:7: /integrator/fallbackSolver: ",
-       "unknown linear solver \"pardiso\" (cg, cholmod, sofa-cg)"},
+       "unknown linear solver \"pardiso\" (" + joined(solvers.names()) + ")"},
       {ok,
        "\"integrator\": {\"type\": \"bdf2\", \"onSolveFailure\": \"warn\", \"fallbackSolver\": "
        "\"cg\"}",

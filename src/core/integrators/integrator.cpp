@@ -231,7 +231,7 @@ std::vector<KeyInfo> implicitKeys() {
 std::unique_ptr<LinearSolver> makeFallbackSolver(const std::string& name) {
   const auto* entry = LinearSolverRegistry::instance().find(name);
   if (!entry) throw InvalidInput("fallbackSolver", "unknown linear solver \"" + name + "\"");
-  return entry->build(entry->read(ScalarParameters("fallbackSolver")));
+  return entry->build(entry->readValues(ScalarParameters("fallbackSolver")));
 }
 
 ImplicitSettings readImplicitSettings(const ParameterSource& s) {
@@ -259,11 +259,24 @@ ImplicitSettings readImplicitSettings(const ParameterSource& s) {
   return p;
 }
 
+// The fallback's record: 0 (not made), 1 (made, CHOLMOD: what every checkpoint held before the
+// fallback was chosen by name, so that those load and the default writes the same bytes), or 2
+// followed by the solver's name; then its state.
 void ImplicitIntegrator::saveState(ArchiveWriter& out) const {
   out.str(solver_->name());
   solver_->saveState(out);
-  out.boolean(fallback_ != nullptr);
-  if (fallback_) fallback_->saveState(out);
+  if (!fallback_) {
+    out.u64(0);
+    return;
+  }
+  const std::string name(fallback_->name());
+  if (name == "cholmod") {
+    out.u64(1);
+  } else {
+    out.u64(2);
+    out.str(name);
+  }
+  fallback_->saveState(out);
 }
 
 void ImplicitIntegrator::loadState(ArchiveReader& in) {
@@ -271,10 +284,21 @@ void ImplicitIntegrator::loadState(ArchiveReader& in) {
   if (name != solver_->name())
     in.fail("the saved linear solver is " + name + ", the scene's " + std::string(solver_->name()));
   solver_->loadState(in);
-  if (in.boolean()) {
-    fallback_ = makeFallbackSolver(settings_.fallbackSolver);
-    fallback_->loadState(in);
-  }
+  const std::uint64_t made = in.u64();
+  if (made > 2) in.fail("a fallback record of " + std::to_string(made));
+  if (made == 0) return;
+  const std::string saved = made == 1 ? std::string("cholmod") : in.str();
+  if (saved != settings_.fallbackSolver)
+    in.fail("the saved fallback solver is " + saved + ", the scene's " + settings_.fallbackSolver);
+  fallback_ = makeFallbackSolver(settings_.fallbackSolver);
+  fallback_->loadState(in);
+}
+
+bool ImplicitIntegrator::checkpointable() const {
+  // The fallback is made on first use: it must be saveable before it exists.
+  return solver_->checkpointable() &&
+         (fallback_ ? fallback_->checkpointable()
+                    : makeFallbackSolver(settings_.fallbackSolver)->checkpointable());
 }
 
 }  // namespace cutsim::core

@@ -3,7 +3,6 @@
 #include "cutsim/core/mesh_info.hpp"
 
 #include <cstdint>
-#include <numeric>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -13,7 +12,6 @@
 #include "cutsim/base/union_find.hpp"
 
 namespace cutsim::core {
-namespace {}  // namespace
 
 MeshInfo computeMeshInfo(const topology::MeshData& mesh) {
   const std::size_t nv = mesh.points.size();

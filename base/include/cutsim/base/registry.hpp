@@ -10,7 +10,8 @@
 //
 //   const bool registered = ForceFieldRegistry::instance().add({
 //       "MyField", "one line on what it is",
-//       {{"stiffness", "N/m, >= 0 (required)"}, ...},
+//       {{"stiffness", KeyType::Number, "N/m, >= 0", {}, /*required*/ true}, ...},
+//       {},  // the other kinds of component it is built with ("linearSolver")
 //       [](const ParameterSource& s) -> std::any { MyParameters p; ...; return p; },
 //       [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {...}});
 //
@@ -104,6 +105,12 @@ class ScalarParameters final : public ParameterSource {
                             std::map<std::string, Value, std::less<>> values = {})
       : where_(std::move(where)), values_(std::move(values)) {}
   bool has(std::string_view key) const override { return values_.count(key) > 0; }
+  /// The keys given, sorted.
+  std::vector<std::string> keys() const {
+    std::vector<std::string> out;
+    for (const auto& [k, v] : values_) out.push_back(k);
+    return out;
+  }
   double number(std::string_view key) const override;
   long integer(std::string_view key, long min, long max) const override;
   bool boolean(std::string_view key) const override;
@@ -159,6 +166,10 @@ struct KeyInfo {
   bool required = false;
 };
 
+/// Refuses, as a scene refuses an unknown key, a key of `values` that `keys` does not declare
+/// (InvalidInput at "WHERE: KEY: unknown key ...; expected one of: ...").
+void requireDeclared(const ScalarParameters& values, const std::vector<KeyInfo>& keys);
+
 /// The registry of one kind of component (a force field, an integrator, a linear solver).
 template <class Product, class... BuildArgs>
 class Registry {
@@ -172,6 +183,11 @@ class Registry {
     /// Reads and checks the typed parameters (a struct, held in the std::any).
     std::function<std::any(const ParameterSource&)> read;
     std::function<std::unique_ptr<Product>(const std::any&, BuildArgs...)> build;
+    /// read() of plain values given in code, refusing a key the entry does not declare.
+    std::any readValues(const ScalarParameters& values) const {
+      requireDeclared(values, keys);
+      return read(values);
+    }
   };
 
   static Registry& instance() {

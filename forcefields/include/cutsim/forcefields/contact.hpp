@@ -177,8 +177,8 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   /// Forces and counts at x, v with the current pairs.
   ContactMeasure measure(std::span<const double> x, std::span<const double> v) const;
-  /// measure() at the end of a step (the simulation calls it after committing the step; the
-  /// CSV reports it, also for a step after which a cut changed the mesh).
+  /// measure() at the end of a step (its step hook, core::ContactStep, calls it after the step
+  /// is committed; the CSV reports it, also for a step after which a cut changed the mesh).
   void recordStep(std::span<const double> x, std::span<const double> v) { last_ = measure(x, v); }
   /// How many primitive pairs the search's cache holds (0: none).
   std::size_t cachedPairs() const;

@@ -25,8 +25,8 @@
 // Every implicit integrator solves its systems with a LinearSolver and applies one failure policy
 // to each solve that misses its tolerance or meets a non-positive curvature: "warn" (flag the
 // step), "fail" (throw, naming the step and the residual) or "fallback" (solve that system again
-// with CHOLMOD when the relative residual is above fallbackAbove; a capped solve that got closer
-// is only flagged).
+// with the fallbackSolver, CHOLMOD by default, when the relative residual is above fallbackAbove;
+// a capped solve that got closer is only flagged).
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -44,7 +44,7 @@ struct StepStats {
   enum Flag : std::uint8_t {
     MissedTolerance = 1,     ///< a linear solve ended above its tolerance (a capped CG)
     Indefinite = 2,          ///< CG met p^T A p <= 0, or a factorisation found A indefinite
-    FellBack = 4,            ///< a solve was redone with the direct solver
+    FellBack = 4,            ///< a solve was redone with the fallback solver
     NewtonNotConverged = 8,  ///< Newton's iterations ended above their tolerance
   };
   int iterations = 0;           ///< linear iterations over the step's solves (1 per direct solve)
@@ -54,7 +54,8 @@ struct StepStats {
   int newtonIterations = 0;     ///< Newton iterations (newton only)
   double newtonResidual = 0.0;  ///< |residual| / |first residual| at Newton's end (newton only)
   bool analysed = false;        ///< a direct solver redid its symbolic analysis this step
-  int clamped = 0;   ///< points whose displacement the contact bound clamped (all substeps)
+  int clamped = 0;   ///< points the step hooks limited (contact's bound; all substeps; a point
+                     ///< two hooks limit counts twice)
   int splits = 0;    ///< times the step (or a part of it) was redone as two halves
   int substeps = 1;  ///< integrator steps taken for this step
   std::uint8_t flags = 0;
@@ -145,8 +146,9 @@ class ImplicitIntegrator : public Integrator {
   ~ImplicitIntegrator() override;
   LinearSolver* linearSolver() const override { return solver_.get(); }
   const ImplicitSettings& settings() const { return settings_; }
-  bool checkpointable() const override { return solver_->checkpointable(); }
-  /// The solver's state, and the CHOLMOD fallback's if it was made.
+  /// Whether its solver and its fallback solver save their state.
+  bool checkpointable() const override;
+  /// The solver's state, and the fallback solver's (its name unless CHOLMOD) if it was made.
   void saveState(ArchiveWriter& out) const override;
   void loadState(ArchiveReader& in) override;
 
@@ -233,7 +235,7 @@ SolverSettings::Kind parseSolverKind(std::string_view name);
 std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& settings);
 
 /// SOFA's EulerImplicitSolver with its CGLinearSolver, operation for operation (registered as
-/// "sofa-euler"; src/core/sofa_euler.cpp, docs/sofa.md): massAt is the mass's place among the
+/// "sofa-euler"; src/core/sofa/sofa_euler.cpp, docs/sofa.md): massAt is the mass's place among the
 /// force fields in SOFA's node (the order of its sums).
 std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt,
                                           SofaCGSettings cg);

@@ -1,5 +1,6 @@
 #pragma once
-// The registries of the core's components (registry.hpp has the force fields' and the scheme):
+// The registries of the core's components (cutsim/base/registry.hpp has the scheme,
+// cutsim/forcefields/registry.hpp the force fields'):
 // integrators are built with the linear solver their entry "uses" (null for explicit ones).
 #include <memory>
 
@@ -13,7 +14,7 @@ using LinearSolverRegistry = Registry<LinearSolver>;
 using IntegratorRegistry = Registry<Integrator, std::unique_ptr<LinearSolver>>;
 
 /// The keys every implicit integrator reads (rayleighMass, rayleighStiffness, onSolveFailure,
-/// fallbackAbove), and reading them.
+/// fallbackAbove, fallbackSolver), and reading them.
 std::vector<KeyInfo> implicitKeys();
 ImplicitSettings readImplicitSettings(const ParameterSource& s);
 /// The linear solver registered under `name`, with its default settings (InvalidInput at
