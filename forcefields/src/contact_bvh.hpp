@@ -28,6 +28,13 @@ class Bvh {
   void crossPairs(const Bvh& other, const std::function<void(int, int)>& f) const;
   /// Calls f(i) for every element whose box overlaps b.
   void query(const Box& b, const std::function<void(int)>& f) const;
+  /// Visits the nodes whose box `enter` accepts (it may tighten what it accepts as it goes, as a
+  /// nearest-point search does) and calls f(i) for every element of an accepted leaf whose own
+  /// box `enter` accepts too. The nearer child of a node (by `order`, smaller first) is visited
+  /// first.
+  void traverse(const std::function<bool(const Box&)>& enter,
+                const std::function<double(const Box&)>& order,
+                const std::function<void(int)>& f) const;
 
   /// Problems of the hierarchy against the boxes it was last given: every element in exactly one
   /// leaf, every node's box the union of its children's.

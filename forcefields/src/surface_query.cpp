@@ -1,0 +1,313 @@
+// Queries of the deformed surface through contact's bounding volume hierarchy (surface_query.hpp).
+#include "cutsim/forcefields/surface_query.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "contact_bvh.hpp"
+#include "contact_geometry.hpp"
+#include "cutsim/base/errors.hpp"
+#include "cutsim/topology/topology.hpp"
+
+namespace cutsim::forcefields {
+
+using contact::Box;
+using contact::V3;
+
+namespace {
+
+V3 v3(const topology::Vec3& p) {
+  return {p[0], p[1], p[2]};
+}
+topology::Vec3 vec(const V3& p) {
+  return {p.x(), p.y(), p.z()};
+}
+
+double boxDistance2(const V3& q, const Box& b) {
+  const V3 d = (b.lo - q).cwiseMax(q - b.hi).cwiseMax(V3::Zero());
+  return d.squaredNorm();
+}
+
+/// Whether the ray o + t d, t in [0, tMax], meets the box (slabs; d's zero components handled).
+bool rayMeetsBox(const V3& o, const V3& d, double tMax, const Box& b) {
+  double t0 = 0.0, t1 = tMax;
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] == 0.0) {
+      if (o[k] < b.lo[k] || o[k] > b.hi[k]) return false;
+      continue;
+    }
+    double a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
+    if (a > c) std::swap(a, c);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, c);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+/// Where the ray o + t d meets triangle (a, b, c) for t in [0, tMax] (Moeller and Trumbore;
+/// either side; a ray in the triangle's plane does not meet it): t and the weights.
+std::optional<std::pair<double, std::array<double, 3>>> rayTriangle(const V3& o, const V3& d,
+                                                                    double tMax, const V3& a,
+                                                                    const V3& b, const V3& c) {
+  const V3 e1 = b - a, e2 = c - a;
+  const V3 p = d.cross(e2);
+  const double det = e1.dot(p);
+  const double scale = e1.norm() * e2.norm() * d.norm();
+  if (!(std::abs(det) > 1e-14 * scale)) return std::nullopt;
+  const double inv = 1.0 / det;
+  const V3 s = o - a;
+  const double u = s.dot(p) * inv;
+  if (u < 0.0 || u > 1.0) return std::nullopt;
+  const V3 q = s.cross(e1);
+  const double v = d.dot(q) * inv;
+  if (v < 0.0 || u + v > 1.0) return std::nullopt;
+  const double t = e2.dot(q) * inv;
+  if (t < 0.0 || t > tMax) return std::nullopt;
+  return std::pair{t, std::array<double, 3>{1.0 - u - v, u, v}};
+}
+
+/// Whether p is inside the closed surface of `faces` (a ray's crossings counted: odd inside).
+bool insideClosed(const V3& p, const std::vector<std::array<V3, 3>>& faces) {
+  // A direction unlikely to graze an edge of the faces.
+  const V3 d = V3(0.5773, 0.5787, 0.5763).normalized();
+  int crossings = 0;
+  for (const auto& f : faces)
+    if (rayTriangle(p, d, std::numeric_limits<double>::infinity(), f[0], f[1], f[2])) ++crossings;
+  return crossings % 2 == 1;
+}
+
+}  // namespace
+
+struct SurfaceQuery::Impl {
+  const topology::Topology& topology;
+  std::uint64_t revision = ~std::uint64_t(0);
+  std::vector<topology::TriangleId> ids;   // the live triangles, ascending
+  std::vector<std::array<V3, 3>> corners;  // their corners at the positions
+  std::vector<Box> boxes;
+  contact::Bvh bvh;
+
+  explicit Impl(const topology::Topology& t) : topology(t) {}
+
+  void update(std::span<const double> x) {
+    const bool rebuild = topology.revision() != revision;
+    if (rebuild) {
+      revision = topology.revision();
+      ids = topology.triangles();
+      std::sort(ids.begin(), ids.end());
+    }
+    corners.resize(ids.size());
+    boxes.assign(ids.size(), Box{});
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const auto tv = topology.triangleVertices(ids[i]);
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t p = 3 * std::size_t(topology::Index(tv[std::size_t(k)]));
+        if (p + 2 >= x.size())
+          throw InvalidInput("SurfaceQuery", "the positions hold " + std::to_string(x.size() / 3) +
+                                                 " points, the surface uses point " +
+                                                 std::to_string(p / 3));
+        corners[i][std::size_t(k)] = V3(x[p], x[p + 1], x[p + 2]);
+        boxes[i].add(corners[i][std::size_t(k)]);
+      }
+    }
+    if (rebuild)
+      bvh.build(boxes);
+    else
+      bvh.refit(boxes);
+  }
+
+  /// Calls f(i) for each triangle whose box overlaps b.
+  template <class F>
+  void overlapping(const Box& b, F&& f) const {
+    bvh.query(b, [&](int i) { f(std::size_t(i)); });
+  }
+
+  std::vector<topology::TriangleId> sorted(std::vector<std::size_t>& found) const {
+    std::sort(found.begin(), found.end());
+    std::vector<topology::TriangleId> out;
+    out.reserve(found.size());
+    for (std::size_t i : found) out.push_back(ids[i]);
+    return out;
+  }
+
+  /// The triangles within `within` of any of the faces (whose boxes overlap theirs).
+  std::vector<std::size_t> nearFaces(const std::vector<std::array<V3, 3>>& faces,
+                                     double within) const {
+    Box all;
+    for (const auto& f : faces)
+      for (const V3& p : f) all.add(p);
+    all.inflate(within);
+    std::vector<std::size_t> found;
+    overlapping(all, [&](std::size_t i) {
+      for (const auto& f : faces)
+        if (contact::triangleTriangleDistance(corners[i], f) <= within) {
+          found.push_back(i);
+          return;
+        }
+    });
+    return found;
+  }
+};
+
+SurfaceQuery::SurfaceQuery(const topology::Topology& topology, std::span<const double> x)
+    : impl_(std::make_unique<Impl>(topology)) {
+  impl_->update(x);
+}
+
+SurfaceQuery::~SurfaceQuery() = default;
+
+void SurfaceQuery::update(std::span<const double> x) {
+  impl_->update(x);
+}
+
+std::size_t SurfaceQuery::size() const {
+  return impl_->ids.size();
+}
+
+std::optional<SurfacePoint> SurfaceQuery::closestPoint(const topology::Vec3& q,
+                                                       double maxDistance) const {
+  const Impl& I = *impl_;
+  const V3 p = v3(q);
+  double best2 = maxDistance * maxDistance;  // infinity stays infinity
+  std::optional<SurfacePoint> out;
+  I.bvh.traverse([&](const Box& b) { return boxDistance2(p, b) <= best2; },
+                 [&](const Box& b) { return boxDistance2(p, b); },
+                 [&](int e) {
+                   const auto& c = I.corners[std::size_t(e)];
+                   const auto w = contact::closestOnTriangle(p, c[0], c[1], c[2]);
+                   const V3 on = w[0] * c[0] + w[1] * c[1] + w[2] * c[2];
+                   const double d2 = (on - p).squaredNorm();
+                   // Ties go to the smaller triangle id, whatever the visiting order.
+                   const topology::TriangleId id = I.ids[std::size_t(e)];
+                   if (d2 < best2 || (d2 == best2 && (!out || id < out->triangle))) {
+                     best2 = d2;
+                     out = SurfacePoint{id, w, vec(on), std::sqrt(d2)};
+                   }
+                 });
+  return out;
+}
+
+std::optional<SurfaceHit> SurfaceQuery::rayHit(const topology::Vec3& origin,
+                                               const topology::Vec3& direction, double maxT) const {
+  const Impl& I = *impl_;
+  V3 d = v3(direction);
+  const double len = d.norm();
+  if (!(len > 0) || !std::isfinite(len))
+    throw InvalidInput("rayHit", "the direction must be finite and not zero");
+  d /= len;
+  const V3 o = v3(origin);
+  double bestT = maxT;
+  std::optional<SurfaceHit> out;
+  I.bvh.traverse(
+      [&](const Box& b) { return rayMeetsBox(o, d, bestT, b); },
+      [&](const Box& b) { return boxDistance2(o, b); },
+      [&](int e) {
+        const auto& c = I.corners[std::size_t(e)];
+        const auto hit = rayTriangle(o, d, bestT, c[0], c[1], c[2]);
+        if (!hit) return;
+        const topology::TriangleId id = I.ids[std::size_t(e)];
+        if (out && (hit->first > out->t || (hit->first == out->t && id > out->triangle))) return;
+        bestT = hit->first;
+        const auto& w = hit->second;
+        out = SurfaceHit{id, hit->first, w, vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])};
+      });
+  return out;
+}
+
+std::vector<SurfaceHit> SurfaceQuery::segmentHits(const topology::Vec3& a,
+                                                  const topology::Vec3& b) const {
+  const Impl& I = *impl_;
+  const V3 p = v3(a), d = v3(b) - p;
+  std::vector<SurfaceHit> out;
+  if (!(d.squaredNorm() > 0)) return out;
+  I.bvh.traverse([&](const Box& box) { return rayMeetsBox(p, d, 1.0, box); },
+                 [&](const Box& box) { return boxDistance2(p, box); },
+                 [&](int e) {
+                   const auto& c = I.corners[std::size_t(e)];
+                   if (const auto hit = rayTriangle(p, d, 1.0, c[0], c[1], c[2])) {
+                     const auto& w = hit->second;
+                     out.push_back(SurfaceHit{I.ids[std::size_t(e)], hit->first, w,
+                                              vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])});
+                   }
+                 });
+  std::sort(out.begin(), out.end(), [](const SurfaceHit& x, const SurfaceHit& y) {
+    return x.t < y.t || (x.t == y.t && x.triangle < y.triangle);
+  });
+  return out;
+}
+
+std::vector<topology::TriangleId> SurfaceQuery::sphereOverlap(const topology::Vec3& c,
+                                                              double r) const {
+  const Impl& I = *impl_;
+  const V3 q = v3(c);
+  Box b;
+  b.add(q);
+  b.inflate(r);
+  std::vector<std::size_t> found;
+  I.overlapping(b, [&](std::size_t i) {
+    const auto& t = I.corners[i];
+    if (contact::pointTriangleDistance(q, t[0], t[1], t[2]) <= r) found.push_back(i);
+  });
+  return I.sorted(found);
+}
+
+std::vector<topology::TriangleId> SurfaceQuery::capsuleOverlap(const topology::Vec3& a,
+                                                               const topology::Vec3& b,
+                                                               double r) const {
+  const Impl& I = *impl_;
+  const V3 p = v3(a), q = v3(b);
+  Box box;
+  box.add(p);
+  box.add(q);
+  box.inflate(r);
+  std::vector<std::size_t> found;
+  I.overlapping(box, [&](std::size_t i) {
+    const auto& t = I.corners[i];
+    if (contact::segmentTriangleDistance(p, q, t[0], t[1], t[2]) <= r) found.push_back(i);
+  });
+  return I.sorted(found);
+}
+
+std::vector<topology::TriangleId> SurfaceQuery::sweptSegmentHits(const topology::Vec3& a0,
+                                                                 const topology::Vec3& b0,
+                                                                 const topology::Vec3& a1,
+                                                                 const topology::Vec3& b1,
+                                                                 double within) const {
+  const std::vector<std::array<V3, 3>> faces = {{v3(a0), v3(b0), v3(b1)}, {v3(a0), v3(b1), v3(a1)}};
+  std::vector<std::size_t> found = impl_->nearFaces(faces, within);
+  return impl_->sorted(found);
+}
+
+std::vector<topology::TriangleId> SurfaceQuery::sweptTriangleHits(
+    const std::array<topology::Vec3, 3>& from, const std::array<topology::Vec3, 3>& to,
+    double within) const {
+  const Impl& I = *impl_;
+  std::array<V3, 3> p, q;
+  for (std::size_t k = 0; k < 3; ++k) {
+    p[k] = v3(from[k]);
+    q[k] = v3(to[k]);
+  }
+  // The swept volume's boundary: both positions, and each edge's swept surface in two triangles.
+  std::vector<std::array<V3, 3>> faces = {{p[0], p[1], p[2]}, {q[0], q[2], q[1]}};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const std::size_t l = (k + 1) % 3;
+    faces.push_back({p[k], q[k], q[l]});
+    faces.push_back({p[k], q[l], p[l]});
+  }
+  std::vector<std::size_t> found = I.nearFaces(faces, within);
+  // The triangles wholly inside: each has a corner inside the closed boundary.
+  Box all;
+  for (const auto& f : faces)
+    for (const V3& v : f) all.add(v);
+  std::vector<char> listed(I.ids.size(), 0);
+  for (std::size_t i : found) listed[i] = 1;
+  I.overlapping(all, [&](std::size_t i) {
+    if (!listed[i] && insideClosed(I.corners[i][0], faces)) {
+      listed[i] = 1;
+      found.push_back(i);
+    }
+  });
+  return I.sorted(found);
+}
+
+}  // namespace cutsim::forcefields
