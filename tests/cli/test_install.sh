@@ -10,7 +10,14 @@ cmake --install "$CUTSIM_BUILD_DIR" --prefix "$tmp/prefix" > "$tmp/install.log"
 test -f "$tmp/prefix/lib/cmake/cutsim/cutsimConfig.cmake" || { echo "no cutsimConfig.cmake installed"; exit 1; }
 cmake -S "$CUTSIM_SOURCE_DIR/examples/find_package" -B "$tmp/example" -DCMAKE_PREFIX_PATH="$tmp/prefix" \
       -DCMAKE_BUILD_TYPE=Release > "$tmp/configure.log" 2>&1 || { cat "$tmp/configure.log"; exit 1; }
-cmake --build "$tmp/example" > "$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; exit 1; }
+cmake --build "$tmp/example" --verbose > "$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; exit 1; }
+# The installed package gives its users no -march=native (this project's own targets only), but
+# the Eigen alignment the libraries were built with.
+if grep -q -- "-march=native" "$tmp/prefix/lib/cmake/cutsim/cutsimTargets.cmake" "$tmp/build.log"; then
+  echo "the installed package hands -march=native to its users"; exit 1
+fi
+grep -q "EIGEN_MAX_ALIGN_BYTES" "$tmp/prefix/lib/cmake/cutsim/cutsimTargets.cmake" ||
+  { echo "the installed package does not give its Eigen alignment"; exit 1; }
 out=$("$tmp/example/hinge_energy")
 echo "$out"
 python3 - "$out" <<'PY'

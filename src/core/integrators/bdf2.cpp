@@ -96,23 +96,22 @@ const bool registered = registerImplicitIntegrator<BDF2>(
     "bdf2", "second-order backward differentiation, linearised once per step (Choi and Ko)");
 }  // namespace
 
+template <class Archive, class Self>
+void BDF2::members(Archive& a, Self& s) {
+  fields(a, s.dtLast_, s.revision_, s.have_, s.restarts_);
+}
+
 void BDF2::saveState(ArchiveWriter& out) const {
   ImplicitIntegrator::saveState(out);
   for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_})
     checkpoint::saveVector(out, *v);
-  out.f64(dtLast_);
-  out.u64(revision_);
-  out.boolean(have_);
-  out.i64(restarts_);
+  members(out, *this);
 }
 
 void BDF2::loadState(ArchiveReader& in) {
   ImplicitIntegrator::loadState(in);
   for (Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) *v = checkpoint::loadVector(in);
-  dtLast_ = in.f64();
-  revision_ = in.u64();
-  have_ = in.boolean();
-  restarts_ = long(in.i64());
+  members(in, *this);
 }
 
 }  // namespace cutsim::core

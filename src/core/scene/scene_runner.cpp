@@ -308,6 +308,12 @@ std::vector<std::string> SceneRunner::notCheckpointable() const {
   return out;
 }
 
+template <class Archive, class Self>
+void SceneRunner::members(Archive& a, Self& s) {
+  fields(a, s.step_, s.numSteps_, s.nextAction_, s.started_, s.timeStep_, s.stepBase_, s.timeBase_,
+         s.meanEdge_, s.tornEdges_, s.cutsDone_);
+}
+
 void SceneRunner::save(ArchiveWriter& out) const {
   // What is running now, not the actions still to come (notCheckpointable(), asked once before
   // a run): a checkpoint every N steps builds no action.
@@ -320,16 +326,7 @@ void SceneRunner::save(ArchiveWriter& out) const {
   sim_->topology().save(out);
   sim_->saveState(out);
   out.begin("runner");
-  out.i64(step_);
-  out.i64(numSteps_);
-  out.u64(nextAction_);
-  out.boolean(started_);
-  out.f64(timeStep_);
-  out.i64(stepBase_);
-  out.f64(timeBase_);
-  out.f64(meanEdge_);
-  out.i64(tornEdges_);
-  out.i64(cutsDone_);
+  members(out, *this);
   out.u64(running_.size());
   for (const Running& r : running_) {
     out.u64(std::uint64_t(r.spec - scene_.timeline.data()));
@@ -344,16 +341,7 @@ SceneRunner::SceneRunner(const Scene& scene, ArchiveReader& in)
   build(true, std::move(topo));
   sim_->loadState(in);
   in.open("runner");
-  step_ = long(in.i64());
-  numSteps_ = long(in.i64());
-  nextAction_ = std::size_t(in.u64());
-  started_ = in.boolean();
-  timeStep_ = in.f64();
-  stepBase_ = long(in.i64());
-  timeBase_ = in.f64();
-  meanEdge_ = in.f64();
-  tornEdges_ = long(in.i64());
-  cutsDone_ = long(in.i64());
+  members(in, *this);
   if (step_ < 0 || numSteps_ < step_ || nextAction_ > scene_.timeline.size() || !(timeStep_ > 0) ||
       !std::isfinite(timeStep_) || stepBase_ < 0 || stepBase_ > step_ || !std::isfinite(timeBase_))
     in.fail("step " + std::to_string(step_) + " of " + std::to_string(numSteps_) +

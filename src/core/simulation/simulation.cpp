@@ -169,17 +169,16 @@ std::vector<std::string> Simulation::notCheckpointable() const {
   return out;
 }
 
+template <class Archive, class Self>
+void Simulation::members(Archive& a, Self& s) {
+  fields(a, s.time_, s.steps_, s.summary_.flaggedSteps, s.summary_.missedTolerance,
+         s.summary_.indefinite, s.summary_.fellBack, s.summary_.newtonNotConverged,
+         s.summary_.worstResidual, s.summary_.worstStep);
+}
+
 void Simulation::saveState(ArchiveWriter& out) const {
   out.begin("sim");
-  out.f64(time_);
-  out.i64(steps_);
-  out.i64(summary_.flaggedSteps);
-  out.i64(summary_.missedTolerance);
-  out.i64(summary_.indefinite);
-  out.i64(summary_.fellBack);
-  out.i64(summary_.newtonNotConverged);
-  out.f64(summary_.worstResidual);
-  out.i64(summary_.worstStep);
+  members(out, *this);
   out.begin("integr");
   out.str(integrator_->name());
   integrator_->saveState(out);
@@ -188,15 +187,7 @@ void Simulation::saveState(ArchiveWriter& out) const {
 
 void Simulation::loadState(ArchiveReader& in) {
   in.open("sim");
-  time_ = in.f64();
-  steps_ = long(in.i64());
-  summary_.flaggedSteps = long(in.i64());
-  summary_.missedTolerance = long(in.i64());
-  summary_.indefinite = long(in.i64());
-  summary_.fellBack = long(in.i64());
-  summary_.newtonNotConverged = long(in.i64());
-  summary_.worstResidual = in.f64();
-  summary_.worstStep = long(in.i64());
+  members(in, *this);
   in.close();
   if (!std::isfinite(time_) || steps_ < 0)
     in.fail("a time of " + std::to_string(time_) + " after " + std::to_string(steps_) + " steps");

@@ -48,13 +48,11 @@ class SofaEuler final : public Integrator {
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override {
     solver_->saveState(out);
-    out.i64(solves_);
-    out.f64s(warm_);
+    fields(out, solves_, warm_);
   }
   void loadState(ArchiveReader& in) override {
     solver_->loadState(in);
-    solves_ = long(in.i64());
-    warm_ = in.f64s();
+    fields(in, solves_, warm_);
   }
 
   void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override {

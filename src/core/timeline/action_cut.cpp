@@ -69,19 +69,17 @@ class CutAction final : public TimelineAction {
   }
 
   bool checkpointable() const override { return true; }
+  template <class Archive, class Self>
+  static void members(Archive& a, Self& s) {
+    fields(a, s.done_, s.started_, s.finished_, s.minPiece_);
+  }
   void saveState(ArchiveWriter& out) const override {
-    out.f64(done_);
-    out.boolean(started_);
-    out.boolean(finished_);
-    out.f64(minPiece_);
+    members(out, *this);
     out.boolean(tip_.has_value());
     if (tip_) out.raw(tip_->data(), sizeof(double) * 3);
   }
   void loadState(ArchiveReader& in, const Simulation&) override {
-    done_ = in.f64();
-    started_ = in.boolean();
-    finished_ = in.boolean();
-    minPiece_ = in.f64();
+    members(in, *this);
     tip_.reset();
     if (in.boolean()) {
       Vec3 t;

@@ -134,9 +134,7 @@ class FractureAction final : public TimelineAction {
 
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override {
-    out.boolean(on_);
-    out.f64(piece_);
-    out.u64(revision_);
+    fields(out, on_, piece_, revision_);
     out.u64(tips_.size());
     for (const Tip& t : tips_) {
       out.u64(t.point);
@@ -145,9 +143,7 @@ class FractureAction final : public TimelineAction {
     }
   }
   void loadState(ArchiveReader& in, const Simulation& sim) override {
-    on_ = in.boolean();
-    piece_ = in.f64();
-    revision_ = in.u64();
+    fields(in, on_, piece_, revision_);
     const std::uint64_t n = in.u64();
     if (n > in.remaining()) in.fail("fracture: a count of " + std::to_string(n) + " crack tips");
     tips_.assign(n, Tip{});

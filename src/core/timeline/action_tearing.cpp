@@ -15,8 +15,8 @@ class TearingAction final : public TimelineAction {
   bool rehearsed() const override { return false; }  // at rest nothing tears
   void start(ActionContext&) override { on_ = true; }
   bool checkpointable() const override { return true; }
-  void saveState(ArchiveWriter& out) const override { out.boolean(on_); }
-  void loadState(ArchiveReader& in, const Simulation&) override { on_ = in.boolean(); }
+  void saveState(ArchiveWriter& out) const override { fields(out, on_); }
+  void loadState(ArchiveReader& in, const Simulation&) override { fields(in, on_); }
   void afterStep(ActionContext& c) override {
     if (!on_) return;
     Simulation& sim = c.simulation();

@@ -19,6 +19,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "cutsim/base/errors.hpp"
@@ -90,5 +91,67 @@ class ArchiveReader {
   std::string tag_;
   std::size_t pos_ = 0, end_ = 0;
 };
+
+// ---- members declared once for both directions ----
+//
+// A checkpointed class lists its members once, in one function template used by both its save
+// and its load (as libigl's serialisation does):
+//
+//   template <class Archive, class Self>
+//   static void members(Archive& a, Self& self) { fields(a, self.time_, self.steps_); }
+//   void save(ArchiveWriter& out) const { members(out, *this); }
+//   void load(ArchiveReader& in) { members(in, *this); /* then check what was read */ }
+//
+// Each value is stored by its type: a floating-point number as f64, a signed integer as i64, an
+// unsigned one as u64, a bool as a flag, a string as str, a vector of doubles as f64s.
+
+template <class T>
+void field(ArchiveWriter& out, const T& v) {
+  if constexpr (std::is_same_v<T, bool>) {
+    out.boolean(v);
+  } else if constexpr (std::is_floating_point_v<T>) {
+    out.f64(double(v));
+  } else if constexpr (std::is_integral_v<T> && std::is_signed_v<T>) {
+    out.i64(std::int64_t(v));
+  } else if constexpr (std::is_integral_v<T>) {
+    out.u64(std::uint64_t(v));
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    out.str(v);
+  } else {
+    static_assert(std::is_same_v<T, std::vector<double>>,
+                  "a member type the archive does not store");
+    out.f64s(v);
+  }
+}
+
+template <class T>
+void field(ArchiveReader& in, T& v) {
+  if constexpr (std::is_same_v<T, bool>) {
+    v = in.boolean();
+  } else if constexpr (std::is_floating_point_v<T>) {
+    v = T(in.f64());
+  } else if constexpr (std::is_integral_v<T> && std::is_signed_v<T>) {
+    v = T(in.i64());
+  } else if constexpr (std::is_integral_v<T>) {
+    v = T(in.u64());
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    v = in.str();
+  } else {
+    static_assert(std::is_same_v<T, std::vector<double>>,
+                  "a member type the archive does not store");
+    v = in.f64s();
+  }
+}
+
+/// Writes the values in order (see above).
+template <class... T>
+void fields(ArchiveWriter& out, const T&... v) {
+  (field(out, v), ...);
+}
+/// Reads them back in the same order.
+template <class... T>
+void fields(ArchiveReader& in, T&... v) {
+  (field(in, v), ...);
+}
 
 }  // namespace cutsim

@@ -244,6 +244,9 @@ class SceneRunner {
   SceneRunner(const Scene& scene, ArchiveReader& in);
 
  private:
+  /// The checkpointed clock and counters, declared once for save and load.
+  template <class Archive, class Self>
+  static void members(Archive& a, Self& s);
   class Context;
   struct Running {
     const ActionSpec* spec;

@@ -111,6 +111,9 @@ class Simulation {
   /// One integrator step of h (its proposal limited by the step hooks), or two of h / 2 when a
   /// hook asks for a split.
   void advance(double h, int depth, StepStats& stats);
+  /// The checkpointed members, declared once for saveState and loadState.
+  template <class Archive, class Self>
+  static void members(Archive& a, Self& s);
 
   std::unique_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
