@@ -85,6 +85,13 @@ TEST_P(CheckpointRun, ARestoredRunnerGoesOnBitForBitAsTheOneThatWroteIt) {
   const long steps = scene.numSteps();
   // At steps whose actions changed the mesh after the step (a cut, a removal, a piece of the
   // progressive cut: tables saved before they catch up), and at random ones.
+  if (std::string(GetParam().first).rfind("Fallback", 0) == 0) {
+    // The cases made to fall back must: else they would not save a fallback at all.
+    SceneRunner probe(scene);
+    probe.start();
+    probe.advance();
+    ASSERT_GT(probe.simulation().solveSummary().fellBack, 0);
+  }
   for (long stop : {5L, 10L, 12L, 16L}) resumeAndCompare(scene, stop, file);
   for (int trial = 0; trial < 2; ++trial)
     resumeAndCompare(scene, std::uniform_int_distribution<long>(0, steps - 1)(rng), file);

@@ -234,13 +234,4 @@ const bool registered = IntegratorRegistry::instance().add(
 
 }  // namespace
 
-std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt,
-                                          SofaCGSettings cg) {
-  SofaEulerSettings s;
-  s.rayleighMass = rayleighMass;
-  s.rayleighStiffness = rayleighStiffness;
-  s.massAt = massAt;
-  return std::make_unique<SofaEuler>(s, std::make_unique<SofaConjugateGradient>(cg));
-}
-
 }  // namespace cutsim::core

@@ -236,10 +236,4 @@ SolverSettings::Kind parseSolverKind(std::string_view name);
 /// The integrator (and its linear solver) a SolverSettings describes.
 std::unique_ptr<Integrator> makeIntegrator(const SolverSettings& settings);
 
-/// SOFA's EulerImplicitSolver with its CGLinearSolver, operation for operation (registered as
-/// "sofa-euler"; src/core/sofa/sofa_euler.cpp, docs/sofa.md): massAt is the mass's place among the
-/// force fields in SOFA's node (the order of its sums).
-std::unique_ptr<Integrator> makeSofaEuler(double rayleighMass, double rayleighStiffness, int massAt,
-                                          SofaCGSettings cg);
-
 }  // namespace cutsim::core
