@@ -146,12 +146,10 @@ Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.s
     std::vector<Obstacle> obstacles;
     if (!fold) {
       Obstacle ball;
-      ball.shape = Obstacle::Shape::Sphere;
-      ball.point = {0, 0, R};
-      ball.radius = R;
+      ball.shape = cutsim::forcefields::sphereShape({0, 0, R}, R);
       ball.friction = 0.2;
       Obstacle table;
-      table.shape = Obstacle::Shape::Plane;
+      table.shape = cutsim::forcefields::planeShape({0, 0, 0}, {0, 0, 1});
       table.friction = 0.4;
       obstacles = {ball, table};
     }

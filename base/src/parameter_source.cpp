@@ -30,6 +30,8 @@ const char* toString(KeyType type) {
       return "box";
     case KeyType::Object:
       return "object";
+    case KeyType::Point:
+      return "point";
   }
   return "?";
 }

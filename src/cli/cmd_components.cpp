@@ -1,5 +1,6 @@
 // `cutsim components [KIND]`: what a scene can name, read from the registries: every force field,
-// integrator, linear solver, constraint and timeline action with its one-line summary and keys.
+// integrator, linear solver, constraint, timeline action and obstacle shape with its one-line
+// summary and keys.
 #include <iostream>
 #include <memory>
 #include <string>
@@ -8,6 +9,7 @@
 #include "cutsim/base/errors.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/timeline.hpp"
+#include "cutsim/forcefields/obstacle.hpp"
 
 namespace cutsim::cli {
 namespace {
@@ -34,18 +36,21 @@ void list(const char* title, const char* sceneKey, const Registry& registry) {
 
 void registerComponentsCommand(CLI::App& app) {
   auto kind = std::make_shared<std::string>();
-  CLI::App* cmd = app.add_subcommand("components",
-                                     "List what a scene can name (force fields, integrators, "
-                                     "linear solvers, constraints, actions) with their keys");
+  CLI::App* cmd =
+      app.add_subcommand("components",
+                         "List what a scene can name (force fields, integrators, "
+                         "linear solvers, constraints, actions, obstacles) with their keys");
   cmd->add_option("kind", *kind,
-                  "forcefields, integrators, linearsolvers, constraints or actions (default: all)");
+                  "forcefields, integrators, linearsolvers, constraints, actions or obstacles "
+                  "(default: all)");
   cmd->callback([kind] {
     const bool all = kind->empty();
     if (!all && *kind != "forcefields" && *kind != "integrators" && *kind != "linearsolvers" &&
-        *kind != "constraints" && *kind != "actions")
+        *kind != "constraints" && *kind != "actions" && *kind != "obstacles")
       throw InvalidInput("components",
                          "unknown kind \"" + *kind +
-                             "\" (forcefields, integrators, linearsolvers, constraints, actions)");
+                             "\" (forcefields, integrators, linearsolvers, constraints, actions, "
+                             "obstacles)");
     if (all || *kind == "forcefields")
       list("force fields", "forceFields", forcefields::ForceFieldRegistry::instance());
     if (all || *kind == "integrators")
@@ -56,6 +61,8 @@ void registerComponentsCommand(CLI::App& app) {
       list("constraints", "constraints", core::ConstraintRegistry::instance());
     if (all || *kind == "actions")
       list("timeline actions", "timeline", core::ActionRegistry::instance());
+    if (all || *kind == "obstacles")
+      list("obstacle shapes", "obstacles", forcefields::ObstacleShapeRegistry::instance());
     std::cout.flush();
     if (!std::cout) throw Error("cannot write to standard output");
   });

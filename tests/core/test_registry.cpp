@@ -106,6 +106,7 @@ TEST(Registry, EveryRegisteredComponentIsDocumentedInTheSceneFormat) {
   documented(core::LinearSolverRegistry::instance().names(), "linear solver");
   documented(core::ActionRegistry::instance().names(), "action");
   documented(core::ConstraintRegistry::instance().names(), "constraint");
+  documented(forcefields::ObstacleShapeRegistry::instance().names(), "obstacle shape");
   EXPECT_NE(forcefields::ForceFieldRegistry::instance().find("FastTriangularBendingSprings"),
             nullptr);
 }

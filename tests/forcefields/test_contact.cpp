@@ -225,8 +225,7 @@ TEST(Contact, StiffnessAgainstAPlaneIsExact) {
     for (int k = 0; k < 3; ++k)
       x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)] + u(rng);
   Obstacle plane;
-  plane.shape = Obstacle::Shape::Plane;
-  plane.normal = {0.1, 0.2, 1.0};
+  plane.shape = planeShape({0, 0, 0}, {0.1, 0.2, 1.0});
   ContactParameters p = params(0.05, 1e3);
   p.selfContact = false;
   Contact contact(topo, p, {plane});
@@ -256,7 +255,7 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
   for (PointId p : topo.points())
     for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
   Obstacle plane;
-  plane.shape = Obstacle::Shape::Plane;
+  plane.shape = planeShape({0, 0, 0}, {0, 0, 1});
   plane.friction = 0.5;
   ContactParameters prm = params(0.05, 1e3);
   prm.selfContact = false;
@@ -834,9 +833,7 @@ TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
     x[3 * p + 2] = z;
   }
   Obstacle ball;
-  ball.shape = Obstacle::Shape::Sphere;
-  ball.point = {0, 0, 0};
-  ball.radius = R;
+  ball.shape = sphereShape({0, 0, 0}, R);
   ball.friction = 0.3;
   ContactParameters one = params(d, 1e3, 0.0), two = one;
   one.selfContact = two.selfContact = false;

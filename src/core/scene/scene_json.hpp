@@ -7,6 +7,7 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -229,8 +230,9 @@ class Reader {
 /// it when it belongs to another one.
 class JsonParameterSource : public ParameterSource {
  public:
-  JsonParameterSource(const Reader& reader, const json& object, std::string pointer)
-      : r_(reader), j_(object), ptr_(std::move(pointer)) {}
+  JsonParameterSource(const Reader& reader, const json& object, std::string pointer,
+                      std::filesystem::path baseDir = {})
+      : r_(reader), j_(object), ptr_(std::move(pointer)), baseDir_(std::move(baseDir)) {}
   bool has(std::string_view key) const override { return r_.find(j_, std::string(key)) != nullptr; }
   double number(std::string_view key) const override { return r_.number(at(key), path(key)); }
   long integer(std::string_view key, long min, long max) const override {
@@ -238,6 +240,11 @@ class JsonParameterSource : public ParameterSource {
   }
   bool boolean(std::string_view key) const override { return r_.boolean(at(key), path(key)); }
   std::string string(std::string_view key) const override { return r_.string(at(key), path(key)); }
+  /// A relative name is taken from the scene's folder.
+  std::string file(std::string_view key) const override {
+    std::filesystem::path p(string(key));
+    return (p.is_relative() && !baseDir_.empty() ? baseDir_ / p : p).string();
+  }
   [[noreturn]] void fail(std::string_view key, const std::string& message) const override {
     if (key.empty()) r_.fail(ptr_, message);
     if (key.find('/') != std::string_view::npos) r_.fail(ptr_ + "/" + std::string(key), message);
@@ -297,6 +304,7 @@ class JsonParameterSource : public ParameterSource {
   const Reader& r_;
   const json& j_;
   std::string ptr_;
+  std::filesystem::path baseDir_;
 };
 
 /// Checks the keys of a component's object against its registry entry: its type key ("type", or

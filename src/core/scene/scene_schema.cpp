@@ -586,81 +586,18 @@ void parseContact(const Reader& r, const json& j, const std::string& ptr, Scene&
 
 forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::string& ptr,
                                     const std::filesystem::path& baseDir) {
-  using Shape = forcefields::Obstacle::Shape;
   r.expectObject(j, ptr);
   forcefields::Obstacle o;
   const std::string type = r.string(r.require(j, ptr, "type"), ptr + "/type");
-  std::vector<std::string> keys{"type", "name", "friction", "path"};
-  if (type == "plane") {
-    o.shape = Shape::Plane;
-    keys.insert(keys.end(), {"point", "normal"});
-  } else if (type == "sphere") {
-    o.shape = Shape::Sphere;
-    keys.insert(keys.end(), {"center", "radius"});
-  } else if (type == "box") {
-    o.shape = Shape::Box;
-    keys.insert(keys.end(), {"center", "size"});
-  } else if (type == "capsule") {
-    o.shape = Shape::Capsule;
-    keys.insert(keys.end(), {"a", "b", "radius"});
-  } else if (type == "mesh") {
-    o.shape = Shape::Mesh;
-    keys.insert(keys.end(), {"file", "translation", "scale"});
-  } else {
+  const auto& registry = forcefields::ObstacleShapeRegistry::instance();
+  const auto* entry = registry.find(type);
+  if (!entry)
     r.fail(ptr + "/type",
-           "unknown obstacle type \"" + type + "\" (plane, sphere, box, capsule, mesh)");
-  }
-  r.checkKeys(j, ptr, keys);
+           "unknown obstacle type \"" + type + "\" (" + registeredNames(registry) + ")");
+  checkComponentKeys(r, j, ptr, registry, *entry, {"name", "friction", "path"});
   if (const json* v = r.find(j, "name")) o.name = r.string(*v, ptr + "/name");
   if (const json* v = r.find(j, "friction")) o.friction = r.nonNegative(*v, ptr + "/friction");
-  switch (o.shape) {
-    case Shape::Plane:
-      o.point = r.vec3(r.require(j, ptr, "point"), ptr + "/point");
-      o.normal = r.vec3(r.require(j, ptr, "normal"), ptr + "/normal");
-      break;
-    case Shape::Sphere:
-      o.point = r.vec3(r.require(j, ptr, "center"), ptr + "/center");
-      o.radius = r.positive(r.require(j, ptr, "radius"), ptr + "/radius");
-      break;
-    case Shape::Box: {
-      o.point = r.vec3(r.require(j, ptr, "center"), ptr + "/center");
-      const Vec3 size = r.vec3(r.require(j, ptr, "size"), ptr + "/size");
-      for (int c = 0; c < 3; ++c) {
-        if (!(size[std::size_t(c)] > 0))
-          r.fail(ptr + "/size/" + Reader::idx(std::size_t(c)), "must be > 0");
-        o.halfExtents[std::size_t(c)] = size[std::size_t(c)] / 2;
-      }
-      break;
-    }
-    case Shape::Capsule:
-      o.point = r.vec3(r.require(j, ptr, "a"), ptr + "/a");
-      o.pointB = r.vec3(r.require(j, ptr, "b"), ptr + "/b");
-      o.radius = r.positive(r.require(j, ptr, "radius"), ptr + "/radius");
-      break;
-    case Shape::Mesh: {
-      const std::string file = r.string(r.require(j, ptr, "file"), ptr + "/file");
-      std::filesystem::path path(file);
-      if (path.is_relative()) path = baseDir / path;
-      topology::MeshData m;
-      try {
-        m = topology::readMesh(path);
-      } catch (const InvalidInput& e) {
-        r.fail(ptr + "/file", "the obstacle mesh does not read: " + std::string(e.what()));
-      }
-      Vec3 t{0, 0, 0};
-      double scale = 1.0;
-      if (const json* v = r.find(j, "translation")) t = r.vec3(*v, ptr + "/translation");
-      if (const json* v = r.find(j, "scale")) scale = r.positive(*v, ptr + "/scale");
-      for (const Vec3& p : m.points)
-        o.vertices.push_back({scale * p[0] + t[0], scale * p[1] + t[1], scale * p[2] + t[2]});
-      for (const auto& tri : m.triangles)
-        o.triangles.push_back({int(topology::Index(tri[0])), int(topology::Index(tri[1])),
-                               int(topology::Index(tri[2]))});
-      if (o.triangles.empty())
-        r.fail(ptr + "/file", "the obstacle mesh " + path.string() + " has no triangle");
-      break;
-    }
-  }
+  o.shape = entry->build(entry->read(JsonParameterSource(r, j, ptr, baseDir)));
   if (const json* v = r.find(j, "path")) {
     r.expectArray(*v, ptr + "/path");
     if (v->empty()) r.fail(ptr + "/path", "expected at least one [time, dx, dy, dz]");
@@ -676,11 +613,6 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
       if (k > 0 && !(key.time > o.path.back().time)) r.fail(kp + "/0", "times must increase");
       o.path.push_back(key);
     }
-  }
-  if (o.shape == Shape::Plane) {
-    const Vec3& n = o.normal;
-    if (!(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-24))
-      r.fail(ptr + "/normal", "must be a nonzero vector");
   }
   try {
     o.validate();

@@ -43,6 +43,9 @@ class ParameterSource {
   virtual long integer(std::string_view key, long min, long max) const = 0;
   virtual bool boolean(std::string_view key) const = 0;
   virtual std::string string(std::string_view key) const = 0;
+  /// A file's name, as string(); a relative name is taken from where the parameters come from
+  /// (a scene's folder), which this default does not know.
+  virtual std::string file(std::string_view key) const { return string(key); }
   /// Fails at `key`; a key path "polyline/2" names an element inside a key's value, "" the
   /// component itself.
   [[noreturn]] virtual void fail(std::string_view key, const std::string& message) const = 0;
@@ -137,7 +140,8 @@ class ScalarParameters final : public ParameterSource {
 };
 
 /// The kind of value a key takes, as a ParameterSource reads it: number(), integer(),
-/// boolean(), choice(), string(), integers(), points() or vec3(), rows(), box(), object().
+/// boolean(), choice(), string() (or file()), integers(), points(), rows(), box(), object(),
+/// vec3() (Point: one [x, y, z]).
 enum class KeyType {
   Number,
   Integer,
@@ -148,10 +152,11 @@ enum class KeyType {
   Points,
   Rows,
   Box,
-  Object
+  Object,
+  Point
 };
 /// "number", "integer", "boolean", "choice", "string", "integers", "points", "rows", "box",
-/// "object".
+/// "object", "point".
 const char* toString(KeyType type);
 
 /// A key of a component: its name, the kind of value it takes, what it means (for messages and

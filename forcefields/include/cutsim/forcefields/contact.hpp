@@ -63,6 +63,7 @@
 #include <vector>
 
 #include "cutsim/forcefields/force_field.hpp"
+#include "cutsim/forcefields/obstacle.hpp"
 #include "cutsim/topology/events.hpp"
 #include "cutsim/topology/types.hpp"
 
@@ -99,41 +100,6 @@ struct ContactParameters {
   int threads = 0;
   /// Throws InvalidInput (where = the parameter's name) for a value out of range.
   void validate() const;
-};
-
-/// A keyframe of a moving obstacle: its offset from its scene position at a time.
-struct ObstacleKey {
-  double time = 0.0;
-  Vec3 offset{0, 0, 0};
-};
-
-/// An obstacle: a kinematic collider (it pushes; it neither cuts nor grasps).
-struct Obstacle {
-  enum class Shape { Plane, Sphere, Box, Capsule, Mesh };
-  Shape shape = Shape::Plane;
-  std::string name;
-  Vec3 point{0, 0, 0};         ///< plane: a point on it; sphere, box: centre; capsule: one end
-  Vec3 normal{0, 0, 1};        ///< plane: unit normal (the free side)
-  Vec3 halfExtents{0, 0, 0};   ///< box: half sizes along x, y, z (axis-aligned)
-  Vec3 pointB{0, 0, 0};        ///< capsule: the other end
-  double radius = 0.0;         ///< sphere, capsule
-  std::vector<Vec3> vertices;  ///< mesh
-  std::vector<std::array<int, 3>> triangles;  ///< mesh (any triangle soup)
-  double friction = 0.0;                      ///< mu against this obstacle: >= 0
-  /// Keyframes (ascending times): the offset is interpolated linearly and held before the first
-  /// and after the last. Empty: fixed.
-  std::vector<ObstacleKey> path;
-
-  Vec3 offsetAt(double t) const;
-  bool moving() const { return !path.empty(); }
-  /// Throws InvalidInput naming the key ("radius", "normal", "triangles/3", ...) for bad values.
-  void validate() const;
-  /// Its surface as triangles at offset `offset`, for drawing (a plane: a square of side
-  /// `planeSize` around its point).
-  void surface(const Vec3& offset, double planeSize, std::vector<Vec3>& points,
-               std::vector<std::array<int, 3>>& triangles) const;
-  /// "plane", "sphere", "box", "capsule", "mesh".
-  std::string shapeName() const;
 };
 
 /// What contact did at given positions and velocities (for the CSV).

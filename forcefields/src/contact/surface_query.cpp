@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include "contact_bvh.hpp"
-#include "contact_geometry.hpp"
+#include "bvh.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "geometry.hpp"
 
 namespace cutsim::forcefields {
 

@@ -1,11 +1,11 @@
-// The contact code's bounding volume hierarchy (contact_bvh.hpp).
-#include "contact_bvh.hpp"
+// The contact code's bounding volume hierarchy (bvh.hpp).
+#include "bvh.hpp"
 
 #include <algorithm>
 #include <numeric>
 #include <sstream>
 
-#include "contact_archive.hpp"
+#include "archive_records.hpp"
 
 namespace cutsim::forcefields::contact {
 

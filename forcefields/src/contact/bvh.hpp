@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "contact_geometry.hpp"
 #include "cutsim/base/archive.hpp"
+#include "geometry.hpp"
 
 namespace cutsim::forcefields::contact {
 

@@ -1,0 +1,228 @@
+// Contact's checkpoints: what the next steps depend on (contact_impl.hpp).
+#include "archive_records.hpp"
+#include "contact_impl.hpp"
+
+namespace cutsim::forcefields {
+
+namespace {
+void saveV3s(ArchiveWriter& out, const std::vector<V3>& v) {
+  contact::saveRecords(out, v);
+}
+void loadV3s(ArchiveReader& in, std::vector<V3>& v, const char* what) {
+  contact::loadRecords(in, v, what);
+}
+}  // namespace
+
+void Contact::saveState(ArchiveWriter& out) const {
+  const Impl& I = *impl_;
+  using contact::saveRecords;
+  out.u64(obstacles_.size());
+  for (const Obstacle& o : obstacles_) saveRecords(out, o.path);
+  out.u64(last_.candidates);
+  out.u64(last_.active);
+  out.u64(last_.excluded);
+  out.f64(last_.selfNormal);
+  out.f64(last_.selfFriction);
+  out.f64s(last_.obstacleNormal);
+  out.f64s(last_.obstacleFriction);
+
+  out.boolean(I.built);
+  out.u64(I.revision);
+  out.boolean(I.bvhBuilt);
+  out.f64(I.meanEdge);
+  saveRecords(out, I.boxes);
+  I.bvh.save(out);
+  for (const auto& m : I.meshes) {
+    saveRecords(out, m.boxes);
+    m.bvh.save(out);
+  }
+  saveV3s(out, I.offset);
+  saveV3s(out, I.velocity);
+  saveV3s(out, I.startOffset);
+  saveV3s(out, I.move);
+  saveRecords(out, I.pairs);
+  saveRecords(out, I.nearPairs);
+  saveV3s(out, I.sweptMotion);
+  saveRecords(out, I.fastPoint);
+  out.f64s(I.moveLength);
+  out.f64s(I.pointMargin);
+  out.f64s(I.triMargin);
+  out.f64s(I.obstacleMargin);
+  out.f64s(I.bound);
+  saveV3s(out, I.anchor);
+  out.boolean(I.reframedAny);
+  out.boolean(I.absoluteReach);
+  saveRecords(out, I.tight.tri);
+  saveRecords(out, I.tight.edge);
+  out.u64(I.excluded.size());
+  for (const auto& key : I.excluded) out.raw(key.data(), sizeof(key));
+  out.u64(I.released.size());
+  for (const auto& [a, b] : I.released) {
+    out.u64(a);
+    out.u64(b);
+  }
+  out.f64s(I.lastX);
+  saveRecords(out, I.cache);
+  out.f64s(I.cacheX);
+  saveV3s(out, I.cacheOffset);
+  out.u64(I.cacheRevision);
+  out.f64(I.cacheR);
+  out.boolean(I.cacheBuilt);
+  out.f64s(I.sinceCache);
+  out.f64s(I.obstacleSinceCache);
+  for (std::size_t v :
+       {I.cacheUses, I.cacheBuilds, I.usesSinceBuild, I.plainSteps, I.backoff, I.plainSearches})
+    out.u64(v);
+}
+
+void Contact::loadState(ArchiveReader& in) {
+  Impl& I = *impl_;
+  using contact::loadRecords;
+  if (in.u64() != obstacles_.size())
+    in.fail("contact: the saved run has another number of obstacles");
+  for (Obstacle& o : obstacles_) {
+    loadRecords(in, o.path, "an obstacle's path");
+    try {
+      o.validate();
+    } catch (const InvalidInput& e) {
+      in.fail("contact: obstacle \"" + o.name + "\": " + e.what());
+    }
+  }
+  last_.candidates = std::size_t(in.u64());
+  last_.active = std::size_t(in.u64());
+  last_.excluded = std::size_t(in.u64());
+  last_.selfNormal = in.f64();
+  last_.selfFriction = in.f64();
+  last_.obstacleNormal = in.f64s();
+  last_.obstacleFriction = in.f64s();
+
+  const bool built = in.boolean();
+  const std::uint64_t revision = in.u64();
+  // The tables of the topology as it is. A checkpoint written right after a topology change holds
+  // the tables of the mesh before it, which the next step rebuilds (dropping the hierarchy):
+  // the saved revision says so, and the restored contact does the same.
+  I.rebuildTables();
+  I.built = built;
+  I.revision = revision;
+  const bool current = built && revision == I.topo.revision();
+  I.bvhBuilt = in.boolean();
+  I.meanEdge = in.f64();
+  loadRecords(in, I.boxes, "boxes");
+  I.bvh.load(in);
+  for (auto& m : I.meshes) {
+    loadRecords(in, m.boxes, "obstacle boxes");
+    m.bvh.load(in);
+  }
+  loadV3s(in, I.offset, "obstacle offsets");
+  loadV3s(in, I.velocity, "obstacle velocities");
+  loadV3s(in, I.startOffset, "obstacle offsets");
+  loadV3s(in, I.move, "obstacle moves");
+  loadRecords(in, I.pairs, "pairs");
+  loadRecords(in, I.nearPairs, "pairs");
+  loadV3s(in, I.sweptMotion, "motions");
+  loadRecords(in, I.fastPoint, "fast points");
+  I.moveLength = in.f64s();
+  I.pointMargin = in.f64s();
+  I.triMargin = in.f64s();
+  I.obstacleMargin = in.f64s();
+  I.bound = in.f64s();
+  loadV3s(in, I.anchor, "anchors");
+  I.reframedAny = in.boolean();
+  I.absoluteReach = in.boolean();
+  loadRecords(in, I.tight.tri, "boxes");
+  loadRecords(in, I.tight.edge, "boxes");
+  const std::uint64_t excluded = in.u64();
+  if (excluded > in.remaining() / (5 * sizeof(std::uint32_t)))
+    in.fail("contact: a count of " + std::to_string(excluded) + " exclusions");
+  I.excluded.clear();
+  for (std::uint64_t k = 0; k < excluded; ++k) {
+    std::array<std::uint32_t, 5> key;
+    in.raw(key.data(), sizeof(key));
+    I.excluded.insert(key);
+  }
+  const std::uint64_t released = in.u64();
+  if (released > in.remaining() / 16)
+    in.fail("contact: a count of " + std::to_string(released) + " released pairs");
+  I.released.clear();
+  for (std::uint64_t k = 0; k < released; ++k) {
+    const auto a = std::uint32_t(in.u64()), b = std::uint32_t(in.u64());
+    I.released.insert({a, b});
+  }
+  I.lastX = in.f64s();
+  loadRecords(in, I.cache, "cached pairs");
+  I.cacheX = in.f64s();
+  loadV3s(in, I.cacheOffset, "cached offsets");
+  I.cacheRevision = in.u64();
+  I.cacheR = in.f64();
+  I.cacheBuilt = in.boolean();
+  I.sinceCache = in.f64s();
+  I.obstacleSinceCache = in.f64s();
+  for (std::size_t* v : {&I.cacheUses, &I.cacheBuilds, &I.usesSinceBuild, &I.plainSteps, &I.backoff,
+                         &I.plainSearches})
+    *v = std::size_t(in.u64());
+  I.evalValid = false;
+  I.sweep = nullptr;
+  // Every index the records hold must be one of this mesh's.
+  const std::size_t points = I.topo.pointCapacity(), tris = I.tris.size();
+  auto checkPair = [&](auto kind, std::int32_t obstacle, std::uint8_t surface,
+                       const std::array<std::uint32_t, 4>& id) {
+    if (obstacle < -1 || obstacle >= std::int32_t(obstacles_.size()) ||
+        std::uint8_t(kind) > std::uint8_t(Kind::FO))
+      in.fail("contact: a pair of an obstacle or a kind that does not exist");
+    for (int i = 0; i < 4; ++i)
+      if (((surface >> i) & 1) && id[std::size_t(i)] != kInvalidIndex &&
+          id[std::size_t(i)] >= points)
+        in.fail("contact: a pair of a point that does not exist");
+  };
+  for (const Pair& p : I.pairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
+  for (const Pair& p : I.nearPairs) checkPair(p.kind, p.obstacle, p.surface, p.id);
+  for (const auto& c : I.cache) {
+    checkPair(c.kind, c.obstacle, c.surface, c.id);
+    if (I.cacheRevision == I.topo.revision() &&
+        (c.margins[0] >= std::int32_t(tris) || c.margins[1] >= std::int32_t(tris)))
+      in.fail("contact: a cached pair of a triangle that does not exist");
+    // (a self pair of edges holds its edges; a point's pair its triangle, of the surface or of
+    // an obstacle mesh)
+    const bool edgesOk =
+        c.kind != Kind::EE || c.obstacle >= 0 ||
+        (c.tri >= -1 && c.edge2 >= -1 && c.tri < std::int32_t(I.topo.edgeCapacity()) &&
+         c.edge2 < std::int32_t(I.topo.edgeCapacity()));
+    const bool triOk =
+        c.kind == Kind::EE || c.tri < 0 || c.obstacle >= 0 || c.tri < std::int32_t(tris);
+    if (I.cacheRevision == I.topo.revision() && !(edgesOk && triOk))
+      in.fail("contact: a cached pair of an edge or a triangle that does not exist");
+  }
+  I.indexCache();  // (by point: after the points are checked)
+  if (current && I.bvhBuilt && I.bvh.size() != tris)
+    in.fail("contact: a hierarchy over another number of triangles");
+  // Per point slot, per triangle, per obstacle: never longer than the mesh and the obstacles
+  // (tables of the mesh before a change are replaced at the next step, unread).
+  const std::size_t k = obstacles_.size(), edges = I.topo.edgeCapacity();
+  auto size = [&](std::size_t got, std::size_t most, const char* what) {
+    if (current && got > most)
+      in.fail(std::string("contact: ") + what + " for " + std::to_string(got) +
+              " elements, at most " + std::to_string(most));
+  };
+  size(I.boxes.size(), tris, "boxes");
+  size(I.fastPoint.size(), points, "fast points");
+  size(I.moveLength.size(), points, "displacements");
+  size(I.pointMargin.size(), points, "point margins");
+  size(I.triMargin.size(), tris, "triangle margins");
+  size(I.bound.size(), points, "bounds");
+  size(I.anchor.size(), points, "anchors");
+  size(I.sweptMotion.size(), points, "motions");
+  size(I.sinceCache.size(), points, "cache distances");
+  size(I.lastX.size(), 3 * points, "positions");
+  size(I.cacheX.size(), 3 * points, "cached positions");
+  size(I.tight.tri.size(), tris, "boxes");
+  size(I.tight.edge.size(), edges, "edge boxes");
+  if (I.offset.size() != k || I.velocity.size() != k || I.startOffset.size() != k ||
+      I.move.size() != k || I.obstacleMargin.size() > k || I.obstacleSinceCache.size() > k ||
+      I.cacheOffset.size() > k)
+    in.fail("contact: poses for another number of obstacles");
+  for (std::size_t j = 0; j < I.meshes.size(); ++j)
+    if (I.meshes[j].bvh.size() > I.meshes[j].triangles.size())
+      in.fail("contact: an obstacle's hierarchy over other triangles");
+}
+
+}  // namespace cutsim::forcefields
