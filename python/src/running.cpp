@@ -138,10 +138,10 @@ void Simulation::move(const std::string& name, const py::handle& delta, double d
 
 void Simulation::moveObstacle(const std::string& name, const py::handle& delta, double duration) {
   requireMutable("move_obstacle");
-  forcefields::Contact* c = core::findContact(sim());
+  core::ContactStep* c = core::findContactStep(sim());
   if (!c)
     throw InvalidInput("move_obstacle", "the scene has no contact section (and so no obstacles)");
-  const auto& obstacles = c->obstacles();
+  const auto& obstacles = c->contact().obstacles();
   for (std::size_t k = 0; k < obstacles.size(); ++k)
     if (obstacles[k].name == name) {
       c->moveObstacle(k, runner_->time(), readVec3(delta, "move_obstacle: delta"), duration);

@@ -87,7 +87,7 @@ TEST(Contact, ForcesAreMinusTheEnergyGradient) {
     Crumpled c = crumpled(seed);
     Contact contact(*c.topo, params(), {});
     std::vector<double> v(c.x.size(), 0.0);
-    contact.beginStep(c.x, v, 0.0, 1e-3);
+    contact.beginStep(c.x, v, 1e-3);
     std::vector<double> f(c.x.size(), 0.0);
     contact.addForce(c.x, v, f);
     double fmax = 0;
@@ -112,7 +112,7 @@ TEST(Contact, StiffnessIsSymmetricNegativeSemidefiniteAndEqualToItsMatrix) {
     Crumpled c = crumpled(seed);
     Contact contact(*c.topo, params(), {});
     std::vector<double> v(c.x.size(), 0.0);
-    contact.beginStep(c.x, v, 0.0, 1e-3);
+    contact.beginStep(c.x, v, 1e-3);
     const Eigen::MatrixXd K = denseK(contact, c.x, c.topo->pointCapacity());
     EXPECT_LT((K - K.transpose()).norm(), 1e-12 * K.norm());
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (K + K.transpose()));
@@ -187,7 +187,7 @@ TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
     const std::vector<std::pair<double, double>> implicit{{1, 0},   {-2e-6, -1e-3}, {-2e-6, -1e-3},
                                                           {1, 0},   {-2e-6, -1e-3}, {0, 1},
                                                           {3, 0.5}, {-2e-6, -1e-3}};
-    contact.beginStep(c.x, velocities(true), 0.0, 1e-3);
+    contact.beginStep(c.x, velocities(true), 1e-3);
     const ContactMeasure m0 = contact.measure(c.x, std::vector<double>(c.x.size(), 0.0));
     ASSERT_GT(m0.active, 10u);
     const auto [K, B] = matrices(c.x);
@@ -200,7 +200,7 @@ TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
     EXPECT_GT((K1 - K).norm(), 1e-6 * K.norm()) << "the stiffness must differ away from the start";
     check(moved, K1, B1, {{-2e-6, -1e-3}, {1, 1}, {-2e-6, -1e-3}}, "away from the start");
     check(c.x, K, B, {{-2e-6, -1e-3}, {1, 0}}, "back at the start");
-    contact.beginStep(c.x, velocities(false), 0.0, 1e-3);
+    contact.beginStep(c.x, velocities(false), 1e-3);
     const auto [K2, B2] = matrices(c.x);
     EXPECT_GT((B2 - B).norm(), 1e-6 * B.norm()) << "sliding friction must differ from sticking";
     check(c.x, K2, B2, implicit, "at the next step's start, sliding");
@@ -230,7 +230,7 @@ TEST(Contact, StiffnessAgainstAPlaneIsExact) {
   p.selfContact = false;
   Contact contact(topo, p, {plane});
   std::vector<double> v(x.size(), 0.0);
-  contact.beginStep(x, v, 0.0, 1e-3);
+  contact.beginStep(x, v, 1e-3);
   const Eigen::MatrixXd K = denseK(contact, x, topo.pointCapacity());
   ASSERT_GT(K.norm(), 0.0);
   const double h = 1e-7;
@@ -271,7 +271,7 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
       v[3 * p + 1] = speed * std::sin(a);
       v[3 * p + 2] = 0.1 * speed * n(rng);
     }
-    contact.beginStep(x, v, 0.0, 1e-3);
+    contact.beginStep(x, v, 1e-3);
     TripletAccumulator acc;
     contact.addBToMatrix(x, acc, 1.0);
     const Eigen::MatrixXd B(acc.toSparse(topo.pointCapacity()));
@@ -319,7 +319,7 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
   const double within = d;
   Contact contact(*c.topo, params(d), {});
   std::vector<double> v(c.x.size(), 0.0);
-  contact.beginStep(c.x, v, 0.0, 1e-3);  // at rest: every margin is d / 2, pairs are kept within d
+  contact.beginStep(c.x, v, 1e-3);  // at rest: every margin is d / 2, pairs are kept within d
   auto P = [&](PointId p) { return K::Point_3(c.x[3 * p], c.x[3 * p + 1], c.x[3 * p + 2]); };
   auto dist = [](const auto& a, const auto& b) {
     return std::sqrt(CGAL::to_double(CGAL::squared_distance(a, b)));
@@ -591,7 +591,7 @@ TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
                                                                             : c == 2 ? s - 2 * d
                                                                                      : jitter(rng));
     Contact contact(topo, params(d, k), {});
-    contact.beginStep(x, v, 0.0, 1e-3);
+    contact.beginStep(x, v, 1e-3);
     contact.addForce(x, v, f);
     const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
     for (PointId p : topo.points()) {
@@ -635,7 +635,7 @@ TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheToleranc
         for (PointId p : {PointId(4), PointId(5), PointId(6)})
           for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] += shift[c];
         Contact contact(topo, params(d, k), {});
-        contact.beginStep(x, v, 0.0, 1e-3);
+        contact.beginStep(x, v, 1e-3);
         contact.addForce(x, v, f);
         const std::string where = std::string(corner ? "near the corner" : "off the diagonal") +
                                   ", delta " + std::to_string(delta) + " s, side " +
@@ -660,8 +660,8 @@ TEST(Contact, TheSearchCacheGivesTheSamePairsAsASearch) {
   std::vector<double> x = c.x, v(x.size(), 0.0);
   for (double& q : v) q = 0.05 * n(rng);
   for (int step = 0; step < 40; ++step) {
-    a.beginStep(x, v, 0.0, 1e-3);
-    b.beginStep(x, v, 0.0, 1e-3);
+    a.beginStep(x, v, 1e-3);
+    b.beginStep(x, v, 1e-3);
     const ContactMeasure ma = a.measure(x, v), mb = b.measure(x, v);
     ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
     ASSERT_EQ(ma.active, mb.active) << "step " << step;
@@ -713,8 +713,8 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
   for (const std::array<topology::Index, 3> far :
        {std::array<topology::Index, 3>{20, 40, 41}, {10, 11, 70}, {30, 50, 60}}) {
     Contact a(topo, cached, {}), b(topo, fresh, {});
-    a.beginStep(x, v, 0.0, 1e-3);
-    b.beginStep(x, v, 0.0, 1e-3);
+    a.beginStep(x, v, 1e-3);
+    b.beginStep(x, v, 1e-3);
     std::vector<double> xa = x, va(x.size(), 0.0), vb(x.size(), 0.0);
     for (double& q : xa) q += 1e-4 * d * jitter(rng);
     for (const topology::Index p : far) xa[3 * (n + p) + 2] -= 0.12 * d;
@@ -767,9 +767,9 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
   };
   std::size_t largest = 0, cached = 0;
   for (int step = 0; step < 12; ++step) {
-    a.beginStep(x, v, 0.0, 1e-3);
-    b.beginStep(x, v, 0.0, 1e-3);
-    c3.beginStep(x, v, 0.0, 1e-3);
+    a.beginStep(x, v, 1e-3);
+    b.beginStep(x, v, 1e-3);
+    c3.beginStep(x, v, 1e-3);
     cached = std::max(cached, a.cachedPairs());
     const ContactMeasure ma = a.measure(x, v);
     for (const Contact* o : {&b, &c3}) {
@@ -847,8 +847,8 @@ TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
   };
   for (int step = 0; step < 3; ++step) {
     for (double& q : v) q = 0.01 * n(rng);
-    a.beginStep(x, v, 0.0, 1e-3);
-    b.beginStep(x, v, 0.0, 1e-3);
+    a.beginStep(x, v, 1e-3);
+    b.beginStep(x, v, 1e-3);
     const ContactMeasure ma = a.measure(x, v), mb = b.measure(x, v);
     ASSERT_EQ(ma.candidates, mb.candidates) << "step " << step;
     ASSERT_EQ(ma.active, mb.active) << "step " << step;
@@ -894,7 +894,7 @@ TEST(Contact, ASolvesHeldPositionsAreEvaluatedAgainOnceReleased) {
   std::mt19937 rng(9);
   std::normal_distribution<double> n;
   for (double& q : dx) q = n(rng);
-  a.beginStep(x, v, 0.0, 1e-3);
+  a.beginStep(x, v, 1e-3);
   auto product = [&](const Contact& k, const std::vector<double>& at) {
     std::vector<double> out(at.size(), 0.0);
     k.addDForce(at, dx, out, 1.0, 0.0);
@@ -912,7 +912,7 @@ TEST(Contact, ASolvesHeldPositionsAreEvaluatedAgainOnceReleased) {
   for (double& q : x) q += 0.2 * d * n(rng);  // (in place: the same memory)
   const std::vector<double> moved = product(a, x);
   Contact fresh(*c.topo, params(d, 1e3, 0.3), {});
-  fresh.beginStep(c.x, v, 0.0, 1e-3);
+  fresh.beginStep(c.x, v, 1e-3);
   EXPECT_EQ(moved, product(fresh, x)) << "x, changed in place after its release";
   EXPECT_NE(moved, held) << "the change must change the products";
   EXPECT_EQ(atY, product(fresh, y));
@@ -925,7 +925,7 @@ TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(0.1, 0.9);
   for (int op = 0; op < 8; ++op) {
-    contact.beginStep(c.x, v, 0.0, 1e-3);
+    contact.beginStep(c.x, v, 1e-3);
     auto report = c.topo->validate();
     ASSERT_TRUE(report.ok()) << "before operation " << op << ": " << report.summary();
     // A cut across part of the sheet (rest coordinates); new points take their ancestors' x.
@@ -944,7 +944,7 @@ TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {
         for (int k = 0; k < 3; ++k)
           c.x[3 * p + std::size_t(k)] = c.topo->restPosition(p)[std::size_t(k)];
   }
-  contact.beginStep(c.x, v, 0.0, 1e-3);
+  contact.beginStep(c.x, v, 1e-3);
   const auto report = c.topo->validate();
   EXPECT_TRUE(report.ok()) << report.summary();
 }
@@ -961,12 +961,12 @@ TEST(Contact, TheLipsOfACutAreExcludedUntilTheySeparate) {
     return x;
   };
   std::vector<double> x = xOf(), v(x.size(), 0.0);
-  contact.beginStep(x, v, 0.0, 1e-3);
+  contact.beginStep(x, v, 1e-3);
   EXPECT_EQ(contact.measure(x, v).active, 0u) << "a flat sheet is free of contact";
   const auto cut = topo.cutPolyline(std::vector<Vec3>{{0, 0.5, 0}, {0.6, 0.5, 0}});
   x = xOf();
   v.assign(x.size(), 0.0);
-  contact.beginStep(x, v, 0.0, 1e-3);
+  contact.beginStep(x, v, 1e-3);
   ContactMeasure m = contact.measure(x, v);
   EXPECT_GT(m.excluded, 0u);
   EXPECT_EQ(m.active, 0u) << "the lips start at distance zero: excluded";
@@ -978,12 +978,12 @@ TEST(Contact, TheLipsOfACutAreExcludedUntilTheySeparate) {
     if (topo.restPosition(p)[1] > 0.5 + 1e-9 ||
         std::find(cut.copies.begin(), cut.copies.end(), p) != cut.copies.end())
       x[3 * p + 2] += 0.06;
-  contact.beginStep(x, v, 0.0, 1e-3);
+  contact.beginStep(x, v, 1e-3);
   m = contact.measure(x, v);
   EXPECT_EQ(m.excluded, 0u);
   // Close it again: now the lips push each other apart.
   x = xOf();
-  contact.beginStep(x, v, 0.0, 1e-3);
+  contact.beginStep(x, v, 1e-3);
   m = contact.measure(x, v);
   EXPECT_EQ(m.excluded, 0u);
   EXPECT_GT(m.active, 0u);
@@ -995,7 +995,7 @@ TEST(Contact, DisplacementBoundKeepsEveryPairApart) {
   Crumpled c = crumpled(2, 11);
   Contact contact(*c.topo, params(0.03), {});
   std::vector<double> v(c.x.size(), 0.0);
-  contact.beginStep(c.x, v, 0.0, 1e-2);
+  contact.beginStep(c.x, v, 1e-2);
   std::mt19937 rng(9);
   std::normal_distribution<double> n;
   std::vector<double> x1 = c.x, v1(c.x.size(), 0.0);

@@ -1,6 +1,8 @@
 // Contact (contact.hpp): its construction, its obstacles' moves, and the step's start: the
 // obstacles' poses, the margins, the pairs (from the search's cache or a search), the
 // exclusions, the friction's frozen normal forces.
+#include <stdexcept>
+
 #include "contact_impl.hpp"
 
 namespace cutsim::forcefields {
@@ -41,22 +43,16 @@ Contact::Contact(topology::Topology& topology, ContactParameters parameters,
 
 Contact::~Contact() = default;
 
-void Contact::moveObstacle(std::size_t k, double now, const Vec3& delta, double duration) {
+void Contact::setObstaclePath(std::size_t k, std::vector<ObstacleKey> path) {
   if (k >= obstacles_.size()) throw InvalidInput("obstacle", "no obstacle " + std::to_string(k));
-  Obstacle& o = obstacles_[k];
-  const std::string where = "obstacle \"" + o.name + "\"";
-  if (!std::isfinite(now) || !(duration > 0) || !std::isfinite(duration))
-    throw InvalidInput(where,
-                       "a move needs a finite duration > 0 (an obstacle sweeps; it does not jump)");
-  for (double c : delta)
-    if (!std::isfinite(c)) throw InvalidInput(where, "non-finite displacement");
-  const Vec3 d0 = o.offsetAt(now);
-  std::vector<ObstacleKey> path;
-  for (const ObstacleKey& key : o.path)
-    if (key.time < now) path.push_back(key);
-  path.push_back({now, d0});
-  path.push_back({now + duration, {d0[0] + delta[0], d0[1] + delta[1], d0[2] + delta[2]}});
-  o.path = std::move(path);
+  Obstacle moved = obstacles_[k];
+  moved.path = std::move(path);
+  try {
+    moved.validate();
+  } catch (const InvalidInput& e) {
+    throw InvalidInput("obstacle \"" + moved.name + "\"", e.what());
+  }
+  obstacles_[k] = std::move(moved);
 }
 
 const std::vector<double>& Contact::bounds() const {
@@ -72,13 +68,25 @@ std::size_t Contact::searchesReused() const {
   return impl_->cacheUses;
 }
 
-void Contact::beginStep(std::span<const double> x, std::span<const double> v, double t0,
-                        double dt) {
+void Contact::beginStep(std::span<const double> x, std::span<const double> v, double dt) {
+  ObstaclePoses still;
+  still.start.assign(obstacles_.size(), Vec3{0, 0, 0});
+  still.end = still.start;
+  beginStep(x, v, still, dt);
+}
+
+void Contact::beginStep(std::span<const double> x, std::span<const double> v,
+                        const ObstaclePoses& poses, double dt) {
   Impl& I = *impl_;
   const ContactParameters& P = parameters_;
+  if (poses.start.size() != obstacles_.size() || poses.end.size() != obstacles_.size())
+    throw std::invalid_argument(
+        "Contact::beginStep: a pose for each obstacle, at the step's "
+        "start and end");
   // Obstacles at the step's end.
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-    const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
+    const Vec3& a = poses.start[k];
+    const Vec3& b = poses.end[k];
     I.offset[k] = V3(b[0], b[1], b[2]);
     I.startOffset[k] = V3(a[0], a[1], a[2]);
     I.move[k] = I.offset[k] - I.startOffset[k];
@@ -107,7 +115,8 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v, do
   const double shift = 0.5 * P.thickness + 4 * mean.norm() * dt;  // (the obstacles stay put)
   I.obstacleMargin.assign(obstacles_.size(), 0.0);
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-    const Vec3 a = obstacles_[k].offsetAt(t0), b = obstacles_[k].offsetAt(t0 + dt);
+    const Vec3& a = poses.start[k];
+    const Vec3& b = poses.end[k];
     I.obstacleMargin[k] = shift + (V3(b[0], b[1], b[2]) - V3(a[0], a[1], a[2])).norm();
   }
   // The pairs are found with the obstacles where they start the step (which side of them each

@@ -102,6 +102,12 @@ struct ContactParameters {
   void validate() const;
 };
 
+/// Where each obstacle is over a step: its offset from its scene position at the step's start
+/// and at its end (one of each per obstacle).
+struct ObstaclePoses {
+  std::vector<Vec3> start, end;
+};
+
 /// What contact did at given positions and velocities (for the CSV).
 struct ContactMeasure {
   std::size_t candidates = 0;                   ///< pairs within their margins at the step's start
@@ -125,15 +131,18 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   const ContactParameters& parameters() const { return parameters_; }
   const std::vector<Obstacle>& obstacles() const { return obstacles_; }
-  /// From time `now` on, obstacle k moves by `delta` more over `duration` (> 0: it sweeps, and
-  /// the displacement bound sees what it sweeps), then holds; its path's keys after `now` are
-  /// dropped. Throws InvalidInput for a non-finite delta or a duration that is not > 0.
-  void moveObstacle(std::size_t k, double now, const Vec3& delta, double duration);
+  /// Replaces obstacle k's path (its step hook, core::ContactStep, edits paths: a move from a
+  /// script). Throws InvalidInput naming the obstacle for a bad path (nothing changes then).
+  void setObstaclePath(std::size_t k, std::vector<ObstacleKey> path);
 
-  /// Before each step of dt from time t0 at positions x and velocities v: the obstacles move to
-  /// their poses at t0 + dt, the candidate pairs are found at x, the exclusions are updated, the
-  /// friction's normal forces are frozen and the displacement bounds computed.
-  void beginStep(std::span<const double> x, std::span<const double> v, double t0, double dt);
+  /// Before each step of dt from positions x and velocities v, with the obstacles at `poses`
+  /// (their offsets at the step's start and end: the step hook reads them off the paths; the
+  /// field itself knows no time): the obstacles move to their end poses, the candidate pairs are
+  /// found at x, the exclusions are updated, the friction's normal forces are frozen.
+  void beginStep(std::span<const double> x, std::span<const double> v, const ObstaclePoses& poses,
+                 double dt);
+  /// The same with every obstacle at its scene position (offset zero) over the step.
+  void beginStep(std::span<const double> x, std::span<const double> v, double dt);
 
   /// After the step's solve: clamps each unconstrained point's displacement x1 - x0 to its bound
   /// (velocities of clamped points become (x1 - x0) / dt). Returns the number of clamped points.
