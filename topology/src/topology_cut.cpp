@@ -711,46 +711,49 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       }
     }
   };
-  bool done = false;
-  // With the repair on, an end snaps only onto the border (so that a cut ending just inside it
-  // reaches it): elsewhere it stays on the polyline, where the repair may straighten the lips.
-  std::vector<Point3> snapped =
-      snapEnds(I, poly, options.snapTolerance, options.repair.minAngle > 0);
-  // (Snapping may make the ends meet or touch another segment: then only the polyline as given.)
-  if (snapped != poly && snapped.front() != snapped.back() && !selfCrossing(snapped)) {
+  // One attempt: the line's walk checked (unless `checkedWalk` is that of this very line), then
+  // planned. Returns why it cannot be (nullopt: planned). A failure injected by a test is a
+  // failure of the whole request.
+  auto attempt = [&](const std::vector<Point3>& line, double walkSnap,
+                     const Walker* checkedWalk) -> std::optional<std::string> {
     try {
-      Walker walker(I, options.snapTolerance);
-      walker.check(snapped);
-      plan(snapped, walker);
-      done = true;
-    } catch (const InjectedFailure&) {  // a failure of the whole request
-      throw;
-    } catch (const TopologyError&) {  // fall back to the polyline as given
-    }
-  }
-  if (!done) {
-    try {
-      plan(poly, checked);
-      done = true;
-    } catch (const InjectedFailure&) {  // a failure of the whole request
-      throw;
-    } catch (const TopologyError&) {  // below: without snapping
-    }
-  }
-  // Snapping moves the path, and the walk from a snapped crossing can fail where the polyline as
-  // given passes: then the crossings are taken where they are (no snapping at all); the slivers
-  // this may leave are the quality repair's to fix.
-  if (!done) {
-    const bool retried = snap > 0;
-    snap = 0.0;
-    try {
-      plan(poly, checked);
-    } catch (const InjectedFailure&) {  // a failure of the whole request
+      std::optional<Walker> own;
+      if (!checkedWalk) {
+        own.emplace(I, walkSnap);
+        own->check(line);
+        checkedWalk = &*own;
+      }
+      plan(line, *checkedWalk);
+      return std::nullopt;
+    } catch (const InjectedFailure&) {
       throw;
     } catch (const TopologyError& e) {
-      // An end exactly on the border (within rounding) can defeat the walk where the same end a
-      // little inside, snapped onto the border edge, does not: pull the ends 1% of their segment
-      // inwards, snap them onto the border, and try once more.
+      return std::string(e.what());
+    }
+  };
+  // The plans, in order, until one succeeds:
+  // 1. The polyline with its ends snapped. With the repair on, an end snaps only onto the border
+  //    (so that a cut ending just inside it reaches it): elsewhere it stays on the polyline, where
+  //    the repair may straighten the lips. (Snapping may make the ends meet or touch another
+  //    segment: then this plan is skipped.)
+  std::optional<std::string> failed = "not planned";
+  const std::vector<Point3> snapped =
+      snapEnds(I, poly, options.snapTolerance, options.repair.minAngle > 0);
+  if (snapped != poly && snapped.front() != snapped.back() && !selfCrossing(snapped))
+    failed = attempt(snapped, options.snapTolerance, nullptr);
+  // 2. The polyline as given.
+  if (failed) failed = attempt(poly, options.snapTolerance, &checked);
+  // 3. The polyline as given, its crossings not snapped: snapping moves the path, and the walk
+  //    from a snapped crossing can fail where the polyline as given passes; the slivers this may
+  //    leave are the quality repair's to fix.
+  if (failed) {
+    const bool retried = snap > 0;
+    snap = 0.0;
+    const std::optional<std::string> unsnapped = attempt(poly, snap, &checked);
+    if (unsnapped) {
+      // 4. An end exactly on the border (within rounding) can defeat the walk where the same end
+      //    a little inside, snapped onto the border edge, does not: the ends pulled 1% of their
+      //    segment inwards and snapped onto the border.
       std::vector<Point3> nudged = poly;
       const std::size_t n = nudged.size();
       nudged[0] = nudged[0] + 0.01 * (poly[1] - poly[0]);
@@ -760,21 +763,12 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       // An end that did not snap onto the border was not on it: it stays where it was given.
       if (nudged[0] == inside[0]) nudged[0] = poly[0];
       if (nudged[n - 1] == inside[n - 1]) nudged[n - 1] = poly[n - 1];
-      bool ok = false;
-      if (nudged.front() != nudged.back() && !selfCrossing(nudged)) {
-        try {
-          Walker walker(I, snap);
-          walker.check(nudged);
-          plan(nudged, walker);
-          ok = true;
-        } catch (const InjectedFailure&) {  // a failure of the whole request
-          throw;
-        } catch (const TopologyError&) {
-        }
-      }
-      if (!ok)
+      failed = "the nudged ends meet or cross";
+      if (nudged.front() != nudged.back() && !selfCrossing(nudged))
+        failed = attempt(nudged, snap, nullptr);
+      if (failed)
         throw TopologyError(std::string("cutPolyline: the cut cannot be inserted") +
-                            (retried ? " (also tried without snapping): " : ": ") + e.what() +
+                            (retried ? " (also tried without snapping): " : ": ") + *unsnapped +
                             "; nothing was changed");
     }
   }
