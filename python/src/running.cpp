@@ -167,7 +167,8 @@ void Simulation::record(const std::filesystem::path& dir,
     throw Usage("record: already recording to " + writer_->dir().string() +
                 " (finish_recording() first)");
   std::vector<std::string> obstacles;
-  for (const auto& o : scene().obstacles) obstacles.push_back(o.name);
+  if (const auto* c = scene().contactSetup())
+    for (const auto& o : c->obstacles) obstacles.push_back(o.name);
   std::vector<std::string> grasps = scene().graspNames();
   std::vector<std::string> more = extraGrasps;
   for (std::size_t i = 0; i < sim().numGrasps(); ++i)
@@ -179,8 +180,9 @@ void Simulation::record(const std::filesystem::path& dir,
   }
   runner_->start();  // the scene's actions due at time 0, if they have not run yet
   keepBridgeLast();
-  writer_ = std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(),
-                                                 grasps, scene().contact.has_value(), obstacles);
+  writer_ =
+      std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(), grasps,
+                                           scene().contactSetup() != nullptr, obstacles);
   if (scene().output.vtk) core::writeRunInfo(dir, scene());
   writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()},
                   runner_->currentStep() == runner_->numSteps());

@@ -39,18 +39,20 @@ void registerComponentsCommand(CLI::App& app) {
   CLI::App* cmd =
       app.add_subcommand("components",
                          "List what a scene can name (force fields, integrators, "
-                         "linear solvers, constraints, actions, obstacles) with their keys");
-  cmd->add_option("kind", *kind,
-                  "forcefields, integrators, linearsolvers, constraints, actions or obstacles "
-                  "(default: all)");
+                         "linear solvers, constraints, actions, step hooks, obstacles) with their "
+                         "keys");
+  cmd->add_option(
+      "kind", *kind,
+      "forcefields, integrators, linearsolvers, constraints, actions, hooks or obstacles "
+      "(default: all)");
   cmd->callback([kind] {
     const bool all = kind->empty();
     if (!all && *kind != "forcefields" && *kind != "integrators" && *kind != "linearsolvers" &&
-        *kind != "constraints" && *kind != "actions" && *kind != "obstacles")
+        *kind != "constraints" && *kind != "actions" && *kind != "hooks" && *kind != "obstacles")
       throw InvalidInput("components",
                          "unknown kind \"" + *kind +
                              "\" (forcefields, integrators, linearsolvers, constraints, actions, "
-                             "obstacles)");
+                             "hooks, obstacles)");
     if (all || *kind == "forcefields")
       list("force fields", "forceFields", forcefields::ForceFieldRegistry::instance());
     if (all || *kind == "integrators")
@@ -61,6 +63,8 @@ void registerComponentsCommand(CLI::App& app) {
       list("constraints", "constraints", core::ConstraintRegistry::instance());
     if (all || *kind == "actions")
       list("timeline actions", "timeline", core::ActionRegistry::instance());
+    if (all || *kind == "hooks")
+      list("step hooks", "its own section, \"contact\"", core::StepHookRegistry::instance());
     if (all || *kind == "obstacles")
       list("obstacle shapes", "obstacles", forcefields::ObstacleShapeRegistry::instance());
     std::cout.flush();

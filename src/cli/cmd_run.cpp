@@ -343,7 +343,8 @@ void checkOutputOptions(const RunOptions& options, const core::Scene& scene,
 
 std::vector<std::string> obstacleNamesOf(const core::Scene& scene) {
   std::vector<std::string> names;
-  for (const auto& o : scene.obstacles) names.push_back(o.name);
+  if (const auto* c = scene.contactSetup())
+    for (const auto& o : c->obstacles) names.push_back(o.name);
   return names;
 }
 
@@ -403,7 +404,7 @@ void runScene(const RunOptions& options) {
                          "this run cannot be checkpointed: " + why);
   }
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
-                            scene.contact.has_value(), obstacleNamesOf(scene));
+                            scene.contactSetup() != nullptr, obstacleNamesOf(scene));
   if (writer.replacedFiles() > 0)
     std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from "
               << outDir.string() << "\n";
@@ -468,7 +469,7 @@ void resumeRun(const ResumeOptions& options) {
                                            " is not after the checkpoint's step " +
                                            std::to_string(runner.currentStep()));
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
-                            scene.contact.has_value(), obstacleNamesOf(scene), in);
+                            scene.contactSetup() != nullptr, obstacleNamesOf(scene), in);
   if (!run.quiet)
     std::cerr << "resuming " << source.sceneName << " at step " << runner.currentStep() << " of "
               << runner.numSteps() << " (t = " << runner.time() << " s), into " << outDir.string()

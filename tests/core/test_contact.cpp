@@ -695,7 +695,7 @@ TEST_P(ContactDemoScene, StaysFreeOfIntersectionsOnACoarserGrid) {
     if (s.find(from) != std::string::npos) s.replace(s.find(from), from.size(), to);
   SceneRunner runner(parseScene(s, GetParam(), std::filesystem::path(CUTSIM_DATA_DIR) / "scenes"));
   runner.start();
-  const double d = runner.scene().contact->thickness;
+  const double d = runner.scene().contactSetup()->parameters.thickness;
   while (!runner.finished()) {
     runner.advance();
     const std::string crossing = crossingsNow(runner.simulation(), d);

@@ -107,6 +107,7 @@ TEST(Registry, EveryRegisteredComponentIsDocumentedInTheSceneFormat) {
   documented(core::ActionRegistry::instance().names(), "action");
   documented(core::ConstraintRegistry::instance().names(), "constraint");
   documented(forcefields::ObstacleShapeRegistry::instance().names(), "obstacle shape");
+  documented(core::StepHookRegistry::instance().names(), "step hook");
   EXPECT_NE(forcefields::ForceFieldRegistry::instance().find("FastTriangularBendingSprings"),
             nullptr);
 }
@@ -145,6 +146,33 @@ TEST(Registry, EveryForceFieldParsesBuildsAndSteps) {
     const std::string fields = "{\"type\": \"StretchSprings\", \"stiffness\": 100}, {\"type\": \"" +
                                type + "\"" + requiredKeys(type) + ", \"label\": \"under test\"}";
     runsAndFalls(sceneWith(fields, ""));
+  }
+}
+
+// Every step hook is read from its own section (named as its entry), with every key given a value
+// of its declared type, builds and steps; each key it declares required is refused when missing.
+TEST(Registry, EveryStepHookTakesItsKeysBuildsStepsAndNeedsItsRequiredOnes) {
+  const std::string ok = "{\"type\": \"StretchSprings\", \"stiffness\": 100}";
+  const auto& registry = core::StepHookRegistry::instance();
+  ASSERT_FALSE(registry.names().empty());
+  for (const auto& [name, entry] : registry.entries()) {
+    SCOPED_TRACE(name);
+    auto section = [&](const std::string& except) {
+      std::string keys;
+      for (const KeyInfo& k : entry.keys)
+        if (k.name != except)
+          keys += std::string(keys.empty() ? "" : ", ") + "\"" + k.name + "\": " + valueOf(k);
+      return "\"" + name + "\": {" + keys + "}";
+    };
+    runsAndFalls(sceneWith(ok, section("")));
+    for (const KeyInfo& k : entry.keys) {
+      if (!k.required) continue;
+      EXPECT_THAT(parseError(sceneWith(ok, section(k.name))),
+                  HasSubstr("missing key \"" + k.name + "\""));
+    }
+    EXPECT_THAT(parseError(sceneWith(ok, "\"" + name + "\": {\"colour\": 1}")),
+                HasSubstr("/" + name + "/colour: unknown key \"colour\" for " + name +
+                          "; expected one of: " + entry.keys.front().name));
   }
 }
 

@@ -324,8 +324,8 @@ void checkComponentKeys(const Reader& r, const json& obj, const std::string& ptr
     for (const KeyInfo& k : entry.keys) known = known || k.name == key;
     if (known) continue;
     std::string list(typeKey);
-    for (std::string_view k : extraKeys) list += ", " + std::string(k);
-    for (const KeyInfo& k : entry.keys) list += ", " + k.name;
+    for (std::string_view k : extraKeys) list += (list.empty() ? "" : ", ") + std::string(k);
+    for (const KeyInfo& k : entry.keys) list += (list.empty() ? "" : ", ") + k.name;
     std::string owners;
     std::vector<std::string> found = registry.ownersOf(key);
     if (elsewhere)

@@ -112,11 +112,16 @@ void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) 
                          "unknown force field type \"" + f.type + "\"");
     sim_->addForceField(entry->build(f.parameters, sim_->topology()), labels[i]);
   }
-  if (physics && scene_.contact)
-    addContact(
-        *sim_,
-        std::make_unique<forcefields::Contact>(sim_->topology(), *scene_.contact, scene_.obstacles),
-        labels.back());
+  // The step hooks (contact), each with the label of the force field it may add (after the
+  // scene's own).
+  for (std::size_t i = 0; physics && i < scene_.stepHooks.size(); ++i) {
+    const ComponentSpec& h = scene_.stepHooks[i];
+    const auto* entry = StepHookRegistry::instance().find(h.type);
+    if (!entry)
+      throw InvalidInput(h.location.where(scene_.file.string()),
+                         "unknown step hook \"" + h.type + "\"");
+    sim_->addStepHook(entry->build(h.parameters, *sim_, labels[scene_.forceFields.size() + i]));
+  }
   for (const ConstraintSpec& c : scene_.constraints) {
     const auto* entry = ConstraintRegistry::instance().find(c.type);
     if (!entry)

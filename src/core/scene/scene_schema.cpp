@@ -405,11 +405,17 @@ std::vector<std::string> Scene::forceFieldLabels() const {
     const int n = ++seen[base];
     labels.push_back(n == 1 ? base : base + "_" + std::to_string(n));
   }
-  if (contact) {  // the contact field comes last
-    const int n = ++seen["contact"];
-    labels.push_back(n == 1 ? "contact" : "contact_" + std::to_string(n));
+  for (const ComponentSpec& h : stepHooks) {  // (the fields the hooks add come last)
+    const int n = ++seen[h.type];
+    labels.push_back(n == 1 ? h.type : h.type + "_" + std::to_string(n));
   }
   return labels;
+}
+
+const forcefields::ContactSetup* Scene::contactSetup() const {
+  for (const ComponentSpec& h : stepHooks)
+    if (h.type == "contact") return std::any_cast<forcefields::ContactSetup>(&h.parameters);
+  return nullptr;
 }
 
 std::vector<std::string> Scene::graspNames() const {
@@ -557,31 +563,19 @@ void parseConstraintsAndTimeline(const Reader& r, const json& root, Scene& s) {
   }
 }
 
+/// The "contact" section: the step hook "contact" of StepHookRegistry (its keys checked as any
+/// component's); the "obstacles" list is added to its setup after.
 void parseContact(const Reader& r, const json& j, const std::string& ptr, Scene& s) {
   r.expectObject(j, ptr);
-  r.checkKeys(j, ptr,
-              {"thickness", "stiffness", "friction", "stickVelocity", "selfContact",
-               "displacementFraction", "splitAbove", "maxSplits"});
-  forcefields::ContactParameters c;
-  c.thickness = r.positive(r.require(j, ptr, "thickness"), ptr + "/thickness");
-  c.stiffness = r.positive(r.require(j, ptr, "stiffness"), ptr + "/stiffness");
-  if (const json* v = r.find(j, "friction")) c.friction = r.nonNegative(*v, ptr + "/friction");
-  if (const json* v = r.find(j, "stickVelocity"))
-    c.stickVelocity = r.positive(*v, ptr + "/stickVelocity");
-  if (const json* v = r.find(j, "selfContact")) c.selfContact = r.boolean(*v, ptr + "/selfContact");
-  if (const json* v = r.find(j, "displacementFraction"))
-    c.displacementFraction = r.positive(*v, ptr + "/displacementFraction");
-  if (const json* v = r.find(j, "splitAbove"))
-    c.splitAbove = r.nonNegative(*v, ptr + "/splitAbove");
-  if (const json* v = r.find(j, "maxSplits"))
-    c.maxSplits = int(r.integer(*v, ptr + "/maxSplits", 0, 20));
-  try {
-    c.validate();
-  } catch (const InvalidInput& e) {
-    r.fail(ptr + "/" + e.where(), e.message());
-  }
-  s.contact = c;
-  s.contactLocation = r.location(ptr);
+  const auto& registry = StepHookRegistry::instance();
+  const auto* entry = registry.find("contact");
+  if (!entry) r.fail(ptr, "this build has no contact");
+  checkComponentKeys(r, j, ptr, registry, *entry, {}, nullptr, "");
+  ComponentSpec spec;
+  spec.type = "contact";
+  spec.location = r.location(ptr);
+  spec.parameters = entry->read(JsonParameterSource(r, j, ptr));
+  s.stepHooks.push_back(std::move(spec));
 }
 
 forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::string& ptr,
@@ -626,7 +620,8 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
 /// penalty pushes the primitives apart).
 void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshData& mesh) {
   topology::Topology topo(mesh);
-  forcefields::Contact contact(topo, *s.contact, s.obstacles);
+  const forcefields::ContactSetup& setup = *s.contactSetup();
+  forcefields::Contact contact(topo, setup.parameters, setup.obstacles);
   std::vector<double> x(3 * topo.pointCapacity(), 0.0);
   for (topology::PointId p : topo.points())
     for (int c = 0; c < 3; ++c)
@@ -635,8 +630,8 @@ void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshDa
   if (found.empty()) return;
   const auto& c = found.front();
   std::string where = "/contact";
-  for (std::size_t k = 0; k < s.obstacles.size(); ++k)
-    if (c.what.find("obstacle \"" + s.obstacles[k].name + "\"") != std::string::npos)
+  for (std::size_t k = 0; k < setup.obstacles.size(); ++k)
+    if (c.what.find("obstacle \"" + setup.obstacles[k].name + "\"") != std::string::npos)
       where = "/obstacles/" + Reader::idx(k);
   r.fail(where,
          "the scene starts in intersection: " + c.what +
@@ -683,22 +678,26 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
   if (const json* v = r.find(root, "contact")) parseContact(r, *v, "/contact", s);
   if (const json* v = r.find(root, "obstacles")) {
     r.expectArray(*v, "/obstacles");
-    if (!s.contact && !v->empty())
+    const forcefields::ContactSetup* has = s.contactSetup();
+    if (!has && !v->empty())
       r.fail("/obstacles", "obstacles need a \"contact\" section (its thickness and stiffness)");
+    std::vector<forcefields::Obstacle> obstacles;
     std::set<std::string> names;
     for (std::size_t i = 0; i < v->size(); ++i) {
       const std::string ptr = "/obstacles/" + Reader::idx(i);
-      s.obstacles.push_back(parseObstacle(r, (*v)[i], ptr, baseDir));
-      s.obstacleLocations.push_back(r.location(ptr));
-      if (s.obstacles.back().name.empty())
-        s.obstacles.back().name = s.obstacles.back().shapeName() + std::to_string(i);
-      const std::string& name = s.obstacles.back().name;
+      obstacles.push_back(parseObstacle(r, (*v)[i], ptr, baseDir));
+      if (obstacles.back().name.empty())
+        obstacles.back().name = obstacles.back().shapeName() + std::to_string(i);
+      const std::string& name = obstacles.back().name;
       if (name.find_first_of(",\"\n\r") != std::string::npos)
         r.fail(ptr + "/name",
                "must not contain a comma, a quote or a line break (it names CSV columns)");
       if (!names.insert(name).second)
         r.fail(ptr + "/name", "another obstacle has the name \"" + name + "\"");
     }
+    for (ComponentSpec& h : s.stepHooks)
+      if (h.type == "contact")
+        std::any_cast<forcefields::ContactSetup&>(h.parameters).obstacles = std::move(obstacles);
   }
   parseStepping(r, root, s);
   s.timeStep = r.positive(r.require(root, "", "timeStep"), "/timeStep");
@@ -761,7 +760,7 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
           e.where(), e.message() + " (the timeline played before the run, the surface at rest)");
     }
   }
-  if (s.contact) checkContactAtStart(r, s, meshData);
+  if (s.contactSetup()) checkContactAtStart(r, s, meshData);
   return s;
 }
 

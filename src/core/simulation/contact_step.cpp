@@ -7,6 +7,7 @@
 
 #include "cutsim/base/errors.hpp"
 #include "cutsim/core/model.hpp"
+#include "cutsim/core/registries.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/contact.hpp"
 
@@ -68,6 +69,57 @@ ContactStep* findContactStep(Simulation& sim) {
     if (auto* c = dynamic_cast<ContactStep*>(&sim.stepHook(i))) return c;
   return nullptr;
 }
+
+namespace {
+
+const bool registered = StepHookRegistry::instance().add(
+    {"contact",
+     "self-contact and the obstacles' contact: a penalty with friction and a displacement bound "
+     "that keeps the surface free of intersections (docs/contact.md); its obstacles are the "
+     "scene's \"obstacles\" list",
+     {{"thickness",
+       KeyType::Number,
+       "m, > 0: the distance within which primitives repel",
+       {},
+       true},
+      {"stiffness", KeyType::Number, "N/m, > 0: E(s) = k/3 (d - s)^3 / s", {}, true},
+      {"friction", KeyType::Number, ">= 0: the Coulomb coefficient of self-contact (default 0)"},
+      {"stickVelocity", KeyType::Number, "m/s, > 0: below it friction is viscous (default 1e-3)"},
+      {"selfContact", KeyType::Boolean, "whether the surface meets itself (default true)"},
+      {"displacementFraction", KeyType::Number,
+       "in (0, 0.5): how much of a pair's distance its points may travel in a step when it "
+       "cannot be proven apart (default 0.4)"},
+      {"splitAbove", KeyType::Number,
+       "in [0, 1]: the fraction of points clamped above which a step is redone as two halves "
+       "(default 0.01)"},
+      {"maxSplits", KeyType::Integer, "0..20: halvings in a row at most (default 4)"}},
+     {},
+     [](const ParameterSource& s) -> std::any {
+       forcefields::ContactSetup setup;
+       forcefields::ContactParameters& c = setup.parameters;
+       s.require("thickness");
+       s.require("stiffness");
+       c.thickness = s.positive("thickness", c.thickness);
+       c.stiffness = s.positive("stiffness", c.stiffness);
+       c.friction = s.nonNegative("friction", c.friction);
+       c.stickVelocity = s.positive("stickVelocity", c.stickVelocity);
+       c.selfContact = s.boolean("selfContact", c.selfContact);
+       c.displacementFraction = s.positive("displacementFraction", c.displacementFraction);
+       c.splitAbove = s.nonNegative("splitAbove", c.splitAbove);
+       c.maxSplits = int(s.integer("maxSplits", 0, 20, c.maxSplits));
+       s.check([&] { c.validate(); });
+       return setup;
+     },
+     [](const std::any& p, Simulation& sim, const std::string& label) -> std::unique_ptr<StepHook> {
+       const auto& setup = std::any_cast<const forcefields::ContactSetup&>(p);
+       auto contact = std::make_unique<forcefields::Contact>(sim.topology(), setup.parameters,
+                                                             setup.obstacles);
+       forcefields::Contact& field = *contact;
+       sim.addForceField(std::move(contact), label);
+       return std::make_unique<ContactStep>(field);
+     }});
+
+}  // namespace
 
 forcefields::Contact* findContact(const Simulation& sim) {
   for (std::size_t i = 0; i < sim.numStepHooks(); ++i)

@@ -102,6 +102,13 @@ struct ContactParameters {
   void validate() const;
 };
 
+/// What a contact is built from: its settings and its obstacles (a scene's "contact" section and
+/// "obstacles" list).
+struct ContactSetup {
+  ContactParameters parameters;
+  std::vector<Obstacle> obstacles;
+};
+
 /// Where each obstacle is over a step: its offset from its scene position at the step's start
 /// and at its end (one of each per obstacle).
 struct ObstaclePoses {

@@ -39,6 +39,10 @@ class ContactStep final : public StepHook {
   forcefields::Contact& contact_;
 };
 
+/// A scene's "contact" section is the StepHookRegistry entry "contact" (contact_step.cpp): its keys
+/// are the section's, its parameters a forcefields::ContactSetup (the scene's obstacles added to
+/// it by the scene reader); its build adds the field and returns its ContactStep.
+///
 /// Adds `contact` to the simulation's force fields under `label` and its ContactStep to its step
 /// hooks (what a scene's "contact" section builds).
 ContactStep& addContact(Simulation& sim, std::unique_ptr<forcefields::Contact> contact,

@@ -6,12 +6,18 @@
 
 #include "cutsim/core/integrator.hpp"
 #include "cutsim/core/linear_solver.hpp"
+#include "cutsim/core/step_hook.hpp"
 #include "cutsim/forcefields/registry.hpp"
 
 namespace cutsim::core {
 
 using LinearSolverRegistry = Registry<LinearSolver>;
 using IntegratorRegistry = Registry<Integrator, std::unique_ptr<LinearSolver>>;
+class Simulation;
+/// Step hooks a scene asks for by a section of its own ("contact"): an entry's build may add what
+/// the hook drives to the simulation (contact adds its force field, under the label given) and
+/// returns the hook, which the scene's runner then adds.
+using StepHookRegistry = Registry<StepHook, Simulation&, const std::string&>;
 
 /// The keys every implicit integrator reads (rayleighMass, rayleighStiffness, onSolveFailure,
 /// fallbackAbove, fallbackSolver), and reading them.

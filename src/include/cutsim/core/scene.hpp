@@ -121,16 +121,17 @@ struct Scene {
   Vec3 gravity{0, 0, 0};
   std::vector<ForceFieldSpec> forceFields;
   std::vector<ConstraintSpec> constraints;
-  /// The "contact" section (self-contact and obstacles), if any.
-  std::optional<forcefields::ContactParameters> contact;
-  SceneLocation contactLocation;
-  std::vector<forcefields::Obstacle> obstacles;  ///< the "obstacles" list (needs "contact")
-  std::vector<SceneLocation> obstacleLocations;
+  /// The step hooks its sections ask for (StepHookRegistry): today "contact", whose parameters
+  /// are a forcefields::ContactSetup holding the "obstacles" list too. In the order built.
+  std::vector<ComponentSpec> stepHooks;
   ComponentSpec integrator;                   ///< by default implicit-euler
   std::optional<ComponentSpec> linearSolver;  ///< for integrators that use one (default cg)
   double timeStep = 0.0, duration = 0.0;
   OutputSettings output;
   std::vector<ActionSpec> timeline;  ///< sorted by start time (stable: file order at ties)
+
+  /// The "contact" section and the "obstacles" list, if the scene has contact (else null).
+  const forcefields::ContactSetup* contactSetup() const;
 
   /// Number of steps: duration / timeStep rounded up (within 1e-9 of a whole number: rounded).
   long numSteps() const;
