@@ -16,7 +16,9 @@ namespace {
 
 template <class Registry>
 void list(const char* title, const char* sceneKey, const Registry& registry) {
-  std::cout << title << " (scene key \"" << sceneKey << "\")\n";
+  std::cout << title;
+  if (*sceneKey) std::cout << " (scene key \"" << sceneKey << "\")";
+  std::cout << "\n";
   for (const auto& [name, entry] : registry.entries()) {
     std::cout << "  " << name << ": " << entry.summary << "\n";
     for (const std::string& u : entry.uses) std::cout << "      uses a " << u << "\n";
@@ -64,7 +66,8 @@ void registerComponentsCommand(CLI::App& app) {
     if (all || *kind == "actions")
       list("timeline actions", "timeline", core::ActionRegistry::instance());
     if (all || *kind == "hooks")
-      list("step hooks", "its own section, \"contact\"", core::StepHookRegistry::instance());
+      list("step hooks (each a section of the scene, under its name)", "",
+           core::StepHookRegistry::instance());
     if (all || *kind == "obstacles")
       list("obstacle shapes", "obstacles", forcefields::ObstacleShapeRegistry::instance());
     std::cout.flush();
