@@ -314,7 +314,7 @@ void fold(std::ofstream& summary) {
                 {0.6, 2.0 * std::cos(theta), 2.0 * std::sin(theta)},
                 {0.0, 0.0, 0.0},
                 {1.0, 0.0, 0.0}};
-    m.triangles = {{2, 3, 0}, {3, 2, 1}};
+    m.triangles = {{PointId(2), PointId(3), PointId(0)}, {PointId(3), PointId(2), PointId(1)}};
     return m;
   };
   const MeshData flat = hinge(0.0);

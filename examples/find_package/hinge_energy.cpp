@@ -11,7 +11,9 @@ int main() {
   using namespace cutsim;
   // A, B, C, D; triangles (C, D, A) and (D, C, B) share the hinge edge C-D.
   std::vector<topology::Vec3> rest{{0.3, -1, 0}, {0.6, 2, 0}, {0, 0, 0}, {1, 0, 0}};
-  std::vector<topology::TriangleVertices> triangles{{2, 3, 0}, {3, 2, 1}};
+  using topology::PointId;  // (ids are made from integers explicitly)
+  std::vector<topology::TriangleVertices> triangles{{PointId(2), PointId(3), PointId(0)},
+                                                    {PointId(3), PointId(2), PointId(1)}};
   topology::Topology topo(rest, triangles);
   forcefields::BendingParameters params;
   forcefields::FastTriangularBendingSprings springs(topo, params);

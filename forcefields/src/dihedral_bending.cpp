@@ -312,7 +312,7 @@ DihedralHinge DihedralBending::toEntry(const DihedralRecord& r) {
 }
 
 void DihedralBending::fillRecord(const DihedralHinge& h, DihedralRecord& r) const {
-  r.vertices = {h.v[0], h.v[1], h.v[2], h.v[3]};
+  r.vertices = {PointId(h.v[0]), PointId(h.v[1]), PointId(h.v[2]), PointId(h.v[3])};
   r.coefficient = h.coefficient;
   r.restAngle = h.restAngle;
 }
@@ -413,7 +413,7 @@ void assemble(std::span<const DihedralHinge> hinges, const double* x, MatrixAccu
             for (int q = 0; q < 3; ++q) b(r, q) = c * g[3 * i + r] * g[3 * j + q];
           }
         }
-        m.addBlock(h.v[i], h.v[j], b);
+        m.addBlock(PointId(h.v[i]), PointId(h.v[j]), b);
       }
     }
   }
@@ -432,7 +432,7 @@ void DihedralBending::addKToMatrix(std::span<const double> x, MatrixAccumulator&
     const Eigen::Matrix<double, 12, 12> kh = hingeExactStiffness(x.data(), h, kFactor);
     for (int i = 0; i < 4; ++i) {
       for (int j = 0; j < 4; ++j) {
-        m.addBlock(h.v[i], h.v[j], kh.block<3, 3>(3 * i, 3 * j));
+        m.addBlock(PointId(h.v[i]), PointId(h.v[j]), kh.block<3, 3>(3 * i, 3 * j));
       }
     }
   }
@@ -453,7 +453,7 @@ void DihedralBending::addBToMatrix(std::span<const double> x, MatrixAccumulator&
 
 void DihedralBending::draw(std::vector<std::array<PointId, 2>>& segments) const {
   segments.reserve(segments.size() + entries().size());
-  for (const DihedralHinge& h : entries()) segments.push_back({h.v[0], h.v[1]});
+  for (const DihedralHinge& h : entries()) segments.push_back({PointId(h.v[0]), PointId(h.v[1])});
 }
 
 void DihedralBending::addForceOfRecords(std::span<const DihedralRecord> records,

@@ -97,7 +97,7 @@ BendingSpring FastTriangularBendingSprings::toEntry(const HingeRecord& r) {
 }
 
 void FastTriangularBendingSprings::fillRecord(const BendingSpring& s, HingeRecord& r) const {
-  r.vertices = {s.v[0], s.v[1], s.v[2], s.v[3]};
+  r.vertices = {PointId(s.v[0]), PointId(s.v[1]), PointId(s.v[2]), PointId(s.v[3])};
   r.folded = s.weights();
   // alpha_A + alpha_B = 1, so w_A + w_B = sqrt(lambda / k) > 0.
   const double root = s.root;  // > 0 for an active spring
@@ -175,7 +175,8 @@ void assemble(std::span<const BendingSpring> springs, MatrixAccumulator& m, doub
     const std::array<double, 4> w = s.weights();
     for (int i = 0; i < 4; ++i) {
       for (int j = 0; j < 4; ++j) {
-        m.addScaledIdentity(s.v[i], s.v[j], factor * hingeBlockCoefficient(k, w.data(), i, j));
+        m.addScaledIdentity(PointId(s.v[i]), PointId(s.v[j]),
+                            factor * hingeBlockCoefficient(k, w.data(), i, j));
       }
     }
   }
@@ -197,7 +198,7 @@ void FastTriangularBendingSprings::addBToMatrix(std::span<const double> /*x*/, M
 
 void FastTriangularBendingSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
   segments.reserve(segments.size() + entries().size());
-  for (const BendingSpring& s : entries()) segments.push_back({s.v[0], s.v[1]});
+  for (const BendingSpring& s : entries()) segments.push_back({PointId(s.v[0]), PointId(s.v[1])});
 }
 
 void FastTriangularBendingSprings::addForceOfRecords(std::span<const HingeRecord> records,

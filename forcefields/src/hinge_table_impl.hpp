@@ -150,7 +150,7 @@ auto HingeTable<F, T>::entryRecord(std::size_t i) const -> Record {
 template <class F, class T>
 auto HingeTable<F, T>::liveRecords() const -> std::vector<Record> {
   std::vector<Record> out;
-  for (topology::EdgeId e = 0; e < table_.numSlots(); ++e) {
+  for (topology::EdgeId e{0}; e < table_.numSlots(); ++e) {
     if (!table_.isEmpty(e)) out.push_back(hinge(e));
   }
   return out;
@@ -159,7 +159,7 @@ auto HingeTable<F, T>::liveRecords() const -> std::vector<Record> {
 template <class F, class T>
 auto HingeTable<F, T>::recount() const -> Counters {
   Counters c;
-  for (topology::EdgeId e = 0; e < table_.numSlots(); ++e) {
+  for (topology::EdgeId e{0}; e < table_.numSlots(); ++e) {
     const topology::Index i = table_.find(e);
     if (i != Table::kNoEntry) {
       countStatus(c, Status::Active, +1);

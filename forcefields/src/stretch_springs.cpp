@@ -112,7 +112,7 @@ StretchRecord StretchSprings::spring(EdgeId e) const {
   if (i == table_.kNoEntry) return r;
   const StretchSpring& s = table_.entry(i);
   r.edge = e;
-  r.vertices = {s.a, s.b};
+  r.vertices = {PointId(s.a), PointId(s.b)};
   r.restLength = s.restLength;
   return r;
 }
@@ -120,7 +120,7 @@ StretchRecord StretchSprings::spring(EdgeId e) const {
 std::vector<StretchRecord> StretchSprings::records() const {
   std::vector<StretchRecord> out;
   out.reserve(table_.size());
-  for (EdgeId e = 0; e < table_.numSlots(); ++e) {
+  for (EdgeId e{0}; e < table_.numSlots(); ++e) {
     if (table_.hasEntry(e)) out.push_back(spring(e));
   }
   return out;
@@ -263,10 +263,11 @@ void StretchSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& 
     if (direction(x.data(), s.a, s.b, u, l)) {
       block = stiffnessBlock(u, tangentFactor(s.restLength, l, stable), k * springWeight(s));
     }
-    m.addBlock(s.a, s.a, block);
-    m.addBlock(s.b, s.b, block);
-    m.addBlock(s.a, s.b, -block);
-    m.addBlock(s.b, s.a, -block);
+    const PointId a(s.a), b(s.b);
+    m.addBlock(a, a, block);
+    m.addBlock(b, b, block);
+    m.addBlock(a, b, -block);
+    m.addBlock(b, a, -block);
   }
 }
 
@@ -282,10 +283,11 @@ void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& 
       const Eigen::Vector3d uv(u[0], u[1], u[2]);
       block = (-b * springWeight(s) * uv) * uv.transpose();
     }
-    m.addBlock(s.a, s.a, block);
-    m.addBlock(s.b, s.b, block);
-    m.addBlock(s.a, s.b, -block);
-    m.addBlock(s.b, s.a, -block);
+    const PointId a(s.a), b(s.b);
+    m.addBlock(a, a, block);
+    m.addBlock(b, b, block);
+    m.addBlock(a, b, -block);
+    m.addBlock(b, a, -block);
   }
 }
 
@@ -300,7 +302,7 @@ bool StretchSprings::setExactStiffness(bool exact) {
 
 void StretchSprings::draw(std::vector<std::array<PointId, 2>>& segments) const {
   segments.reserve(segments.size() + table_.size());
-  for (const StretchSpring& s : table_.entries()) segments.push_back({s.a, s.b});
+  for (const StretchSpring& s : table_.entries()) segments.push_back({PointId(s.a), PointId(s.b)});
 }
 
 // ---------------------------------------------------------------------------------------------

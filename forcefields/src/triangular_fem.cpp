@@ -218,7 +218,7 @@ FemRecord TriangularFEM::element(TriangleId t) const {
     return r;
   }
   const FemTriangle& e = table_.entry(i);
-  r.vertices = {e.v[0], e.v[1], e.v[2]};
+  r.vertices = {PointId(e.v[0]), PointId(e.v[1]), PointId(e.v[2])};
   r.g = e.g;
   r.area = e.area;
   return r;
@@ -316,7 +316,7 @@ void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m
           mkl += mu_ * (g[l] * g[k].transpose()) + lambda_ * (g[k] * g[l].transpose());
           block = (-kFactor * e.area) * (st.r * mkl * st.r.transpose());
         }
-        m.addBlock(e.v[k], e.v[l], block);
+        m.addBlock(PointId(e.v[k]), PointId(e.v[l]), block);
       }
     }
   }
@@ -343,7 +343,7 @@ void TriangularFEM::addExactKToMatrix(std::span<const double> x, MatrixAccumulat
     }
     for (int k = 0; k < 3; ++k) {
       for (int l = 0; l < 3; ++l) {
-        m.addBlock(e.v[k], e.v[l], ke.block<3, 3>(3 * k, 3 * l));
+        m.addBlock(PointId(e.v[k]), PointId(e.v[l]), ke.block<3, 3>(3 * k, 3 * l));
       }
     }
   }
@@ -360,9 +360,10 @@ void TriangularFEM::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulato
 void TriangularFEM::draw(std::vector<std::array<PointId, 2>>& segments) const {
   segments.reserve(segments.size() + 3 * table_.size());
   for (const FemTriangle& e : table_.entries()) {
-    segments.push_back({e.v[0], e.v[1]});
-    segments.push_back({e.v[1], e.v[2]});
-    segments.push_back({e.v[2], e.v[0]});
+    const PointId a(e.v[0]), b(e.v[1]), c(e.v[2]);
+    segments.push_back({a, b});
+    segments.push_back({b, c});
+    segments.push_back({c, a});
   }
 }
 
@@ -466,7 +467,7 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
   // The table's own consistency, live triangles against its slots, elements on live points.
   table_.validate(topology, problems, "");
   std::size_t degenerate = 0;
-  for (TriangleId t = 0; t < table_.numSlots(); ++t) {
+  for (TriangleId t{0}; t < table_.numSlots(); ++t) {
     degenerate += !table_.hasEntry(t) && table_.status(t) == TableStatus::Degenerate ? 1 : 0;
   }
   if (degenerate != numDegenerate_) {

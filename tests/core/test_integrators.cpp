@@ -187,7 +187,7 @@ std::unique_ptr<Simulation> swingingSheet(std::unique_ptr<Integrator> integrator
   bp.bendingStiffness = 0.05;
   sim->addForceField(
       std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
-  for (topology::PointId p = 0; p < 5; ++p) sim->fixed().add(p);
+  for (topology::PointId p{0}; p < 5; ++p) sim->fixed().add(p);
   sim->setGravity({0, 0, -9.81});
   sim->setIntegrator(std::move(integrator));
   return sim;
@@ -239,8 +239,8 @@ TEST(Newton, OnALinearFieldItIsTheLinearisedStepInOneIteration) {
     bp.bendingStiffness = 3.0;
     sim->addForceField(
         std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
-    sim->fixed().add(0);
-    sim->fixed().add(1);
+    sim->fixed().add(topology::PointId(0));
+    sim->fixed().add(topology::PointId(1));
     sim->setGravity({0, 0, -9.81});
     sim->setIntegrator(std::move(integrator));
     return sim;
@@ -422,7 +422,7 @@ std::unique_ptr<Simulation> foldedSheet(double angle, std::unique_ptr<Integrator
     x[3 * p] = 0.5 + u * std::cos(angle);
     x[3 * p + 2] = u * std::sin(angle);
   }
-  for (topology::Index p = 0; p < 36; p += 6) sim->fixed().add(p);
+  for (topology::Index p = 0; p < 36; p += 6) sim->fixed().add(topology::PointId(p));
   sim->setIntegrator(std::move(integrator));
   return sim;
 }

@@ -8,6 +8,7 @@
 #include "cutsim/base/errors.hpp"
 #include "cutsim/core/mesh_info.hpp"
 #include "cutsim/topology/mesh_io.hpp"
+#include "support/ids.hpp"
 
 namespace cutsim::core {
 
@@ -84,14 +85,14 @@ TEST(MeshInfo, SoupWithoutTrianglesAndNonManifoldEdges) {
   EXPECT_EQ(computeMeshInfo(mesh), expected(3, 0, 0, 0, 0, 3));
   // Three triangles on one edge: one component, the shared edge is not a boundary edge.
   mesh.points.assign(5, topology::Vec3{0.0, 0.0, 0.0});
-  mesh.triangles = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+  mesh.triangles = {tri(0, 1, 2), tri(1, 0, 3), tri(0, 1, 4)};
   EXPECT_EQ(computeMeshInfo(mesh), expected(5, 7, 3, 6, 1, 0));
 }
 
 TEST(MeshInfo, RejectsAnIndexOutOfRange) {
   topology::MeshData mesh;
   mesh.points.assign(3, topology::Vec3{0.0, 0.0, 0.0});
-  mesh.triangles = {{0, 1, 3}};
+  mesh.triangles = {tri(0, 1, 3)};
   EXPECT_THROW(computeMeshInfo(mesh), InvalidInput);
 }
 

@@ -60,12 +60,12 @@ TEST_P(AllSolvers, FixedPointsStayAndGraspsFollowTheirPath) {
   auto sim = makeSheet(5, 1.0, GetParam());
   sim->setGravity({0, 0, -9.81});
   addBending(*sim, 1e-3);
-  sim->fixed().add(0);
-  sim->fixed().add(4);
+  sim->fixed().add(topology::PointId(0));
+  sim->fixed().add(topology::PointId(4));
   core::DisplacementPath path;
   path.times = {0.0, 0.1};
   path.displacements = {{0, 0, 0}, {0, 0, 0.05}};
-  std::vector<topology::PointId> grasped{24};
+  std::vector<topology::PointId> grasped{topology::PointId(24)};
   sim->addGrasp("pull", grasped, path);
   auto x0 = std::vector<double>(sim->state().x().begin(), sim->state().x().end());
   for (int i = 0; i < 20; ++i) sim->step(0.01);
@@ -107,8 +107,8 @@ TEST(Simulation, ExplicitAndImplicitAgreeOnASmallStableCase) {
   for (auto kind : {SolverSettings::Kind::Explicit, SolverSettings::Kind::ImplicitCholmod}) {
     auto sim = makeSheet(6, 1.0, kind);
     addBending(*sim, 1e-2);
-    sim->fixed().add(0);
-    sim->fixed().add(5);
+    sim->fixed().add(topology::PointId(0));
+    sim->fixed().add(topology::PointId(5));
     sim->setGravity({0, 0, -1});
     bump(*sim, 0.05);
     for (int i = 0; i < 200; ++i) sim->step(1e-4);
@@ -146,7 +146,7 @@ TEST(Simulation, CgAndCholmodGiveTheSameStep) {
   for (auto kind : {SolverSettings::Kind::ImplicitCG, SolverSettings::Kind::ImplicitCholmod}) {
     auto sim = makeSheet(8, 1.0, kind);
     addBending(*sim, 0.5, 0.01);
-    sim->fixed().add(0);
+    sim->fixed().add(topology::PointId(0));
     sim->setGravity({0, -1, -9.81});
     bump(*sim, 0.1);
     sim->step(0.02);
@@ -158,8 +158,8 @@ TEST(Simulation, CgAndCholmodGiveTheSameStep) {
 TEST(Simulation, CuttingConservesMassAndKeepsEverythingConsistent) {
   auto sim = makeSheet(11, 3.0, SolverSettings::Kind::ImplicitCholmod);
   addBending(*sim, 1e-2);
-  sim->fixed().add(0);
-  sim->fixed().add(10);
+  sim->fixed().add(topology::PointId(0));
+  sim->fixed().add(topology::PointId(10));
   sim->setGravity({0, 0, -9.81});
   const double mass0 = sim->mass().total();
   EXPECT_NEAR(mass0, 3.0, 1e-12);  // density 3 on the unit square
@@ -172,7 +172,7 @@ TEST(Simulation, CuttingConservesMassAndKeepsEverythingConsistent) {
   ASSERT_TRUE(sim->topology().validate().ok()) << sim->topology().validate().summary();
   r = sim->step(0.01);
   EXPECT_TRUE(r.analysed);  // the cut changed the sparsity pattern
-  sim->topology().tear(sim->topology().findEdge(60, 61));
+  sim->topology().tear(sim->topology().findEdge(topology::PointId(60), topology::PointId(61)));
   EXPECT_NEAR(sim->mass().total(), mass0, 1e-12);
   for (int i = 0; i < 20; ++i) sim->step(0.01);
   for (double c : sim->state().x()) ASSERT_TRUE(std::isfinite(c));

@@ -17,6 +17,7 @@
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/ids.hpp"
 
 namespace cutsim::core {
 namespace {
@@ -234,8 +235,8 @@ TEST(SofaScene, TierTwoGridCreatorBoxConstraintAndMeshSprings) {
       EXPECT_NEAR(m.points[std::size_t(5 * y + x)][0], 2 * (x * (1.0 / 4)), 1e-15);
       EXPECT_NEAR(m.points[std::size_t(5 * y + x)][1], 2 * (y * (1.0 / 3)), 1e-15);
     }
-  EXPECT_EQ(m.triangles[0], (topology::TriangleVertices{0, 1, 5}));
-  EXPECT_EQ(m.triangles[1], (topology::TriangleVertices{1, 6, 5}));
+  EXPECT_EQ(m.triangles[0], (tri(0, 1, 5)));
+  EXPECT_EQ(m.triangles[1], (tri(1, 6, 5)));
   SceneRunner r(scene);
   EXPECT_EQ(r.simulation().fixed().size(), 5u);  // the row y = 0, x in [0, 2]
   r.start();
@@ -349,7 +350,7 @@ TEST(SofaScene, GmshFilesOfVersionsOneAndTwoAreRead) {
       "$Elements\n3\n1 15 2 0 1 10\n2 2 2 0 1 10 20 30\n3 2 2 0 1 10 30 40\n$EndElements\n");
   const topology::MeshData m2 = topology::readGmsh(v2, "v2.msh");
   ASSERT_EQ(m2.triangles.size(), 2u);
-  EXPECT_EQ(m2.triangles[1], (topology::TriangleVertices{0, 2, 3}));
+  EXPECT_EQ(m2.triangles[1], (tri(0, 2, 3)));
   std::istringstream bad("$NOD\n1\n1 0 0 0\n$ENDNOD\n$ELM\n1\n1 2 1 1 3 1 2 9\n$ENDELM\n");
   try {
     topology::readGmsh(bad, "bad.msh");

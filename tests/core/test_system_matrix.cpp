@@ -164,15 +164,15 @@ TEST(SystemMatrix, SolverReusesTheAnalysisAcrossConstraintsAndReordersAfterProgr
   sim->addForceField(std::make_unique<forcefields::FastTriangularBendingSprings>(
       sim->topology(), forcefields::BendingParameters{}));
   sim->setGravity({0, 0, -9.81});
-  sim->fixed().add(0);
+  sim->fixed().add(topology::PointId(0));
   EXPECT_TRUE(sim->step(0.01).analysed);  // the first step analyses
   EXPECT_FALSE(sim->step(0.01).analysed);
   // Constraints change values, not the pattern: no new analysis.
-  sim->fixed().add(11);
+  sim->fixed().add(topology::PointId(11));
   core::DisplacementPath path;
   path.times = {0.0, 1.0};
   path.displacements = {{0, 0, 0}, {0, 0, 0.1}};
-  std::vector<topology::PointId> grasped{143};
+  std::vector<topology::PointId> grasped{topology::PointId(143)};
   sim->addGrasp("pull", grasped, path);
   EXPECT_FALSE(sim->step(0.01).analysed);
   sim->releaseGrasp("pull");

@@ -51,7 +51,8 @@ TEST(BendingIncrementalOps, SplittingAnInteriorEdgeAddsThreeSprings) {
   Topology topo(mesh.points, mesh.triangles);
   FastTriangularBendingSprings ff(topo, {});
   const std::size_t before = ff.numActiveSprings();
-  const EdgeId e = topo.findEdge(6, 12);  // an interior diagonal
+  const EdgeId e =
+      topo.findEdge(topology::PointId(6), topology::PointId(12));  // an interior diagonal
   ASSERT_NE(e, kInvalidIndex);
   const PointId p = topo.splitEdge(e, 0.5);
   EXPECT_EQ(ff.numActiveSprings(), before + 3);
@@ -68,7 +69,7 @@ TEST(BendingIncrementalOps, TearingAnEdgeRemovesItsSpring) {
   const topology::MeshData mesh = test::grid(5);
   Topology topo(mesh.points, mesh.triangles);
   FastTriangularBendingSprings ff(topo, {});
-  const EdgeId e = topo.findEdge(6, 12);
+  const EdgeId e = topo.findEdge(topology::PointId(6), topology::PointId(12));
   ASSERT_EQ(ff.hinge(e).status, HingeStatus::Active);
   topo.tear(e);
   EXPECT_NE(ff.hinge(e).status, HingeStatus::Active);
@@ -79,7 +80,8 @@ TEST(BendingIncrementalOps, CompactionRenumbersTheTable) {
   const topology::MeshData mesh = test::grid(7, 10.0, 0.2, 3);
   Topology topo(mesh.points, mesh.triangles);
   FastTriangularBendingSprings ff(topo, {});
-  topo.removeTriangles(std::vector<TriangleId>{0, 1, 17, 40});
+  topo.removeTriangles(
+      std::vector<TriangleId>{TriangleId(0), TriangleId(1), TriangleId(17), TriangleId(40)});
   topo.splitEdge(topo.edges()[10], 0.3);
   ASSERT_TRUE(topo.validate().ok()) << topo.validate().summary();
   topo.compact();

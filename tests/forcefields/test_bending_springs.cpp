@@ -19,6 +19,7 @@
 #include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
+#include "support/ids.hpp"
 
 namespace cutsim::forcefields {
 namespace {
@@ -134,13 +135,13 @@ TEST(BendingKernel, HingeHWeightsAndStiffness) {
 TEST(BendingSprings, HingeHRestAndRotatedWing) {
   Model m = makeModel(test::oneHinge(kHA, kHB, kHC, kHD));
   ASSERT_EQ(m.ff->numActiveSprings(), 1u);
-  const HingeRecord h = m.ff->hinge(m.topo->findEdge(2, 3));
+  const HingeRecord h = m.ff->hinge(m.topo->findEdge(topology::PointId(2), topology::PointId(3)));
   ASSERT_EQ(h.status, HingeStatus::Active);
   const auto w = weightMap(h);
-  EXPECT_NEAR(w.at(0), 2.0 / 3.0, 1e-15);
-  EXPECT_NEAR(w.at(1), 1.0 / 3.0, 1e-15);
-  EXPECT_NEAR(w.at(2), -0.6, 1e-15);
-  EXPECT_NEAR(w.at(3), -0.4, 1e-15);
+  EXPECT_NEAR(w.at(PointId(0)), 2.0 / 3.0, 1e-15);
+  EXPECT_NEAR(w.at(PointId(1)), 1.0 / 3.0, 1e-15);
+  EXPECT_NEAR(w.at(PointId(2)), -0.6, 1e-15);
+  EXPECT_NEAR(w.at(PointId(3)), -0.4, 1e-15);
   EXPECT_NEAR(h.lambda, 0.5, 1e-15);
 
   const std::vector<double> f0 = test::forceAt(*m.ff, m.rest);
@@ -174,13 +175,13 @@ TEST(BendingSprings, FoldEnergyMatchesClosedForm) {
 
 TEST(BendingSprings, NonConvexHingeUnsigned) {
   Model m = makeModel(test::oneHinge(kNA, kNB, kNC, kND));
-  const HingeRecord h = m.ff->hinge(m.topo->findEdge(2, 3));
+  const HingeRecord h = m.ff->hinge(m.topo->findEdge(topology::PointId(2), topology::PointId(3)));
   ASSERT_EQ(h.status, HingeStatus::Active);
   const auto w = weightMap(h);
-  EXPECT_NEAR(w.at(0), 0.5, 1e-15);
-  EXPECT_NEAR(w.at(1), 0.5, 1e-15);
-  EXPECT_NEAR(w.at(2), -0.6, 1e-15);
-  EXPECT_NEAR(w.at(3), -0.4, 1e-15);
+  EXPECT_NEAR(w.at(PointId(0)), 0.5, 1e-15);
+  EXPECT_NEAR(w.at(PointId(1)), 0.5, 1e-15);
+  EXPECT_NEAR(w.at(PointId(2)), -0.6, 1e-15);
+  EXPECT_NEAR(w.at(PointId(3)), -0.4, 1e-15);
   EXPECT_NEAR(h.lambda, 4.0 / 3.0, 1e-15);
   EXPECT_NEAR(m.ff->potentialEnergy(m.rest), 3.84, 1e-13);
   const std::vector<double> f = test::forceAt(*m.ff, m.rest);
@@ -194,14 +195,14 @@ TEST(BendingSprings, NonConvexHingeSigned) {
   BendingParameters p;
   p.areaWeights = AreaWeights::Signed;
   Model m = makeModel(test::oneHinge(kNA, kNB, kNC, kND), p);
-  const HingeRecord h = m.ff->hinge(m.topo->findEdge(2, 3));
+  const HingeRecord h = m.ff->hinge(m.topo->findEdge(topology::PointId(2), topology::PointId(3)));
   ASSERT_EQ(h.status, HingeStatus::Active);
   EXPECT_FALSE(h.signedFallback);
   const auto w = weightMap(h);
-  EXPECT_NEAR(w.at(0), 0.5, 1e-15);
-  EXPECT_NEAR(w.at(1), 0.5, 1e-15);
-  EXPECT_NEAR(w.at(2), -3.0, 1e-14);
-  EXPECT_NEAR(w.at(3), 2.0, 1e-14);
+  EXPECT_NEAR(w.at(PointId(0)), 0.5, 1e-15);
+  EXPECT_NEAR(w.at(PointId(1)), 0.5, 1e-15);
+  EXPECT_NEAR(w.at(PointId(2)), -3.0, 1e-14);
+  EXPECT_NEAR(w.at(PointId(3)), 2.0, 1e-14);
   EXPECT_NEAR(h.lambda, 4.0 / 3.0, 1e-15);
   EXPECT_EQ(m.ff->potentialEnergy(m.rest), 0.0);
   EXPECT_EQ(maxAbs(test::forceAt(*m.ff, m.rest)), 0.0);
@@ -528,7 +529,8 @@ TEST(BendingKernel, SignedFallsBackWhenFoldedOrFarAway) {
   Model m = makeModel(test::oneHinge({-20, -1, 0}, {-20, 1, 0}, c, d), p);
   EXPECT_EQ(m.ff->counters().signedFallbacks, 1u);
   EXPECT_EQ(m.ff->numActiveSprings(), 1u);
-  EXPECT_TRUE(m.ff->hinge(m.topo->findEdge(2, 3)).signedFallback);
+  EXPECT_TRUE(
+      m.ff->hinge(m.topo->findEdge(topology::PointId(2), topology::PointId(3))).signedFallback);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -576,7 +578,7 @@ TEST(BendingSprings, AHugeStiffnessStaysActiveWhileItsEnergyFitsADouble) {
   // linear in k); at 1e307 lambda leaves the range and the hinge is counted as unrepresentable.
   MeshData m;
   m.points = {{0, 0, 0}, {1, 0, 0}, {0.3, -1, 0}, {0.6, 1, 0.2}};
-  m.triangles = {{0, 1, 2}, {1, 0, 3}};
+  m.triangles = {tri(0, 1, 2), tri(1, 0, 3)};
   topology::Topology t(m);
   std::vector<double> x;
   for (const auto& p : m.points) x.insert(x.end(), p.begin(), p.end());
@@ -612,7 +614,8 @@ TEST(BendingSprings, DegenerateHingesAreCounted) {
   m.points = {{0, 0, 0}, {1, 0, 0}, {0.3, -1, 0}, {0.6, 2, 0},   // healthy hinge 0-1
               {3, 0, 0}, {4, 0, 0}, {3.5, 1, 0},  {3.5, 1, 0},   // coincident wings
               {6, 0, 0}, {7, 0, 0}, {6.5, 0, 0},  {6.5, 1, 0}};  // zero height
-  m.triangles = {{0, 1, 3}, {1, 0, 2}, {4, 5, 6}, {5, 4, 7}, {8, 9, 11}, {9, 8, 10}};
+  m.triangles = {tri(0, 1, 3), tri(1, 0, 2),  tri(4, 5, 6),
+                 tri(5, 4, 7), tri(8, 9, 11), tri(9, 8, 10)};
   Model md = makeModel(m);
   const BendingCounters& c = md.ff->counters();
   EXPECT_EQ(c.activeSprings, 1u);
@@ -620,8 +623,10 @@ TEST(BendingSprings, DegenerateHingesAreCounted) {
   EXPECT_EQ(c.smallHeight, 1u);
   EXPECT_EQ(c.degenerate(), 2u);
   EXPECT_EQ(c.noHinge, 12u);
-  EXPECT_EQ(md.ff->hinge(md.topo->findEdge(4, 5)).status, HingeStatus::ShortWingDistance);
-  EXPECT_EQ(md.ff->hinge(md.topo->findEdge(8, 9)).status, HingeStatus::SmallHeight);
+  EXPECT_EQ(md.ff->hinge(md.topo->findEdge(topology::PointId(4), topology::PointId(5))).status,
+            HingeStatus::ShortWingDistance);
+  EXPECT_EQ(md.ff->hinge(md.topo->findEdge(topology::PointId(8), topology::PointId(9))).status,
+            HingeStatus::SmallHeight);
   const std::vector<double> x = test::perturbed(md.rest, 0.3, 8);
   const std::vector<double> f = test::forceAt(*md.ff, x);
   for (double v : f) EXPECT_TRUE(std::isfinite(v));
@@ -733,9 +738,9 @@ TEST(BendingSprings, ZeroStiffnessKeepsTheHingesAndGivesNoForce) {
   p.bendingStiffness = 0.0;
   Model m = makeModel(test::oneHinge(kHA, kHB, kHC, kHD), p);
   ASSERT_EQ(m.ff->numActiveSprings(), 1u);
-  const HingeRecord h = m.ff->hinge(m.topo->findEdge(2, 3));
+  const HingeRecord h = m.ff->hinge(m.topo->findEdge(topology::PointId(2), topology::PointId(3)));
   EXPECT_EQ(h.lambda, 0.0);
-  EXPECT_NEAR(weightMap(h).at(0), 2.0 / 3.0, 1e-15);
+  EXPECT_NEAR(weightMap(h).at(PointId(0)), 2.0 / 3.0, 1e-15);
   const std::vector<double> x = test::perturbed(m.rest, 0.5, 1);
   EXPECT_EQ(maxAbs(test::forceAt(*m.ff, x)), 0.0);
   EXPECT_EQ(m.ff->potentialEnergy(x), 0.0);

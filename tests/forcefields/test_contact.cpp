@@ -19,6 +19,7 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/ids.hpp"
 #include "support/intersection_oracle.hpp"
 
 namespace cutsim::forcefields {
@@ -564,7 +565,7 @@ MeshData twoSheets(double dx, double dy, double dz) {
   const MeshData one = core::makeGrid(g);
   MeshData two = one;
   const auto n = topology::Index(one.points.size());
-  for (const auto& t : one.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+  for (const auto& t : one.triangles) two.triangles.push_back(tri(t[0] + n, t[1] + n, t[2] + n));
   for (auto q : one.points) two.points.push_back({q[0] + dx, q[1] + dy, q[2] + dz});
   return two;
 }
@@ -615,7 +616,7 @@ TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheToleranc
   MeshData m;
   m.points = {{0, 0, 0},         {1, 0, 0},         {1, 1, 0},         {0, 1, 0},
               {0.5, 0.5, 2 * d}, {0.5, 0.5, 5 * d}, {0.52, 0.5, 5 * d}};
-  m.triangles = {{0, 1, 2}, {0, 2, 3}, {4, 6, 5}};
+  m.triangles = {tri(0, 1, 2), tri(0, 2, 3), tri(4, 6, 5)};
   Topology topo(m);
   const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
   const Eigen::Vector3d across = Eigen::Vector3d(1, -1, 0).normalized();  // (off the diagonal 0-2)

@@ -597,7 +597,8 @@ INSTANTIATE_TEST_SUITE_P(DihedralSequences, DihedralIncremental,
 
 TEST(DihedralIncrementalOps, CompactionKeepsTheTable) {
   Model m = makeModel(test::bumpyGrid(7, 3));
-  m.topo->removeTriangles(std::vector<TriangleId>{0, 1, 17, 40});
+  m.topo->removeTriangles(
+      std::vector<TriangleId>{TriangleId(0), TriangleId(1), TriangleId(17), TriangleId(40)});
   for (EdgeId e : m.topo->edges()) {
     if (!m.topo->isBoundaryEdge(e)) {
       m.topo->tear(e);

@@ -119,7 +119,7 @@ TEST(StretchSprings, OneSpringPerLiveEdgeWithItsRestLength) {
                                (a[2] - b[2]) * (a[2] - b[2]));
     EXPECT_NEAR(r.restLength, l, 1e-14 * l);
   }
-  EXPECT_EQ(m.ff->spring(m.topo->edgeCapacity() + 5).edge, kInvalidIndex);
+  EXPECT_EQ(m.ff->spring(EdgeId(m.topo->edgeCapacity() + 5)).edge, EdgeId::invalid());
   EXPECT_EQ(m.ff->records().size(), m.topo->numEdges());
   // 16 bytes per spring, 4 + 4 bytes of maps.
   EXPECT_NEAR(m.ff->bytesPerEdgeSlot(), 24.0, 1e-12);
@@ -429,7 +429,7 @@ TEST(StretchSprings, DForceFollowsPositionsChangedInPlaceAndTopologyChanges) {
   expectMatchesAssembly(x, "first positions");
   for (std::size_t i = 0; i < x.size(); i += 7) x[i] += 0.05;  // same buffer, other values
   expectMatchesAssembly(x, "positions changed in place");
-  m.topo->tear(m.topo->findEdge(14, 15));
+  m.topo->tear(m.topo->findEdge(topology::PointId(14), topology::PointId(15)));
   x.resize(3 * m.n(), 0.0);
   expectMatchesAssembly(x, "after a tear");
   m.topo->removeTriangles(std::vector<topology::TriangleId>{m.topo->triangles().front()});
@@ -549,7 +549,7 @@ TEST(StretchSprings, ZeroLengthSpringIsFinite) {
     p.stableJacobian = stable;
     Model m = makeModel(test::grid(3, 2.0), p);
     // Collapse the edge 4-5 (rest length 1): point 5 onto point 4, with different velocities.
-    const EdgeId e = m.topo->findEdge(4, 5);
+    const EdgeId e = m.topo->findEdge(topology::PointId(4), topology::PointId(5));
     ASSERT_NE(e, kInvalidIndex);
     std::vector<double> x = m.rest;
     for (int k = 0; k < 3; ++k) x[3 * 5 + k] = x[3 * 4 + k];
@@ -640,13 +640,14 @@ INSTANTIATE_TEST_SUITE_P(StretchSequences, StretchIncremental,
 TEST(StretchIncrementalOps, SplitEdgeGivesHalvesTheirRestLengths) {
   Model m = makeModel(test::grid(5, 4.0));
   const std::size_t before = m.ff->numSprings();
-  const EdgeId e = m.topo->findEdge(6, 12);  // an interior diagonal, rest length sqrt(2)
+  const EdgeId e = m.topo->findEdge(
+      topology::PointId(6), topology::PointId(12));  // an interior diagonal, rest length sqrt(2)
   ASSERT_NE(e, kInvalidIndex);
   const auto ev = m.topo->edgeVertices(e);
   const PointId p = m.topo->splitEdge(e, 0.25);
   // The edge becomes two halves, and two edges join the new point to the wings.
   EXPECT_EQ(m.ff->numSprings(), before + 3);
-  EXPECT_EQ(m.ff->spring(e).edge, kInvalidIndex);
+  EXPECT_EQ(m.ff->spring(e).edge, EdgeId::invalid());
   const double l = std::sqrt(2.0);
   const EdgeId h0 = m.topo->findEdge(ev[0], p), h1 = m.topo->findEdge(p, ev[1]);
   ASSERT_NE(h0, kInvalidIndex);
@@ -683,7 +684,7 @@ TEST(StretchIncrementalOps, SpringsCreatedByACutGetScaledRestLengths) {
 
 TEST(StretchIncrementalOps, TearGivesTheCopiesTheirOwnSprings) {
   Model m = makeModel(test::grid(5));
-  const EdgeId e = m.topo->findEdge(6, 12);
+  const EdgeId e = m.topo->findEdge(topology::PointId(6), topology::PointId(12));
   const topology::IncisionResult r = m.topo->tear(e);
   EXPECT_FALSE(r.copies.empty());
   EXPECT_EQ(m.ff->numSprings(), m.topo->numEdges());
@@ -695,7 +696,8 @@ TEST(StretchIncrementalOps, TearGivesTheCopiesTheirOwnSprings) {
 
 TEST(StretchIncrementalOps, CarvingAndCompactionRenumberTheTable) {
   Model m = makeModel(test::grid(7, 10.0, 0.2, 3));
-  m.topo->removeTriangles(std::vector<TriangleId>{0, 1, 17, 40});
+  m.topo->removeTriangles(
+      std::vector<TriangleId>{TriangleId(0), TriangleId(1), TriangleId(17), TriangleId(40)});
   m.topo->splitEdge(m.topo->edges()[10], 0.3);
   ASSERT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
   EXPECT_GT(m.ff->numEdgeSlots(), m.ff->numSprings());
@@ -706,7 +708,7 @@ TEST(StretchIncrementalOps, CarvingAndCompactionRenumberTheTable) {
   EXPECT_EQ(m.topo->edgeCapacity(), m.topo->numEdges());
   // Compaction lays the springs out in edge order.
   const auto springs = m.ff->springs();
-  for (EdgeId e = 0; e < m.topo->edgeCapacity(); ++e) {
+  for (EdgeId e{0}; e < m.topo->edgeCapacity(); ++e) {
     const auto ev = m.topo->edgeVertices(e);
     EXPECT_EQ(std::minmax(springs[e].a, springs[e].b), std::minmax(ev[0].index(), ev[1].index()));
   }

@@ -17,6 +17,7 @@
 #include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
+#include "support/ids.hpp"
 #include "support/random_ops.hpp"
 
 namespace cutsim::forcefields {
@@ -115,7 +116,7 @@ TEST(TriangularFem, OneElementPerTriangle) {
     EXPECT_EQ(r.triangle, t);
     EXPECT_FALSE(r.degenerate);
   }
-  EXPECT_EQ(m.ff->element(m.topo->triangleCapacity()).triangle, kInvalidIndex);
+  EXPECT_EQ(m.ff->element(TriangleId(m.topo->triangleCapacity())).triangle, TriangleId::invalid());
   std::vector<std::array<PointId, 2>> segments;
   m.ff->draw(segments);
   EXPECT_EQ(segments.size(), 3 * m.topo->numTriangles());
@@ -411,29 +412,29 @@ TEST(TriangularFem, DegenerateRestTriangleHasNoElement) {
   // A (0,0), B (2,0), C (1,0) on a line, D (1,1): triangle (A, B, D) and the flat (B, A, C).
   MeshData mesh;
   mesh.points = {{0, 0, 0}, {2, 0, 0}, {1, 0, 0}, {1, 1, 0}};
-  mesh.triangles = {{0, 1, 3}, {1, 0, 2}};
+  mesh.triangles = {tri(0, 1, 3), tri(1, 0, 2)};
   Model m = makeModel(mesh, someParameters());
   EXPECT_EQ(m.ff->numElements(), 1u);
   EXPECT_EQ(m.ff->numDegenerate(), 1u);
-  const FemRecord r = m.ff->element(1);
+  const FemRecord r = m.ff->element(TriangleId(1));
   EXPECT_EQ(r.triangle, 1u);
   EXPECT_TRUE(r.degenerate);
   EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
   const std::vector<double> x = test::perturbed(m.rest, 0.2, 4);
   for (double v : test::forceAt(*m.ff, x)) EXPECT_TRUE(std::isfinite(v));
   // Removing it leaves the table consistent.
-  m.topo->removeTriangles(std::vector<TriangleId>{1});
+  m.topo->removeTriangles(std::vector<TriangleId>{TriangleId(1)});
   EXPECT_EQ(m.ff->numDegenerate(), 0u);
   EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
 }
 
 TEST(TriangularFem, FollowsSplitTearCarveAndCompact) {
   Model m = makeModel(test::grid(6, 5.0, 0.2, 4), someParameters());
-  m.topo->splitEdge(m.topo->findEdge(7, 14), 0.3);
+  m.topo->splitEdge(m.topo->findEdge(topology::PointId(7), topology::PointId(14)), 0.3);
   ASSERT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
-  m.topo->tear(m.topo->findEdge(8, 15));
+  m.topo->tear(m.topo->findEdge(topology::PointId(8), topology::PointId(15)));
   ASSERT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
-  m.topo->removeTriangles(std::vector<TriangleId>{0, 5});
+  m.topo->removeTriangles(std::vector<TriangleId>{TriangleId(0), TriangleId(5)});
   ASSERT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
   EXPECT_EQ(m.ff->numElements(), m.topo->numTriangles());
   // Rest area is conserved by splits and tears; carving removes the triangles' areas.

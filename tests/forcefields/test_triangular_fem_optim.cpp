@@ -14,6 +14,7 @@
 #include "support/field_helpers.hpp"
 #include "support/fixtures.hpp"
 #include "support/force_field_harness.hpp"
+#include "support/ids.hpp"
 
 namespace cutsim::forcefields {
 namespace {
@@ -89,7 +90,7 @@ TEST(TriangularFemOptim, TheFrameFollowsTheFirstEdgeAsSofasDoes) {
   // with A = 1/2, s_xx = E / (1 - nu^2) * 0.1.
   topology::MeshData m;
   m.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  m.triangles = {{0, 1, 2}};
+  m.triangles = {tri(0, 1, 2)};
   topology::Topology topo(m);
   TriangularFEMOptim f(topo, parameters());
   std::vector<double> x = {0, 0, 0, 1.1, 0, 0, 0, 1, 0};

@@ -17,6 +17,7 @@
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/topology/mesh_io.hpp"
 #include "cutsim/topology/topology.hpp"
+#include "support/ids.hpp"
 #include "support/scene_text.hpp"
 
 namespace cutsim::test {
@@ -113,7 +114,7 @@ TEST(BadMeshInput, AHugeFlatTriangleBuildsWithoutOverflow) {
   const double big = 1e200;
   topology::MeshData m;
   m.points = {{0, big, 0}, {0, -big, 0}, {0, 0, 0}, {big, 0, 0}};
-  m.triangles = {{2, 3, 0}, {3, 2, 1}};
+  m.triangles = {tri(2, 3, 0), tri(3, 2, 1)};
   topology::Topology t(m);
   forcefields::FastTriangularBendingSprings f(t, forcefields::BendingParameters{});
   EXPECT_EQ(f.numActiveSprings(), 0u);

@@ -118,8 +118,8 @@ std::unique_ptr<Simulation> sheet(SolverSettings::Kind kind, double k, MeshData 
   sim->setSolver(s);
   sim->addForceField(std::make_unique<FastTriangularBendingSprings>(sim->topology(), bending(k)));
   sim->setGravity({0, 0, -9.81});
-  sim->fixed().add(0);
-  sim->fixed().add(4);
+  sim->fixed().add(topology::PointId(0));
+  sim->fixed().add(topology::PointId(4));
   return sim;
 }
 
@@ -248,8 +248,9 @@ TEST(Extremes, SliverAndShortEdgeHingesAreDeactivatedAndCounted) {
     FastTriangularBendingSprings f(t, bending(1.0));
     EXPECT_EQ(f.numActiveSprings(), 0u);
     EXPECT_EQ(f.counters().degenerate(), 1u);
-    EXPECT_EQ(f.hinge(t.findEdge(2, 3)).status, c.status)
-        << forcefields::toString(f.hinge(t.findEdge(2, 3)).status);
+    EXPECT_EQ(f.hinge(t.findEdge(topology::PointId(2), topology::PointId(3))).status, c.status)
+        << forcefields::toString(
+               f.hinge(t.findEdge(topology::PointId(2), topology::PointId(3))).status);
     std::vector<double> x(12);
     for (int p = 0; p < 4; ++p)
       for (int k = 0; k < 3; ++k) x[3 * p + k] = c.mesh.points[p][k] + 0.1 * (p + k);
@@ -268,7 +269,7 @@ TEST(Extremes, CoincidentRestPointsNeverGiveNaN) {
                     SolverSettings::Kind::ImplicitCholmod}) {
     SCOPED_TRACE(core::toString(kind));
     auto sim = sheet(kind, 1.0, m);
-    sim->fixed().add(8);
+    sim->fixed().add(topology::PointId(8));
     auto& f = dynamic_cast<FastTriangularBendingSprings&>(sim->forceField(0));
     EXPECT_GT(f.counters().degenerate(), 0u);
     for (int i = 0; i < 10; ++i) sim->step(1e-3);
@@ -460,7 +461,7 @@ TEST(Extremes, ExplicitBlowUpIsStoppedWithAMessageAndAFiniteState) {
   calm->setSolver(s);
   calm->addForceField(
       std::make_unique<FastTriangularBendingSprings>(calm->topology(), bending(1e9)));
-  calm->fixed().add(0);
+  calm->fixed().add(topology::PointId(0));
   for (int i = 0; i < 50; ++i) calm->step(1e-8);
   EXPECT_TRUE(allFinite(calm->state().x()));
 }

@@ -40,7 +40,7 @@ MeshData grid(int n, double size, double jitter, std::uint64_t seed) {
 MeshData oneHinge(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   MeshData m;
   m.points = {a, b, c, d};
-  m.triangles = {{2, 3, 0}, {3, 2, 1}};
+  m.triangles = {{PointId(2), PointId(3), PointId(0)}, {PointId(3), PointId(2), PointId(1)}};
   return m;
 }
 
@@ -56,7 +56,7 @@ MeshData fan(int sectors, bool closed, double height) {
   for (int k = 0; k < sectors; ++k) {
     const auto a = static_cast<PointId>(1 + k);
     const auto b = static_cast<PointId>(1 + (k + 1) % rim);
-    m.triangles.push_back({0, a, b});
+    m.triangles.push_back({PointId(0), a, b});
   }
   return m;
 }

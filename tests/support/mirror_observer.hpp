@@ -126,7 +126,7 @@ class MirrorObserver : public topology::TopologyObserver {
   void onPointsRenumbered(const Topology&, const topology::Renumbering& r) override {
     stageRenumber(1);
     renumber(r.oldToNew, r.newSize, pointAlive, rest);
-    auto mapPoint = [&](topology::PointId& p) { p = r.oldToNew[p]; };
+    auto mapPoint = [&](topology::PointId& p) { p = topology::PointId(r.oldToNew[p]); };
     for (std::size_t e = 0; e < edge.size(); ++e)
       if (edgeAlive[e]) {
         mapPoint(edge[e][0]);
@@ -141,7 +141,7 @@ class MirrorObserver : public topology::TopologyObserver {
     renumber(r.oldToNew, r.newSize, edgeAlive, edge);
     for (std::size_t t = 0; t < tri.size(); ++t)
       if (triAlive[t])
-        for (auto& e : triEdges[t]) e = r.oldToNew[e];
+        for (auto& e : triEdges[t]) e = topology::EdgeId(r.oldToNew[e]);
   }
   void onTrianglesRenumbered(const Topology&, const topology::Renumbering& r) override {
     stageRenumber(3);
@@ -160,34 +160,34 @@ class MirrorObserver : public topology::TopologyObserver {
       problems.push_back("more point slots than the topology");
     for (topology::Index p = 0; p < t.pointCapacity(); ++p) {
       bool a = p < pointAlive.size() && pointAlive[p];
-      if (a != t.isPointAlive(p)) {
+      if (a != t.isPointAlive(topology::PointId(p))) {
         problems.push_back("point " + s(p) + " alive mismatch");
         continue;
       }
       if (!a) continue;
-      auto r = t.restPosition(p);
+      auto r = t.restPosition(topology::PointId(p));
       for (int c = 0; c < 3; ++c)
         if (std::abs(r[c] - rest[p][c]) > 1e-9 * (1 + std::abs(r[c])))
           problems.push_back("point " + s(p) + " rest position differs from its interpolation");
     }
     for (topology::Index e = 0; e < t.edgeCapacity(); ++e) {
       bool a = e < edgeAlive.size() && edgeAlive[e];
-      if (a != t.isEdgeAlive(e)) {
+      if (a != t.isEdgeAlive(topology::EdgeId(e))) {
         problems.push_back("edge " + s(e) + " alive mismatch");
         continue;
       }
-      if (a && edge[e] != t.edgeVertices(e))
+      if (a && edge[e] != t.edgeVertices(topology::EdgeId(e)))
         problems.push_back("edge " + s(e) + " endpoints differ");
     }
     for (topology::Index f = 0; f < t.triangleCapacity(); ++f) {
       bool a = f < triAlive.size() && triAlive[f];
-      if (a != t.isTriangleAlive(f)) {
+      if (a != t.isTriangleAlive(topology::TriangleId(f))) {
         problems.push_back("triangle " + s(f) + " alive mismatch");
         continue;
       }
-      if (a && tri[f] != t.triangleVertices(f))
+      if (a && tri[f] != t.triangleVertices(topology::TriangleId(f)))
         problems.push_back("triangle " + s(f) + " vertices differ");
-      if (a && triEdges[f] != t.triangleEdges(f))
+      if (a && triEdges[f] != t.triangleEdges(topology::TriangleId(f)))
         problems.push_back("triangle " + s(f) + " edges differ");
     }
   }

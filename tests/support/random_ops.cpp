@@ -226,7 +226,7 @@ int RandomTopologyOps::pick(int lo, int hi) {
 EdgeId RandomTopologyOps::randomEdge(bool interior) {
   std::vector<EdgeId> edges = t_.edges();
   if (interior) std::erase_if(edges, [this](EdgeId e) { return t_.isBoundaryEdge(e); });
-  if (edges.empty()) return kInvalidIndex;
+  if (edges.empty()) return EdgeId::invalid();
   return edges[static_cast<std::size_t>(pick(0, static_cast<int>(edges.size()) - 1))];
 }
 

@@ -12,6 +12,7 @@
 
 #include "cutsim/base/errors.hpp"
 #include "cutsim/topology/mesh_io.hpp"
+#include "support/ids.hpp"
 
 namespace cutsim::topology {
 namespace {
@@ -50,10 +51,10 @@ TEST(MeshIoObj, ReadsEveryFaceFormNegativeIndicesAndIgnoredRecords) {
   EXPECT_EQ(mesh.points[5], (Vec3{3.0, 2.25, 0.0}));   // defined after two faces
   EXPECT_THAT(mesh.pointLines, ElementsAre(4u, 5u, 6u, 7u, 8u, 19u));
   ASSERT_EQ(mesh.triangles.size(), 4u);
-  EXPECT_EQ(mesh.triangles[0], (TriangleVertices{0, 1, 4}));  // f 1 2 5
-  EXPECT_EQ(mesh.triangles[1], (TriangleVertices{0, 4, 3}));  // f 1/1 -1/3 -2/4 (5 defined)
-  EXPECT_EQ(mesh.triangles[2], (TriangleVertices{1, 2, 5}));  // f -5//1 -4//1 -1//1 (6 defined)
-  EXPECT_EQ(mesh.triangles[3], (TriangleVertices{1, 5, 4}));  // f 2/1/1 6/2/1 5/3/1
+  EXPECT_EQ(mesh.triangles[0], (tri(0, 1, 4)));  // f 1 2 5
+  EXPECT_EQ(mesh.triangles[1], (tri(0, 4, 3)));  // f 1/1 -1/3 -2/4 (5 defined)
+  EXPECT_EQ(mesh.triangles[2], (tri(1, 2, 5)));  // f -5//1 -4//1 -1//1 (6 defined)
+  EXPECT_EQ(mesh.triangles[3], (tri(1, 5, 4)));  // f 2/1/1 6/2/1 5/3/1
   EXPECT_THAT(mesh.triangleLines, ElementsAre(17u, 18u, 22u, 23u));
 }
 
@@ -63,7 +64,7 @@ TEST(MeshIoObj, ToleratesCrlfLineEnds) {
   EXPECT_EQ(mesh.points[2], (Vec3{0.0, 1.0, 0.5}));
   EXPECT_THAT(mesh.pointLines, ElementsAre(2u, 3u, 5u));
   ASSERT_EQ(mesh.triangles.size(), 1u);
-  EXPECT_EQ(mesh.triangles[0], (TriangleVertices{0, 1, 2}));
+  EXPECT_EQ(mesh.triangles[0], (tri(0, 1, 2)));
   EXPECT_THAT(mesh.triangleLines, ElementsAre(6u));
 }
 
@@ -79,7 +80,7 @@ TEST(MeshIoObj, PositiveIndicesMayReferToLaterVertices) {
   std::istringstream in("f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
   const MeshData mesh = readObj(in, "stream");
   ASSERT_EQ(mesh.triangles.size(), 1u);
-  EXPECT_EQ(mesh.triangles[0], (TriangleVertices{0, 1, 2}));
+  EXPECT_EQ(mesh.triangles[0], (tri(0, 1, 2)));
   EXPECT_THAT(mesh.triangleLines, ElementsAre(1u));
   EXPECT_EQ(mesh.source, "stream");
 }
@@ -111,19 +112,19 @@ TEST(MeshIoOff, ReadsCommentsBlankLinesAndTrailingComments) {
   EXPECT_EQ(mesh.points[3], (Vec3{0.0, 1.0, -0.25}));
   EXPECT_THAT(mesh.pointLines, ElementsAre(5u, 6u, 7u, 9u));
   ASSERT_EQ(mesh.triangles.size(), 2u);
-  EXPECT_EQ(mesh.triangles[0], (TriangleVertices{0, 1, 2}));
-  EXPECT_EQ(mesh.triangles[1], (TriangleVertices{0, 2, 3}));
+  EXPECT_EQ(mesh.triangles[0], (tri(0, 1, 2)));
+  EXPECT_EQ(mesh.triangles[1], (tri(0, 2, 3)));
   EXPECT_THAT(mesh.triangleLines, ElementsAre(10u, 11u));
 }
 
 TEST(MeshIoOff, HeaderIsOptionalAndMayHoldTheCounts) {
   const MeshData noHeader = load(good("no_header.off"));
   EXPECT_EQ(noHeader.points.size(), 3u);
-  EXPECT_EQ(noHeader.triangles[0], (TriangleVertices{0, 1, 2}));
+  EXPECT_EQ(noHeader.triangles[0], (tri(0, 1, 2)));
   EXPECT_THAT(noHeader.triangleLines, ElementsAre(5u));
   const MeshData oneLine = load(good("header_and_counts.off"));
   EXPECT_EQ(oneLine.points[1], (Vec3{1.0, 0.0, 0.0}));
-  EXPECT_EQ(oneLine.triangles[0], (TriangleVertices{2, 0, 1}));
+  EXPECT_EQ(oneLine.triangles[0], (tri(2, 0, 1)));
   EXPECT_THAT(oneLine.pointLines, ElementsAre(2u, 3u, 4u));
 }
 
@@ -148,7 +149,7 @@ TEST(MeshIoOff, ReadsTheProjectMeshes) {
 
 TEST(MeshIoWrite, RoundTripsExactlyThroughObj) {
   const std::vector<Vec3> points = {{0.1, -2.0 / 3.0, 1e-300}, {1e300, 0.0, -0.0}, {3.0, 4.0, 5.5}};
-  const std::vector<TriangleVertices> triangles = {{0, 1, 2}, {2, 1, 0}};
+  const std::vector<TriangleVertices> triangles = {tri(0, 1, 2), tri(2, 1, 0)};
   std::stringstream text;
   writeObj(text, points, triangles);
   EXPECT_THAT(text.str(), HasSubstr("\nf 1 2 3\nf 3 2 1\n"));
@@ -188,14 +189,14 @@ MeshData soup(std::vector<TriangleVertices> triangles, std::size_t nPoints) {
 
 TEST(MeshIoManifold, AcceptsClosedAndOpenSurfaces) {
   // A closed tetrahedron and a fan around vertex 0 closed into a disk.
-  EXPECT_NO_THROW(checkManifold(soup({{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}, 4)));
-  EXPECT_NO_THROW(checkManifold(soup({{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1}}, 5)));
+  EXPECT_NO_THROW(checkManifold(soup({tri(0, 2, 1), tri(0, 1, 3), tri(1, 2, 3), tri(0, 3, 2)}, 4)));
+  EXPECT_NO_THROW(checkManifold(soup({tri(0, 1, 2), tri(0, 2, 3), tri(0, 3, 4), tri(0, 4, 1)}, 5)));
   EXPECT_NO_THROW(checkManifold(soup({}, 3)));
 }
 
 TEST(MeshIoManifold, NamesTrianglesByIndexWhenThereAreNoLines) {
   try {
-    checkManifold(soup({{0, 1, 2}, {0, 1, 3}}, 4));
+    checkManifold(soup({tri(0, 1, 2), tri(0, 1, 3)}, 4));
     FAIL() << "no exception";
   } catch (const InvalidInput& e) {
     EXPECT_EQ(e.where(), "triangle 1");
@@ -205,13 +206,13 @@ TEST(MeshIoManifold, NamesTrianglesByIndexWhenThereAreNoLines) {
 }
 
 TEST(MeshIoManifold, RejectsOutOfRangeAndRepeatedIndices) {
-  EXPECT_THROW(checkManifold(soup({{0, 1, 3}}, 3)), InvalidInput);
-  EXPECT_THROW(checkManifold(soup({{0, 1, 1}}, 3)), InvalidInput);
+  EXPECT_THROW(checkManifold(soup({tri(0, 1, 3)}, 3)), InvalidInput);
+  EXPECT_THROW(checkManifold(soup({tri(0, 1, 1)}, 3)), InvalidInput);
 }
 
 TEST(MeshIoManifold, FindsABowtieInsideALargerFan) {
   // Vertex 0: a closed disk fan (1,2,3,4) plus a separate triangle (0,5,6) touching only at 0.
-  MeshData mesh = soup({{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1}, {0, 5, 6}}, 7);
+  MeshData mesh = soup({tri(0, 1, 2), tri(0, 2, 3), tri(0, 3, 4), tri(0, 4, 1), tri(0, 5, 6)}, 7);
   mesh.pointLines = {11, 12, 13, 14, 15, 16, 17};
   mesh.source = "hand";
   try {
@@ -226,7 +227,7 @@ TEST(MeshIoManifold, FindsABowtieInsideALargerFan) {
 
 TEST(MeshIoManifold, NonManifoldEdgeWinsOverOrientation) {
   // Triangles 0 and 1 run 0 -> 1 alike, but the third on the edge is the real problem.
-  MeshData mesh = soup({{0, 1, 2}, {0, 1, 3}, {1, 0, 4}}, 5);
+  MeshData mesh = soup({tri(0, 1, 2), tri(0, 1, 3), tri(1, 0, 4)}, 5);
   mesh.triangleLines = {7, 8, 9};
   mesh.source = "m.obj";
   try {

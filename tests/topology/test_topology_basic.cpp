@@ -5,20 +5,24 @@
 #include <set>
 
 #include "support/fixtures.hpp"
+#include "support/ids.hpp"
 #include "support/mirror_observer.hpp"
 
 namespace cutsim::test {
 namespace {
 
+using topology::EdgeId;
 using topology::kInvalidIndex;
 using topology::MeshData;
+using topology::PointId;
 using topology::Topology;
+using topology::TriangleId;
 
 MeshData octahedron() {
   MeshData m;
   m.points = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  m.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
-                 {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  m.triangles = {tri(0, 2, 4), tri(2, 1, 4), tri(1, 3, 4), tri(3, 0, 4),
+                 tri(2, 0, 5), tri(1, 2, 5), tri(3, 1, 5), tri(0, 3, 5)};
   return m;
 }
 
@@ -63,13 +67,13 @@ TEST(TopologyBasic, GridCountsAndQueries) {
     EXPECT_EQ(t.isBoundaryEdge(e), tt[0] == kInvalidIndex || tt[1] == kInvalidIndex);
   }
   // The centre of the 5x5 grid has 6 triangles and 6 edges around it; the corner (0,0) 2 and 3.
-  EXPECT_EQ(t.trianglesAroundPoint(12).size(), 6u);
-  EXPECT_EQ(t.edgesAroundPoint(12).size(), 6u);
-  EXPECT_FALSE(t.isBoundaryPoint(12));
-  EXPECT_EQ(t.trianglesAroundPoint(0).size(), 2u);
-  EXPECT_EQ(t.edgesAroundPoint(0).size(), 3u);
-  EXPECT_TRUE(t.isBoundaryPoint(0));
-  EXPECT_EQ(t.findEdge(0, 24), kInvalidIndex);
+  EXPECT_EQ(t.trianglesAroundPoint(PointId(12)).size(), 6u);
+  EXPECT_EQ(t.edgesAroundPoint(PointId(12)).size(), 6u);
+  EXPECT_FALSE(t.isBoundaryPoint(PointId(12)));
+  EXPECT_EQ(t.trianglesAroundPoint(PointId(0)).size(), 2u);
+  EXPECT_EQ(t.edgesAroundPoint(PointId(0)).size(), 3u);
+  EXPECT_TRUE(t.isBoundaryPoint(PointId(0)));
+  EXPECT_EQ(t.findEdge(topology::PointId(0), topology::PointId(24)), kInvalidIndex);
 }
 
 TEST(TopologyBasic, ClosedSurfaceHasNoBoundary) {
@@ -87,31 +91,31 @@ TEST(TopologyBasic, IsolatedPointsAreKept) {
   m.points.push_back({5, 5, 5});
   Topology t(m);
   EXPECT_EQ(t.numPoints(), 5u);
-  EXPECT_TRUE(t.isIsolatedPoint(4));
-  EXPECT_TRUE(t.edgesAroundPoint(4).empty());
+  EXPECT_TRUE(t.isIsolatedPoint(PointId(4)));
+  EXPECT_TRUE(t.edgesAroundPoint(PointId(4)).empty());
 }
 
 TEST(TopologyBasic, RejectsNonManifoldAndBadIndices) {
   MeshData m = grid(2);  // two triangles (0,1,3), (0,3,2)
   m.points.push_back({0.5, 0.5, 1});
-  m.triangles.push_back({0, 3, 4});  // a third triangle on edge (0,3)
+  m.triangles.push_back(tri(0, 3, 4));  // a third triangle on edge (0,3)
   EXPECT_THROW(Topology t(m), InvalidInput);
   std::vector<topology::Vec3> pts{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  std::vector<topology::TriangleVertices> bad{{0, 1, 7}};
+  std::vector<topology::TriangleVertices> bad{tri(0, 1, 7)};
   EXPECT_THROW(Topology(pts, bad), InvalidInput);
-  std::vector<topology::TriangleVertices> rep{{0, 1, 1}};
+  std::vector<topology::TriangleVertices> rep{tri(0, 1, 1)};
   EXPECT_THROW(Topology(pts, rep), InvalidInput);
 }
 
 TEST(TopologyBasic, QueriesOnDeadOrMissingElementsThrow) {
   Topology t(grid(3));
-  EXPECT_THROW(t.edgeVertices(1000), TopologyError);
-  EXPECT_THROW(t.triangleVertices(1000), TopologyError);
-  EXPECT_THROW(t.restPosition(1000), TopologyError);
-  auto own = t.triangleEdges(0);
+  EXPECT_THROW(t.edgeVertices(EdgeId(1000)), TopologyError);
+  EXPECT_THROW(t.triangleVertices(TriangleId(1000)), TopologyError);
+  EXPECT_THROW(t.restPosition(PointId(1000)), TopologyError);
+  auto own = t.triangleEdges(TriangleId(0));
   for (auto e : t.edges())
     if (std::find(own.begin(), own.end(), e) == own.end()) {
-      EXPECT_THROW(t.oppositeVertex(0, e), TopologyError);
+      EXPECT_THROW(t.oppositeVertex(TriangleId(0), e), TopologyError);
       break;
     }
 }

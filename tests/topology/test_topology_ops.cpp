@@ -9,6 +9,7 @@
 
 #include "cutsim/base/union_find.hpp"
 #include "support/fixtures.hpp"
+#include "support/ids.hpp"
 #include "support/mirror_observer.hpp"
 
 namespace cutsim::test {
@@ -19,6 +20,7 @@ using topology::kInvalidIndex;
 using topology::MeshData;
 using topology::PointId;
 using topology::Topology;
+using topology::TriangleId;
 using topology::Vec3;
 using Strings = std::vector<std::string>;
 
@@ -78,13 +80,13 @@ TEST(TopologyOps, AddPointsThenTriangles) {
   w.check();
   w.log.clear();
   // grid(2): points 0(0,0) 1(1,0) 2(0,1) 3(1,1); triangles (0,1,3), (0,3,2).
-  std::vector<topology::TriangleVertices> tris{{1, 4, 5}, {1, 5, 3}};
+  std::vector<topology::TriangleVertices> tris{tri(1, 4, 5), tri(1, 5, 3)};
   auto added = w.t.addTriangles(tris);
   EXPECT_EQ(added.size(), 2u);
   EXPECT_EQ(w.log.kinds(), (Strings{"E+", "T+", "end"}));
   EXPECT_EQ(w.log.count("E+"), 4u);  // (1,4) (4,5) (5,1) (5,3); (1,3) existed
   EXPECT_EQ(w.t.numTriangles(), 4u);
-  EXPECT_FALSE(w.t.isBoundaryEdge(w.t.findEdge(1, 3)));
+  EXPECT_FALSE(w.t.isBoundaryEdge(w.t.findEdge(topology::PointId(1), topology::PointId(3))));
   w.check();
 }
 
@@ -92,14 +94,14 @@ TEST(TopologyOps, AddTrianglesRejectsBadRequestsWithoutChange) {
   Watched w(grid(2));
   auto before = w.t.numTriangles();
   std::vector<topology::TriangleVertices> wrongSide{
-      {0, 1, 3}};  // edge 0->1 already used by (0,1,3)
+      tri(0, 1, 3)};  // edge 0->1 already used by (0,1,3)
   EXPECT_THROW(w.t.addTriangles(wrongSide), TopologyError);
   auto far = w.t.addPoints(std::vector<Vec3>{{5, 5, 0}, {6, 5, 0}, {5, 6, 0}});
   w.log.clear();
   std::vector<topology::TriangleVertices> bowtie{
-      {3, far[0], far[1]}};  // touches the mesh at 3 only
+      {PointId(3), far[0], far[1]}};  // touches the mesh at 3 only
   EXPECT_THROW(w.t.addTriangles(bowtie), TopologyError);
-  std::vector<topology::TriangleVertices> missing{{0, 1, 99}};
+  std::vector<topology::TriangleVertices> missing{tri(0, 1, 99)};
   EXPECT_THROW(w.t.addTriangles(missing), TopologyError);
   std::vector<topology::TriangleVertices> twice{{far[0], far[1], far[2]}, {far[0], far[1], far[2]}};
   EXPECT_THROW(w.t.addTriangles(twice), TopologyError);
@@ -111,7 +113,7 @@ TEST(TopologyOps, AddTrianglesRejectsBadRequestsWithoutChange) {
 TEST(TopologyOps, RemoveTrianglesCarvesEdgesAndPoints) {
   Watched w(grid(3));
   // Quad (0,0) of the 3x3 grid: triangles 0 = (0,1,4) and 1 = (0,4,3).
-  std::vector<topology::TriangleId> tris{0, 1};
+  std::vector<topology::TriangleId> tris{topology::TriangleId(0), topology::TriangleId(1)};
   w.t.removeTriangles(tris);
   EXPECT_EQ(w.log.kinds(), (Strings{"T-", "E-", "P-", "end"}));
   EXPECT_EQ(w.log.log[0], "T-:0,1");
@@ -119,14 +121,14 @@ TEST(TopologyOps, RemoveTrianglesCarvesEdgesAndPoints) {
   EXPECT_EQ(w.log.log[2], "P-:0");
   EXPECT_EQ(w.t.numTriangles(), 6u);
   EXPECT_EQ(w.t.numPoints(), 8u);
-  EXPECT_FALSE(w.t.isPointAlive(0));
-  EXPECT_TRUE(w.t.isBoundaryPoint(4));
+  EXPECT_FALSE(w.t.isPointAlive(PointId(0)));
+  EXPECT_TRUE(w.t.isBoundaryPoint(PointId(4)));
   w.check();
 }
 
 TEST(TopologyOps, RemoveTrianglesSplitsABowtie) {
   Watched w(fan(6, true));  // closed fan: centre 0, triangles 0..5
-  std::vector<topology::TriangleId> tris{1, 4};
+  std::vector<topology::TriangleId> tris{topology::TriangleId(1), topology::TriangleId(4)};
   w.t.removeTriangles(tris);
   // The centre is left with two fans: one keeps point 0, the other moves to a copy.
   EXPECT_EQ(w.t.numTriangles(), 4u);
@@ -157,7 +159,7 @@ TEST(TopologyOps, SplitInteriorEdge) {
 
 TEST(TopologyOps, SplitBoundaryEdgeAndTriangle) {
   Watched w(grid(3));
-  EdgeId e = w.t.findEdge(0, 1);
+  EdgeId e = w.t.findEdge(topology::PointId(0), topology::PointId(1));
   w.t.splitEdge(e, 0.5);
   EXPECT_EQ(w.log.count("T-"), 1u);
   EXPECT_EQ(w.log.count("E+"), 3u);
@@ -165,7 +167,7 @@ TEST(TopologyOps, SplitBoundaryEdgeAndTriangle) {
   w.check();
   w.log.clear();
   // Triangle 3 = (1, 5, 4) has three interior edges, which all stay.
-  PointId c = w.t.splitTriangle(3, {0.2, 0.3, 0.5});
+  PointId c = w.t.splitTriangle(TriangleId(3), {0.2, 0.3, 0.5});
   EXPECT_EQ(w.log.kinds(), (Strings{"T-", "P+", "E+", "T+", "end"}));
   EXPECT_EQ(w.log.count("E+"), 3u);
   EXPECT_EQ(w.log.count("T+"), 3u);
@@ -174,7 +176,7 @@ TEST(TopologyOps, SplitBoundaryEdgeAndTriangle) {
   // A triangle with a border edge: that edge is destroyed and created anew (same endpoints, new
   // index), as the triangle is replaced.
   w.log.clear();
-  w.t.splitTriangle(2, {0.2, 0.3, 0.5});  // (1, 2, 5), on the border
+  w.t.splitTriangle(TriangleId(2), {0.2, 0.3, 0.5});  // (1, 2, 5), on the border
   EXPECT_EQ(w.log.kinds(), (Strings{"T-", "E-", "P+", "E+", "T+", "end"}));
   EXPECT_EQ(w.log.count("E+"), 3u + w.log.count("E-"));
   w.check();
@@ -250,11 +252,11 @@ TEST(TopologyOps, IncisionRejectsBadPathsWithoutChange) {
   EXPECT_THROW(w.t.incise(border), TopologyError);
   std::vector<PointId> repeated{gridId(5, 1, 2), gridId(5, 2, 2), gridId(5, 1, 2)};
   EXPECT_THROW(w.t.incise(repeated), TopologyError);
-  std::vector<PointId> missing{gridId(5, 1, 2), 999};
+  std::vector<PointId> missing{gridId(5, 1, 2), PointId(999)};
   EXPECT_THROW(w.t.incise(missing), TopologyError);
-  std::vector<PointId> one{3};
+  std::vector<PointId> one{PointId(3)};
   EXPECT_THROW(w.t.incise(one), TopologyError);
-  EXPECT_THROW(w.t.tear(w.t.findEdge(0, 1)), TopologyError);
+  EXPECT_THROW(w.t.tear(w.t.findEdge(topology::PointId(0), topology::PointId(1))), TopologyError);
   try {
     w.t.incise(notConnected);
   } catch (const TopologyError& e) {
@@ -267,7 +269,8 @@ TEST(TopologyOps, IncisionRejectsBadPathsWithoutChange) {
 
 TEST(TopologyOps, CompactRenumbersDensely) {
   Watched w(grid(4));
-  std::vector<topology::TriangleId> tris{0, 1, 7};
+  std::vector<topology::TriangleId> tris{topology::TriangleId(0), topology::TriangleId(1),
+                                         topology::TriangleId(7)};
   w.t.removeTriangles(tris);
   w.t.tear(w.t.findEdge(gridId(4, 1, 1), gridId(4, 2, 2)));
   w.check();
@@ -402,7 +405,7 @@ TEST(TopologyCut, RejectsPolylinesOffTheSurfaceWithoutChange) {
 
 TEST(TopologyOps, TearingTheOneHingeSeparatesItsTriangles) {
   Watched w(oneHinge({0.3, -1, 0}, {0.6, 2, 0}, {0, 0, 0}, {1, 0, 0}));
-  auto r = w.t.tear(w.t.findEdge(2, 3));
+  auto r = w.t.tear(w.t.findEdge(topology::PointId(2), topology::PointId(3)));
   // Both ends of the hinge edge are on the border: both are duplicated.
   EXPECT_EQ(r.copies.size(), 2u);
   EXPECT_TRUE(r.insertedPoints.empty());
@@ -424,7 +427,7 @@ TEST(TopologyOps, IncisionOfAStripFromBorderToBorder) {
     strip.triangles.push_back({a, c, d});
   }
   Watched w(strip);
-  auto r = w.t.incise(std::vector<PointId>{2, 7});
+  auto r = w.t.incise(std::vector<PointId>{PointId(2), PointId(7)});
   EXPECT_EQ(r.copies.size(), 2u);
   EXPECT_EQ(components(w.t), 2u);
   EXPECT_EQ(boundaryEdges(w.t), 10u + 2u);
@@ -434,12 +437,12 @@ TEST(TopologyOps, IncisionOfAStripFromBorderToBorder) {
 TEST(TopologyOps, IncisionOfAClosedSurfaceOpensASlit) {
   MeshData oct;
   oct.points = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  oct.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
-                   {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  oct.triangles = {tri(0, 2, 4), tri(2, 1, 4), tri(1, 3, 4), tri(3, 0, 4),
+                   tri(2, 0, 5), tri(1, 2, 5), tri(3, 1, 5), tri(0, 3, 5)};
   Watched w(oct);
   // From the north pole over (1,0,0) to the south pole: the poles are the slit's tips.
-  auto r = w.t.incise(std::vector<PointId>{4, 0, 5});
-  EXPECT_EQ(r.copiedFrom, (std::vector<PointId>{0}));
+  auto r = w.t.incise(std::vector<PointId>{PointId(4), PointId(0), PointId(5)});
+  EXPECT_EQ(r.copiedFrom, (std::vector<PointId>{PointId(0)}));
   EXPECT_EQ(w.t.numPoints(), 7u);
   EXPECT_EQ(boundaryEdges(w.t), 4u);
   EXPECT_EQ(components(w.t), 1u);

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "cutsim/topology/triangle_grid.hpp"
+#include "support/ids.hpp"
 
 namespace cutsim::topology {
 namespace {
@@ -22,8 +23,8 @@ MeshData grid(int nx, int ny, std::mt19937& rng, double jitter, double fold) {
   for (int j = 0; j + 1 < ny; ++j)
     for (int i = 0; i + 1 < nx; ++i) {
       const Index a = Index(j * nx + i), b = a + 1, c = a + Index(nx), d = c + 1;
-      m.triangles.push_back({a, b, d});
-      m.triangles.push_back({a, d, c});
+      m.triangles.push_back(tri(a, b, d));
+      m.triangles.push_back(tri(a, d, c));
     }
   return m;
 }
@@ -59,7 +60,7 @@ TEST(TriangleGrid, EmptyAndSingleTriangleMeshes) {
   EXPECT_TRUE(std::isinf(e.nearest({0, 0, 0}).first));
   MeshData one;
   one.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  one.triangles = {{0, 1, 2}};
+  one.triangles = {tri(0, 1, 2)};
   const TriangleGrid g(one);
   EXPECT_EQ(g.nearest({0.2, 0.2, 0.5}).first, 0.5);
   EXPECT_EQ(g.nearest({0.2, 0.2, 0.5}).second, std::sqrt(2.0));

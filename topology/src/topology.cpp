@@ -274,7 +274,8 @@ HI Topology::Impl::findHalfedge(VI a, VI b) const {
 }
 
 EdgeId Topology::findEdge(PointId a, PointId b) const {
-  if (!impl_->vertexAlive(VI(a)) || !impl_->vertexAlive(VI(b)) || a == b) return kInvalidIndex;
+  if (!impl_->vertexAlive(VI(a)) || !impl_->vertexAlive(VI(b)) || a == b)
+    return EdgeId(kInvalidIndex);
   HI h = impl_->findHalfedge(VI(a), VI(b));
   return h.is_valid() ? EdgeId(impl_->mesh.edge(h).idx()) : EdgeId(kInvalidIndex);
 }
@@ -358,7 +359,7 @@ double Topology::Impl::localEdgeLength(VI v) const {
 MeshData Topology::toMeshData(std::vector<PointId>* pointIds) const {
   MeshData d;
   const Mesh& m = impl_->mesh;
-  std::vector<PointId> dense(m.num_vertices(), kInvalidIndex);
+  std::vector<PointId> dense(m.num_vertices(), PointId(kInvalidIndex));
   for (VI v : m.vertices()) {
     dense[v.idx()] = PointId(d.points.size());
     d.points.push_back(toVec(m.point(v)));
@@ -746,20 +747,20 @@ void Topology::Impl::commit(Topology& self) {
     // Net lists. Elements created in this transaction have slots >= the *Before marks.
     for (Index f = fBefore; f < mesh.num_faces(); ++f)
       if (!mesh.is_removed(FI(f))) {
-        triC.push_back(f);
+        triC.push_back(TriangleId(f));
         triCV.push_back(verticesOf(FI(f)));
         triCE.push_back(edgesOf(FI(f)));
       }
     for (Index e = eBefore; e < mesh.num_edges(); ++e)
       if (!mesh.is_removed(EI(e))) {
-        edgeC.push_back(e);
+        edgeC.push_back(EdgeId(e));
         HI h = mesh.halfedge(EI(e));
         edgeCV.push_back({PointId(mesh.source(h).idx()), PointId(mesh.target(h).idx())});
       }
     for (Index v = vBefore; v < mesh.num_vertices(); ++v)
       if (!mesh.is_removed(VI(v))) {
-        pointC.push_back(v);
-        if (auto it = ancestry.find(v); it != ancestry.end())
+        pointC.push_back(PointId(v));
+        if (auto it = ancestry.find(PointId(v)); it != ancestry.end())
           for (auto [a, ww] : it->second) {
             anc.push_back(a);
             w.push_back(ww);

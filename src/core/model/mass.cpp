@@ -94,7 +94,7 @@ void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>&
   }
   double scale = 0;
   for (double m : expected) scale = std::max(scale, m);
-  for (std::size_t p = 0; p < expected.size(); ++p)
+  for (topology::PointId p{0}; p < expected.size(); ++p)
     if (std::abs(mass_[p] - expected[p]) > 1e-9 * scale)
       problems.push_back("point " + std::to_string(p) + ": mass " + std::to_string(mass_[p]) +
                          " != rebuilt " + std::to_string(expected[p]));

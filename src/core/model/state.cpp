@@ -39,7 +39,7 @@ void MechanicalState::validate(const topology::Topology& t,
                        std::to_string(t.pointCapacity()));
     return;
   }
-  for (topology::PointId p = 0; p < t.pointCapacity(); ++p) {
+  for (topology::PointId p{0}; p < t.pointCapacity(); ++p) {
     if (!t.isPointAlive(p)) {
       for (int c = 0; c < 3; ++c)
         if (x()[3 * p + c] != 0.0 || v()[3 * p + c] != 0.0)

@@ -93,11 +93,11 @@ std::string_view toString(DihedralStatus status);
 
 /// One hinge as a record: what the table holds for an edge, or what a rebuild computes.
 struct DihedralRecord {
-  EdgeId edge = topology::kInvalidIndex;
+  EdgeId edge = EdgeId::invalid();
   DihedralStatus status = DihedralStatus::NoHinge;
   /// A, B (wings), C, D (edge endpoints); kInvalidIndex unless active.
-  std::array<PointId, 4> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
-                                  topology::kInvalidIndex, topology::kInvalidIndex};
+  std::array<PointId, 4> vertices{PointId::invalid(), PointId::invalid(), PointId::invalid(),
+                                  PointId::invalid()};
   double coefficient = 0.0;  ///< c = k l / (3 (hA + hB)); zero unless active
   double restAngle = 0.0;    ///< theta0 in (-pi, pi]; zero unless active
 };

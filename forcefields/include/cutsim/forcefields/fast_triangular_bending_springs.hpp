@@ -43,12 +43,12 @@ std::string_view toString(AreaWeights weights);
 
 /// One hinge as a record: what the table holds for an edge, or what a rebuild computes.
 struct HingeRecord {
-  EdgeId edge = topology::kInvalidIndex;
+  EdgeId edge = EdgeId::invalid();
   HingeStatus status = HingeStatus::NoHinge;
   bool signedFallback = false;
   /// A, B (wings), C, D (edge endpoints); kInvalidIndex unless status is Active.
-  std::array<PointId, 4> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
-                                  topology::kInvalidIndex, topology::kInvalidIndex};
+  std::array<PointId, 4> vertices{PointId::invalid(), PointId::invalid(), PointId::invalid(),
+                                  PointId::invalid()};
   std::array<double, 4> alpha{};   ///< zeros unless active
   double lambda = 0.0;             ///< zero unless active
   std::array<double, 4> folded{};  ///< sqrt(lambda / k) alpha (zeros unless active)

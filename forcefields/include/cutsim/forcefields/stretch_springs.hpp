@@ -80,8 +80,8 @@ struct StretchTableTraits {
 
 /// One spring as a record: what the table holds for an edge, or what a rebuild computes.
 struct StretchRecord {
-  EdgeId edge = topology::kInvalidIndex;
-  std::array<PointId, 2> vertices{topology::kInvalidIndex, topology::kInvalidIndex};
+  EdgeId edge = EdgeId::invalid();
+  std::array<PointId, 2> vertices{PointId::invalid(), PointId::invalid()};
   double restLength = 0.0;
 };
 

@@ -112,10 +112,9 @@ struct FemTableTraits {
 
 /// One triangle as a record: what the table holds, or what a rebuild computes.
 struct FemRecord {
-  TriangleId triangle = topology::kInvalidIndex;
+  TriangleId triangle = TriangleId::invalid();
   bool degenerate = false;  ///< no element (rest area too small)
-  std::array<PointId, 3> vertices{topology::kInvalidIndex, topology::kInvalidIndex,
-                                  topology::kInvalidIndex};
+  std::array<PointId, 3> vertices{PointId::invalid(), PointId::invalid(), PointId::invalid()};
   std::array<double, 4> g{};  ///< zeros when degenerate (of the scaled rest shape)
   double area = 0.0;          ///< zero when degenerate (scaled rest area)
 };

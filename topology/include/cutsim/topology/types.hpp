@@ -14,17 +14,21 @@ namespace cutsim::topology {
 using Index = std::uint32_t;
 inline constexpr Index kInvalidIndex = std::numeric_limits<Index>::max();
 
-/// A slot of one kind of element. Ids of points, edges and triangles are distinct types: each
-/// converts to and from a plain integer (to index arrays, to write literals), but never into
-/// another kind, so that passing an edge where a point is expected does not compile.
+/// A slot of one kind of element. Ids of points, edges and triangles are distinct types: an id
+/// is made from an integer only explicitly (`PointId(3)`, `EdgeId{e}`), so that an integer or an
+/// id of another kind never becomes one by accident (`PointId p = 3 * edge;` does not compile:
+/// tests/compile_fail/), and reads as an integer (to index arrays) or by idx().
 template <class Tag>
 class Id {
  public:
   constexpr Id() = default;
   template <std::integral T>
-  constexpr Id(T value) : value_(Index(value)) {}      // NOLINT: ids are integers by design
+  explicit constexpr Id(T value) : value_(Index(value)) {}
   constexpr operator Index() const { return value_; }  // NOLINT
   constexpr Index index() const { return value_; }
+  constexpr Index idx() const { return value_; }
+  /// The id of no element (kInvalidIndex).
+  static constexpr Id invalid() { return Id(kInvalidIndex); }
   constexpr Id& operator++() {
     ++value_;
     return *this;
