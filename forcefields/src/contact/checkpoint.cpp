@@ -5,12 +5,55 @@
 namespace cutsim::forcefields {
 
 namespace {
-void saveV3s(ArchiveWriter& out, const std::vector<V3>& v) {
+
+// The members are declared once for both directions (cutsim/base/archive.hpp): fields() for
+// numbers, flags and vectors of doubles, record() for vectors of plain records (pairs, boxes,
+// vectors), each named for the load's messages.
+template <class T>
+void record(ArchiveWriter& out, const std::vector<T>& v, const char*) {
   contact::saveRecords(out, v);
 }
-void loadV3s(ArchiveReader& in, std::vector<V3>& v, const char* what) {
+template <class T>
+void record(ArchiveReader& in, std::vector<T>& v, const char* what) {
   contact::loadRecords(in, v, what);
 }
+
+/// What contact measured at the last step's end (the CSV's figures).
+template <class Archive, class Measure>
+void measured(Archive& a, Measure& m) {
+  fields(a, m.candidates, m.active, m.excluded, m.selfNormal, m.selfFriction, m.obstacleNormal,
+         m.obstacleFriction);
+}
+
+/// The step's obstacle poses, pairs, margins and bounds.
+template <class Archive, class State>
+void stepState(Archive& a, State& s) {
+  record(a, s.offset, "obstacle offsets");
+  record(a, s.velocity, "obstacle velocities");
+  record(a, s.startOffset, "obstacle offsets");
+  record(a, s.move, "obstacle moves");
+  record(a, s.pairs, "pairs");
+  record(a, s.nearPairs, "pairs");
+  record(a, s.sweptMotion, "motions");
+  record(a, s.fastPoint, "fast points");
+  fields(a, s.moveLength, s.pointMargin, s.triMargin, s.obstacleMargin, s.bound);
+  record(a, s.anchor, "anchors");
+  fields(a, s.reframedAny, s.absoluteReach);
+  record(a, s.tight.tri, "boxes");
+  record(a, s.tight.edge, "boxes");
+}
+
+/// The last positions, the search's cache and its schedule.
+template <class Archive, class State>
+void cacheState(Archive& a, State& s) {
+  fields(a, s.lastX);
+  record(a, s.cache, "cached pairs");
+  fields(a, s.cacheX);
+  record(a, s.cacheOffset, "cached offsets");
+  fields(a, s.cacheRevision, s.cacheR, s.cacheBuilt, s.sinceCache, s.obstacleSinceCache,
+         s.cacheUses, s.cacheBuilds, s.usesSinceBuild, s.plainSteps, s.backoff, s.plainSearches);
+}
+
 }  // namespace
 
 void Contact::saveState(ArchiveWriter& out) const {
@@ -18,13 +61,7 @@ void Contact::saveState(ArchiveWriter& out) const {
   using contact::saveRecords;
   out.u64(obstacles_.size());
   for (const Obstacle& o : obstacles_) saveRecords(out, o.path);
-  out.u64(last_.candidates);
-  out.u64(last_.active);
-  out.u64(last_.excluded);
-  out.f64(last_.selfNormal);
-  out.f64(last_.selfFriction);
-  out.f64s(last_.obstacleNormal);
-  out.f64s(last_.obstacleFriction);
+  measured(out, last_);
 
   out.boolean(I.built);
   out.u64(I.revision);
@@ -36,24 +73,7 @@ void Contact::saveState(ArchiveWriter& out) const {
     saveRecords(out, m.boxes);
     m.bvh.save(out);
   }
-  saveV3s(out, I.offset);
-  saveV3s(out, I.velocity);
-  saveV3s(out, I.startOffset);
-  saveV3s(out, I.move);
-  saveRecords(out, I.pairs);
-  saveRecords(out, I.nearPairs);
-  saveV3s(out, I.sweptMotion);
-  saveRecords(out, I.fastPoint);
-  out.f64s(I.moveLength);
-  out.f64s(I.pointMargin);
-  out.f64s(I.triMargin);
-  out.f64s(I.obstacleMargin);
-  out.f64s(I.bound);
-  saveV3s(out, I.anchor);
-  out.boolean(I.reframedAny);
-  out.boolean(I.absoluteReach);
-  saveRecords(out, I.tight.tri);
-  saveRecords(out, I.tight.edge);
+  stepState(out, I);
   out.u64(I.excluded.size());
   for (const auto& key : I.excluded) out.raw(key.data(), sizeof(key));
   out.u64(I.released.size());
@@ -61,18 +81,7 @@ void Contact::saveState(ArchiveWriter& out) const {
     out.u64(a);
     out.u64(b);
   }
-  out.f64s(I.lastX);
-  saveRecords(out, I.cache);
-  out.f64s(I.cacheX);
-  saveV3s(out, I.cacheOffset);
-  out.u64(I.cacheRevision);
-  out.f64(I.cacheR);
-  out.boolean(I.cacheBuilt);
-  out.f64s(I.sinceCache);
-  out.f64s(I.obstacleSinceCache);
-  for (std::size_t v :
-       {I.cacheUses, I.cacheBuilds, I.usesSinceBuild, I.plainSteps, I.backoff, I.plainSearches})
-    out.u64(v);
+  cacheState(out, I);
 }
 
 void Contact::loadState(ArchiveReader& in) {
@@ -88,13 +97,7 @@ void Contact::loadState(ArchiveReader& in) {
       in.fail("contact: obstacle \"" + o.name + "\": " + e.what());
     }
   }
-  last_.candidates = std::size_t(in.u64());
-  last_.active = std::size_t(in.u64());
-  last_.excluded = std::size_t(in.u64());
-  last_.selfNormal = in.f64();
-  last_.selfFriction = in.f64();
-  last_.obstacleNormal = in.f64s();
-  last_.obstacleFriction = in.f64s();
+  measured(in, last_);
 
   const bool built = in.boolean();
   const std::uint64_t revision = in.u64();
@@ -113,24 +116,7 @@ void Contact::loadState(ArchiveReader& in) {
     loadRecords(in, m.boxes, "obstacle boxes");
     m.bvh.load(in);
   }
-  loadV3s(in, I.offset, "obstacle offsets");
-  loadV3s(in, I.velocity, "obstacle velocities");
-  loadV3s(in, I.startOffset, "obstacle offsets");
-  loadV3s(in, I.move, "obstacle moves");
-  loadRecords(in, I.pairs, "pairs");
-  loadRecords(in, I.nearPairs, "pairs");
-  loadV3s(in, I.sweptMotion, "motions");
-  loadRecords(in, I.fastPoint, "fast points");
-  I.moveLength = in.f64s();
-  I.pointMargin = in.f64s();
-  I.triMargin = in.f64s();
-  I.obstacleMargin = in.f64s();
-  I.bound = in.f64s();
-  loadV3s(in, I.anchor, "anchors");
-  I.reframedAny = in.boolean();
-  I.absoluteReach = in.boolean();
-  loadRecords(in, I.tight.tri, "boxes");
-  loadRecords(in, I.tight.edge, "boxes");
+  stepState(in, I);
   const std::uint64_t excluded = in.u64();
   if (excluded > in.remaining() / (5 * sizeof(std::uint32_t)))
     in.fail("contact: a count of " + std::to_string(excluded) + " exclusions");
@@ -148,18 +134,7 @@ void Contact::loadState(ArchiveReader& in) {
     const auto a = std::uint32_t(in.u64()), b = std::uint32_t(in.u64());
     I.released.insert({a, b});
   }
-  I.lastX = in.f64s();
-  loadRecords(in, I.cache, "cached pairs");
-  I.cacheX = in.f64s();
-  loadV3s(in, I.cacheOffset, "cached offsets");
-  I.cacheRevision = in.u64();
-  I.cacheR = in.f64();
-  I.cacheBuilt = in.boolean();
-  I.sinceCache = in.f64s();
-  I.obstacleSinceCache = in.f64s();
-  for (std::size_t* v : {&I.cacheUses, &I.cacheBuilds, &I.usesSinceBuild, &I.plainSteps, &I.backoff,
-                         &I.plainSearches})
-    *v = std::size_t(in.u64());
+  cacheState(in, I);
   I.evalValid = false;
   I.sweep = nullptr;
   // Every index the records hold must be one of this mesh's.
