@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <variant>
 
 #include "cutsim/base/errors.hpp"
@@ -64,14 +66,17 @@ class MapSource final : public ParameterSource {
   }
 };
 
-/// A value of a key's declared type: numbers 0.2, points [0.1, 0.2, 0.3] (a nonzero normal,
-/// positive sizes), a string's declared example.
-MapSource::Value valueOf(const KeyInfo& key) {
+/// A value of a key's declared type: numbers 0.2, points [0.1, 0.2, 0.3] moved by 0.1 more for
+/// each point key before it (a nonzero normal, positive sizes, a capsule's two distinct ends), a
+/// string's declared example.
+MapSource::Value valueOf(const KeyInfo& key, int pointsBefore) {
   switch (key.type) {
     case KeyType::Number:
       return 0.2;
-    case KeyType::Point:
-      return Vec3{0.1, 0.2, 0.3};
+    case KeyType::Point: {
+      const double s = 0.1 * pointsBefore;
+      return Vec3{0.1 + s, 0.2 + s, 0.3 + s};
+    }
     case KeyType::String:
       if (key.choices.empty()) ADD_FAILURE() << key.name << ": a string key declares no example";
       return key.choices.empty() ? std::string() : key.choices.back();
@@ -83,7 +88,9 @@ MapSource::Value valueOf(const KeyInfo& key) {
 
 MapSource everyKey(const ObstacleShapeRegistry::Entry& e) {
   MapSource s;
-  for (const KeyInfo& k : e.keys) s.values[k.name] = valueOf(k);
+  int points = 0;
+  for (const KeyInfo& k : e.keys)
+    s.values[k.name] = valueOf(k, k.type == KeyType::Point ? points++ : points);
   return s;
 }
 
@@ -216,6 +223,55 @@ TEST(ObstacleShapes, DistancesGradientsClosestPointsBoundsAndSurfacesAgree) {
       }
       // Inside is negative for a solid shape only.
       if (!shape->solid()) EXPECT_GE(s, 0.0);
+    }
+  }
+}
+
+// What contact takes of a shape (its half-space, its round core, its triangles) is the shape its
+// queries describe: on the surface, with the distance's gradient as the plane's normal.
+TEST(ObstacleShapes, WhatContactMeetsIsTheShapeTheQueriesDescribe) {
+  const Vec3 zero{0, 0, 0};
+  for (const auto& [name, entry] : ObstacleShapeRegistry::instance().entries()) {
+    SCOPED_TRACE(name);
+    const auto shape = forcefields::makeObstacleShape(name, everyKey(entry));
+    Vec3 g;
+    switch (shape->meets()) {
+      case ObstacleShape::Meets::HalfSpace: {
+        Vec3 p, n;
+        shape->halfSpace(p, n);
+        EXPECT_NEAR(shape->signedDistance(p, zero, g), 0.0, 1e-12);
+        EXPECT_NEAR(v3(n).norm(), 1.0, 1e-12);
+        EXPECT_LT((v3(n) - v3(g)).norm(), 1e-12);
+        const Vec3 out{p[0] + n[0], p[1] + n[1], p[2] + n[2]};
+        EXPECT_NEAR(shape->signedDistance(out, zero, g), 1.0, 1e-12);
+        EXPECT_THROW(shape->round(), std::logic_error);
+        break;
+      }
+      case ObstacleShape::Meets::Round: {
+        const auto core = shape->round();
+        EXPECT_EQ(core.point, core.a == core.b) << "a point core is a sphere's";
+        // Points at the radius from the core's ends and middle, sideways, are on the surface.
+        const V3 a = v3(core.a), b = v3(core.b), axis = b - a;
+        const V3 side = axis.norm() > 0 ? axis.unitOrthogonal() : V3::UnitX();
+        for (double t : {0.0, 0.5, 1.0}) {
+          const V3 q = a + t * axis + core.radius * side;
+          EXPECT_NEAR(shape->signedDistance({q.x(), q.y(), q.z()}, zero, g), 0.0, 1e-12) << t;
+        }
+        EXPECT_NEAR(shape->signedDistance(core.a, zero, g), -core.radius, 1e-12);
+        break;
+      }
+      case ObstacleShape::Meets::Mesh: {
+        std::vector<Vec3> pts;
+        std::vector<std::array<int, 3>> tris;
+        shape->triangles(pts, tris);
+        ASSERT_FALSE(tris.empty());
+        for (const auto& t : tris)
+          for (int c : t) {
+            ASSERT_LT(std::size_t(c), pts.size());
+            EXPECT_NEAR(shape->signedDistance(pts[std::size_t(c)], zero, g), 0.0, 1e-12);
+          }
+        break;
+      }
     }
   }
 }

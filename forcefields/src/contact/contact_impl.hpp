@@ -19,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <set>
 #include <span>
@@ -135,7 +136,7 @@ struct Contact::Impl {
   bool meshLike(std::size_t k) const { return meets[k] == ObstacleShape::Meets::Mesh; }
   bool roundLike(std::size_t k) const { return meets[k] == ObstacleShape::Meets::Round; }
   /// A round obstacle whose core is a point (a sphere).
-  bool roundPoint(std::size_t k) const { return roundLike(k) && cores[k].a == cores[k].b; }
+  bool roundPoint(std::size_t k) const { return roundLike(k) && cores[k].point; }
   V3 obstaclePoint(int k, std::uint32_t i) const {
     const Vec3& v = meshes[std::size_t(k)].vertices[i];
     return V3(v[0], v[1], v[2]) + offset[std::size_t(k)];

@@ -1,5 +1,7 @@
 // Following the topology: the exclusions and released pairs renumbered with the points, the
 // tables marked stale after a transaction, and validate() against a rebuild (contact_impl.hpp).
+#include <sstream>
+
 #include "contact_impl.hpp"
 
 namespace cutsim::forcefields {

@@ -318,7 +318,7 @@ void checkComponentKeys(const Reader& r, const json& obj, const std::string& ptr
                         std::string_view typeKey = "type") {
   for (auto it = obj.begin(); it != obj.end(); ++it) {
     const std::string& key = it.key();
-    if (key == typeKey) continue;
+    if (!typeKey.empty() && key == typeKey) continue;
     if (std::find(extraKeys.begin(), extraKeys.end(), key) != extraKeys.end()) continue;
     bool known = false;
     for (const KeyInfo& k : entry.keys) known = known || k.name == key;

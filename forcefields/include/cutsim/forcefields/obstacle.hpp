@@ -22,11 +22,12 @@ struct ObstacleBounds {
   Vec3 lo{0, 0, 0}, hi{0, 0, 0};
 };
 
-/// A sphere or a capsule as contact meets it: the segment a-b (a == b: a point) thickened by a
-/// radius.
+/// A sphere or a capsule as contact meets it: the segment a-b thickened by a radius; `point`: the
+/// core is the point a (a sphere: contact then also culls triangles by their planes).
 struct RoundCore {
   Vec3 a{0, 0, 0}, b{0, 0, 0};
   double radius = 0.0;
+  bool point = false;
 };
 
 /// The geometry of an obstacle, at rest (offset zero); immutable once built.
@@ -50,6 +51,7 @@ class ObstacleShape {
   /// surface is q - distance * gradient.
   virtual double signedDistance(const Vec3& q, const Vec3& offset, Vec3& gradient) const = 0;
   /// Whether signedDistance() is negative inside (false: an open mesh's unsigned distance).
+  /// (surface(): the points and triangles are replaced.)
   virtual bool solid() const { return true; }
   /// The bounds of the shape moved by `offset` (a plane: the whole space).
   virtual ObstacleBounds bounds(const Vec3& offset) const = 0;

@@ -66,6 +66,8 @@ class BoxShape final : public ObstacleShape {
   }
   void surface(const Vec3& o, double, std::vector<Vec3>& pts,
                std::vector<std::array<int, 3>>& tris) const override {
+    pts.clear();
+    tris.clear();
     auto add = pointAdder(pts, o);
     const Vec3& h = half_;
     const Vec3& c = center_;

@@ -1,4 +1,4 @@
-// The triangle-mesh obstacle (any triangle soup read from an OBJ, OFF or STL file). Contact
+// The triangle-mesh obstacle (any triangle soup read from an OBJ, OFF or Gmsh file). Contact
 // meets it through its triangles (ObstacleShape::Meets::Mesh); its distance is unsigned (an
 // open soup has no inside).
 #include <filesystem>
@@ -89,6 +89,8 @@ class MeshShape final : public ObstacleShape {
   }
   void surface(const Vec3& o, double, std::vector<Vec3>& pts,
                std::vector<std::array<int, 3>>& tris) const override {
+    pts.clear();
+    tris.clear();
     auto add = pointAdder(pts, o);
     for (const Vec3& v : vertices_) add(v[0], v[1], v[2]);
     tris = triangles_;
@@ -104,7 +106,7 @@ class MeshShape final : public ObstacleShape {
 };
 
 const bool registered = ObstacleShapeRegistry::instance().add(shapeEntry<MeshShape>(
-    "mesh", "a triangle soup from a mesh file (OBJ, OFF, STL), moved and scaled",
+    "mesh", "a triangle soup from a mesh file (OBJ, OFF, Gmsh .msh), moved and scaled",
     {{"file",
       KeyType::String,
       "a mesh file, relative to the scene's folder",

@@ -51,6 +51,8 @@ class PlaneShape final : public ObstacleShape {
   }
   void surface(const Vec3& o, double planeSize, std::vector<Vec3>& pts,
                std::vector<std::array<int, 3>>& tris) const override {
+    pts.clear();
+    tris.clear();
     auto add = pointAdder(pts, o);
     const double l = norm3(normal_);
     const Vec3 n{normal_[0] / l, normal_[1] / l, normal_[2] / l};

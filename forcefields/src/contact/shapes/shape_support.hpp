@@ -3,8 +3,11 @@
 // code's vectors, the checks every shape makes, and the registration of a shape that is its own
 // parameter struct.
 #include <Eigen/Core>
+#include <algorithm>
 #include <any>
+#include <array>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -59,6 +62,8 @@ inline auto pointAdder(std::vector<Vec3>& points, const Vec3& offset) {
 inline void roundSurface(const Vec3& a, const Vec3& b, double radius, bool capsule,
                          const Vec3& offset, std::vector<Vec3>& pts,
                          std::vector<std::array<int, 3>>& tris) {
+  pts.clear();
+  tris.clear();
   auto add = pointAdder(pts, offset);
   const double pi = std::numbers::pi;
   const int nu = 24, nv = 12;

@@ -36,7 +36,7 @@ class SphereShape final : public ObstacleShape {
   ObstacleBounds bounds(const Vec3& o) const override {
     return ballBounds({{center_[0] + o[0], center_[1] + o[1], center_[2] + o[2]}}, radius_);
   }
-  RoundCore round() const override { return {center_, center_, radius_}; }
+  RoundCore round() const override { return {center_, center_, radius_, true}; }
   void surface(const Vec3& o, double, std::vector<Vec3>& pts,
                std::vector<std::array<int, 3>>& tris) const override {
     roundSurface(center_, center_, radius_, false, o, pts, tris);
