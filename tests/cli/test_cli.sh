@@ -144,8 +144,25 @@ if expect_code 0 "components"; then
     grep -q -- "$word" "$tmp/out" || fail "components does not list $word"
   done
 fi
+# (the step hooks and the obstacle shapes, each kind alone too)
+run components hooks
+if expect_code 0 "components hooks"; then
+  for word in "step hooks" "contact:" "thickness (number, required)" "selfContact (boolean)"; do
+    checks=$((checks + 1))
+    grep -q -- "$word" "$tmp/out" || fail "components hooks does not list $word"
+  done
+fi
+run components obstacles
+if expect_code 0 "components obstacles"; then
+  for word in "obstacle shapes" "plane:" "sphere:" "box:" "capsule:" "mesh:" "normal (point, required)"; do
+    checks=$((checks + 1))
+    grep -q -- "$word" "$tmp/out" || fail "components obstacles does not list $word"
+  done
+  checks=$((checks + 1))
+  ! grep -q "StretchSprings" "$tmp/out" || fail "components obstacles lists force fields too"
+fi
 run components magnets
-expect_code 2 "components magnets" && { grep -q "forcefields, integrators, linearsolvers, constraints, actions" "$tmp/err" || fail "components magnets: $(cat "$tmp/err")"; }
+expect_code 2 "components magnets" && { grep -q "forcefields, integrators, linearsolvers, constraints, actions, hooks, obstacles" "$tmp/err" || fail "components magnets: $(cat "$tmp/err")"; }
 
 # ---- --version ----
 run --version
