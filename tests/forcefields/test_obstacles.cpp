@@ -237,13 +237,20 @@ TEST(ObstacleShapes, WhatContactMeetsIsTheShapeTheQueriesDescribe) {
     Vec3 g;
     switch (shape->meets()) {
       case ObstacleShape::Meets::HalfSpace: {
-        Vec3 p, n;
-        shape->halfSpace(p, n);
-        EXPECT_NEAR(shape->signedDistance(p, zero, g), 0.0, 1e-12);
-        EXPECT_NEAR(v3(n).norm(), 1.0, 1e-12);
-        EXPECT_LT((v3(n) - v3(g)).norm(), 1e-12);
-        const Vec3 out{p[0] + n[0], p[1] + n[1], p[2] + n[2]};
-        EXPECT_NEAR(shape->signedDistance(out, zero, g), 1.0, 1e-12);
+        // Contact takes a triangle's distance to a half-space as its nearest corner's: the
+        // distance is linear (a point between two has the weighted mean of theirs) and its
+        // gradient constant.
+        const Vec3 p{0.3, -0.7, 0.2}, q{-0.5, 0.4, 0.9};
+        Vec3 gp, gq;
+        const double sp = shape->signedDistance(p, zero, gp),
+                     sq = shape->signedDistance(q, zero, gq);
+        for (double t : {0.25, 0.5, 0.9}) {
+          const Vec3 m{p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]),
+                       p[2] + t * (q[2] - p[2])};
+          EXPECT_NEAR(shape->signedDistance(m, zero, g), sp + t * (sq - sp), 1e-12) << t;
+          EXPECT_LT((v3(g) - v3(gp)).norm(), 1e-12);
+        }
+        EXPECT_LT((v3(gp) - v3(gq)).norm(), 1e-12);
         EXPECT_THROW(shape->round(), std::logic_error);
         break;
       }

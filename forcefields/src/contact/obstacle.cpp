@@ -12,9 +12,6 @@ namespace cutsim::forcefields {
 
 ObstacleShape::~ObstacleShape() = default;
 
-void ObstacleShape::halfSpace(Vec3&, Vec3&) const {
-  throw std::logic_error("the obstacle shape " + name() + " is not a half-space");
-}
 RoundCore ObstacleShape::round() const {
   throw std::logic_error("the obstacle shape " + name() + " is not round");
 }

@@ -35,7 +35,7 @@ class ObstacleShape {
  public:
   /// How contact's pair search meets the shape:
   /// - HalfSpace: each surface point against the signed distance (a plane; the distance is
-  ///   linear over a triangle);
+  ///   linear over a triangle: contact asks only signedDistance());
   /// - Round: each surface triangle's closest feature against round() (spheres, capsules);
   /// - Mesh: the surface's points, edges and triangles against triangles() (boxes, meshes).
   enum class Meets { HalfSpace, Round, Mesh };
@@ -59,8 +59,6 @@ class ObstacleShape {
   /// point).
   virtual void surface(const Vec3& offset, double planeSize, std::vector<Vec3>& points,
                        std::vector<std::array<int, 3>>& triangles) const = 0;
-  /// Meets::HalfSpace: a point on the plane and its unit normal (the free side).
-  virtual void halfSpace(Vec3& point, Vec3& normal) const;
   /// Meets::Round: its core and radius.
   virtual RoundCore round() const;
   /// Meets::Mesh: its triangles at rest (any triangle soup).
@@ -89,8 +87,6 @@ struct Obstacle {
   /// The shape's surface at offset `offset`, for drawing.
   void surface(const Vec3& offset, double planeSize, std::vector<Vec3>& points,
                std::vector<std::array<int, 3>>& triangles) const {
-    points.clear();
-    triangles.clear();
     shape->surface(offset, planeSize, points, triangles);
   }
   /// The shape's registered name.

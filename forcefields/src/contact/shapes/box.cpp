@@ -1,6 +1,5 @@
 // The box obstacle (axis-aligned). Contact meets it through its twelve triangles
 // (ObstacleShape::Meets::Mesh); its signed distance is exact, inside too.
-#include <optional>
 #include <string>
 
 #include "shape_support.hpp"
@@ -23,9 +22,7 @@ class BoxShape final : public ObstacleShape {
       if (!(size[k] > 0)) s.fail("size/" + std::to_string(k), "must be > 0");
       half[k] = size[k] / 2;
     }
-    std::optional<BoxShape> out;
-    s.check([&] { out.emplace(c, half); });
-    return *out;
+    return checked<BoxShape>(s, c, half);
   }
 
   std::string name() const override { return "box"; }
@@ -78,8 +75,6 @@ class BoxShape final : public ObstacleShape {
             {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
   }
   void triangles(std::vector<Vec3>& points, std::vector<std::array<int, 3>>& tris) const override {
-    points.clear();
-    tris.clear();
     surface({0, 0, 0}, 0.0, points, tris);
   }
 

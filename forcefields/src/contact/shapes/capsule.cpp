@@ -1,7 +1,6 @@
 // The capsule obstacle (a rod, an instrument's shaft): the segment a-b thickened by a radius.
 // Contact meets it as a round core (ObstacleShape::Meets::Round).
 #include <algorithm>
-#include <optional>
 
 #include "shape_support.hpp"
 
@@ -20,9 +19,7 @@ class CapsuleShape final : public ObstacleShape {
     const Vec3 b = s.vec3("b");
     s.require("radius");
     const double r = s.positive("radius", 0.0);
-    std::optional<CapsuleShape> out;
-    s.check([&] { out.emplace(a, b, r); });
-    return *out;
+    return checked<CapsuleShape>(s, a, b, r);
   }
 
   std::string name() const override { return "capsule"; }

@@ -2,7 +2,6 @@
 // meets it through its triangles (ObstacleShape::Meets::Mesh); its distance is unsigned (an
 // open soup has no inside).
 #include <filesystem>
-#include <optional>
 
 #include "../geometry.hpp"
 #include "cutsim/topology/mesh_io.hpp"
@@ -37,9 +36,7 @@ class MeshShape final : public ObstacleShape {
       triangles.push_back({int(topology::Index(tri[0])), int(topology::Index(tri[1])),
                            int(topology::Index(tri[2]))});
     if (triangles.empty()) s.fail("file", "the obstacle mesh " + file + " has no triangle");
-    std::optional<MeshShape> out;
-    s.check([&] { out.emplace(std::move(vertices), std::move(triangles)); });
-    return *out;
+    return checked<MeshShape>(s, std::move(vertices), std::move(triangles));
   }
 
   std::string name() const override { return "mesh"; }

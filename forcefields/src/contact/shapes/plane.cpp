@@ -1,7 +1,6 @@
 // The plane obstacle: the half-space on the side its normal points to is free. Contact meets it
 // point by point (ObstacleShape::Meets::HalfSpace).
 #include <cmath>
-#include <optional>
 
 #include "shape_support.hpp"
 
@@ -24,9 +23,7 @@ class PlaneShape final : public ObstacleShape {
     const Vec3 n = s.vec3("normal");
     if (!(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-24))
       s.fail("normal", "must be a nonzero vector");
-    std::optional<PlaneShape> out;
-    s.check([&] { out.emplace(point, n); });
-    return *out;
+    return checked<PlaneShape>(s, point, n);
   }
 
   std::string name() const override { return "plane"; }
@@ -44,10 +41,6 @@ class PlaneShape final : public ObstacleShape {
   ObstacleBounds bounds(const Vec3&) const override {
     constexpr double inf = std::numeric_limits<double>::infinity();
     return {{-inf, -inf, -inf}, {inf, inf, inf}};
-  }
-  void halfSpace(Vec3& point, Vec3& normal) const override {
-    point = point_;
-    normal = normal_;
   }
   void surface(const Vec3& o, double planeSize, std::vector<Vec3>& pts,
                std::vector<std::array<int, 3>>& tris) const override {

@@ -11,6 +11,8 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include "cutsim/base/errors.hpp"
@@ -102,6 +104,15 @@ inline void roundSurface(const Vec3& a, const Vec3& b, double radius, bool capsu
       tris.push_back({p00, p01, p11});
       tris.push_back({p00, p11, p10});
     }
+}
+
+/// S(args...), its constructor's InvalidInput reported by `s` at the key it names (a shape's
+/// read()).
+template <class S, class... Args>
+S checked(const ParameterSource& s, Args&&... args) {
+  std::optional<S> out;
+  s.check([&] { out.emplace(std::forward<Args>(args)...); });
+  return std::move(*out);
 }
 
 /// The registry entry of a shape class S that is its own parameter struct: S::read(source)

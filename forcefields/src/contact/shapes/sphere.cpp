@@ -1,6 +1,5 @@
 // The sphere obstacle. Contact meets it as a round core (ObstacleShape::Meets::Round): a point
 // thickened by the radius.
-#include <optional>
 
 #include "shape_support.hpp"
 
@@ -16,9 +15,7 @@ class SphereShape final : public ObstacleShape {
     const Vec3 c = s.vec3("center");
     s.require("radius");
     const double r = s.positive("radius", 0.0);
-    std::optional<SphereShape> out;
-    s.check([&] { out.emplace(c, r); });
-    return *out;
+    return checked<SphereShape>(s, c, r);
   }
 
   std::string name() const override { return "sphere"; }
