@@ -46,7 +46,7 @@ std::unique_ptr<Scene> makeScene(int n, bool shuffled) {
   std::mt19937_64 rng(42);
   if (shuffled) std::shuffle(id.begin(), id.end(), rng);
   std::vector<Vec3> placed(pts.size());
-  for (std::size_t k = 0; k < pts.size(); ++k) placed[id[k]] = pts[k];
+  for (std::size_t k = 0; k < pts.size(); ++k) placed[id[k].idx()] = pts[k];
   const auto v = [&](int i, int j) { return id[static_cast<std::size_t>(j * n + i)]; };
   for (int j = 0; j + 1 < n; ++j) {
     for (int i = 0; i + 1 < n; ++i) {

@@ -135,7 +135,7 @@ Setup make(Shape shape, bool contact, double searchSlack = ContactParameters{}.s
     const auto r = sim.topology().restPosition(p);
     const auto q =
         shape == Shape::Drape ? std::array<double, 3>{r[0], r[1], r[2]} : placed(shape, r[0], r[1]);
-    for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = q[std::size_t(c)];
+    for (int c = 0; c < 3; ++c) x[3 * p.idx() + std::size_t(c)] = q[std::size_t(c)];
   }
   if (contact) {
     ContactParameters c;

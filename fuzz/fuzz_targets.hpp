@@ -88,7 +88,8 @@ inline void checkReadMesh(const topology::MeshData& m) {
     require(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]),
             "the reader accepted a non-finite coordinate");
   for (const auto& t : m.triangles) {
-    for (auto v : t) require(v < m.points.size(), "the reader accepted an out-of-range index");
+    for (auto v : t)
+      require(v.idx() < m.points.size(), "the reader accepted an out-of-range index");
     require(t[0] != t[1] && t[1] != t[2] && t[0] != t[2], "the reader accepted a repeated vertex");
   }
   try {
@@ -255,7 +256,7 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
           if (live.empty()) break;
           const topology::EdgeId e = live[in.pick(live.size())];
           const double t = in.unit();
-          name += " " + std::to_string(e) + " t " + std::to_string(t);
+          name += " " + std::to_string(e.idx()) + " t " + std::to_string(t);
           topo.splitEdge(e, t);
           break;
         }
@@ -264,7 +265,7 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
           const auto live = topo.edges();
           if (live.empty()) break;
           const topology::EdgeId e = live[in.pick(live.size())];
-          name += " " + std::to_string(e);
+          name += " " + std::to_string(e.idx());
           topo.tear(e);
           break;
         }
@@ -280,7 +281,7 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
             const auto ev = topo.edgeVertices(around[in.pick(around.size())]);
             path.push_back(ev[0] == path.back() ? ev[1] : ev[0]);
           }
-          for (auto p : path) name += " " + std::to_string(p);
+          for (auto p : path) name += " " + std::to_string(p.idx());
           topo.incise(path);
           break;
         }
@@ -291,7 +292,7 @@ inline void fuzzTopologyOps(const std::uint8_t* data, std::size_t size,
           std::vector<topology::TriangleId> chosen;
           const int n = 1 + in.byte() % 3;
           for (int k = 0; k < n; ++k) chosen.push_back(live[in.pick(live.size())]);
-          for (auto t : chosen) name += " " + std::to_string(t);
+          for (auto t : chosen) name += " " + std::to_string(t.idx());
           topo.removeTriangles(chosen);
           break;
         }

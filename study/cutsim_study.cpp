@@ -146,7 +146,7 @@ std::vector<double> restOf(const Topology& t) {
   std::vector<double> x(3 * static_cast<std::size_t>(t.pointCapacity()), 0.0);
   for (PointId p : t.points()) {
     const Vec3 r = t.restPosition(p);
-    for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k];
+    for (int k = 0; k < 3; ++k) x[3 * p.idx() + k] = r[k];
   }
   return x;
 }
@@ -161,9 +161,9 @@ std::vector<double> rolled(const Topology& t, double r, double angle, double cx,
     const double dx = q[0] - cx, dy = q[1] - cy;
     const double w = dx * ax + dy * ay, u = dx * nx + dy * ny;
     const double a = r * std::sin(u / r), z = r * (1.0 - std::cos(u / r));
-    x[3 * p] = cx + w * ax + a * nx;
-    x[3 * p + 1] = cy + w * ay + a * ny;
-    x[3 * p + 2] = z;
+    x[3 * p.idx()] = cx + w * ax + a * nx;
+    x[3 * p.idx() + 1] = cy + w * ay + a * ny;
+    x[3 * p.idx() + 2] = z;
   }
   return x;
 }
@@ -501,10 +501,10 @@ void cantilever(std::ofstream& summary) {
         std::vector<double> load(3 * topo.pointCapacity(), 0.0);
         for (PointId p : topo.points()) {
           const Vec3 r = topo.restPosition(p);
-          if (r[0] < 1.5 * h) fixed[p] = true;  // the clamp: two columns
+          if (r[0] < 1.5 * h) fixed[p.idx()] = true;  // the clamp: two columns
           if (r[0] > L - 1e-9) {
             const bool corner = r[1] < 1e-9 || r[1] > b - 1e-9;
-            load[3 * p + 2] = F / (ny - 1) * (corner ? 0.5 : 1.0);
+            load[3 * p.idx() + 2] = F / (ny - 1) * (corner ? 0.5 : 1.0);
           }
         }
         const double w = cantileverDeflection(topo, {&stretch, bend.get()}, fixed, load);

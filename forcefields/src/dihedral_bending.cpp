@@ -308,7 +308,9 @@ std::vector<DihedralRecord> DihedralBending::buildFromScratch(const Topology& to
 
 DihedralHinge DihedralBending::toEntry(const DihedralRecord& r) {
   return DihedralHinge{
-      {r.vertices[0], r.vertices[1], r.vertices[2], r.vertices[3]}, r.coefficient, r.restAngle};
+      {r.vertices[0].idx(), r.vertices[1].idx(), r.vertices[2].idx(), r.vertices[3].idx()},
+      r.coefficient,
+      r.restAngle};
 }
 
 void DihedralBending::fillRecord(const DihedralHinge& h, DihedralRecord& r) const {
@@ -460,8 +462,8 @@ void DihedralBending::addForceOfRecords(std::span<const DihedralRecord> records,
                                         std::span<const double> x, std::span<double> f) {
   for (const DihedralRecord& r : records) {
     if (r.status != DihedralStatus::Active) continue;
-    const std::array<std::uint32_t, 4> v{r.vertices[0], r.vertices[1], r.vertices[2],
-                                         r.vertices[3]};
+    const std::array<std::uint32_t, 4> v{r.vertices[0].idx(), r.vertices[1].idx(),
+                                         r.vertices[2].idx(), r.vertices[3].idx()};
     hingeForce(x.data(), f.data(), v, r.coefficient, r.restAngle);
   }
 }
@@ -503,7 +505,7 @@ void DihedralBending::fillValidationPositions(const Topology& topology, std::spa
   std::uniform_real_distribution<double> dist(-0.1, 0.1);
   for (PointId p : topology.points()) {
     const Vec3 r = topology.restPosition(p);
-    for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k] * (1.0 + dist(rng)) + dist(rng);
+    for (int k = 0; k < 3; ++k) x[3 * p.idx() + k] = r[k] * (1.0 + dist(rng)) + dist(rng);
   }
 }
 

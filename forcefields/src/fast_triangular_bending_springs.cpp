@@ -90,10 +90,11 @@ std::vector<HingeRecord> FastTriangularBendingSprings::buildFromScratch(
 
 BendingSpring FastTriangularBendingSprings::toEntry(const HingeRecord& r) {
   // root = w_A + w_B = sqrt(lambda / k) (alpha_A + alpha_B), alpha_A + alpha_B = 1.
-  return BendingSpring{{r.vertices[0], r.vertices[1], r.vertices[2], r.vertices[3]},
-                       r.folded[0],
-                       r.folded[2],
-                       r.folded[0] + r.folded[1]};
+  return BendingSpring{
+      {r.vertices[0].idx(), r.vertices[1].idx(), r.vertices[2].idx(), r.vertices[3].idx()},
+      r.folded[0],
+      r.folded[2],
+      r.folded[0] + r.folded[1]};
 }
 
 void FastTriangularBendingSprings::fillRecord(const BendingSpring& s, HingeRecord& r) const {
@@ -206,8 +207,8 @@ void FastTriangularBendingSprings::addForceOfRecords(std::span<const HingeRecord
                                                      std::span<double> f) {
   for (const HingeRecord& h : records) {
     if (h.status != HingeStatus::Active) continue;
-    const std::array<std::uint32_t, 4> v{h.vertices[0], h.vertices[1], h.vertices[2],
-                                         h.vertices[3]};
+    const std::array<std::uint32_t, 4> v{h.vertices[0].idx(), h.vertices[1].idx(),
+                                         h.vertices[2].idx(), h.vertices[3].idx()};
     // The spec's form (alpha, lambda), independent of the folded weights of the table.
     double r[3];
     hingeResidual(x.data(), v.data(), h.alpha.data(), r);

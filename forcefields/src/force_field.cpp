@@ -12,8 +12,8 @@ void MatrixAccumulator::addScaledIdentity(PointId i, PointId j, double s) {
 }
 
 void TripletAccumulator::addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) {
-  const Eigen::Index r = 3 * static_cast<Eigen::Index>(i);
-  const Eigen::Index c = 3 * static_cast<Eigen::Index>(j);
+  const Eigen::Index r = 3 * static_cast<Eigen::Index>(i.idx());
+  const Eigen::Index c = 3 * static_cast<Eigen::Index>(j.idx());
   // Every entry, zeros included, so that the sparsity pattern depends only on the topology.
   for (int a = 0; a < 3; ++a) {
     for (int k = 0; k < 3; ++k) triplets_.emplace_back(r + a, c + k, b(a, k));
@@ -21,8 +21,8 @@ void TripletAccumulator::addBlock(PointId i, PointId j, const Eigen::Matrix3d& b
 }
 
 void TripletAccumulator::addScaledIdentity(PointId i, PointId j, double s) {
-  const Eigen::Index r = 3 * static_cast<Eigen::Index>(i);
-  const Eigen::Index c = 3 * static_cast<Eigen::Index>(j);
+  const Eigen::Index r = 3 * static_cast<Eigen::Index>(i.idx());
+  const Eigen::Index c = 3 * static_cast<Eigen::Index>(j.idx());
   for (int a = 0; a < 3; ++a) triplets_.emplace_back(r + a, c + a, s);
 }
 

@@ -16,7 +16,7 @@
 namespace cutsim::forcefields::detail {
 
 inline std::string edgeName(topology::EdgeId e) {
-  return "edge " + std::to_string(e);
+  return "edge " + std::to_string(e.idx());
 }
 
 /// The hinge of edge e: A, B (the vertices opposite e in edgeTriangles(e)[0] and [1]), C, D
@@ -24,7 +24,7 @@ inline std::string edgeName(topology::EdgeId e) {
 inline std::optional<std::array<topology::PointId, 4>> hingeVertices(const topology::Topology& t,
                                                                      topology::EdgeId e) {
   const std::array<topology::TriangleId, 2> tris = t.edgeTriangles(e);
-  if (tris[0] == topology::kInvalidIndex || tris[1] == topology::kInvalidIndex) {
+  if (tris[0].idx() == topology::kInvalidIndex || tris[1].idx() == topology::kInvalidIndex) {
     return std::nullopt;
   }
   const topology::EdgeVertices ev = t.edgeVertices(e);
@@ -96,7 +96,7 @@ void HingeTable<F, T>::attach(topology::Topology& topology) {
 
 template <class F, class T>
 void HingeTable<F, T>::setEdge(topology::EdgeId e, const Record& r) {
-  if (e >= Table::kSlotLimit) {
+  if (e.idx() >= Table::kSlotLimit) {
     throw std::length_error(std::string(T::kName) + ": edge id too large");
   }
   const topology::Index old = table_.find(e);
@@ -150,7 +150,7 @@ auto HingeTable<F, T>::entryRecord(std::size_t i) const -> Record {
 template <class F, class T>
 auto HingeTable<F, T>::liveRecords() const -> std::vector<Record> {
   std::vector<Record> out;
-  for (topology::EdgeId e{0}; e < table_.numSlots(); ++e) {
+  for (topology::EdgeId e{0}; e.idx() < table_.numSlots(); ++e) {
     if (!table_.isEmpty(e)) out.push_back(hinge(e));
   }
   return out;
@@ -159,7 +159,7 @@ auto HingeTable<F, T>::liveRecords() const -> std::vector<Record> {
 template <class F, class T>
 auto HingeTable<F, T>::recount() const -> Counters {
   Counters c;
-  for (topology::EdgeId e{0}; e < table_.numSlots(); ++e) {
+  for (topology::EdgeId e{0}; e.idx() < table_.numSlots(); ++e) {
     const topology::Index i = table_.find(e);
     if (i != Table::kNoEntry) {
       countStatus(c, Status::Active, +1);

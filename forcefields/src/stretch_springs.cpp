@@ -22,7 +22,7 @@ using topology::Topology;
 constexpr double kMinLength2 = std::numeric_limits<double>::min();
 
 std::string edgeName(EdgeId e) {
-  return "edge " + std::to_string(e);
+  return "edge " + std::to_string(e.idx());
 }
 
 /// The rest length of the segment (a, b): restScale times its length in the mesh's rest
@@ -86,7 +86,7 @@ StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
   const std::vector<StretchRecord> records = buildFromScratch(topology, params_);
   table_.reset(topology.edgeCapacity(), records.size());
   for (const StretchRecord& r : records) {
-    table_.set(r.edge, {r.vertices[0], r.vertices[1], r.restLength});
+    table_.set(r.edge, {r.vertices[0].idx(), r.vertices[1].idx(), r.restLength});
   }
   subscription_ = topology.subscribe(*this);
 }
@@ -120,7 +120,7 @@ StretchRecord StretchSprings::spring(EdgeId e) const {
 std::vector<StretchRecord> StretchSprings::records() const {
   std::vector<StretchRecord> out;
   out.reserve(table_.size());
-  for (EdgeId e{0}; e < table_.numSlots(); ++e) {
+  for (EdgeId e{0}; e.idx() < table_.numSlots(); ++e) {
     if (table_.hasEntry(e)) out.push_back(spring(e));
   }
   return out;
@@ -331,7 +331,7 @@ void StretchSprings::onEdgesCreated(const Topology& t, const topology::EdgesCrea
     if (table_.hasEntry(e)) {
       eventProblems_.push_back("edges created: " + edgeName(e) + " already had a spring");
     }
-    table_.set(e, {v[0], v[1], restLengthOf(t, v[0], v[1], params_.restScale)});
+    table_.set(e, {v[0].idx(), v[1].idx(), restLengthOf(t, v[0], v[1], params_.restScale)});
   }
 }
 
@@ -379,7 +379,7 @@ void StretchSprings::validate(const Topology& topology, std::vector<std::string>
   const std::vector<StretchRecord> ref = buildFromScratch(topology, params_);
   for (const StretchRecord& r : ref) {
     const StretchRecord mine = spring(r.edge);
-    if (mine.edge == kInvalidIndex) {
+    if (mine.edge.idx() == kInvalidIndex) {
       problems.push_back("no spring for " + edgeName(r.edge) + ", a rebuild gives " +
                          describeRecord(r));
     } else if (!sameSpring(mine, r)) {

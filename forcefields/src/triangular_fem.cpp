@@ -30,7 +30,7 @@ constexpr double kMinCurrentShape = 1e-12;
 using Mat32 = Eigen::Matrix<double, 3, 2>;
 
 std::string triangleName(TriangleId t) {
-  return "triangle " + std::to_string(t);
+  return "triangle " + std::to_string(t.idx());
 }
 
 /// What one element gives at x.
@@ -205,7 +205,7 @@ void TriangularFEM::setTriangle(TriangleId t, const FemRecord& r) {
     ++numDegenerate_;
     return;
   }
-  table_.set(t, {{r.vertices[0], r.vertices[1], r.vertices[2]}, 0, r.g, r.area});
+  table_.set(t, {{r.vertices[0].idx(), r.vertices[1].idx(), r.vertices[2].idx()}, 0, r.g, r.area});
 }
 
 FemRecord TriangularFEM::element(TriangleId t) const {
@@ -467,7 +467,7 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
   // The table's own consistency, live triangles against its slots, elements on live points.
   table_.validate(topology, problems, "");
   std::size_t degenerate = 0;
-  for (TriangleId t{0}; t < table_.numSlots(); ++t) {
+  for (TriangleId t{0}; t.idx() < table_.numSlots(); ++t) {
     degenerate += !table_.hasEntry(t) && table_.status(t) == TableStatus::Degenerate ? 1 : 0;
   }
   if (degenerate != numDegenerate_) {
@@ -479,7 +479,7 @@ void TriangularFEM::validate(const Topology& topology, std::vector<std::string>&
   for (const FemRecord& r : ref) {
     refElements += r.degenerate ? 0 : 1;
     const FemRecord mine = element(r.triangle);
-    if (mine.triangle == kInvalidIndex) {
+    if (mine.triangle.idx() == kInvalidIndex) {
       problems.push_back("no entry for " + triangleName(r.triangle) + ", a rebuild gives " +
                          describeRecord(r));
     } else if (!sameElement(mine, r)) {

@@ -61,7 +61,7 @@ long Simulation::findEdge(long a, long b) {
   if (a < 0 || b < 0 || a >= long(topo.pointCapacity()) || b >= long(topo.pointCapacity()))
     return -1;
   const auto e = topo.findEdge(PointId(Index(a)), PointId(Index(b)));
-  return e == topology::kInvalidIndex ? -1 : long(Index(e));
+  return e.idx() == topology::kInvalidIndex ? -1 : long(Index(e));
 }
 
 void Simulation::compact() {

@@ -25,8 +25,8 @@ struct EvalOptions {
 };
 
 std::string faceText(const topology::TriangleVertices& t) {
-  return "(" + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " +
-         std::to_string(t[2] + 1) + ")";
+  return "(" + std::to_string(t[0].idx() + 1) + " " + std::to_string(t[1].idx() + 1) + " " +
+         std::to_string(t[2].idx() + 1) + ")";
 }
 
 /// The same oriented triangle, up to a cyclic rotation of its vertices.

@@ -104,9 +104,10 @@ TEST(ContactScenes, ASheetRestingOnAPlaneSettlesAtThePenaltyGap) {
   const auto m = sim.mass().perPoint();
   double total = 0;
   for (topology::PointId p : sim.topology().points()) {
-    const double gap = restGap(d, k, m[p] * g);
-    EXPECT_NEAR(x[3 * p + 2], gap, 0.01 * gap) << "point " << p << " (mass " << m[p] << ")";
-    total += m[p];
+    const double gap = restGap(d, k, m[p.idx()] * g);
+    EXPECT_NEAR(x[3 * p.idx() + 2], gap, 0.01 * gap)
+        << "point " << p << " (mass " << m[p.idx()] << ")";
+    total += m[p.idx()];
   }
   const auto measure = findContact(sim)->measure(sim.state().x(), sim.state().v());
   EXPECT_NEAR(measure.obstacleNormal[0], total * g, 0.01 * total * g);
@@ -159,10 +160,10 @@ TEST(ContactScenes, ASheetRestingOnAnotherSettlesAtThePenaltyGapOfItsPointsPairs
   runner.start();
   const auto m = runner.simulation().mass().perPoint();
   const topology::PointId first(nl * nl);
-  const double interiorWeight = m[first + nu + 1] * g;
+  const double interiorWeight = m[first.idx() + nu + 1] * g;
   const double gap = restGap(d, k, 0.5 * interiorWeight);
   for (topology::PointId p : runner.simulation().topology().points())
-    if (p >= first) runner.simulation().state().x()[3 * p + 2] = gap;
+    if (p >= first) runner.simulation().state().x()[3 * p.idx() + 2] = gap;
   while (!runner.finished()) runner.advance();
   const Simulation& sim = runner.simulation();
   const auto x = sim.state().x();
@@ -170,12 +171,13 @@ TEST(ContactScenes, ASheetRestingOnAnotherSettlesAtThePenaltyGapOfItsPointsPairs
   int interior = 0;
   for (topology::PointId p : sim.topology().points()) {
     if (p < first) continue;
-    upper += m[p];
-    const int i = int(p - first) % nu, j = int(p - first) / nu;
+    upper += m[p.idx()];
+    const int i = int(p.idx() - first.idx()) % nu, j = int(p.idx() - first.idx()) / nu;
     if (i < 3 || j < 3 || i > nu - 4 || j > nu - 4) continue;  // (three rings from the border)
     ++interior;
-    EXPECT_NEAR(m[p] * g, interiorWeight, 1e-12 * interiorWeight) << "point " << p;
-    EXPECT_NEAR(x[3 * p + 2], gap, 0.01 * gap) << "point " << p << " (" << i << ", " << j << ")";
+    EXPECT_NEAR(m[p.idx()] * g, interiorWeight, 1e-12 * interiorWeight) << "point " << p;
+    EXPECT_NEAR(x[3 * p.idx() + 2], gap, 0.01 * gap)
+        << "point " << p << " (" << i << ", " << j << ")";
   }
   EXPECT_EQ(interior, (nu - 6) * (nu - 6));
   const auto measure = findContact(sim)->measure(x, sim.state().v());
@@ -215,7 +217,7 @@ std::vector<double> incline(double tanTheta, double mu, double stick, double dur
     Simulation& sim = runner.simulation();
     const auto m = sim.mass().perPoint();
     for (topology::PointId p : sim.topology().points())
-      sim.state().x()[3 * p + 2] = restGap(d, k, m[p] * g * std::cos(th));
+      sim.state().x()[3 * p.idx() + 2] = restGap(d, k, m[p.idx()] * g * std::cos(th));
   }
   std::vector<double> vx;
   while (!runner.finished()) {
@@ -223,7 +225,7 @@ std::vector<double> incline(double tanTheta, double mu, double stick, double dur
     const Simulation& sim = runner.simulation();
     double sum = 0, cnt = 0;
     for (topology::PointId p : sim.topology().points()) {
-      sum += sim.state().v()[3 * p];
+      sum += sim.state().v()[3 * p.idx()];
       ++cnt;
     }
     vx.push_back(sum / cnt);
@@ -281,7 +283,7 @@ TEST(ContactScenes, AClothThrownAtFiveThicknessesPerStepDoesNotTunnel) {
   SceneRunner runner(sceneOf(s.str()));
   runner.start();
   auto v = runner.simulation().state().v();
-  for (topology::PointId p : runner.simulation().topology().points()) v[3 * p + 2] = -speed;
+  for (topology::PointId p : runner.simulation().topology().points()) v[3 * p.idx() + 2] = -speed;
   long clamped = 0;
   while (!runner.finished()) {
     clamped += runner.advance().clamped;
@@ -292,9 +294,9 @@ TEST(ContactScenes, AClothThrownAtFiveThicknessesPerStepDoesNotTunnel) {
   // The part of the cloth above the plate rests on it (nothing passed below).
   const Simulation& sim = runner.simulation();
   for (topology::PointId p : sim.topology().points()) {
-    const double X = sim.state().x()[3 * p], Y = sim.state().x()[3 * p + 1];
+    const double X = sim.state().x()[3 * p.idx()], Y = sim.state().x()[3 * p.idx() + 1];
     if (std::abs(X) < 0.05 && std::abs(Y) < 0.05)
-      EXPECT_GT(sim.state().x()[3 * p + 2], 0.001) << "point " << p;
+      EXPECT_GT(sim.state().x()[3 * p.idx() + 2], 0.001) << "point " << p;
   }
 }
 
@@ -317,7 +319,8 @@ TEST(ContactScenes, AFrictionlessUndampedDropGainsNoEnergy) {
     double e = sim.kineticEnergy();
     for (std::size_t i = 0; i < sim.numForceFields(); ++i) e += sim.potentialEnergy(i);
     const auto m = sim.mass().perPoint();
-    for (topology::PointId p : sim.topology().points()) e += m[p] * g * sim.state().x()[3 * p + 2];
+    for (topology::PointId p : sim.topology().points())
+      e += m[p.idx()] * g * sim.state().x()[3 * p.idx() + 2];
     return e;
   };
   double before = energy();
@@ -421,8 +424,9 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
     o << "triangle " << t << " (";
     for (auto q : sim.topology().triangleVertices(topology::TriangleId(topology::Index(t)))) {
       const auto r = sim.topology().restPosition(q);
-      o << " point " << q << " rest [" << r[0] << " " << r[1] << "] at [" << sim.state().x()[3 * q]
-        << " " << sim.state().x()[3 * q + 1] << " " << sim.state().x()[3 * q + 2] << "]";
+      o << " point " << q << " rest [" << r[0] << " " << r[1] << "] at ["
+        << sim.state().x()[3 * q.idx()] << " " << sim.state().x()[3 * q.idx() + 1] << " "
+        << sim.state().x()[3 * q.idx() + 2] << "]";
     }
     o << ")";
     return o.str();
@@ -439,13 +443,14 @@ TEST(ContactScenes, RandomCutsAndTearsUnderContactLeaveNoIntersection) {
       std::array<K::Point_3, 3> c;
       bool below = false;
       for (int k = 0; k < 3; ++k) {
-        c[std::size_t(k)] = K::Point_3(x[3 * v[std::size_t(k)]], x[3 * v[std::size_t(k)] + 1],
-                                       x[3 * v[std::size_t(k)] + 2]);
-        below = below || x[3 * v[std::size_t(k)] + 2] < 0;
+        c[std::size_t(k)] =
+            K::Point_3(x[3 * v[std::size_t(k)].idx()], x[3 * v[std::size_t(k)].idx() + 1],
+                       x[3 * v[std::size_t(k)].idx() + 2]);
+        below = below || x[3 * v[std::size_t(k)].idx() + 2] < 0;
       }
       if (below || CGAL::to_double(CGAL::squared_distance(K::Point_3(0, 0, 0.1),
                                                           K::Triangle_3(c[0], c[1], c[2]))) < 0.01)
-        tainted.insert(std::size_t(t));
+        tainted.insert(std::size_t(t.idx()));
     }
     for (const auto& p : before) {
       tainted.insert(p.first);
@@ -585,7 +590,7 @@ TEST(ContactScenes, APlateFasterThanThePenaltyPushesTheClothAlong) {
   const auto x = runner.simulation().state().x();
   double top = -1;
   for (topology::PointId p : runner.simulation().topology().points())
-    top = std::max(top, x[3 * p + 2]);
+    top = std::max(top, x[3 * p.idx() + 2]);
   EXPECT_GT(top, 0.032);
 }
 

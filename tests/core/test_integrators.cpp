@@ -187,7 +187,7 @@ std::unique_ptr<Simulation> swingingSheet(std::unique_ptr<Integrator> integrator
   bp.bendingStiffness = 0.05;
   sim->addForceField(
       std::make_unique<forcefields::FastTriangularBendingSprings>(sim->topology(), bp));
-  for (topology::PointId p{0}; p < 5; ++p) sim->fixed().add(p);
+  for (topology::PointId p{0}; p.idx() < 5; ++p) sim->fixed().add(p);
   sim->setGravity({0, 0, -9.81});
   sim->setIntegrator(std::move(integrator));
   return sim;

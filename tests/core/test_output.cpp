@@ -136,7 +136,7 @@ TEST(Output, SurfaceVtpParsesBack) {
   // Positions round-trip: the first point's x is the state's.
   const std::vector<PointId> live = sim.topology().points();
   EXPECT_EQ(std::strtod(dataArray(xml, "position")[0].c_str(), nullptr),
-            sim.state().x()[3 * live[0]]);
+            sim.state().x()[3 * live[0].idx()]);
 }
 
 TEST(Output, BordersAreTheEdgesOfOneTriangleAndLipsTheOpenedOnes) {
@@ -434,7 +434,8 @@ TEST(Output, DumpFinal) {
   const std::vector<PointId> live = sim.topology().points();
   for (std::size_t i = 0; i < live.size(); ++i) {
     EXPECT_EQ(rest.points[i], sim.topology().restPosition(live[i]));  // 17 digits: exact
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(current.points[i][k], sim.state().x()[3 * live[i] + k]);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(current.points[i][k], sim.state().x()[3 * live[i].idx() + k]);
   }
   const nlohmann::json j = nlohmann::json::parse(readText(dir / "final_forces.json"));
   EXPECT_EQ(j.at("forces").size(), live.size());

@@ -129,7 +129,7 @@ TEST(Scene, GridLayoutAndOrientation) {
     const topology::MeshData mm = makeGrid(g);
     topology::checkManifold(mm);
     for (const auto& t : mm.triangles) {
-      const Vec3 &a = mm.points[t[0]], &b = mm.points[t[1]], &c = mm.points[t[2]];
+      const Vec3 &a = mm.points[t[0].idx()], &b = mm.points[t[1].idx()], &c = mm.points[t[2].idx()];
       const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
       const Vec3 n{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
       if (xz) {

@@ -176,13 +176,13 @@ TEST(Scripting, GraspMovedByADisplacement) {
   ASSERT_NE(g, nullptr);
   const auto p = g->points().points().front();
   for (int i = 0; i < 2; ++i) r.advance();  // t = 0.02: the path's end
-  EXPECT_NEAR(r.simulation().state().x()[3 * p + 2], 0.01, 1e-12);
+  EXPECT_NEAR(r.simulation().state().x()[3 * p.idx() + 2], 0.01, 1e-12);
   g->moveBy(r.time(), {0.1, 0, 0}, 0.04);  // 0.1 along x over 0.04 s
   for (int i = 0; i < 2; ++i) r.advance();
-  EXPECT_NEAR(r.simulation().state().x()[3 * p], 0.5 + 0.05, 1e-12);
+  EXPECT_NEAR(r.simulation().state().x()[3 * p.idx()], 0.5 + 0.05, 1e-12);
   for (int i = 0; i < 4; ++i) r.advance();
-  EXPECT_NEAR(r.simulation().state().x()[3 * p], 0.5 + 0.1, 1e-12);
-  EXPECT_NEAR(r.simulation().state().x()[3 * p + 2], 0.01, 1e-12);
+  EXPECT_NEAR(r.simulation().state().x()[3 * p.idx()], 0.5 + 0.1, 1e-12);
+  EXPECT_NEAR(r.simulation().state().x()[3 * p.idx() + 2], 0.01, 1e-12);
   EXPECT_THROW(g->moveBy(r.time(), {std::nan(""), 0, 0}, 0.1), InvalidInput);
   EXPECT_THROW(g->moveBy(r.time(), {0, 0, 0}, -1), InvalidInput);
 }
@@ -196,11 +196,11 @@ TEST(Scripting, ConstraintsGivenWhileRunning) {
   ASSERT_EQ(r.simulation().fixed().size(), 1u);
   const auto p = r.simulation().fixed().points().front();
   r.advance();
-  EXPECT_EQ(r.simulation().state().x()[3 * p + 2], 0.0);
+  EXPECT_EQ(r.simulation().state().x()[3 * p.idx() + 2], 0.0);
   r.simulation().fixed().remove(p);
   EXPECT_EQ(r.simulation().fixed().size(), 0u);
   r.advance();
-  EXPECT_LT(r.simulation().state().x()[3 * p + 2], 0.0);
+  EXPECT_LT(r.simulation().state().x()[3 * p.idx() + 2], 0.0);
   try {
     core::parseConstraintEntry("{\"type\": \"fixed\",\n \"box\": 3}", "<c>");
     FAIL();

@@ -195,7 +195,7 @@ TEST(SofaScene, AUniformMassGivesNewPointsTheSameMass) {
   topology::Topology& t = sim.topology();
   const auto edges = t.edges();
   t.splitEdge(edges[edges.size() / 2], 0.5);
-  for (topology::PointId p : t.points()) EXPECT_EQ(sim.model().mass().perPoint()[p], 0.25);
+  for (topology::PointId p : t.points()) EXPECT_EQ(sim.model().mass().perPoint()[p.idx()], 0.25);
   EXPECT_EQ(sim.model().mass().total(), 0.25 * double(t.numPoints()));
   std::vector<std::string> problems;
   sim.model().mass().validate(t, problems);

@@ -461,13 +461,13 @@ TEST(BendingSprings, VertexNumberingDoesNotMatter) {
       const std::vector<double> x = test::perturbed(m.rest, 0.4, 17);
       std::vector<double> xs(x.size());
       for (std::size_t i = 0; i < newOfOld.size(); ++i) {
-        for (int k = 0; k < 3; ++k) xs[3 * newOfOld[i] + k] = x[3 * i + k];
+        for (int k = 0; k < 3; ++k) xs[3 * newOfOld[i].idx() + k] = x[3 * i + k];
       }
       const std::vector<double> f = test::forceAt(*m.ff, x), fs = test::forceAt(*s.ff, xs);
       double err = 0.0;
       for (std::size_t i = 0; i < newOfOld.size(); ++i) {
         for (int k = 0; k < 3; ++k)
-          err = std::max(err, std::fabs(f[3 * i + k] - fs[3 * newOfOld[i] + k]));
+          err = std::max(err, std::fabs(f[3 * i + k] - fs[3 * newOfOld[i].idx() + k]));
       }
       EXPECT_LE(err, 1e-12 * std::max(1.0, maxAbs(f)));
       EXPECT_NEAR(m.ff->potentialEnergy(x), s.ff->potentialEnergy(xs),
@@ -768,9 +768,9 @@ TEST(BendingSprings, DrawsOneSegmentPerSpringBetweenTheWings) {
   ASSERT_EQ(seg.size(), m.ff->numActiveSprings());
   for (std::size_t i = 0; i < seg.size(); ++i) {
     const BendingSpring& s = m.ff->activeSprings()[i];
-    EXPECT_EQ(seg[i][0], s.v[0]);
-    EXPECT_EQ(seg[i][1], s.v[1]);
-    EXPECT_TRUE(m.topo->findEdge(seg[i][0], seg[i][1]) == topology::kInvalidIndex);
+    EXPECT_EQ(seg[i][0].idx(), s.v[0]);
+    EXPECT_EQ(seg[i][1].idx(), s.v[1]);
+    EXPECT_TRUE(m.topo->findEdge(seg[i][0], seg[i][1]).idx() == topology::kInvalidIndex);
   }
   EXPECT_EQ(m.ff->typeName(), "FastTriangularBendingSprings");
 }

@@ -62,9 +62,9 @@ Crumpled crumpled(unsigned seed, int n = 9, double fold = 0.97) {
         Z = rad * (1 - std::cos(a)) + (r[0] - 0.56) * std::sin(fold * M_PI);
       }
     }
-    c.x[3 * p] = X + 0.01 * u(rng);
-    c.x[3 * p + 1] = r[1] + 0.01 * u(rng);
-    c.x[3 * p + 2] = Z + 0.01 * u(rng);
+    c.x[3 * p.idx()] = X + 0.01 * u(rng);
+    c.x[3 * p.idx() + 1] = r[1] + 0.01 * u(rng);
+    c.x[3 * p.idx() + 2] = Z + 0.01 * u(rng);
   }
   return c;
 }
@@ -144,7 +144,7 @@ TEST(Contact, TheSolvesProductsEqualTheMatricesWhateverTheFactors) {
     explicit Diagonal(std::size_t n) : d(Eigen::VectorXd::Zero(Eigen::Index(3 * n))) {}
     void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
       ASSERT_TRUE(i == j) << "a block off the diagonal was added for a diagonal only";
-      for (int a = 0; a < 3; ++a) d[3 * Eigen::Index(i) + a] += b(a, a);
+      for (int a = 0; a < 3; ++a) d[3 * Eigen::Index(i.idx()) + a] += b(a, a);
     }
     bool diagonalOnly() const override { return true; }
     Eigen::VectorXd d;
@@ -224,7 +224,7 @@ TEST(Contact, StiffnessAgainstAPlaneIsExact) {
   std::uniform_real_distribution<double> u(-0.02, 0.02);
   for (PointId p : topo.points())
     for (int k = 0; k < 3; ++k)
-      x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)] + u(rng);
+      x[3 * p.idx() + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)] + u(rng);
   Obstacle plane;
   plane.shape = planeShape({0, 0, 0}, {0.1, 0.2, 1.0});
   ContactParameters p = params(0.05, 1e3);
@@ -254,7 +254,8 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
   Topology topo(core::makeGrid(g));
   std::vector<double> x(3 * topo.pointCapacity());
   for (PointId p : topo.points())
-    for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
+    for (int k = 0; k < 3; ++k)
+      x[3 * p.idx() + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
   Obstacle plane;
   plane.shape = planeShape({0, 0, 0}, {0, 0, 1});
   plane.friction = 0.5;
@@ -268,9 +269,9 @@ TEST(Contact, FrictionDampingMatchesFiniteDifferencesInTheVelocities) {
     std::normal_distribution<double> n;
     for (PointId p : topo.points()) {
       const double a = n(rng);
-      v[3 * p] = speed * std::cos(a);
-      v[3 * p + 1] = speed * std::sin(a);
-      v[3 * p + 2] = 0.1 * speed * n(rng);
+      v[3 * p.idx()] = speed * std::cos(a);
+      v[3 * p.idx() + 1] = speed * std::sin(a);
+      v[3 * p.idx() + 2] = 0.1 * speed * n(rng);
     }
     contact.beginStep(x, v, 1e-3);
     TripletAccumulator acc;
@@ -321,7 +322,9 @@ void expectPairsEqualBruteForce(const Crumpled& c, double d, const std::string& 
   Contact contact(*c.topo, params(d), {});
   std::vector<double> v(c.x.size(), 0.0);
   contact.beginStep(c.x, v, 1e-3);  // at rest: every margin is d / 2, pairs are kept within d
-  auto P = [&](PointId p) { return K::Point_3(c.x[3 * p], c.x[3 * p + 1], c.x[3 * p + 2]); };
+  auto P = [&](PointId p) {
+    return K::Point_3(c.x[3 * p.idx()], c.x[3 * p.idx() + 1], c.x[3 * p.idx() + 2]);
+  };
   auto dist = [](const auto& a, const auto& b) {
     return std::sqrt(CGAL::to_double(CGAL::squared_distance(a, b)));
   };
@@ -506,7 +509,7 @@ Crumpled foldedGrid(bool alternating, Place place) {
   for (PointId p : c.topo->points()) {
     const Vec3 r = c.topo->restPosition(p);
     const std::array<double, 3> q = place(r, r[0] > 1e-9);
-    for (int k = 0; k < 3; ++k) c.x[3 * p + std::size_t(k)] = q[std::size_t(k)];
+    for (int k = 0; k < 3; ++k) c.x[3 * p.idx() + std::size_t(k)] = q[std::size_t(k)];
   }
   return c;
 }
@@ -565,7 +568,8 @@ MeshData twoSheets(double dx, double dy, double dz) {
   const MeshData one = core::makeGrid(g);
   MeshData two = one;
   const auto n = topology::Index(one.points.size());
-  for (const auto& t : one.triangles) two.triangles.push_back(tri(t[0] + n, t[1] + n, t[2] + n));
+  for (const auto& t : one.triangles)
+    two.triangles.push_back(tri(t[0].idx() + n, t[1].idx() + n, t[2].idx() + n));
   for (auto q : one.points) two.points.push_back({q[0] + dx, q[1] + dy, q[2] + dz});
   return two;
 }
@@ -588,18 +592,19 @@ TEST(Contact, EachPointOfASheetOverAnAlignedSheetMeetsOnePair) {
     std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
     for (PointId p : topo.points())
       for (int c = 0; c < 3; ++c)
-        x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)] + (p < n    ? 0.0
-                                                                            : c == 2 ? s - 2 * d
-                                                                                     : jitter(rng));
+        x[3 * p.idx() + std::size_t(c)] =
+            topo.restPosition(p)[std::size_t(c)] + (p.idx() < n ? 0.0
+                                                    : c == 2    ? s - 2 * d
+                                                                : jitter(rng));
     Contact contact(topo, params(d, k), {});
     contact.beginStep(x, v, 1e-3);
     contact.addForce(x, v, f);
     const double law = k * (d - s) * (d - s) / s + k / 3 * std::pow(d - s, 3) / (s * s);
     for (PointId p : topo.points()) {
-      const double up = p >= n ? law : -law;
-      EXPECT_NEAR(f[3 * p + 2], up, 1e-9 * law) << "point " << p << ", s " << s;
-      EXPECT_NEAR(f[3 * p], 0.0, 1e-9 * law) << "point " << p << ", s " << s;
-      EXPECT_NEAR(f[3 * p + 1], 0.0, 1e-9 * law) << "point " << p << ", s " << s;
+      const double up = p.idx() >= n ? law : -law;
+      EXPECT_NEAR(f[3 * p.idx() + 2], up, 1e-9 * law) << "point " << p << ", s " << s;
+      EXPECT_NEAR(f[3 * p.idx()], 0.0, 1e-9 * law) << "point " << p << ", s " << s;
+      EXPECT_NEAR(f[3 * p.idx() + 1], 0.0, 1e-9 * law) << "point " << p << ", s " << s;
     }
     EXPECT_EQ(contact.measure(x, v).active, std::size_t(n)) << "s " << s;
   }
@@ -631,10 +636,10 @@ TEST(Contact, APointNearAnEdgeOrACornerKeepsOnePairWhereverItIsWithinTheToleranc
         std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0), f(x.size(), 0.0);
         for (PointId p : topo.points())
           for (int c = 0; c < 3; ++c)
-            x[3 * p + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
+            x[3 * p.idx() + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
         const Eigen::Vector3d shift = at - Eigen::Vector3d(0.5, 0.5, 2 * d);
         for (PointId p : {PointId(4), PointId(5), PointId(6)})
-          for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] += shift[c];
+          for (int c = 0; c < 3; ++c) x[3 * p.idx() + std::size_t(c)] += shift[c];
         Contact contact(topo, params(d, k), {});
         contact.beginStep(x, v, 1e-3);
         contact.addForce(x, v, f);
@@ -685,7 +690,7 @@ TEST(Contact, TheSearchCacheGivesTheSamePairsAsASearch) {
     for (double& q : x) q += 2e-4 * n(rng);
     if (step >= 20)
       for (PointId p : c.topo->points())
-        if (c.topo->restPosition(p)[0] > 0.56) x[3 * p + 2] -= 1.5e-3;
+        if (c.topo->restPosition(p)[0] > 0.56) x[3 * p.idx() + 2] -= 1.5e-3;
   }
   EXPECT_GT(a.searchesReused(), 10u);
   EXPECT_GT(a.searches(), 3u);
@@ -705,8 +710,8 @@ TEST(Contact, TheBoundFromTheCacheEqualsTheBoundFromASearch) {
   std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0);
   for (PointId p : topo.points())
     for (int c = 0; c < 3; ++c)
-      x[3 * p + std::size_t(c)] =
-          topo.restPosition(p)[std::size_t(c)] - (p >= n && c == 2 ? 1.9 * d : 0.0);
+      x[3 * p.idx() + std::size_t(c)] =
+          topo.restPosition(p)[std::size_t(c)] - (p.idx() >= n && c == 2 ? 1.9 * d : 0.0);
   ContactParameters cached = params(d), fresh = cached;
   fresh.searchSlack = 0.0;
   std::mt19937 rng(11);
@@ -753,7 +758,7 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
     const std::array<double, 3> q =
         upper ? std::array<double, 3>{-r[0] + h / 3, r[1] + h / 5, 1.5 * d}
               : std::array<double, 3>{r[0], r[1], 0.5 * d};
-    for (int c = 0; c < 3; ++c) x[3 * p + std::size_t(c)] = q[std::size_t(c)];
+    for (int c = 0; c < 3; ++c) x[3 * p.idx() + std::size_t(c)] = q[std::size_t(c)];
   }
   ContactParameters one = params(d, 1e3, 0.3), two = one, three = one;
   one.threads = 1;
@@ -806,7 +811,7 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
     // On: the upper layer comes down by a tenth of d a step, everything jittered a little.
     for (double& q : x) q += 1e-3 * d * n(rng);
     for (PointId p : topo.points())
-      if (topo.restPosition(p)[0] > 1e-9) x[3 * p + 2] -= 0.1 * d;
+      if (topo.restPosition(p)[0] > 1e-9) x[3 * p.idx() + 2] -= 0.1 * d;
   }
   EXPECT_GT(largest, 2000u) << "the layers must be in contact";
   EXPECT_GE(cached, 3u * 16384u) << "the cache must be long enough for three runs";
@@ -829,9 +834,9 @@ TEST(Contact, ThreadsChangeNothingOnARoundObstacle) {
     const Vec3 r = topo.restPosition(p);
     const double rr = std::hypot(r[0], r[1]), Rh = R + 0.5 * d;
     const double z = rr < Rh ? std::sqrt(Rh * Rh - rr * rr) : 0.0;
-    x[3 * p] = r[0];
-    x[3 * p + 1] = r[1];
-    x[3 * p + 2] = z;
+    x[3 * p.idx()] = r[0];
+    x[3 * p.idx() + 1] = r[1];
+    x[3 * p.idx() + 2] = z;
   }
   Obstacle ball;
   ball.shape = sphereShape({0, 0, 0}, R);
@@ -941,9 +946,9 @@ TEST(Contact, CollisionStructureEqualsItsRebuildAfterTopologyChanges) {
     c.x.resize(3 * c.topo->pointCapacity(), 0.0);
     v.resize(c.x.size(), 0.0);
     for (PointId p : c.topo->points())
-      if (c.x[3 * p] == 0.0 && c.x[3 * p + 1] == 0.0 && c.x[3 * p + 2] == 0.0)
+      if (c.x[3 * p.idx()] == 0.0 && c.x[3 * p.idx() + 1] == 0.0 && c.x[3 * p.idx() + 2] == 0.0)
         for (int k = 0; k < 3; ++k)
-          c.x[3 * p + std::size_t(k)] = c.topo->restPosition(p)[std::size_t(k)];
+          c.x[3 * p.idx() + std::size_t(k)] = c.topo->restPosition(p)[std::size_t(k)];
   }
   contact.beginStep(c.x, v, 1e-3);
   const auto report = c.topo->validate();
@@ -958,7 +963,8 @@ TEST(Contact, TheLipsOfACutAreExcludedUntilTheySeparate) {
   auto xOf = [&] {
     std::vector<double> x(3 * topo.pointCapacity());
     for (PointId p : topo.points())
-      for (int k = 0; k < 3; ++k) x[3 * p + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
+      for (int k = 0; k < 3; ++k)
+        x[3 * p.idx() + std::size_t(k)] = topo.restPosition(p)[std::size_t(k)];
     return x;
   };
   std::vector<double> x = xOf(), v(x.size(), 0.0);
@@ -978,7 +984,7 @@ TEST(Contact, TheLipsOfACutAreExcludedUntilTheySeparate) {
   for (PointId p : topo.points())
     if (topo.restPosition(p)[1] > 0.5 + 1e-9 ||
         std::find(cut.copies.begin(), cut.copies.end(), p) != cut.copies.end())
-      x[3 * p + 2] += 0.06;
+      x[3 * p.idx() + 2] += 0.06;
   contact.beginStep(x, v, 1e-3);
   m = contact.measure(x, v);
   EXPECT_EQ(m.excluded, 0u);
@@ -1005,20 +1011,23 @@ TEST(Contact, DisplacementBoundKeepsEveryPairApart) {
   EXPECT_GT(clamped, 0u);
   const auto& b = contact.bounds();
   for (PointId p : c.topo->points()) {
-    const double moved = std::hypot(x1[3 * p] - c.x[3 * p], x1[3 * p + 1] - c.x[3 * p + 1],
-                                    x1[3 * p + 2] - c.x[3 * p + 2]);
-    EXPECT_LE(moved, b[p] * (1 + 1e-12));
-    if (moved >= b[p] * (1 - 1e-12))
-      EXPECT_NEAR(v1[3 * p] * 1e-2, x1[3 * p] - c.x[3 * p], 1e-15) << "velocity of a clamped point";
+    const double moved =
+        std::hypot(x1[3 * p.idx()] - c.x[3 * p.idx()], x1[3 * p.idx() + 1] - c.x[3 * p.idx() + 1],
+                   x1[3 * p.idx() + 2] - c.x[3 * p.idx() + 2]);
+    EXPECT_LE(moved, b[p.idx()] * (1 + 1e-12));
+    if (moved >= b[p.idx()] * (1 - 1e-12))
+      EXPECT_NEAR(v1[3 * p.idx()] * 1e-2, x1[3 * p.idx()] - c.x[3 * p.idx()], 1e-15)
+          << "velocity of a clamped point";
   }
   // The oracle: the crumpled sheet did not intersect itself, and does not after the step.
   auto soup = [&](const std::vector<double>& x) {
     std::vector<std::array<double, 3>> pts(c.topo->pointCapacity());
-    for (PointId p : c.topo->points()) pts[p] = {x[3 * p], x[3 * p + 1], x[3 * p + 2]};
+    for (PointId p : c.topo->points())
+      pts[p.idx()] = {x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
     std::vector<std::array<std::size_t, 3>> tris;
     for (topology::TriangleId t : c.topo->triangles()) {
       const auto v = c.topo->triangleVertices(t);
-      tris.push_back({std::size_t(v[0]), std::size_t(v[1]), std::size_t(v[2])});
+      tris.push_back({std::size_t(v[0].idx()), std::size_t(v[1].idx()), std::size_t(v[2].idx())});
     }
     return test::findIntersections(pts, tris).size();
   };

@@ -87,10 +87,10 @@ class ReducedMatrix : public MatrixAccumulator {
   explicit ReducedMatrix(const std::vector<int>& dof) : dof_(dof) {}
   void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
     for (int k = 0; k < 2; ++k) {
-      const int r = dof_[3 * i + k];
+      const int r = dof_[3 * i.idx() + k];
       if (r < 0) continue;
       for (int l = 0; l < 2; ++l) {
-        const int c = dof_[3 * j + l];
+        const int c = dof_[3 * j.idx() + l];
         if (c >= 0) triplets.emplace_back(r, c, -b(k, l));
       }
     }
@@ -118,9 +118,9 @@ Equilibrium staticEquilibrium(const TriangularFEM& ff, const Topology& topo,
   std::vector<int> dof(x.size(), -1);
   int n = 0;
   for (PointId p : topo.points()) {
-    if (held[p]) continue;
-    dof[3 * p] = n++;
-    dof[3 * p + 1] = n++;
+    if (held[p.idx()]) continue;
+    dof[3 * p.idx()] = n++;
+    dof[3 * p.idx() + 1] = n++;
   }
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
   Eigen::VectorXd r(n);
@@ -174,8 +174,8 @@ double centreOpening(const Topology& topo, const topology::IncisionResult& cut, 
     const Vec3 p = topo.restPosition(cut.copiedFrom[i]);
     if (std::hypot(p[0] - centre[0], p[1] - centre[1]) > 1e-12) continue;
     const PointId a = cut.copiedFrom[i], b = cut.copies[i];
-    return std::hypot(x[3 * b] - x[3 * a], x[3 * b + 1] - x[3 * a + 1],
-                      x[3 * b + 2] - x[3 * a + 2]);
+    return std::hypot(x[3 * b.idx()] - x[3 * a.idx()], x[3 * b.idx() + 1] - x[3 * a.idx() + 1],
+                      x[3 * b.idx() + 2] - x[3 * a.idx() + 2]);
   }
   ADD_FAILURE() << "the crack's centre was not copied";
   return 0.0;
@@ -194,7 +194,7 @@ CrackResult openCrack(const CrackCase& c) {
   // The border, held (before the cut the held sheet is in equilibrium everywhere inside:
   // HeldSheetIsUnderEquibiaxialTension).
   std::vector<bool> held(topo.pointCapacity(), false);
-  for (PointId q : topo.points()) held[q] = topo.isBoundaryPoint(q);
+  for (PointId q : topo.points()) held[q.idx()] = topo.isBoundaryPoint(q);
   const double mid = 0.5 * c.side, a = c.halfLength;
   const std::vector<Vec3> polyline = {{mid - a, mid, 0.0}, {mid + a, mid, 0.0}};
   const topology::IncisionResult cut = topo.cutPolyline(polyline);
@@ -236,9 +236,9 @@ TEST(TriangularFemPrestrain, HeldSheetIsUnderEquibiaxialTension) {
   for (PointId q : topo.points()) {
     const Vec3 r = topo.restPosition(q);
     if (!topo.isBoundaryPoint(q)) {
-      for (int k = 0; k < 3; ++k) EXPECT_NEAR(f[3 * q + k], 0.0, 1e-12 * sigma);
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(f[3 * q.idx() + k], 0.0, 1e-12 * sigma);
     }
-    if (std::fabs(r[0] - c.side) < 1e-12) rightBorder += f[3 * q];
+    if (std::fabs(r[0] - c.side) < 1e-12) rightBorder += f[3 * q.idx()];
   }
   EXPECT_NEAR(rightBorder, -sigma * p.thickness * p.restScale * c.side, 1e-12 * sigma);
   // The energy: sigma eps / 2 per unit of rest volume, times 2 (two equal principal strains).

@@ -114,7 +114,7 @@ TEST(StretchSprings, OneSpringPerLiveEdgeWithItsRestLength) {
     ASSERT_EQ(r.edge, e);
     const auto ev = m.topo->edgeVertices(e);
     EXPECT_EQ(std::minmax(r.vertices[0], r.vertices[1]), std::minmax(ev[0], ev[1]));
-    const Vec3 a = mesh.points[ev[0]], b = mesh.points[ev[1]];
+    const Vec3 a = mesh.points[ev[0].idx()], b = mesh.points[ev[1].idx()];
     const double l = std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
                                (a[2] - b[2]) * (a[2] - b[2]));
     EXPECT_NEAR(r.restLength, l, 1e-14 * l);
@@ -237,7 +237,7 @@ TEST(StretchSprings, PerRestLengthIsSofasMeshSpringForceField) {
     m.ff->addForce(x, v, f);
     for (topology::EdgeId e : m.topo->edges()) {
       const auto ends = m.topo->edgeVertices(e);
-      const std::size_t a = 3 * std::size_t(ends[0]), b = 3 * std::size_t(ends[1]);
+      const std::size_t a = 3 * std::size_t(ends[0].idx()), b = 3 * std::size_t(ends[1].idx());
       double d[3], dv[3], L0 = 0, l = 0;
       for (int k = 0; k < 3; ++k) {
         d[k] = x[b + std::size_t(k)] - x[a + std::size_t(k)];
@@ -550,7 +550,7 @@ TEST(StretchSprings, ZeroLengthSpringIsFinite) {
     Model m = makeModel(test::grid(3, 2.0), p);
     // Collapse the edge 4-5 (rest length 1): point 5 onto point 4, with different velocities.
     const EdgeId e = m.topo->findEdge(topology::PointId(4), topology::PointId(5));
-    ASSERT_NE(e, kInvalidIndex);
+    ASSERT_NE(e.idx(), kInvalidIndex);
     std::vector<double> x = m.rest;
     for (int k = 0; k < 3; ++k) x[3 * 5 + k] = x[3 * 4 + k];
     const std::vector<double> v = test::randomVector(x.size(), 1.0, 9);
@@ -642,7 +642,7 @@ TEST(StretchIncrementalOps, SplitEdgeGivesHalvesTheirRestLengths) {
   const std::size_t before = m.ff->numSprings();
   const EdgeId e = m.topo->findEdge(
       topology::PointId(6), topology::PointId(12));  // an interior diagonal, rest length sqrt(2)
-  ASSERT_NE(e, kInvalidIndex);
+  ASSERT_NE(e.idx(), kInvalidIndex);
   const auto ev = m.topo->edgeVertices(e);
   const PointId p = m.topo->splitEdge(e, 0.25);
   // The edge becomes two halves, and two edges join the new point to the wings.
@@ -650,8 +650,8 @@ TEST(StretchIncrementalOps, SplitEdgeGivesHalvesTheirRestLengths) {
   EXPECT_EQ(m.ff->spring(e).edge, EdgeId::invalid());
   const double l = std::sqrt(2.0);
   const EdgeId h0 = m.topo->findEdge(ev[0], p), h1 = m.topo->findEdge(p, ev[1]);
-  ASSERT_NE(h0, kInvalidIndex);
-  ASSERT_NE(h1, kInvalidIndex);
+  ASSERT_NE(h0.idx(), kInvalidIndex);
+  ASSERT_NE(h1.idx(), kInvalidIndex);
   EXPECT_NEAR(m.ff->spring(h0).restLength, 0.25 * l, 1e-14);
   EXPECT_NEAR(m.ff->spring(h1).restLength, 0.75 * l, 1e-14);
   EXPECT_TRUE(m.topo->validate().ok()) << m.topo->validate().summary();
@@ -708,9 +708,10 @@ TEST(StretchIncrementalOps, CarvingAndCompactionRenumberTheTable) {
   EXPECT_EQ(m.topo->edgeCapacity(), m.topo->numEdges());
   // Compaction lays the springs out in edge order.
   const auto springs = m.ff->springs();
-  for (EdgeId e{0}; e < m.topo->edgeCapacity(); ++e) {
+  for (EdgeId e{0}; e.idx() < m.topo->edgeCapacity(); ++e) {
     const auto ev = m.topo->edgeVertices(e);
-    EXPECT_EQ(std::minmax(springs[e].a, springs[e].b), std::minmax(ev[0].index(), ev[1].index()));
+    EXPECT_EQ(std::minmax(springs[e.idx()].a, springs[e.idx()].b),
+              std::minmax(ev[0].idx(), ev[1].idx()));
   }
   const std::vector<double> rest = test::restOf(*m.topo);
   EXPECT_LE(test::maxAbs(test::forceAt(*m.ff, rest)), 1e-12);

@@ -37,12 +37,14 @@ struct WavySheet {
     x.assign(3 * topo.pointCapacity(), 0.0);
     for (topology::PointId p : topo.points()) {
       const Vec3 r = topo.restPosition(p);
-      x[3 * p] = r[0];
-      x[3 * p + 1] = r[1];
-      x[3 * p + 2] = 0.15 * std::sin(6.0 * r[0] + phase) * std::cos(4.0 * r[1]);
+      x[3 * p.idx()] = r[0];
+      x[3 * p.idx() + 1] = r[1];
+      x[3 * p.idx() + 2] = 0.15 * std::sin(6.0 * r[0] + phase) * std::cos(4.0 * r[1]);
     }
   }
-  P3 at(topology::PointId p) const { return {x[3 * p], x[3 * p + 1], x[3 * p + 2]}; }
+  P3 at(topology::PointId p) const {
+    return {x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
+  }
   K::Triangle_3 triangle(TriangleId t) const {
     const auto v = topo.triangleVertices(t);
     return {at(v[0]), at(v[1]), at(v[2])};

@@ -32,14 +32,15 @@ TEST(TriangularBendingSprings, ForceIsTheSpringBetweenTheWingsOfEachHinge) {
   std::size_t hinges = 0;
   for (topology::EdgeId e : topo.edges()) {
     const auto tris = topo.edgeTriangles(e);
-    if (tris[0] == topology::kInvalidIndex || tris[1] == topology::kInvalidIndex) continue;
+    if (tris[0].idx() == topology::kInvalidIndex || tris[1].idx() == topology::kInvalidIndex)
+      continue;
     ++hinges;
     // The wings: the corner of each triangle that is not on the edge.
     const auto ends = topo.edgeVertices(e);
     std::array<std::size_t, 2> w{};
     for (int s = 0; s < 2; ++s)
       for (auto p : topo.triangleVertices(tris[std::size_t(s)]))
-        if (p != ends[0] && p != ends[1]) w[std::size_t(s)] = std::size_t(p);
+        if (p != ends[0] && p != ends[1]) w[std::size_t(s)] = std::size_t(p.idx());
     double d[3], L0 = 0, l = 0, rel = 0;
     for (int k = 0; k < 3; ++k) {
       d[k] = x[3 * w[1] + std::size_t(k)] - x[3 * w[0] + std::size_t(k)];
@@ -78,7 +79,7 @@ TEST(TriangularBendingSprings, ItsHingesFollowACut) {
   const auto edges = topo.edges();
   for (topology::EdgeId e : edges) {
     const auto tris = topo.edgeTriangles(e);
-    if (tris[0] != topology::kInvalidIndex && tris[1] != topology::kInvalidIndex) {
+    if (tris[0].idx() != topology::kInvalidIndex && tris[1].idx() != topology::kInvalidIndex) {
       topo.tear(e);
       break;
     }

@@ -47,8 +47,9 @@ std::vector<double> bumped(const Topology& t, double size, double amplitude) {
   std::vector<double> x(3 * t.pointCapacity(), 0.0);
   for (auto p : t.points()) {
     const Vec3 r = t.restPosition(p);
-    for (int c = 0; c < 3; ++c) x[3 * p + c] = r[c];
-    x[3 * p + 2] += amplitude * size * std::sin(3.0 * r[0] / size) * std::cos(2.0 * r[1] / size);
+    for (int c = 0; c < 3; ++c) x[3 * p.idx() + c] = r[c];
+    x[3 * p.idx() + 2] +=
+        amplitude * size * std::sin(3.0 * r[0] / size) * std::cos(2.0 * r[1] / size);
   }
   return x;
 }
@@ -292,7 +293,7 @@ struct CutFixture {
     EXPECT_TRUE(r.ok()) << r.summary();
     std::vector<double> x(3 * topo.pointCapacity(), 0.0);
     for (auto p : topo.points())
-      for (int c = 0; c < 3; ++c) x[3 * p + c] = topo.restPosition(p)[c] + 0.01 * c * p;
+      for (int c = 0; c < 3; ++c) x[3 * p.idx() + c] = topo.restPosition(p)[c] + 0.01 * c * p.idx();
     EXPECT_TRUE(allFinite(forces(springs, x)));
   }
   Topology topo;

@@ -30,7 +30,7 @@ std::vector<double> restOf(const topology::Topology& t) {
   std::vector<double> x(3 * static_cast<std::size_t>(t.pointCapacity()), 0.0);
   for (topology::PointId p : t.points()) {
     const topology::Vec3 r = t.restPosition(p);
-    for (int k = 0; k < 3; ++k) x[3 * p + k] = r[k];
+    for (int k = 0; k < 3; ++k) x[3 * p.idx() + k] = r[k];
   }
   return x;
 }

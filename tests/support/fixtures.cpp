@@ -69,9 +69,9 @@ MeshData shuffledVertices(const MeshData& mesh, std::uint64_t seed,
   std::shuffle(perm.begin(), perm.end(), rng);
   MeshData out;
   out.points.resize(mesh.points.size());
-  for (std::size_t i = 0; i < perm.size(); ++i) out.points[perm[i]] = mesh.points[i];
+  for (std::size_t i = 0; i < perm.size(); ++i) out.points[perm[i].idx()] = mesh.points[i];
   for (const auto& t : mesh.triangles)
-    out.triangles.push_back({perm[t[0]], perm[t[1]], perm[t[2]]});
+    out.triangles.push_back({perm[t[0].idx()], perm[t[1].idx()], perm[t[2].idx()]});
   if (newOfOld) *newOfOld = perm;
   return out;
 }

@@ -79,12 +79,13 @@ std::vector<Intersection> simulationIntersections(
   const auto& topo = sim.topology();
   const auto x = sim.state().x();
   std::vector<std::array<double, 3>> points(topo.pointCapacity());
-  for (topology::PointId p : topo.points()) points[p] = {x[3 * p], x[3 * p + 1], x[3 * p + 2]};
+  for (topology::PointId p : topo.points())
+    points[p.idx()] = {x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
   std::vector<std::array<std::size_t, 3>> tris;
   std::vector<topology::TriangleId> ids;
   for (topology::TriangleId t : topo.triangles()) {
     const auto v = topo.triangleVertices(t);
-    tris.push_back({std::size_t(v[0]), std::size_t(v[1]), std::size_t(v[2])});
+    tris.push_back({std::size_t(v[0].idx()), std::size_t(v[1].idx()), std::size_t(v[2].idx())});
     ids.push_back(t);
   }
   const std::size_t surfaceTriangles = tris.size();
@@ -162,9 +163,9 @@ std::vector<Intersection> simulationIntersections(
   if (found.size() > 10) found.resize(10);
   for (auto& f : found) {
     // Surface triangles by their ids, obstacle triangles after every surface slot.
-    f.a = f.a < surfaceTriangles ? std::size_t(ids[f.a])
+    f.a = f.a < surfaceTriangles ? std::size_t(ids[f.a].idx())
                                  : topo.triangleCapacity() + (f.a - surfaceTriangles);
-    f.b = f.b < surfaceTriangles ? std::size_t(ids[f.b])
+    f.b = f.b < surfaceTriangles ? std::size_t(ids[f.b].idx())
                                  : topo.triangleCapacity() + (f.b - surfaceTriangles);
   }
   return found;

@@ -29,31 +29,34 @@ class MirrorObserver : public topology::TopologyObserver {
     stage(1, e.triangles);
     for (std::size_t i = 0; i < e.triangles.size(); ++i) {
       auto id = e.triangles[i];
-      expect(id < tri.size() && triAlive[id], "destroyed triangle " + s(id) + " was not alive");
-      expect(!t.isTriangleAlive(id), "destroyed triangle " + s(id) + " still alive in the mesh");
-      expect(id < tri.size() && tri[id] == e.vertices[i],
-             "destroyed triangle " + s(id) + " vertices differ");
-      if (id < triAlive.size()) triAlive[id] = false;
+      expect(id.idx() < tri.size() && triAlive[id.idx()],
+             "destroyed triangle " + s(id.idx()) + " was not alive");
+      expect(!t.isTriangleAlive(id),
+             "destroyed triangle " + s(id.idx()) + " still alive in the mesh");
+      expect(id.idx() < tri.size() && tri[id.idx()] == e.vertices[i],
+             "destroyed triangle " + s(id.idx()) + " vertices differ");
+      if (id.idx() < triAlive.size()) triAlive[id.idx()] = false;
     }
   }
   void onEdgesDestroyed(const Topology& t, const topology::EdgesDestroyed& e) override {
     stage(2, e.edges);
     for (std::size_t i = 0; i < e.edges.size(); ++i) {
       auto id = e.edges[i];
-      expect(id < edge.size() && edgeAlive[id], "destroyed edge " + s(id) + " was not alive");
-      expect(!t.isEdgeAlive(id), "destroyed edge " + s(id) + " still alive in the mesh");
-      expect(id < edge.size() && edge[id] == e.vertices[i],
-             "destroyed edge " + s(id) + " endpoints differ");
-      if (id < edgeAlive.size()) edgeAlive[id] = false;
+      expect(id.idx() < edge.size() && edgeAlive[id.idx()],
+             "destroyed edge " + s(id.idx()) + " was not alive");
+      expect(!t.isEdgeAlive(id), "destroyed edge " + s(id.idx()) + " still alive in the mesh");
+      expect(id.idx() < edge.size() && edge[id.idx()] == e.vertices[i],
+             "destroyed edge " + s(id.idx()) + " endpoints differ");
+      if (id.idx() < edgeAlive.size()) edgeAlive[id.idx()] = false;
     }
   }
   void onPointsDestroyed(const Topology& t, const topology::PointsDestroyed& e) override {
     stage(3, e.points);
     for (auto id : e.points) {
-      expect(id < pointAlive.size() && pointAlive[id],
-             "destroyed point " + s(id) + " was not alive");
-      expect(!t.isPointAlive(id), "destroyed point " + s(id) + " still alive in the mesh");
-      if (id < pointAlive.size()) pointAlive[id] = false;
+      expect(id.idx() < pointAlive.size() && pointAlive[id.idx()],
+             "destroyed point " + s(id.idx()) + " was not alive");
+      expect(!t.isPointAlive(id), "destroyed point " + s(id.idx()) + " still alive in the mesh");
+      if (id.idx() < pointAlive.size()) pointAlive[id.idx()] = false;
     }
   }
   void onPointsCreated(const Topology& t, const topology::PointsCreated& e) override {
@@ -61,51 +64,51 @@ class MirrorObserver : public topology::TopologyObserver {
     expect(e.offsets.size() == e.points.size() + 1, "offsets size");
     for (std::size_t i = 0; i < e.points.size(); ++i) {
       auto id = e.points[i];
-      expect(id >= pointAlive.size() || !pointAlive[id],
-             "created point " + s(id) + " reuses a live slot");
-      grow(id + 1, pointAlive, rest);
-      pointAlive[id] = true;
+      expect(id.idx() >= pointAlive.size() || !pointAlive[id.idx()],
+             "created point " + s(id.idx()) + " reuses a live slot");
+      grow(id.idx() + 1, pointAlive, rest);
+      pointAlive[id.idx()] = true;
       if (e.offsets[i] == e.offsets[i + 1]) {
-        rest[id] = t.restPosition(id);  // a free point: its position is the topology's
+        rest[id.idx()] = t.restPosition(id);  // a free point: its position is the topology's
         continue;
       }
       topology::Vec3 p{0, 0, 0};
       double wsum = 0;
       for (auto k = e.offsets[i]; k < e.offsets[i + 1]; ++k) {
         auto a = e.ancestors[k];
-        expect(a < transactionStartPoints,
-               "ancestor " + s(a) + " of point " + s(id) + " is new in this transaction");
-        expect(a < rest.size(), "ancestor out of range");
-        if (a >= rest.size()) continue;
-        for (int c = 0; c < 3; ++c) p[c] += e.weights[k] * rest[a][c];
+        expect(a.idx() < transactionStartPoints, "ancestor " + s(a.idx()) + " of point " +
+                                                     s(id.idx()) + " is new in this transaction");
+        expect(a.idx() < rest.size(), "ancestor out of range");
+        if (a.idx() >= rest.size()) continue;
+        for (int c = 0; c < 3; ++c) p[c] += e.weights[k] * rest[a.idx()][c];
         wsum += e.weights[k];
       }
       expect(std::abs(wsum - 1.0) < 1e-12,
-             "weights of point " + s(id) + " sum to " + std::to_string(wsum));
-      rest[id] = p;
+             "weights of point " + s(id.idx()) + " sum to " + std::to_string(wsum));
+      rest[id.idx()] = p;
     }
   }
   void onEdgesCreated(const Topology& t, const topology::EdgesCreated& e) override {
     stage(5, e.edges);
     for (std::size_t i = 0; i < e.edges.size(); ++i) {
       auto id = e.edges[i];
-      expect(t.isEdgeAlive(id), "created edge " + s(id) + " not alive in the mesh");
-      grow(id + 1, edgeAlive, edge);
-      expect(!edgeAlive[id], "created edge " + s(id) + " reuses a live slot");
-      edgeAlive[id] = true;
-      edge[id] = e.vertices[i];
+      expect(t.isEdgeAlive(id), "created edge " + s(id.idx()) + " not alive in the mesh");
+      grow(id.idx() + 1, edgeAlive, edge);
+      expect(!edgeAlive[id.idx()], "created edge " + s(id.idx()) + " reuses a live slot");
+      edgeAlive[id.idx()] = true;
+      edge[id.idx()] = e.vertices[i];
     }
   }
   void onTrianglesCreated(const Topology& t, const topology::TrianglesCreated& e) override {
     stage(6, e.triangles);
     for (std::size_t i = 0; i < e.triangles.size(); ++i) {
       auto id = e.triangles[i];
-      expect(t.isTriangleAlive(id), "created triangle " + s(id) + " not alive in the mesh");
-      grow(id + 1, triAlive, tri, triEdges);
-      expect(!triAlive[id], "created triangle " + s(id) + " reuses a live slot");
-      triAlive[id] = true;
-      tri[id] = e.vertices[i];
-      triEdges[id] = e.edges[i];
+      expect(t.isTriangleAlive(id), "created triangle " + s(id.idx()) + " not alive in the mesh");
+      grow(id.idx() + 1, triAlive, tri, triEdges);
+      expect(!triAlive[id.idx()], "created triangle " + s(id.idx()) + " reuses a live slot");
+      triAlive[id.idx()] = true;
+      tri[id.idx()] = e.vertices[i];
+      triEdges[id.idx()] = e.edges[i];
     }
   }
   template <class... V>
@@ -126,7 +129,7 @@ class MirrorObserver : public topology::TopologyObserver {
   void onPointsRenumbered(const Topology&, const topology::Renumbering& r) override {
     stageRenumber(1);
     renumber(r.oldToNew, r.newSize, pointAlive, rest);
-    auto mapPoint = [&](topology::PointId& p) { p = topology::PointId(r.oldToNew[p]); };
+    auto mapPoint = [&](topology::PointId& p) { p = topology::PointId(r.oldToNew[p.idx()]); };
     for (std::size_t e = 0; e < edge.size(); ++e)
       if (edgeAlive[e]) {
         mapPoint(edge[e][0]);
@@ -141,7 +144,7 @@ class MirrorObserver : public topology::TopologyObserver {
     renumber(r.oldToNew, r.newSize, edgeAlive, edge);
     for (std::size_t t = 0; t < tri.size(); ++t)
       if (triAlive[t])
-        for (auto& e : triEdges[t]) e = topology::EdgeId(r.oldToNew[e]);
+        for (auto& e : triEdges[t]) e = topology::EdgeId(r.oldToNew[e.idx()]);
   }
   void onTrianglesRenumbered(const Topology&, const topology::Renumbering& r) override {
     stageRenumber(3);
@@ -223,22 +226,22 @@ class MirrorObserver : public topology::TopologyObserver {
     pointAlive.assign(t.pointCapacity(), false);
     rest.assign(t.pointCapacity(), {0, 0, 0});
     for (auto p : t.points()) {
-      pointAlive[p] = true;
-      rest[p] = t.restPosition(p);
+      pointAlive[p.idx()] = true;
+      rest[p.idx()] = t.restPosition(p);
     }
     edgeAlive.assign(t.edgeCapacity(), false);
     edge.assign(t.edgeCapacity(), {});
     for (auto e : t.edges()) {
-      edgeAlive[e] = true;
-      edge[e] = t.edgeVertices(e);
+      edgeAlive[e.idx()] = true;
+      edge[e.idx()] = t.edgeVertices(e);
     }
     triAlive.assign(t.triangleCapacity(), false);
     tri.assign(t.triangleCapacity(), {});
     triEdges.assign(t.triangleCapacity(), {});
     for (auto f : t.triangles()) {
-      triAlive[f] = true;
-      tri[f] = t.triangleVertices(f);
-      triEdges[f] = t.triangleEdges(f);
+      triAlive[f.idx()] = true;
+      tri[f.idx()] = t.triangleVertices(f);
+      triEdges[f.idx()] = t.triangleEdges(f);
     }
     transactionStartPoints = t.pointCapacity();
   }

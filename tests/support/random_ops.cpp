@@ -92,7 +92,7 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
     }
     case OpKind::Tear: {
       const EdgeId e = randomEdge(true);
-      if (e == kInvalidIndex) {
+      if (e.idx() == kInvalidIndex) {
         what << "tear skipped (no interior edge)";
         return false;
       }
@@ -196,7 +196,7 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
       removed_.erase(removed_.begin() + static_cast<std::ptrdiff_t>(i));
       what << "addTriangles(" << tv[0] << " " << tv[1] << " " << tv[2] << ")";
       for (PointId p : tv) {
-        if (p >= t_.pointCapacity() || !t_.isPointAlive(p)) {
+        if (p.idx() >= t_.pointCapacity() || !t_.isPointAlive(p)) {
           what << " skipped (dead point)";
           return false;
         }
@@ -232,7 +232,7 @@ EdgeId RandomTopologyOps::randomEdge(bool interior) {
 
 std::vector<PointId> RandomTopologyOps::randomPath() {
   const EdgeId e0 = randomEdge(true);
-  if (e0 == kInvalidIndex) return {};
+  if (e0.idx() == kInvalidIndex) return {};
   const auto ev = t_.edgeVertices(e0);
   std::vector<PointId> path{ev[0], ev[1]};
   const int len = pick(1, 4);

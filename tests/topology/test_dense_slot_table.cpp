@@ -299,7 +299,7 @@ TEST(DenseSlotTable, ValidatesAgainstTheTopology) {
   table.reset(topo.edgeCapacity(), topo.numEdges());
   for (EdgeId e : topo.edges()) {
     const topology::EdgeVertices v = topo.edgeVertices(e);
-    table.set(e, {{v[0], v[1], v[0]}, 0.0});
+    table.set(e, {{v[0].idx(), v[1].idx(), v[0].idx()}, 0.0});
   }
   std::vector<std::string> problems;
   table.validate(topo, problems, "T: ");

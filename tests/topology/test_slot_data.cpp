@@ -71,7 +71,7 @@ void expectInStep(const Topology& t, const Owner& o) {
   ASSERT_EQ(o.edges.numSlots(), t.edgeCapacity());
   ASSERT_EQ(o.triangles.numSlots(), t.triangleCapacity());
   ASSERT_EQ(o.points.numSlots(), t.pointCapacity());
-  for (EdgeId e{0}; e < t.edgeCapacity(); ++e) {
+  for (EdgeId e{0}; e.idx() < t.edgeCapacity(); ++e) {
     if (!t.isEdgeAlive(e)) {
       EXPECT_EQ(o.edges.at(e)[0], 0.0);
       continue;
@@ -79,7 +79,7 @@ void expectInStep(const Topology& t, const Owner& o) {
     const auto s = restSum(t, t.edgeVertices(e));
     for (std::size_t c = 0; c < 3; ++c) EXPECT_EQ(o.edges.at(e)[c], s[c]) << "edge " << e;
   }
-  for (TriangleId f{0}; f < t.triangleCapacity(); ++f) {
+  for (TriangleId f{0}; f.idx() < t.triangleCapacity(); ++f) {
     if (!t.isTriangleAlive(f)) continue;
     const auto s = restSum(t, t.triangleVertices(f));
     for (std::size_t c = 0; c < 3; ++c) EXPECT_EQ(o.triangles.at(f)[c], s[c]) << "triangle " << f;

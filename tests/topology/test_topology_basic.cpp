@@ -57,14 +57,14 @@ TEST(TopologyBasic, GridCountsAndQueries) {
     auto tt = t.edgeTriangles(e);
     EXPECT_EQ(t.findEdge(ev[0], ev[1]), e);
     EXPECT_EQ(t.findEdge(ev[1], ev[0]), e);
-    if (tt[0] != kInvalidIndex) {
+    if (tt[0].idx() != kInvalidIndex) {
       // [0] is the triangle in which the edge runs v0 -> v1 (counter-clockwise)
       auto v = t.triangleVertices(tt[0]);
       bool runs = false;
       for (int i = 0; i < 3; ++i) runs |= v[i] == ev[0] && v[(i + 1) % 3] == ev[1];
       EXPECT_TRUE(runs);
     }
-    EXPECT_EQ(t.isBoundaryEdge(e), tt[0] == kInvalidIndex || tt[1] == kInvalidIndex);
+    EXPECT_EQ(t.isBoundaryEdge(e), tt[0].idx() == kInvalidIndex || tt[1].idx() == kInvalidIndex);
   }
   // The centre of the 5x5 grid has 6 triangles and 6 edges around it; the corner (0,0) 2 and 3.
   EXPECT_EQ(t.trianglesAroundPoint(PointId(12)).size(), 6u);
@@ -73,7 +73,7 @@ TEST(TopologyBasic, GridCountsAndQueries) {
   EXPECT_EQ(t.trianglesAroundPoint(PointId(0)).size(), 2u);
   EXPECT_EQ(t.edgesAroundPoint(PointId(0)).size(), 3u);
   EXPECT_TRUE(t.isBoundaryPoint(PointId(0)));
-  EXPECT_EQ(t.findEdge(topology::PointId(0), topology::PointId(24)), kInvalidIndex);
+  EXPECT_EQ(t.findEdge(topology::PointId(0), topology::PointId(24)).idx(), kInvalidIndex);
 }
 
 TEST(TopologyBasic, ClosedSurfaceHasNoBoundary) {

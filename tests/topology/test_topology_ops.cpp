@@ -44,10 +44,11 @@ std::size_t components(const Topology& t) {
   UnionFind sets(t.triangleCapacity());
   for (auto e : t.edges()) {
     auto tt = t.edgeTriangles(e);
-    if (tt[0] != kInvalidIndex && tt[1] != kInvalidIndex) sets.unite(tt[0], tt[1]);
+    if (tt[0].idx() != kInvalidIndex && tt[1].idx() != kInvalidIndex)
+      sets.unite(tt[0].idx(), tt[1].idx());
   }
   std::size_t n = 0;
-  for (auto f : t.triangles()) n += sets.find(f) == f ? 1 : 0;
+  for (auto f : t.triangles()) n += sets.find(f.idx()) == f.idx() ? 1 : 0;
   return n;
 }
 
@@ -141,7 +142,7 @@ TEST(TopologyOps, RemoveTrianglesSplitsABowtie) {
 TEST(TopologyOps, SplitInteriorEdge) {
   Watched w(grid(5));
   EdgeId e = w.t.findEdge(gridId(5, 2, 2), gridId(5, 3, 3));  // an interior diagonal
-  ASSERT_NE(e, kInvalidIndex);
+  ASSERT_NE(e.idx(), kInvalidIndex);
   PointId m = w.t.splitEdge(e, 0.25);
   EXPECT_EQ(w.log.kinds(), (Strings{"T-", "E-", "P+", "E+", "T+", "end"}));
   EXPECT_EQ(w.log.count("T-"), 2u);

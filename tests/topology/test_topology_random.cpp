@@ -66,14 +66,14 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
         case 0: {  // split an edge
           auto es = t.edges();
           EdgeId e = es[rng() % es.size()];
-          what = "splitEdge " + std::to_string(e);
+          what = "splitEdge " + std::to_string(e.idx());
           t.splitEdge(e, 0.2 + 0.6 * u(rng));
           break;
         }
         case 1: {  // tear an interior edge
           auto es = t.edges();
           EdgeId e = es[rng() % es.size()];
-          what = "tear " + std::to_string(e);
+          what = "tear " + std::to_string(e.idx());
           if (t.isBoundaryEdge(e)) continue;
           topology::RepairOptions repair;
           if (rng() % 2) repair.minAngle = 20.0;
@@ -139,7 +139,7 @@ void runSequence(std::uint64_t seed, int steps, int n, bool requireCuts) {
           auto v = t.edgeVertices(e);
           auto tt = t.edgeTriangles(e);
           // the new triangle must run the edge the other way than its triangle
-          bool leftTaken = tt[0] != topology::kInvalidIndex;
+          bool leftTaken = tt[0].idx() != topology::kInvalidIndex;
           auto a = t.restPosition(v[0]), b = t.restPosition(v[1]);
           Vec3 p{(a[0] + b[0]) / 2 + 0.01, (a[1] + b[1]) / 2 + 0.01, 0.3};
           auto np = t.addPoints(std::vector<Vec3>{p});

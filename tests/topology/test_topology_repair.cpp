@@ -91,8 +91,8 @@ Quality quality(const Topology& t, const std::vector<TriangleId>& tris, double t
       const double fan = fanAngle(t, p) / kDeg;
       if (t.isBoundaryPoint(p) && a >= fan - 1e-6) continue;
       std::ostringstream s;
-      s << "triangle " << f.index() << " (" << v[0].index() << ", " << v[1].index() << ", "
-        << v[2].index() << ") angle " << a << " at " << p.index() << " (fan " << fan << ")";
+      s << "triangle " << f.idx() << " (" << v[0].idx() << ", " << v[1].idx() << ", " << v[2].idx()
+        << ") angle " << a << " at " << p.idx() << " (fan " << fan << ")";
       q.shortfalls.push_back(s.str());
     }
     q.minAngle = std::min(q.minAngle, mn);
@@ -161,10 +161,10 @@ TEST(TopologyRepair, UIncisionLeavesNoSliver) {
         double mn = 1e9;
         for (int k = 0; k < 3; ++k) mn = std::min(mn, cornerAngle(t, f, k) / kDeg);
         if (mn >= target) continue;
-        std::cout << "  T" << f.index() << ":";
+        std::cout << "  T" << f.idx() << ":";
         for (int k = 0; k < 3; ++k) {
           auto p = t.restPosition(v[std::size_t(k)]);
-          std::cout << " " << v[std::size_t(k)].index()
+          std::cout << " " << v[std::size_t(k)].idx()
                     << (t.isBoundaryPoint(v[std::size_t(k)]) ? "b" : "") << "(" << p[0] * 1000
                     << "," << p[1] * 1000 << ";" << cornerAngle(t, f, k) / kDeg << ")";
         }
@@ -301,10 +301,10 @@ TEST(TopologyRepair, RandomPolylinesAreAllCutWithoutSlivers) {
         double mn = 1e9;
         for (int k = 0; k < 3; ++k) mn = std::min(mn, cornerAngle(t, f, k) / kDeg);
         if (mn >= target) continue;
-        std::cout << "  T" << f.index() << ":";
+        std::cout << "  T" << f.idx() << ":";
         for (PointId x : v) {
           auto p = t.restPosition(x);
-          std::cout << " " << x.index() << (t.isBoundaryPoint(x) ? "b" : "") << "(" << p[0] << ","
+          std::cout << " " << x.idx() << (t.isBoundaryPoint(x) ? "b" : "") << "(" << p[0] << ","
                     << p[1] << " fan " << fanAngle(t, x) / kDeg << ")";
           std::cout << "[";
           for (auto tt : t.trianglesAroundPoint(x)) {
@@ -376,7 +376,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
           auto es = t.edges();
           const topology::EdgeId e = es[rng() % es.size()];
           if (t.isBoundaryEdge(e)) continue;
-          what = "tear " + std::to_string(e.index());
+          what = "tear " + std::to_string(e.idx());
           const auto r = t.tear(e, repair);
           inserted += r.repair.insertions;
           split += r.repair.splits;
@@ -384,7 +384,7 @@ TEST(TopologyRepair, RandomSequencesKeepTheTargetAfterEveryOperation) {
         } else {
           auto ts = t.triangles();
           std::vector<TriangleId> rm{ts[rng() % ts.size()]};
-          what = "removeTriangles " + std::to_string(rm[0].index());
+          what = "removeTriangles " + std::to_string(rm[0].idx());
           const auto r = t.removeTriangles(rm, repair);
           inserted += r.insertions;
           split += r.splits;
@@ -452,10 +452,10 @@ TEST(TopologyRepair, CarvingCutsAlongTheRegionBoundary) {
     // Nothing inside is left; the border points the carving made lie on the circle.
     for (PointId p : t.points()) {
       const double d = phi(t.restPosition(p));
-      EXPECT_GT(d, -1e-9 * r) << "trial " << trial << ": point " << p.index() << " inside";
-      if (p.index() >= pointsBefore && t.isBoundaryPoint(p) && std::abs(d) < 0.5 * cell)
+      EXPECT_GT(d, -1e-9 * r) << "trial " << trial << ": point " << p.idx() << " inside";
+      if (p.idx() >= pointsBefore && t.isBoundaryPoint(p) && std::abs(d) < 0.5 * cell)
         EXPECT_LT(std::abs(d), 1e-9 * r)
-            << "trial " << trial << ": border point " << p.index() << " off the circle";
+            << "trial " << trial << ": border point " << p.idx() << " off the circle";
     }
     // The area removed is that of a polygon inscribed in the circle: at most pi r^2, short of it
     // by at most the segments between the polygon and the circle (sides up to ~1.5 cells).

@@ -65,7 +65,7 @@ std::vector<Recorded> runSmall(const fs::path& dir, bool finish = true, long sto
     Recorded rec{r.time, runner.simulation().topology().numTriangles(), {}};
     const auto x = runner.simulation().state().x();
     for (topology::PointId p : runner.simulation().topology().points())
-      for (int k = 0; k < 3; ++k) rec.x.push_back(x[3 * p + std::size_t(k)]);
+      for (int k = 0; k < 3; ++k) rec.x.push_back(x[3 * p.idx() + std::size_t(k)]);
     frames.push_back(std::move(rec));
   };
   runner.start();

@@ -52,11 +52,11 @@ std::string describeTriangle(const MeshData& mesh, std::size_t t) {
 
 std::uint64_t undirectedKey(PointId a, PointId b) {
   if (a > b) std::swap(a, b);
-  return (std::uint64_t{a} << 32) | b;
+  return (std::uint64_t{a.idx()} << 32) | b.idx();
 }
 
 std::string edgeName(PointId a, PointId b) {
-  return "edge between vertices " + std::to_string(a) + " and " + std::to_string(b);
+  return "edge between vertices " + std::to_string(a.idx()) + " and " + std::to_string(b.idx());
 }
 
 /// What the first pass learns about one undirected edge.
@@ -76,9 +76,10 @@ void checkManifold(const MeshData& mesh) {
   for (std::size_t t = 0; t < nt; ++t) {
     const TriangleVertices& tri = mesh.triangles[t];
     for (int k = 0; k < 3; ++k) {
-      if (tri[k] >= nv) {
+      if (tri[k].idx() >= nv) {
         throw InvalidInput(whereTriangle(mesh, t),
-                           "vertex index " + std::to_string(tri[k]) + " out of range: valid " +
+                           "vertex index " + std::to_string(tri[k].idx()) +
+                               " out of range: valid " +
                                (nv == 0 ? std::string("none (no vertices)")
                                         : "range is 0.." + std::to_string(nv - 1)));
       }
@@ -87,7 +88,7 @@ void checkManifold(const MeshData& mesh) {
       const PointId repeated = tri[0] == tri[1] || tri[0] == tri[2] ? tri[0] : tri[1];
       throw InvalidInput(
           whereTriangle(mesh, t),
-          "triangle repeats vertex " + std::to_string(repeated) + " (a degenerate triangle)");
+          "triangle repeats vertex " + std::to_string(repeated.idx()) + " (a degenerate triangle)");
     }
   }
 
@@ -125,7 +126,7 @@ void checkManifold(const MeshData& mesh) {
       if (other[use.corner[0]] == a) {  // the other triangle also runs a -> b
         throw InvalidInput(whereTriangle(mesh, t),
                            "inconsistent orientation: " + edgeName(a, b) + " is run from " +
-                               std::to_string(a) + " to " + std::to_string(b) +
+                               std::to_string(a.idx()) + " to " + std::to_string(b.idx()) +
                                " by this triangle and by the triangle at " +
                                describeTriangle(mesh, use.triangles[0]) +
                                " (neighbouring triangles must run a shared edge in opposite "
@@ -153,17 +154,17 @@ void checkManifold(const MeshData& mesh) {
   for (std::size_t c = 0; c < 3 * nt; ++c) {
     const PointId v = mesh.triangles[c / 3][c % 3];
     const std::size_t root = fans.find(c);
-    if (firstFan[v] == SIZE_MAX) {
-      firstFan[v] = root;
-    } else if (firstFan[v] != root) {
-      bowtie[v] = true;
+    if (firstFan[v.idx()] == SIZE_MAX) {
+      firstFan[v.idx()] = root;
+    } else if (firstFan[v.idx()] != root) {
+      bowtie[v.idx()] = true;
     }
   }
   for (std::size_t v = 0; v < nv; ++v) {
     if (!bowtie[v]) continue;
     std::vector<std::size_t> roots;
     for (std::size_t c = 0; c < 3 * nt; ++c) {
-      if (mesh.triangles[c / 3][c % 3] == v) roots.push_back(fans.find(c));
+      if (mesh.triangles[c / 3][c % 3].idx() == v) roots.push_back(fans.find(c));
     }
     std::sort(roots.begin(), roots.end());
     const auto nFans = std::unique(roots.begin(), roots.end()) - roots.begin();

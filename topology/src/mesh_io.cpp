@@ -611,7 +611,8 @@ void writeObj(std::ostream& out, const std::vector<Vec3>& points,
     out.write(buffer, n);
   }
   for (const TriangleVertices& t : triangles) {
-    out << "f " << t[0] + 1ull << ' ' << t[1] + 1ull << ' ' << t[2] + 1ull << '\n';
+    out << "f " << t[0].idx() + 1ull << ' ' << t[1].idx() + 1ull << ' ' << t[2].idx() + 1ull
+        << '\n';
   }
 }
 

@@ -68,7 +68,8 @@ Topology::Topology(const MeshData& data) : impl_(std::make_unique<Impl>()) {
   for (const Vec3& p : data.points) m.add_vertex(toPoint(p));
   std::vector<std::array<VI, 3>> faces;
   faces.reserve(data.triangles.size());
-  for (const auto& t : data.triangles) faces.push_back({VI(t[0]), VI(t[1]), VI(t[2])});
+  for (const auto& t : data.triangles)
+    faces.push_back({VI(t[0].idx()), VI(t[1].idx()), VI(t[2].idx())});
   CGAL::Euler::add_faces(faces, m);
   if (m.number_of_faces() != data.triangles.size()) {
     throw TopologyError("internal error: the half-edge structure took " +
@@ -80,7 +81,7 @@ Topology::Topology(const MeshData& data) : impl_(std::make_unique<Impl>()) {
   // under a rotation of the vertices (SOFA's TriangularFEMForceFieldOptim: a frame along the
   // first edge) need.
   for (const auto& t : data.triangles) {
-    const HI h = m.halfedge(VI(t[0]), VI(t[1]));
+    const HI h = m.halfedge(VI(t[0].idx()), VI(t[1].idx()));
     if (h != Mesh::null_halfedge() && m.face(h) != Mesh::null_face()) m.set_halfedge(m.face(h), h);
   }
 }
@@ -98,10 +99,10 @@ MeshData soup(std::span<const Vec3> pts, std::span<const TriangleVertices> tris)
         throw InvalidInput("point " + std::to_string(i), "non-finite rest coordinate");
   for (std::size_t i = 0; i < tris.size(); ++i) {
     for (PointId v : tris[i])
-      if (v >= pts.size())
-        throw InvalidInput("triangle " + std::to_string(i), "vertex index " + std::to_string(v) +
-                                                                " out of range [0, " +
-                                                                std::to_string(pts.size()) + ")");
+      if (v.idx() >= pts.size())
+        throw InvalidInput("triangle " + std::to_string(i),
+                           "vertex index " + std::to_string(v.idx()) + " out of range [0, " +
+                               std::to_string(pts.size()) + ")");
     if (tris[i][0] == tris[i][1] || tris[i][1] == tris[i][2] || tris[i][0] == tris[i][2])
       throw InvalidInput("triangle " + std::to_string(i), "repeated vertex in a triangle");
   }
@@ -138,13 +139,13 @@ Index Topology::triangleCapacity() const {
   return Index(impl_->mesh.num_faces());
 }
 bool Topology::isPointAlive(PointId p) const {
-  return impl_->vertexAlive(VI(p));
+  return impl_->vertexAlive(VI(p.idx()));
 }
 bool Topology::isEdgeAlive(EdgeId e) const {
-  return impl_->edgeAlive(EI(e));
+  return impl_->edgeAlive(EI(e.idx()));
 }
 bool Topology::isTriangleAlive(TriangleId t) const {
-  return impl_->faceAlive(FI(t));
+  return impl_->faceAlive(FI(t.idx()));
 }
 
 std::uint64_t Topology::revision() const {
@@ -207,14 +208,14 @@ namespace {
 }  // namespace
 
 Vec3 Topology::restPosition(PointId p) const {
-  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
-  return toVec(impl_->mesh.point(VI(p)));
+  if (!impl_->vertexAlive(VI(p.idx()))) badIndex("point", p.idx());
+  return toVec(impl_->mesh.point(VI(p.idx())));
 }
 
 EdgeVertices Topology::edgeVertices(EdgeId e) const {
-  if (!impl_->edgeAlive(EI(e))) badIndex("edge", e);
+  if (!impl_->edgeAlive(EI(e.idx()))) badIndex("edge", e.idx());
   const Mesh& m = impl_->mesh;
-  HI h = m.halfedge(EI(e));
+  HI h = m.halfedge(EI(e.idx()));
   return {PointId(m.source(h).idx()), PointId(m.target(h).idx())};
 }
 
@@ -233,19 +234,19 @@ TriangleEdges Topology::Impl::edgesOf(FI f) const {
 }
 
 TriangleVertices Topology::triangleVertices(TriangleId t) const {
-  if (!impl_->faceAlive(FI(t))) badIndex("triangle", t);
-  return impl_->verticesOf(FI(t));
+  if (!impl_->faceAlive(FI(t.idx()))) badIndex("triangle", t.idx());
+  return impl_->verticesOf(FI(t.idx()));
 }
 
 TriangleEdges Topology::triangleEdges(TriangleId t) const {
-  if (!impl_->faceAlive(FI(t))) badIndex("triangle", t);
-  return impl_->edgesOf(FI(t));
+  if (!impl_->faceAlive(FI(t.idx()))) badIndex("triangle", t.idx());
+  return impl_->edgesOf(FI(t.idx()));
 }
 
 std::array<TriangleId, 2> Topology::edgeTriangles(EdgeId e) const {
-  if (!impl_->edgeAlive(EI(e))) badIndex("edge", e);
+  if (!impl_->edgeAlive(EI(e.idx()))) badIndex("edge", e.idx());
   const Mesh& m = impl_->mesh;
-  HI h = m.halfedge(EI(e));
+  HI h = m.halfedge(EI(e.idx()));
   FI a = m.face(h), b = m.face(m.opposite(h));
   return {a.is_valid() ? TriangleId(a.idx()) : TriangleId(kInvalidIndex),
           b.is_valid() ? TriangleId(b.idx()) : TriangleId(kInvalidIndex)};
@@ -253,11 +254,11 @@ std::array<TriangleId, 2> Topology::edgeTriangles(EdgeId e) const {
 
 PointId Topology::oppositeVertex(TriangleId t, EdgeId e) const {
   TriangleEdges te = triangleEdges(t);
-  TriangleVertices tv = impl_->verticesOf(FI(t));
+  TriangleVertices tv = impl_->verticesOf(FI(t.idx()));
   for (int i = 0; i < 3; ++i)
     if (te[i] == e) return tv[i];
-  throw TopologyError("edge " + std::to_string(e) + " is not an edge of triangle " +
-                      std::to_string(t));
+  throw TopologyError("edge " + std::to_string(e.idx()) + " is not an edge of triangle " +
+                      std::to_string(t.idx()));
 }
 
 HI Topology::Impl::findHalfedge(VI a, VI b) const {
@@ -274,26 +275,26 @@ HI Topology::Impl::findHalfedge(VI a, VI b) const {
 }
 
 EdgeId Topology::findEdge(PointId a, PointId b) const {
-  if (!impl_->vertexAlive(VI(a)) || !impl_->vertexAlive(VI(b)) || a == b)
+  if (!impl_->vertexAlive(VI(a.idx())) || !impl_->vertexAlive(VI(b.idx())) || a == b)
     return EdgeId(kInvalidIndex);
-  HI h = impl_->findHalfedge(VI(a), VI(b));
+  HI h = impl_->findHalfedge(VI(a.idx()), VI(b.idx()));
   return h.is_valid() ? EdgeId(impl_->mesh.edge(h).idx()) : EdgeId(kInvalidIndex);
 }
 
 bool Topology::isBoundaryEdge(EdgeId e) const {
-  if (!impl_->edgeAlive(EI(e))) badIndex("edge", e);
-  return impl_->mesh.is_border(EI(e));
+  if (!impl_->edgeAlive(EI(e.idx()))) badIndex("edge", e.idx());
+  return impl_->mesh.is_border(EI(e.idx()));
 }
 
 bool Topology::isBoundaryPoint(PointId p) const {
-  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  if (!impl_->vertexAlive(VI(p.idx()))) badIndex("point", p.idx());
   const Mesh& m = impl_->mesh;
-  return !m.is_isolated(VI(p)) && m.is_border(VI(p), true);
+  return !m.is_isolated(VI(p.idx())) && m.is_border(VI(p.idx()), true);
 }
 
 bool Topology::isIsolatedPoint(PointId p) const {
-  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
-  return impl_->mesh.is_isolated(VI(p));
+  if (!impl_->vertexAlive(VI(p.idx()))) badIndex("point", p.idx());
+  return impl_->mesh.is_isolated(VI(p.idx()));
 }
 
 void Topology::Impl::incomingHalfedges(VI v, std::vector<HI>& out) const {
@@ -309,18 +310,18 @@ void Topology::Impl::incomingHalfedges(VI v, std::vector<HI>& out) const {
 }
 
 std::vector<EdgeId> Topology::edgesAroundPoint(PointId p) const {
-  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  if (!impl_->vertexAlive(VI(p.idx()))) badIndex("point", p.idx());
   std::vector<HI> hs;
-  impl_->incomingHalfedges(VI(p), hs);
+  impl_->incomingHalfedges(VI(p.idx()), hs);
   std::vector<EdgeId> out;
   for (HI h : hs) out.push_back(EdgeId(impl_->mesh.edge(h).idx()));
   return out;
 }
 
 std::vector<TriangleId> Topology::trianglesAroundPoint(PointId p) const {
-  if (!impl_->vertexAlive(VI(p))) badIndex("point", p);
+  if (!impl_->vertexAlive(VI(p.idx()))) badIndex("point", p.idx());
   std::vector<HI> hs;
-  impl_->incomingHalfedges(VI(p), hs);
+  impl_->incomingHalfedges(VI(p.idx()), hs);
   std::vector<TriangleId> out;
   for (HI h : hs)
     if (FI f = impl_->mesh.face(h); f.is_valid()) out.push_back(TriangleId(f.idx()));
@@ -367,7 +368,7 @@ MeshData Topology::toMeshData(std::vector<PointId>* pointIds) const {
   }
   for (FI f : m.faces()) {
     TriangleVertices t = impl_->verticesOf(f);
-    d.triangles.push_back({dense[t[0]], dense[t[1]], dense[t[2]]});
+    d.triangles.push_back({dense[t[0].idx()], dense[t[1].idx()], dense[t[2].idx()]});
   }
   d.pointLines.assign(d.points.size(), 0);
   d.triangleLines.assign(d.triangles.size(), 0);
@@ -459,11 +460,11 @@ VI Topology::Impl::newPoint(const std::vector<std::pair<PointId, double>>& ances
   std::vector<std::pair<PointId, double>> flat;
   double x = 0, y = 0, z = 0;
   for (auto [a, w] : ancestors) {
-    const Point3& p = mesh.point(VI(a));
+    const Point3& p = mesh.point(VI(a.idx()));
     x += w * p.x();
     y += w * p.y();
     z += w * p.z();
-    if (a >= vBefore) {
+    if (a.idx() >= vBefore) {
       auto it = ancestry.find(a);
       if (it != ancestry.end() && !it->second.empty()) {
         for (auto [aa, ww] : it->second) flat.emplace_back(aa, w * ww);
@@ -490,7 +491,7 @@ void Topology::Impl::detachFace(FI f) {
   // As CGAL::Euler::remove_face, but a vertex left without edges stays (isolated) until commit,
   // so that the same transaction may attach new faces to it.
   failurePoint("a triangle detached");
-  for (PointId p : verticesOf(f)) journal.recordStar(mesh, VI(p));
+  for (PointId p : verticesOf(f)) journal.recordStar(mesh, VI(p.idx()));
   HI h = mesh.halfedge(f);
   HI end = h;
   if (f.idx() < fBefore) {
@@ -498,9 +499,10 @@ void Topology::Impl::detachFace(FI f) {
     trisDestroyedV.push_back(verticesOf(f));
     trisDestroyedE.push_back(edgesOf(f));
     auto v = verticesOf(f);
-    trisDestroyedP.push_back({mesh.point(VI(v[0])), mesh.point(VI(v[1])), mesh.point(VI(v[2]))});
+    trisDestroyedP.push_back(
+        {mesh.point(VI(v[0].idx())), mesh.point(VI(v[1].idx())), mesh.point(VI(v[2].idx()))});
   }
-  for (PointId p : verticesOf(f)) touched.push_back(VI(p));
+  for (PointId p : verticesOf(f)) touched.push_back(VI(p.idx()));
   auto removeEdge = [&](EI e) {
     if (e.idx() < eBefore) {
       edgesDestroyed.push_back(EdgeId(e.idx()));
@@ -572,8 +574,8 @@ void Topology::Impl::reattach(const std::vector<FI>& faces,
     TriangleVertices t = verticesOf(f);
     std::array<VI, 3> nt;
     for (int i = 0; i < 3; ++i) {
-      auto it = subst.find(faceVertexKey(f, VI(t[i])));
-      nt[i] = it == subst.end() ? VI(t[i]) : it->second;
+      auto it = subst.find(faceVertexKey(f, VI(t[i].idx())));
+      nt[i] = it == subst.end() ? VI(t[i].idx()) : it->second;
     }
     added.push_back(nt);
   }
@@ -803,8 +805,8 @@ void Topology::Impl::commit(Topology& self) {
   if (grid.built()) {
     try {
       for (std::size_t i = 0; i < trisDestroyed.size(); ++i)
-        grid.erase(trisDestroyedP[i], FI(trisDestroyed[i]));
-      for (TriangleId t : triC) grid.insert(mesh, FI(t));
+        grid.erase(trisDestroyedP[i], FI(trisDestroyed[i].idx()));
+      for (TriangleId t : triC) grid.insert(mesh, FI(t.idx()));
     } catch (...) {
       grid.clear();
     }

@@ -75,7 +75,7 @@ struct Topology::Impl {
   Impl() { mesh.set_recycle_garbage(false); }
 
   // queries on the CGAL structure
-  FI faceOf(TriangleId t) const { return FI(t); }
+  FI faceOf(TriangleId t) const { return FI(t.idx()); }
   TriangleVertices verticesOf(FI f) const;
   TriangleEdges edgesOf(FI f) const;
   bool faceAlive(FI f) const { return f.idx() < mesh.num_faces() && !mesh.is_removed(f); }

@@ -45,15 +45,15 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
   std::unordered_map<Index, std::vector<std::array<Index, 2>>> newAround;  // v -> other two
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     const auto& t = triangles[i];
-    const std::string where = "addTriangles: triangle " + std::to_string(i) + " " + "(" + pt(t[0]) +
-                              ", " + pt(t[1]) + ", " + pt(t[2]) + ")";
+    const std::string where = "addTriangles: triangle " + std::to_string(i) + " " + "(" +
+                              pt(t[0].idx()) + ", " + pt(t[1].idx()) + ", " + pt(t[2].idx()) + ")";
     for (PointId v : t)
-      if (!I.vertexAlive(VI(v)))
-        throw TopologyError(where + ": point " + pt(v) + " does not exist");
+      if (!I.vertexAlive(VI(v.idx())))
+        throw TopologyError(where + ": point " + pt(v.idx()) + " does not exist");
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
       throw TopologyError(where + ": repeated vertex");
     for (int k = 0; k < 3; ++k) {
-      Index a = t[k], b = t[(k + 1) % 3];
+      Index a = t[k].idx(), b = t[(k + 1) % 3].idx();
       if (!directed.insert({a, b}).second)
         throw TopologyError(where + ": edge " + edgeName(a, b) +
                             " is used twice in the same direction by the new triangles");
@@ -62,7 +62,7 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
         throw TopologyError(where + ": edge " + edgeName(a, b) + " already has triangle " +
                             pt(m.face(h).idx()) +
                             " on that side (non-manifold or wrongly oriented)");
-      newAround[t[k]].push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
+      newAround[t[k].idx()].push_back({t[(k + 1) % 3].idx(), t[(k + 2) % 3].idx()});
     }
   }
   // One fan per vertex: faces around v connected through shared edges (v, w).
@@ -76,7 +76,7 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
         std::array<Index, 2> o{};
         int k = 0;
         for (PointId x : tv)
-          if (x != v) o[k++] = x;
+          if (x.idx() != v) o[k++] = x.idx();
         around.push_back(o);
       }
     UnionFind fans(around.size());
@@ -93,7 +93,7 @@ std::vector<TriangleId> Topology::addTriangles(std::span<const TriangleVertices>
                           " separate fans of triangles (a non-manifold vertex)");
   }
   std::vector<std::array<VI, 3>> faces;
-  for (const auto& t : triangles) faces.push_back({VI(t[0]), VI(t[1]), VI(t[2])});
+  for (const auto& t : triangles) faces.push_back({VI(t[0].idx()), VI(t[1].idx()), VI(t[2].idx())});
   std::vector<FI> added = I.committed(*this, "addTriangles", [&] { return I.attachFaces(faces); });
   std::vector<TriangleId> out;
   for (FI f : added) out.push_back(TriangleId(f.idx()));
@@ -112,13 +112,13 @@ RepairReport Topology::removeTriangles(std::span<const TriangleId> triangles,
   std::sort(ts.begin(), ts.end());
   if (std::adjacent_find(ts.begin(), ts.end()) != ts.end())
     throw TopologyError("removeTriangles: triangle " +
-                        pt(*std::adjacent_find(ts.begin(), ts.end())) + " is listed twice");
+                        pt(std::adjacent_find(ts.begin(), ts.end())->idx()) + " is listed twice");
   for (TriangleId t : ts)
-    if (!I.faceAlive(FI(t)))
-      throw TopologyError("removeTriangles: triangle " + pt(t) + " does not exist");
+    if (!I.faceAlive(FI(t.idx())))
+      throw TopologyError("removeTriangles: triangle " + pt(t.idx()) + " does not exist");
   if (ts.empty()) return {};
   return I.committed(*this, "removeTriangles", [&] {
-    for (TriangleId t : ts) I.detachFace(FI(t));
+    for (TriangleId t : ts) I.detachFace(FI(t.idx()));
     // Removal may leave a vertex with two fans (a bowtie): give each extra fan its own copy.
     std::vector<VI> candidates = I.touched;
     I.splitFans(candidates, nullptr, {}, nullptr, nullptr);
@@ -149,7 +149,7 @@ VI Topology::Impl::splitEdgeNoTxn(EI e, VI from, double t) {
 
 VI Topology::Impl::splitFaceNoTxn(FI f, const std::array<double, 3>& bary) {
   TriangleVertices t = verticesOf(f);
-  return splitFaceNoTxn(f, {VI(t[0]), VI(t[1]), VI(t[2])}, bary);
+  return splitFaceNoTxn(f, {VI(t[0].idx()), VI(t[1].idx()), VI(t[2].idx())}, bary);
 }
 
 VI Topology::Impl::splitFaceNoTxn(FI f, const std::array<VI, 3>& corners,
@@ -159,31 +159,32 @@ VI Topology::Impl::splitFaceNoTxn(FI f, const std::array<VI, 3>& corners,
                    {PointId(corners[1].idx()), weights[1]},
                    {PointId(corners[2].idx()), weights[2]}});
   detachFace(f);
-  VI a(t[0]), b(t[1]), c(t[2]);
+  VI a(t[0].idx()), b(t[1].idx()), c(t[2].idx());
   attachFaces({{a, b, m}, {b, c, m}, {c, a, m}});
   return m;
 }
 
 PointId Topology::splitEdge(EdgeId e, double t) {
   Impl& I = *impl_;
-  if (!I.edgeAlive(EI(e))) throw TopologyError("splitEdge: edge " + pt(e) + " does not exist");
+  if (!I.edgeAlive(EI(e.idx())))
+    throw TopologyError("splitEdge: edge " + pt(e.idx()) + " does not exist");
   if (!(t > 0.0 && t < 1.0))
-    throw TopologyError("splitEdge: parameter " + std::to_string(t) + " on edge " + pt(e) +
+    throw TopologyError("splitEdge: parameter " + std::to_string(t) + " on edge " + pt(e.idx()) +
                         " is not strictly between 0 and 1");
-  VI from = I.mesh.source(I.mesh.halfedge(EI(e)));
-  VI m = I.committed(*this, "splitEdge", [&] { return I.splitEdgeNoTxn(EI(e), from, t); });
+  VI from = I.mesh.source(I.mesh.halfedge(EI(e.idx())));
+  VI m = I.committed(*this, "splitEdge", [&] { return I.splitEdgeNoTxn(EI(e.idx()), from, t); });
   return PointId(m.idx());
 }
 
 PointId Topology::splitTriangle(TriangleId t, const std::array<double, 3>& bary) {
   Impl& I = *impl_;
-  if (!I.faceAlive(FI(t)))
-    throw TopologyError("splitTriangle: triangle " + pt(t) + " does not exist");
+  if (!I.faceAlive(FI(t.idx())))
+    throw TopologyError("splitTriangle: triangle " + pt(t.idx()) + " does not exist");
   double s = bary[0] + bary[1] + bary[2];
   if (!(bary[0] > 0 && bary[1] > 0 && bary[2] > 0) || !(std::abs(s - 1.0) < 1e-9))
-    throw TopologyError("splitTriangle: barycentric weights of triangle " + pt(t) +
+    throw TopologyError("splitTriangle: barycentric weights of triangle " + pt(t.idx()) +
                         " must be positive and sum to 1");
-  VI m = I.committed(*this, "splitTriangle", [&] { return I.splitFaceNoTxn(FI(t), bary); });
+  VI m = I.committed(*this, "splitTriangle", [&] { return I.splitFaceNoTxn(FI(t.idx()), bary); });
   return PointId(m.idx());
 }
 
@@ -222,27 +223,28 @@ IncisionResult Topology::incise(std::span<const PointId> path) {
   if (path.size() < 2) throw TopologyError("incise: a path needs at least two points");
   std::set<std::pair<Index, Index>> used;
   for (std::size_t i = 0; i < path.size(); ++i) {
-    if (!I.vertexAlive(VI(path[i])))
-      throw TopologyError("incise: point " + pt(path[i]) + " (path position " + std::to_string(i) +
-                          ") does not exist");
+    if (!I.vertexAlive(VI(path[i].idx())))
+      throw TopologyError("incise: point " + pt(path[i].idx()) + " (path position " +
+                          std::to_string(i) + ") does not exist");
     if (i == 0) continue;
     PointId a = path[i - 1], b = path[i];
     if (a == b)
-      throw TopologyError("incise: point " + pt(a) + " is repeated at path position " +
+      throw TopologyError("incise: point " + pt(a.idx()) + " is repeated at path position " +
                           std::to_string(i));
-    HI h = I.findHalfedge(VI(a), VI(b));
+    HI h = I.findHalfedge(VI(a.idx()), VI(b.idx()));
     if (!h.is_valid())
-      throw TopologyError("incise: the path is not connected: no edge joins points " + pt(a) +
-                          " and " + pt(b) + " (path positions " + std::to_string(i - 1) + ", " +
-                          std::to_string(i) + ")");
+      throw TopologyError("incise: the path is not connected: no edge joins points " + pt(a.idx()) +
+                          " and " + pt(b.idx()) + " (path positions " + std::to_string(i - 1) +
+                          ", " + std::to_string(i) + ")");
     if (I.mesh.is_border(I.mesh.edge(h)))
-      throw TopologyError("incise: edge " + edgeName(a, b) +
+      throw TopologyError("incise: edge " + edgeName(a.idx(), b.idx()) +
                           " of the path is on the border: there is nothing to open");
-    if (!used.insert({std::min(a, b), std::max(a, b)}).second)
-      throw TopologyError("incise: edge " + edgeName(a, b) + " appears twice in the path");
+    if (!used.insert({std::min(a, b).idx(), std::max(a, b).idx()}).second)
+      throw TopologyError("incise: edge " + edgeName(a.idx(), b.idx()) +
+                          " appears twice in the path");
   }
   std::vector<VI> vs;
-  for (PointId p : path) vs.push_back(VI(p));
+  for (PointId p : path) vs.push_back(VI(p.idx()));
   return I.committed(*this, "incise", [&] {
     IncisionResult result;
     I.inciseNoTxn(vs, result);
@@ -257,10 +259,12 @@ IncisionResult Topology::tear(EdgeId e) {
 IncisionResult Topology::tear(EdgeId e, const RepairOptions& repair) {
   checkRepairOptions(repair, "tear");
   Impl& I = *impl_;
-  if (!I.edgeAlive(EI(e))) throw TopologyError("tear: edge " + pt(e) + " does not exist");
-  if (I.mesh.is_border(EI(e)))
-    throw TopologyError("tear: edge " + pt(e) + " is on the border: there is nothing to tear");
-  HI h = I.mesh.halfedge(EI(e));
+  if (!I.edgeAlive(EI(e.idx())))
+    throw TopologyError("tear: edge " + pt(e.idx()) + " does not exist");
+  if (I.mesh.is_border(EI(e.idx())))
+    throw TopologyError("tear: edge " + pt(e.idx()) +
+                        " is on the border: there is nothing to tear");
+  HI h = I.mesh.halfedge(EI(e.idx()));
   return I.committed(*this, "tear", [&] {
     IncisionResult result;
     I.inciseNoTxn({I.mesh.source(h), I.mesh.target(h)}, result);
@@ -336,7 +340,7 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
     // where its star is flat (2 degrees) and its triangles stay the right way up; an inside point
     // only while a neighbour stays inside (so the region keeps a point inside it).
     std::unordered_set<Index> locked;
-    for (PointId p : repair.locked) locked.insert(p.index());
+    for (PointId p : repair.locked) locked.insert(p.idx());
     struct Snap {
       double dist;
       VI v, w;
@@ -416,13 +420,12 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
       auto tv = I.verticesOf(f);
       int in = -1;
       for (PointId p : tv)
-        if (auto it = inside.find(p.index()); it != inside.end())
-          in = std::max(in, int(it->second));
+        if (auto it = inside.find(p.idx()); it != inside.end()) in = std::max(in, int(it->second));
       if (in < 0) {
         Vec3 c{0, 0, 0};
         for (PointId p : tv)
           for (int k = 0; k < 3; ++k)
-            c[std::size_t(k)] += toVec(m.point(VI(p)))[std::size_t(k)] / 3;
+            c[std::size_t(k)] += toVec(m.point(VI(p.idx())))[std::size_t(k)] / 3;
         in = phi(c) <= 0 ? 1 : 0;
       }
       if (in == 1) gone.push_back(f);

@@ -70,7 +70,7 @@ class Repairer {
         target_(o.minAngle * kDeg),
         flat_(o.flatness * kDeg),
         replaced_(replaced) {
-    for (PointId p : o.locked) locked_.insert(p.index());
+    for (PointId p : o.locked) locked_.insert(p.idx());
   }
 
   RepairReport run(const std::vector<VI>& seeds) {
@@ -465,9 +465,9 @@ class Repairer {
     }
     double x = 0, y = 0, z = 0;  // where the new point will be (summed as newPoint sums)
     for (auto& [p, w] : ancestors) {
-      x += w * P(VI(p)).x();
-      y += w * P(VI(p)).y();
-      z += w * P(VI(p)).z();
+      x += w * P(VI(p.idx())).x();
+      y += w * P(VI(p.idx())).y();
+      z += w * P(VI(p.idx())).z();
     }
     if (!(starQuality(v, Point3(x, y, z), fs) > before + kImprove)) return false;
     VI nv = I_.newPoint(ancestors);
@@ -977,13 +977,13 @@ RepairReport Topology::Impl::repairNoTxn(const std::vector<VI>& seeds, const Rep
 void Topology::Impl::repairIncision(const RepairOptions& options, IncisionResult& result) {
   if (!(options.minAngle > 0)) return;
   std::vector<VI> seeds;
-  for (PointId p : result.path) seeds.push_back(VI(p));
-  for (PointId p : result.copies) seeds.push_back(VI(p));
+  for (PointId p : result.path) seeds.push_back(VI(p.idx()));
+  for (PointId p : result.copies) seeds.push_back(VI(p.idx()));
   std::unordered_map<Index, Index> replaced;
   result.repair = repairNoTxn(seeds, options, replaced);
   if (replaced.empty()) return;
   auto remap = [&](std::vector<PointId>& ps, bool dedupe) {
-    for (PointId& p : ps) p = PointId(follow(replaced, p.index()));
+    for (PointId& p : ps) p = PointId(follow(replaced, p.idx()));
     if (dedupe) ps.erase(std::unique(ps.begin(), ps.end()), ps.end());
   };
   remap(result.path, true);
@@ -1003,7 +1003,7 @@ RepairReport Topology::repair(std::span<const PointId> around, const RepairOptio
   Impl& I = *impl_;
   std::vector<VI> seeds;
   for (PointId p : around)
-    if (I.vertexAlive(VI(p))) seeds.push_back(VI(p));
+    if (I.vertexAlive(VI(p.idx()))) seeds.push_back(VI(p.idx()));
   return I.committed(*this, "repair", [&] {
     std::unordered_map<Index, Index> replaced;
     return I.repairNoTxn(seeds, options, replaced);

@@ -16,7 +16,8 @@ using geometry::dist2;
 std::pair<double, double> nearestTriangleBruteForce(const MeshData& mesh, const Vec3& p) {
   double best = std::numeric_limits<double>::infinity(), edge = 0;
   for (const auto& t : mesh.triangles) {
-    const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]];
+    const Vec3 &a = mesh.points[t[0].idx()], &b = mesh.points[t[1].idx()],
+               &c = mesh.points[t[2].idx()];
     const double d = dist2(p, closestOnTriangle(p, a, b, c));
     if (d < best ||
         (d == best && geometry::longestEdge(a, b, c) > edge)) {  // ties: the longer edge
@@ -34,13 +35,14 @@ TriangleGrid::TriangleGrid(const MeshData& mesh) : mesh_(mesh) {
   double edges = 0.0;
   for (const auto& t : mesh.triangles) {
     for (int k = 0; k < 3; ++k) {
-      const Vec3& q = mesh.points[t[std::size_t(k)]];
+      const Vec3& q = mesh.points[t[std::size_t(k)].idx()];
       for (std::size_t a = 0; a < 3; ++a) {
         lo_[a] = std::min(lo_[a], q[a]);
         hi_[a] = std::max(hi_[a], q[a]);
       }
     }
-    edges += geometry::longestEdge(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]]);
+    edges += geometry::longestEdge(mesh.points[t[0].idx()], mesh.points[t[1].idx()],
+                                   mesh.points[t[2].idx()]);
   }
   if (mesh.triangles.empty()) return;
   double extent = 0.0;
@@ -51,10 +53,10 @@ TriangleGrid::TriangleGrid(const MeshData& mesh) : mesh_(mesh) {
     const auto& t = mesh.triangles[i];
     std::array<long, 3> from{}, to{};
     for (std::size_t a = 0; a < 3; ++a) {
-      double mn = mesh.points[t[0]][a], mx = mn;
+      double mn = mesh.points[t[0].idx()][a], mx = mn;
       for (int k = 1; k < 3; ++k) {
-        mn = std::min(mn, mesh.points[t[std::size_t(k)]][a]);
-        mx = std::max(mx, mesh.points[t[std::size_t(k)]][a]);
+        mn = std::min(mn, mesh.points[t[std::size_t(k)].idx()][a]);
+        mx = std::max(mx, mesh.points[t[std::size_t(k)].idx()][a]);
       }
       from[a] = cellOf(mn, a);
       to[a] = cellOf(mx, a);
@@ -83,7 +85,8 @@ std::pair<double, double> TriangleGrid::nearest(const Vec3& p) const {
           if (it == cells_.end()) continue;
           for (std::uint32_t i : it->second) {
             const auto& t = mesh_.triangles[i];
-            const Vec3 &a = mesh_.points[t[0]], &b = mesh_.points[t[1]], &cc = mesh_.points[t[2]];
+            const Vec3 &a = mesh_.points[t[0].idx()], &b = mesh_.points[t[1].idx()],
+                       &cc = mesh_.points[t[2].idx()];
             const double d = dist2(p, closestOnTriangle(p, a, b, cc));
             if (d < best || (d == best && geometry::longestEdge(a, b, cc) > edge)) {
               best = d;

@@ -15,15 +15,15 @@ PointSet::PointSet(topology::Topology& topology, std::string name)
 }
 
 void PointSet::add(PointId p, const Vec3& data) {
-  if (p >= flags_.numSlots())
-    throw TopologyError(name_ + ": point " + std::to_string(p) + " does not exist");
+  if (p.idx() >= flags_.numSlots())
+    throw TopologyError(name_ + ": point " + std::to_string(p.idx()) + " does not exist");
   if (!flags_[p]) ++count_;
   flags_[p] = 1;
   data_[p] = data;
 }
 
 void PointSet::remove(PointId p) {
-  if (p >= flags_.numSlots() || !flags_[p]) return;
+  if (p.idx() >= flags_.numSlots() || !flags_[p]) return;
   flags_[p] = 0;
   data_[p] = {0, 0, 0};
   --count_;

@@ -85,19 +85,19 @@ void LumpedMass::onTrianglesCreated(const topology::Topology& t,
 void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>& problems) const {
   std::vector<double> expected(t.pointCapacity(), 0.0);
   for (auto f : t.triangles())
-    for (auto p : t.triangleVertices(f)) expected[p] += density_ * triangleArea(t, f) / 3.0;
+    for (auto p : t.triangleVertices(f)) expected[p.idx()] += density_ * triangleArea(t, f) / 3.0;
   if (law_.kind == MassLaw::Kind::PerPoint)
-    for (auto p : t.points()) expected[p] = law_.value;
+    for (auto p : t.points()) expected[p.idx()] = law_.value;
   if (mass_.numSlots() != expected.size()) {
     problems.push_back("mass table size differs from the point capacity");
     return;
   }
   double scale = 0;
   for (double m : expected) scale = std::max(scale, m);
-  for (topology::PointId p{0}; p < expected.size(); ++p)
-    if (std::abs(mass_[p] - expected[p]) > 1e-9 * scale)
-      problems.push_back("point " + std::to_string(p) + ": mass " + std::to_string(mass_[p]) +
-                         " != rebuilt " + std::to_string(expected[p]));
+  for (topology::PointId p{0}; p.idx() < expected.size(); ++p)
+    if (std::abs(mass_[p] - expected[p.idx()]) > 1e-9 * scale)
+      problems.push_back("point " + std::to_string(p.idx()) + ": mass " + std::to_string(mass_[p]) +
+                         " != rebuilt " + std::to_string(expected[p.idx()]));
 }
 
 void LumpedMass::saveState(ArchiveWriter& out) const {

@@ -33,16 +33,16 @@ MeshInfo computeMeshInfo(const topology::MeshData& mesh) {
   for (std::size_t t = 0; t < nt; ++t) {
     const topology::TriangleVertices& tri = mesh.triangles[t];
     for (int k = 0; k < 3; ++k) {
-      if (tri[k] >= nv) {
+      if (tri[k].idx() >= nv) {
         const std::size_t line = t < mesh.triangleLines.size() ? mesh.triangleLines[t] : 0;
         throw InvalidInput(line == 0 ? mesh.source : mesh.source + ":" + std::to_string(line),
                            "triangle " + std::to_string(t) + " uses vertex " +
-                               std::to_string(tri[k]) + " but the mesh has " + std::to_string(nv) +
-                               " vertices");
+                               std::to_string(tri[k].idx()) + " but the mesh has " +
+                               std::to_string(nv) + " vertices");
       }
-      used[tri[k]] = true;
-      std::uint32_t a = tri[k];
-      std::uint32_t b = tri[(k + 1) % 3];
+      used[tri[k].idx()] = true;
+      std::uint32_t a = tri[k].idx();
+      std::uint32_t b = tri[(k + 1) % 3].idx();
       if (a == b) continue;  // a degenerate triangle's zero-length side is no edge
       if (a > b) std::swap(a, b);
       EdgeUse& use = edges[(std::uint64_t{a} << 32) | b];

@@ -67,8 +67,9 @@ Grasp& Model::addGrasp(const std::string& name, std::span<const PointId> points,
   auto x = state_->x();
   for (PointId p : points) {
     if (!topology_->isPointAlive(p))
-      throw InvalidInput("grasp '" + name + "'", "point " + std::to_string(p) + " does not exist");
-    g->add(p, {x[3 * p], x[3 * p + 1], x[3 * p + 2]});
+      throw InvalidInput("grasp '" + name + "'",
+                         "point " + std::to_string(p.idx()) + " does not exist");
+    g->add(p, {x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]});
   }
   grasps_.push_back(std::move(g));
   return *grasps_.back();
@@ -131,9 +132,9 @@ StepConstraints Model::constraints(double tEnd) const {
       c.constrained[p] = 1;
   for (auto& g : grasps_)
     for (PointId p : g->points().points()) {
-      c.constrained[p] = 1;
+      c.constrained[p.idx()] = 1;
       const Vec3 t = g->target(p, tEnd);
-      for (int k = 0; k < 3; ++k) c.target[3 * p + k] = t[k];
+      for (int k = 0; k < 3; ++k) c.target[3 * p.idx() + k] = t[k];
     }
   return c;
 }

@@ -39,20 +39,20 @@ void MechanicalState::validate(const topology::Topology& t,
                        std::to_string(t.pointCapacity()));
     return;
   }
-  for (topology::PointId p{0}; p < t.pointCapacity(); ++p) {
+  for (topology::PointId p{0}; p.idx() < t.pointCapacity(); ++p) {
     if (!t.isPointAlive(p)) {
       for (int c = 0; c < 3; ++c)
-        if (x()[3 * p + c] != 0.0 || v()[3 * p + c] != 0.0)
-          problems.push_back("dead point " + std::to_string(p) + " has a non-zero state");
+        if (x()[3 * p.idx() + c] != 0.0 || v()[3 * p.idx() + c] != 0.0)
+          problems.push_back("dead point " + std::to_string(p.idx()) + " has a non-zero state");
       continue;
     }
     auto r = t.restPosition(p);
     for (int c = 0; c < 3; ++c) {
-      if (std::abs(r[c] - rest()[3 * p + c]) > 1e-9 * (1.0 + std::abs(r[c])))
-        problems.push_back("point " + std::to_string(p) +
+      if (std::abs(r[c] - rest()[3 * p.idx() + c]) > 1e-9 * (1.0 + std::abs(r[c])))
+        problems.push_back("point " + std::to_string(p.idx()) +
                            ": rest position differs from the topology's");
-      if (!std::isfinite(x()[3 * p + c]) || !std::isfinite(v()[3 * p + c]))
-        problems.push_back("point " + std::to_string(p) + ": non-finite state");
+      if (!std::isfinite(x()[3 * p.idx() + c]) || !std::isfinite(v()[3 * p.idx() + c]))
+        problems.push_back("point " + std::to_string(p.idx()) + ": non-finite state");
     }
   }
 }

@@ -67,15 +67,15 @@ Numbering numbering(const Simulation& sim) {
   const topology::Topology& topo = sim.topology();
   n.mesh = topo.toMeshData(&n.ids);
   n.dense.assign(topo.pointCapacity(), topology::kInvalidIndex);
-  for (std::size_t k = 0; k < n.ids.size(); ++k) n.dense[n.ids[k]] = topology::Index(k);
+  for (std::size_t k = 0; k < n.ids.size(); ++k) n.dense[n.ids[k].idx()] = topology::Index(k);
   n.triangles = topo.triangles();
   return n;
 }
 
 void writeTriplets(std::ostream& out, std::span<const double> a, const std::vector<PointId>& ids) {
   for (PointId p : ids) {
-    out << formatNumber(a[3 * p]) << ' ' << formatNumber(a[3 * p + 1]) << ' '
-        << formatNumber(a[3 * p + 2]) << '\n';
+    out << formatNumber(a[3 * p.idx()]) << ' ' << formatNumber(a[3 * p.idx() + 1]) << ' '
+        << formatNumber(a[3 * p.idx() + 2]) << '\n';
   }
 }
 
@@ -165,7 +165,7 @@ void writeSurfaceVtp(std::ostream& out, const Simulation& sim) {
     const double e = maxPrincipalStrain(sim.topology(), x, t);
     if (!std::isfinite(e))
       throw SolverError("at t = " + formatNumber(sim.time()) + " the strain of triangle " +
-                        std::to_string(t) +
+                        std::to_string(t.idx()) +
                         " is not finite: its deformation is beyond the range of doubles, the "
                         "simulation has blown up (no "
                         "frame is written; with an explicit integrator, try a smaller time step or "
@@ -199,8 +199,8 @@ void writeNetworkVtp(std::ostream& out, const Simulation& sim,
   std::vector<std::array<topology::Index, 2>> lines;
   lines.reserve(segments.size());
   for (const auto& s : segments) {
-    if (s[0] >= n.dense.size() || s[1] >= n.dense.size()) continue;
-    const topology::Index a = n.dense[s[0]], b = n.dense[s[1]];
+    if (s[0].idx() >= n.dense.size() || s[1].idx() >= n.dense.size()) continue;
+    const topology::Index a = n.dense[s[0].idx()], b = n.dense[s[1].idx()];
     if (a == topology::kInvalidIndex || b == topology::kInvalidIndex) continue;
     lines.push_back({a, b});
   }
@@ -273,7 +273,7 @@ void writeBordersVtp(std::ostream& out, const Simulation& sim, const OriginalBor
   std::vector<std::array<topology::Index, 2>> lines;
   std::vector<int> lip;
   for (const BorderEdge& b : border) {
-    lines.push_back({n.dense[b.a], n.dense[b.b]});
+    lines.push_back({n.dense[b.a.idx()], n.dense[b.b.idx()]});
     lip.push_back(b.lip ? 1 : 0);
   }
   linesPiece(out, sim, n, lines, "lip", lip);
@@ -349,7 +349,8 @@ void writeSurfaceObj(std::ostream& out, const Simulation& sim) {
   std::vector<Vec3> points;
   points.reserve(n.ids.size());
   const auto x = sim.state().x();
-  for (PointId p : n.ids) points.push_back({x[3 * p], x[3 * p + 1], x[3 * p + 2]});
+  for (PointId p : n.ids)
+    points.push_back({x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]});
   topology::writeObj(out, points, n.mesh.triangles);
 }
 
@@ -877,7 +878,7 @@ void dumpFinal(const std::filesystem::path& dir, const Simulation& sim,
   const auto x = sim.state().x();
   std::vector<Vec3> current;
   current.reserve(ids.size());
-  for (PointId p : ids) current.push_back({x[3 * p], x[3 * p + 1], x[3 * p + 2]});
+  for (PointId p : ids) current.push_back({x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]});
   writeFileAtomically(dir / "final_rest.obj",
                       [&](std::ostream& o) { topology::writeObj(o, rest.points, rest.triangles); });
   writeFileAtomically(dir / "final.obj",
@@ -891,7 +892,7 @@ void dumpFinal(const std::filesystem::path& dir, const Simulation& sim,
   j["energy"] = bending->potentialEnergy(x);
   j["active_springs"] = c.activeSprings;
   nlohmann::json forces = nlohmann::json::array();
-  for (PointId p : ids) forces.push_back({f[3 * p], f[3 * p + 1], f[3 * p + 2]});
+  for (PointId p : ids) forces.push_back({f[3 * p.idx()], f[3 * p.idx() + 1], f[3 * p.idx() + 2]});
   j["forces"] = std::move(forces);
   j["degenerate_hinges"] = c.degenerate();
   j["degenerate_by_reason"] = {{"short_wing_distance", c.shortWingDistance},

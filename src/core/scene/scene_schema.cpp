@@ -625,7 +625,7 @@ void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshDa
   std::vector<double> x(3 * topo.pointCapacity(), 0.0);
   for (topology::PointId p : topo.points())
     for (int c = 0; c < 3; ++c)
-      x[3 * std::size_t(p) + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
+      x[3 * std::size_t(p.idx()) + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
   const auto found = contact.intersections(x, 1);
   if (found.empty()) return;
   const auto& c = found.front();
@@ -715,8 +715,10 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
     double area = 0;
     bool tooLarge = false;
     for (const auto& t : meshData.triangles) {
-      const auto u = topology::geometry::sub(meshData.points[t[1]], meshData.points[t[0]]);
-      const auto w = topology::geometry::sub(meshData.points[t[2]], meshData.points[t[0]]);
+      const auto u =
+          topology::geometry::sub(meshData.points[t[1].idx()], meshData.points[t[0].idx()]);
+      const auto w =
+          topology::geometry::sub(meshData.points[t[2].idx()], meshData.points[t[0].idx()]);
       double scale = 0;
       for (int k = 0; k < 3; ++k)
         scale = std::max({scale, std::abs(u[std::size_t(k)]), std::abs(w[std::size_t(k)])});

@@ -150,7 +150,7 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
     Vec3 r{0, 0, 0};
     if (out.reaction.size() == Eigen::Index(3 * n))
       for (PointId p : grasp.points().points())
-        for (int c = 0; c < 3; ++c) r[c] += out.reaction[Eigen::Index(3 * p + c)];
+        for (int c = 0; c < 3; ++c) r[c] += out.reaction[Eigen::Index(3 * p.idx() + c)];
     grasp.setReaction(r);
   }
   time_ += h;

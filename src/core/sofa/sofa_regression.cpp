@@ -227,8 +227,8 @@ std::vector<StateFrame> runForRegression(const std::filesystem::path& scene,
     const auto x = sim.state().x(), v = sim.state().v();
     for (topology::PointId p : sim.topology().points()) {
       for (int k = 0; k < 3; ++k) {
-        f.x.push_back(x[3 * p + std::size_t(k)]);
-        f.v.push_back(v[3 * p + std::size_t(k)]);
+        f.x.push_back(x[3 * p.idx() + std::size_t(k)]);
+        f.v.push_back(v[3 * p.idx() + std::size_t(k)]);
       }
     }
     frames.push_back(std::move(f));

@@ -20,11 +20,11 @@ struct DiagonalAccumulator : forcefields::MatrixAccumulator {
   explicit DiagonalAccumulator(Eigen::Index n) : diagonal(Vec::Zero(n)) {}
   void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
     if (i != j) return;
-    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += b(a, a);
+    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i.idx()) + a] += b(a, a);
   }
   void addScaledIdentity(PointId i, PointId j, double s) override {
     if (i != j) return;
-    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i) + a] += s;
+    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i.idx()) + a] += s;
   }
   bool diagonalOnly() const override { return true; }
   Vec diagonal;

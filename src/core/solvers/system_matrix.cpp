@@ -19,7 +19,7 @@ struct PairCollector : forcefields::MatrixAccumulator {
   void add(PointId i, PointId j) {
     // Each pair comes as (i, j) and (j, i), and several fields and elements repeat it.
     if (i <= j) return;
-    const std::uint64_t key = (std::uint64_t(i) << 32) | std::uint64_t(j);
+    const std::uint64_t key = (std::uint64_t(i.idx()) << 32) | std::uint64_t(j.idx());
     if (!pairs.empty() && pairs.back() == key) return;
     pairs.push_back(key);
   }
@@ -41,8 +41,8 @@ struct Filler : forcefields::MatrixAccumulator {
   bool missing = false;
   bool lumped = false;
   bool contains(PointId i, PointId j) const override {
-    if (i >= numSlots || j >= numSlots) return false;
-    std::int32_t I = newIndex[i], J = newIndex[j];
+    if (i.idx() >= numSlots || j.idx() >= numSlots) return false;
+    std::int32_t I = newIndex[i.idx()], J = newIndex[j.idx()];
     if (I < J) std::swap(I, J);
     return I == J || offDiagonal(I, J) >= 0;
   }
@@ -60,11 +60,11 @@ struct Filler : forcefields::MatrixAccumulator {
 
   template <class Entry>
   void add(PointId i, PointId j, Entry entry) {
-    if (i >= numSlots || j >= numSlots) {
+    if (i.idx() >= numSlots || j.idx() >= numSlots) {
       missing = true;
       return;
     }
-    const std::int32_t I = newIndex[i], J = newIndex[j];
+    const std::int32_t I = newIndex[i.idx()], J = newIndex[j.idx()];
     if (I < J) return;
     if (I == J) {
       for (int c = 0; c < 3; ++c) {

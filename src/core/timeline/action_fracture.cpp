@@ -137,7 +137,7 @@ class FractureAction final : public TimelineAction {
     fields(out, on_, piece_, revision_);
     out.u64(tips_.size());
     for (const Tip& t : tips_) {
-      out.u64(t.point);
+      out.u64(t.point.idx());
       out.raw(t.direction.data(), sizeof(double) * 3);
       out.f64(t.budget);
     }
@@ -196,7 +196,7 @@ class FractureAction final : public TimelineAction {
     // is that of the disc, not of the mesh).
     std::vector<TriangleId> todo = t.trianglesAroundPoint(tip.point), disc;
     std::unordered_set<Index> seen;
-    for (TriangleId f : todo) seen.insert(f.index());
+    for (TriangleId f : todo) seen.insert(f.idx());
     double m[3][3] = {}, area = 0;
     Vec3 normal{0, 0, 0};
     while (!todo.empty()) {
@@ -224,7 +224,7 @@ class FractureAction final : public TimelineAction {
       area += A;
       for (PointId p : v)
         for (TriangleId g : t.trianglesAroundPoint(p))
-          if (seen.insert(g.index()).second) todo.push_back(g);
+          if (seen.insert(g.idx()).second) todo.push_back(g);
     }
     TipLoad load;
     if (!(area > 0)) return load;

@@ -12,9 +12,10 @@ void checkIds(DryRunContext& c, const PointSelection& sel) {
   if (sel.kind != PointSelection::Kind::Points) return;
   const std::size_t n = c.restMesh().points.size();
   for (std::size_t i = 0; i < sel.points.size(); ++i)
-    if (sel.points[i] >= n)
+    if (sel.points[i].idx() >= n)
       c.fail("points/" + std::to_string(i), "must be between 0 and " + std::to_string(long(n) - 1) +
-                                                " (got " + std::to_string(sel.points[i]) + ")");
+                                                " (got " + std::to_string(sel.points[i].idx()) +
+                                                ")");
 }
 
 class GraspAction final : public TimelineAction {
@@ -33,8 +34,8 @@ class GraspAction final : public TimelineAction {
     Simulation& sim = c.simulation();
     if (p_.selection.kind == PointSelection::Kind::Points)
       for (PointId p : p_.selection.points)
-        if (p >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(p))
-          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) +
+        if (p.idx() >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(p))
+          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p.idx()) +
                  " is not a point of the surface");
     const std::vector<PointId> points = p_.selection.resolve(sim.topology());
     if (points.empty()) c.fail("grasp \"" + p_.name + "\" selects no point of the surface");
@@ -42,11 +43,11 @@ class GraspAction final : public TimelineAction {
     // holds (their reactions would be meaningless).
     for (PointId p : points) {
       if (sim.fixed().contains(p))
-        c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) +
+        c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p.idx()) +
                " is fixed: a point is held by one constraint (select points that are not fixed)");
       for (std::size_t g = 0; g < sim.numGrasps(); ++g)
         if (sim.grasp(g).points().contains(p))
-          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p) +
+          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p.idx()) +
                  " is held by the grasp \"" + sim.grasp(g).name() +
                  "\": a point is held by one constraint");
     }

@@ -11,10 +11,10 @@ class FixedConstraint final : public SceneConstraint {
     if (s_.kind == PointSelection::Kind::Points) {
       const std::size_t n = c.restMesh().points.size();
       for (std::size_t i = 0; i < s_.points.size(); ++i)
-        if (s_.points[i] >= n)
+        if (s_.points[i].idx() >= n)
           c.fail("points/" + std::to_string(i), "must be between 0 and " +
                                                     std::to_string(long(n) - 1) + " (got " +
-                                                    std::to_string(s_.points[i]) + ")");
+                                                    std::to_string(s_.points[i].idx()) + ")");
     }
     if (s_.resolve(c.topology()).empty())
       c.fail(std::string(s_.key()), "selects no point of the mesh");
@@ -26,7 +26,7 @@ class FixedConstraint final : public SceneConstraint {
       for (std::size_t g = 0; g < sim.numGrasps(); ++g)
         if (sim.grasp(g).points().contains(p))
           throw InvalidInput(std::string(s_.key()),
-                             "point " + std::to_string(p) + " is held by the grasp \"" +
+                             "point " + std::to_string(p.idx()) + " is held by the grasp \"" +
                                  sim.grasp(g).name() + "\": a point is held by one constraint");
     for (PointId p : points) sim.fixed().add(p);
   }

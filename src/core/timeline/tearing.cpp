@@ -18,7 +18,7 @@ double dot(const Vec3& a, const Vec3& b) {
 }
 
 Vec3 at(std::span<const double> x, topology::PointId p) {
-  return {x[3 * p], x[3 * p + 1], x[3 * p + 2]};
+  return {x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
 }
 
 /// The deformation of a triangle: rest edge vectors R1 = X1 - X0, R2 = X2 - X0 and their current
@@ -115,7 +115,8 @@ std::vector<TearCandidate> tearCandidates(const topology::Topology& topology,
   std::vector<TearCandidate> out;
   for (topology::EdgeId e : topology.edges()) {
     const auto tris = topology.edgeTriangles(e);
-    if (tris[0] == topology::kInvalidIndex || tris[1] == topology::kInvalidIndex) continue;
+    if (tris[0].idx() == topology::kInvalidIndex || tris[1].idx() == topology::kInvalidIndex)
+      continue;
     const double s0 = strainNormalToEdge(topology, x, tris[0], e);
     if (!(s0 > threshold)) continue;
     const double s1 = strainNormalToEdge(topology, x, tris[1], e);

@@ -54,7 +54,7 @@ std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) con
   switch (kind) {
     case Kind::Points:
       for (PointId p : points) {
-        if (p < topo.pointCapacity() && topo.isPointAlive(p)) out.push_back(p);
+        if (p.idx() < topo.pointCapacity() && topo.isPointAlive(p)) out.push_back(p);
       }
       break;
     case Kind::Box:

@@ -24,7 +24,7 @@ class PointSet : public topology::TopologyObserver {
   void add(PointId p, const Vec3& data = {0, 0, 0});
   void remove(PointId p);  ///< no effect if p is not a member
   void clear();
-  bool contains(PointId p) const { return p < flags_.numSlots() && flags_[p]; }
+  bool contains(PointId p) const { return p.idx() < flags_.numSlots() && flags_[p]; }
   const Vec3& data(PointId p) const { return data_[p]; }
   void setData(PointId p, const Vec3& d) { data_[p] = d; }
   std::vector<PointId> points() const;  ///< ascending

@@ -99,26 +99,26 @@ class DenseSlotTable {
   bool flag(std::size_t i) const { return (slotOfEntry_[i] & kFlagBit) != 0; }
   /// The index of slot id's entry, or kNoEntry (none, or beyond the table).
   Index find(IdT id) const {
-    if (id.index() >= indexOfSlot_.size()) return kNoEntry;
-    const Index code = indexOfSlot_[id.index()];
+    if (id.idx() >= indexOfSlot_.size()) return kNoEntry;
+    const Index code = indexOfSlot_[id.idx()];
     return isEntry(code) ? code : kNoEntry;
   }
   bool hasEntry(IdT id) const { return find(id) != kNoEntry; }
   /// The status of slot id if it has no entry (kEmpty beyond the table); undefined with one.
   Status status(IdT id) const {
-    if (id.index() >= indexOfSlot_.size()) return Traits::kEmpty;
-    return decode(indexOfSlot_[id.index()]);
+    if (id.idx() >= indexOfSlot_.size()) return Traits::kEmpty;
+    return decode(indexOfSlot_[id.idx()]);
   }
   /// Neither an entry nor a status other than kEmpty.
   bool isEmpty(IdT id) const {
-    return id.index() >= indexOfSlot_.size() || indexOfSlot_[id.index()] == encode(Traits::kEmpty);
+    return id.idx() >= indexOfSlot_.size() || indexOfSlot_[id.idx()] == encode(Traits::kEmpty);
   }
 
   // ---- writing ----
   /// Slot id holds `entry` (with `flag`): replaced in place if it had one, else appended (the
   /// slot index grows to id + 1 if needed). Returns the entry's index.
   Index set(IdT id, const Entry& value, bool flagged = false) {
-    const Index s = id.index();
+    const Index s = id.idx();
     if (s >= kSlotLimit)
       throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
     growTo(std::size_t(s) + 1);
@@ -142,7 +142,7 @@ class DenseSlotTable {
   /// into the hole). The slot index grows to id + 1 if needed.
   void setStatus(IdT id, Status st) {
     assert(static_cast<unsigned>(st) < 16u);
-    const Index s = id.index();
+    const Index s = id.idx();
     if (s >= kSlotLimit)
       throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
     growTo(std::size_t(s) + 1);

@@ -67,13 +67,13 @@ class SlotData final : public TopologyObserver {
   std::shared_ptr<const void> buffer() const { return values_; }
   /// The Width values of slot id.
   std::span<T, Width> at(IdT id) {
-    return std::span<T, Width>(values_->data() + Width * id.index(), Width);
+    return std::span<T, Width>(values_->data() + Width * id.idx(), Width);
   }
   std::span<const T, Width> at(IdT id) const {
-    return std::span<const T, Width>(values_->data() + Width * id.index(), Width);
+    return std::span<const T, Width>(values_->data() + Width * id.idx(), Width);
   }
-  T& operator[](IdT id) requires(Width == 1) { return (*values_)[id.index()]; }
-  const T& operator[](IdT id) const requires(Width == 1) { return (*values_)[id.index()]; }
+  T& operator[](IdT id) requires(Width == 1) { return (*values_)[id.idx()]; }
+  const T& operator[](IdT id) const requires(Width == 1) { return (*values_)[id.idx()]; }
   const T& defaultValue() const { return default_; }
   /// Sets every slot to the default value.
   void reset() { std::fill(values_->begin(), values_->end(), default_); }
@@ -89,9 +89,9 @@ class SlotData final : public TopologyObserver {
           T sum[Width]{};
           for (auto k = e.offsets[i]; k < e.offsets[i + 1]; ++k)
             for (std::size_t c = 0; c < Width; ++c)
-              sum[c] += e.weights[k] * (*values_)[Width * e.ancestors[k].index() + c];
+              sum[c] += e.weights[k] * (*values_)[Width * e.ancestors[k].idx() + c];
           for (std::size_t c = 0; c < Width; ++c)
-            (*values_)[Width * e.points[i].index() + c] = sum[c];
+            (*values_)[Width * e.points[i].idx() + c] = sum[c];
         }
       }
     }
@@ -177,7 +177,7 @@ class SlotData final : public TopologyObserver {
     values_->resize(size, default_);
   }
   void remember(std::span<const IdT> ids) {
-    for (IdT id : ids) destroyed_.push_back(id.index());
+    for (IdT id : ids) destroyed_.push_back(id.idx());
   }
   void permute(const Renumbering& r) {
     std::vector<T> next(Width * r.newSize, default_);
