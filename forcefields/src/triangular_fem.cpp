@@ -110,6 +110,53 @@ Mat32 exactDP(const ElementState& st, const Mat32& dF, double mu, double lambda)
   return 2.0 * mu * dF + (lambda * trEps - 2.0 * mu) * dR + (lambda * (dS(0, 0) + dS(1, 1))) * st.r;
 }
 
+/// The geometric stiffness of tension that the corotational K lacks (see "Stiffness" in the
+/// header): the exact Hessian of the element's energy in F, written in the modes of F = U Sigma
+/// V^T (Smith, de Goes and Kim 2019, for a 3 x 2 F), is the corotational K plus two kinds of
+/// modes, each kept here only where its eigenvalue is positive (the projection to the nearest
+/// positive semi-definite matrix, in closed form):
+///  - the twist, dF = R J / sqrt 2 (J = [[0, 1], [-1, 0]]), eigenvalue
+///    (Psi_1 + Psi_2) / (s_1 + s_2) = 2 (mu + lambda) (tr S - 2) / tr S;
+///  - the two out-of-plane modes, dF = n v_i^T (n the element's normal, v_i the eigenvectors of
+///    S), eigenvalues Psi_i / s_i = (2 mu (s_i - 1) + lambda (tr S - 2)) / s_i, gathered in the
+///    2 x 2 matrix m = sum_i max(0, Psi_i / s_i) v_i v_i^T.
+/// The scaling and flip modes are the corotational K's own (eigenvalues 2 mu + 2 lambda, 2 mu and
+/// 2 mu, never negative: mu + lambda = E h / (2 (1 - nu)) > 0). In tension every eigenvalue is
+/// positive and the projected K is the exact one; in compression the extra modes vanish and it is
+/// the corotational K.
+struct TensionModes {
+  double twist = 0.0;  // max(0, twist eigenvalue)
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  Eigen::Matrix2d m = Eigen::Matrix2d::Zero();
+};
+
+TensionModes tensionModes(const ElementState& st, double mu, double lambda) {
+  TensionModes t;
+  const double trS = st.s(0, 0) + st.s(1, 1);
+  const double trEps = trS - 2.0;
+  t.twist = std::max(0.0, 2.0 * (mu + lambda) * trEps / trS);
+  t.n = st.r.col(0).cross(st.r.col(1)).normalized();
+  // Eigenvalues of S, m +- dev, and its spectral projectors (S - s_j I) / (s_i - s_j).
+  const double mean = 0.5 * trS;
+  const double half = 0.5 * (st.s(0, 0) - st.s(1, 1));
+  const double dev = std::hypot(half, st.s(0, 1));
+  const double s1 = mean + dev, s2 = mean - dev;
+  // Divided by s_i, floored at 1e-3 tr S: a triangle nearly collapsed across while stretched
+  // along would get an out-of-plane stiffness without bound (exact, but ruinous for a solver's
+  // conditioning); there the projected K is below the exact one.
+  const double floor = 1e-3 * trS;
+  const double c1 = std::max(0.0, (2.0 * mu * (s1 - 1.0) + lambda * trEps) / std::max(s1, floor));
+  const double c2 = std::max(0.0, (2.0 * mu * (s2 - 1.0) + lambda * trEps) / std::max(s2, floor));
+  if (dev > 0.0) {
+    Eigen::Matrix2d d;  // (S - mean I) / dev = P1 - P2, with P1 + P2 = I
+    d << half / dev, st.s(0, 1) / dev, st.s(0, 1) / dev, -half / dev;
+    t.m = 0.5 * (c1 + c2) * Eigen::Matrix2d::Identity() + 0.5 * (c1 - c2) * d;
+  } else {
+    t.m = c1 * Eigen::Matrix2d::Identity();
+  }
+  return t;
+}
+
 inline std::array<Eigen::Vector2d, 3> gradients(const FemTriangle& e) {
   const Eigen::Vector2d gb(e.g[0], e.g[1]), gc(e.g[2], e.g[3]);
   return {-gb - gc, gb, gc};
@@ -274,7 +321,18 @@ void TriangularFEM::addDForce(std::span<const double> x, std::span<const double>
     } else {
       const Eigen::Matrix2d local = st.r.transpose() * dF;
       const Eigen::Matrix2d dEps = 0.5 * (local + local.transpose());
-      dP = (-kFactor * e.area) * (st.r * stress(dEps, mu_, lambda_));
+      Mat32 h = st.r * stress(dEps, mu_, lambda_);
+      if (params_.tangent == TriangularFEMParameters::Tangent::Projected) {
+        const TensionModes t = tensionModes(st, mu_, lambda_);
+        // twist: twist <Q, dF> Q with Q = R J / sqrt 2, <Q, dF> = (local01 - local10) / sqrt 2.
+        const double w = 0.5 * t.twist * (local(0, 1) - local(1, 0));
+        h.col(0) -= w * st.r.col(1);  // R J = [-r1, r0]
+        h.col(1) += w * st.r.col(0);
+        // out of plane: n (dF^T n)^T m.
+        const Eigen::Vector2d dn = dF.transpose() * t.n;
+        h += t.n * (t.m * dn).transpose();
+      }
+      dP = (-kFactor * e.area) * h;
     }
     const Eigen::Vector3d fb = dP * Eigen::Vector2d(e.g[0], e.g[1]);
     const Eigen::Vector3d fc = dP * Eigen::Vector2d(e.g[2], e.g[3]);
@@ -305,16 +363,28 @@ void TriangularFEM::addKToMatrix(std::span<const double> x, MatrixAccumulator& m
     addExactKToMatrix(x, m, kFactor);
     return;
   }
+  const bool projected = params_.tangent == TriangularFEMParameters::Tangent::Projected;
   for (const FemTriangle& e : table_.entries()) {
     const ElementState st = evaluate(e, x.data());
     const std::array<Eigen::Vector2d, 3> g = gradients(e);
+    TensionModes t;
+    std::array<Eigen::Vector3d, 3> rjg;  // R J g_k: the twist mode's force directions
+    if (st.hasRotation && projected) {
+      t = tensionModes(st, mu_, lambda_);
+      for (int k = 0; k < 3; ++k) rjg[k] = st.r.col(0) * g[k][1] - st.r.col(1) * g[k][0];
+    }
     for (int k = 0; k < 3; ++k) {
       for (int l = 0; l < 3; ++l) {
         Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
         if (st.hasRotation) {
           Eigen::Matrix2d mkl = (mu_ * g[k].dot(g[l])) * Eigen::Matrix2d::Identity();
           mkl += mu_ * (g[l] * g[k].transpose()) + lambda_ * (g[k] * g[l].transpose());
-          block = (-kFactor * e.area) * (st.r * mkl * st.r.transpose());
+          Eigen::Matrix3d h = st.r * mkl * st.r.transpose();
+          if (projected) {
+            h += (0.5 * t.twist) * (rjg[k] * rjg[l].transpose());
+            h += g[l].dot(t.m * g[k]) * (t.n * t.n.transpose());
+          }
+          block = (-kFactor * e.area) * h;
         }
         m.addBlock(PointId(e.v[k]), PointId(e.v[l]), block);
       }
@@ -505,7 +575,12 @@ TriangularFEMParameters readTriangularFEMParameters(const ParameterSource& s,
   p.poissonRatio = s.number("poissonRatio", p.poissonRatio);
   p.thickness = s.nonNegative("thickness", p.thickness);
   p.restScale = s.positive("restScale", p.restScale);
-  if (withExactHessian) p.exactHessian = s.boolean("exactHessian", p.exactHessian);
+  if (withExactHessian) {
+    p.exactHessian = s.boolean("exactHessian", p.exactHessian);
+    p.tangent = s.choice("tangent", "projected", {"projected", "corotational"}) == "corotational"
+                    ? TriangularFEMParameters::Tangent::Corotational
+                    : TriangularFEMParameters::Tangent::Projected;
+  }
   s.check([&] { p.validate(); });
   return p;
 }
@@ -521,8 +596,15 @@ const bool registered = ForceFieldRegistry::instance().add(
       {"restScale", KeyType::Number,
        "> 0, scales every element's rest shape (prestrain: < 1 puts a held sheet under "
        "tension, strain 1/restScale - 1) (default 1)"},
+      {"tangent",
+       KeyType::Choice,
+       "the stiffness K of implicit steps: \"projected\", the exact Hessian projected to "
+       "positive semi-definite per element (the corotational K plus the geometric stiffness of "
+       "tension: a prestressed membrane stays still), or \"corotational\", R held constant",
+       {"projected", "corotational"}},
       {"exactHessian", KeyType::Boolean,
-       "K is the exact Hessian of the energy instead of the corotational one (default false)"}},
+       "K is the exact Hessian of the energy (indefinite in compression) instead of the "
+       "tangent's (default false)"}},
      {},
      [](const ParameterSource& s) -> std::any { return readTriangularFEMParameters(s, true); },
      [](const std::any& p, topology::Topology& t) -> std::unique_ptr<ForceField> {

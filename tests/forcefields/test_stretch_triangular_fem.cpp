@@ -3,14 +3,17 @@
 // operation of random topology sequences.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <any>
 #include <cmath>
 #include <limits>
 #include <set>
 #include <string>
 #include <utility>
 
+#include "cutsim/forcefields/registry.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
 #include "cutsim/topology/topology.hpp"
@@ -267,7 +270,8 @@ TEST(TriangularFem, StiffnessErrorIsOfTheOrderOfTheStrain) {
 std::pair<double, double> checkExactHessian(double restScale) {
   TriangularFEMParameters p = someParameters(restScale);
   p.exactHessian = true;
-  const TriangularFEMParameters corotational = someParameters(restScale);
+  TriangularFEMParameters corotational = someParameters(restScale);
+  corotational.tangent = TriangularFEMParameters::Tangent::Corotational;
   Eigen::Matrix3d stretchShear, compress;
   stretchShear << 1.4, 0.35, 0.0, -0.1, 1.2, 0.2, 0.1, 0.0, 1.0;
   compress << 0.7, 0.2, 0.0, 0.0, 0.8, 0.0, 0.0, 0.1, 0.9;
@@ -292,7 +296,7 @@ std::pair<double, double> checkExactHessian(double restScale) {
       const test::StiffnessCheck c = test::expectExactStiffness(*m.ff, x, dx, m.n(), 1e-6, 1e-8);
       worstFd = std::max({worstFd, c.dForceVsForce, c.matrixVsForce});
       worstPair = std::max(worstPair, c.dForceVsMatrix);
-      // The corotational K (the default) is not d(force)/dx there.
+      // The corotational K is not d(force)/dx there.
       EXPECT_GT(test::matrixVsForceError(*mc.ff, x, mc.n(), 1e-6), 1e-3);
       EXPECT_GT(test::dForceVsForceError(*mc.ff, x, dx, 1e-6), 1e-3);
     }
@@ -339,11 +343,16 @@ TEST(TriangularFem, SetExactStiffnessSwitchesTheStiffness) {
 
 TEST(TriangularFem, AssembledMatrixEqualsMatrixFreeProduct) {
   for (double s : kRestScales) {
-    for (bool exact : {false, true}) {
+    for (int kind : {0, 1, 2}) {
+      const bool exact = kind == 2;
       for (const auto& [name, mesh] : test::smallMeshes()) {
-        SCOPED_TRACE(name + scaleName(s) + (exact ? " exact" : " corotational"));
+        SCOPED_TRACE(name + scaleName(s) +
+                     (kind == 0   ? " projected"
+                      : kind == 1 ? " corotational"
+                                  : " exact"));
         TriangularFEMParameters p = someParameters(s);
         p.exactHessian = exact;
+        if (kind == 1) p.tangent = TriangularFEMParameters::Tangent::Corotational;
         Model m = makeModel(mesh, p);
         const std::vector<double> x = test::perturbed(m.rest, 0.2, 7);
         const std::vector<double> dx = test::randomVector(x.size(), 1.0, 8);
@@ -353,7 +362,7 @@ TEST(TriangularFem, AssembledMatrixEqualsMatrixFreeProduct) {
           const Eigen::MatrixXd k(acc.toSparse(static_cast<Index>(m.n())));
           std::vector<double> df(x.size(), 0.0);
           m.ff->addDForce(x, dx, df, kf, 3.0);  // bFactor ignored: no damping
-          EXPECT_LE(test::relativeError(df, test::times(k, dx)), exact ? 1e-12 : 1e-13);
+          EXPECT_LE(test::relativeError(df, test::times(k, dx)), kind == 1 ? 1e-13 : 1e-12);
           EXPECT_EQ(acc.triplets().size(), 81 * m.ff->numElements());
         }
       }
@@ -374,6 +383,139 @@ TEST(TriangularFem, StiffnessSymmetricNegativeSemiDefinite) {
       EXPECT_NEAR(ev.back(), 0.0, 1e-10 * scale);  // rigid modes
       EXPECT_LT(ev.front(), -1e-3 * scale);
     }
+  }
+}
+
+// ---- the projected stiffness (the default): the exact Hessian made negative semi-definite ----
+
+/// One element's stiffness against its brute-force twin: the exact K of the same element (9 x 9)
+/// pulled back to the 6 coordinates of dF (K = -A D^T H D, dF = sum_l dx_l g_l^T, D of rank 6),
+/// H's negative eigenvalues set to zero by a numeric eigendecomposition, pushed forward again.
+/// Returns the relative difference with the closed-form projected K, and H's smallest eigenvalue
+/// relative to its largest (negative: the projection had something to remove).
+std::pair<double, double> projectedVsNumericTwin(const MeshData& mesh, double restScale,
+                                                 const std::vector<double>& x) {
+  TriangularFEMParameters p = someParameters(restScale), pe = someParameters(restScale);
+  pe.exactHessian = true;
+  Model m = makeModel(mesh, p), me = makeModel(mesh, pe);
+  const FemTriangle& e = m.ff->elements()[0];
+  const Eigen::Vector2d gb(e.g[0], e.g[1]), gc(e.g[2], e.g[3]);
+  const std::array<Eigen::Vector2d, 3> g = {-gb - gc, gb, gc};
+  Eigen::Matrix<double, 6, 9> d = Eigen::Matrix<double, 6, 9>::Zero();
+  for (int l = 0; l < 3; ++l) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 2; ++j) d(i + 3 * j, 3 * static_cast<int>(e.v[l]) + i) = g[l][j];
+    }
+  }
+  const Eigen::Matrix<double, 9, 6> dPlus = d.transpose() * (d * d.transpose()).inverse();
+  const Eigen::MatrixXd kExact = test::assembledK(*me.ff, x, m.n());
+  const Eigen::Matrix<double, 6, 6> aH = -(dPlus.transpose() * kExact * dPlus);  // A H
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(0.5 * (aH + aH.transpose()));
+  const Eigen::Matrix<double, 6, 1> clamped = eig.eigenvalues().cwiseMax(0.0);
+  const Eigen::Matrix<double, 6, 6> aHPlus =
+      eig.eigenvectors() * clamped.asDiagonal() * eig.eigenvectors().transpose();
+  const Eigen::MatrixXd twin = -(d.transpose() * aHPlus * d);
+  const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
+  const double scale = test::maxAbsCoeff(twin);
+  return {test::maxAbsCoeff(k - twin) / scale,
+          eig.eigenvalues()(0) / eig.eigenvalues().cwiseAbs().maxCoeff()};
+}
+
+TEST(TriangularFem, ProjectedStiffnessIsTheExactHessianProjectedInClosedForm) {
+  MeshData one;
+  one.points = {{0.0, 0.0, 0.0}, {1.1, 0.1, 0.0}, {0.3, 0.9, 0.05}};
+  one.triangles = {tri(0, 1, 2)};
+  Eigen::Matrix3d stretch, compress, mixed;
+  stretch << 1.3, 0.2, 0.0, -0.1, 1.2, 0.1, 0.2, 0.0, 1.0;
+  compress << 0.7, 0.1, 0.0, 0.0, 0.8, 0.0, 0.0, 0.1, 0.9;
+  mixed << 1.4, 0.0, 0.0, 0.0, 0.75, 0.0, 0.0, 0.3, 1.0;
+  double worst = 0.0;
+  int clamped = 0;
+  for (double s : kRestScales) {
+    Model m = makeModel(one, someParameters(s));
+    std::uint64_t seed = 300;
+    for (const Eigen::Matrix3d* a : {&stretch, &compress, &mixed}) {
+      for (int trial = 0; trial < 4; ++trial) {
+        ++seed;
+        SCOPED_TRACE(scaleName(s) + " seed " + std::to_string(seed));
+        const std::vector<double> x = test::rigidMotion(
+            test::perturbed(test::transformed(m.rest, *a, {0.0, 0.0, 0.0}), 0.1, seed), seed);
+        const auto [err, smallest] = projectedVsNumericTwin(one, s, x);
+        EXPECT_LE(err, 1e-10);
+        worst = std::max(worst, err);
+        clamped += smallest < -1e-6 ? 1 : 0;
+      }
+    }
+  }
+  // The states include compressed ones, where the exact Hessian is indefinite: the projection
+  // had modes to remove (else the twin would only check the corotational part).
+  EXPECT_GE(clamped, 8);
+  test::recordError("worst_projected_vs_numeric_twin", worst);
+}
+
+TEST(TriangularFem, ProjectedStiffnessIsExactInTensionAndCorotationalInCompression) {
+  // A sheet stretched in every direction (bumped out of its plane, moved rigidly) is in tension
+  // everywhere: the projected K is the exact one. Compressed in every direction, nothing of the
+  // tension's stiffness is left: it is the corotational K.
+  TriangularFEMParameters corotational = someParameters(0.9);
+  corotational.tangent = TriangularFEMParameters::Tangent::Corotational;
+  for (const auto& [name, mesh] : test::smallMeshes()) {
+    SCOPED_TRACE(name);
+    Model m = makeModel(mesh, someParameters(0.9)), mc = makeModel(mesh, corotational);
+    // restScale 0.9: the mesh itself is stretched by 11%; 1.05 more, with a small bump.
+    std::vector<double> x =
+        test::transformed(m.rest, 1.05 * Eigen::Matrix3d::Identity(), {0.0, 0.0, 0.0});
+    for (std::size_t i = 0; i + 2 < x.size(); i += 3) x[i + 2] += 0.01 * std::sin(3.0 * x[i]);
+    x = test::rigidMotion(x, 17);
+    const std::vector<double> dx = test::randomVector(x.size(), 1.0, 18);
+    EXPECT_LE(test::dForceVsForceError(*m.ff, x, dx, 1e-6), 1e-6);
+    EXPECT_LE(test::matrixVsForceError(*m.ff, x, m.n(), 1e-6), 1e-6);
+    EXPECT_GT(test::matrixVsForceError(*mc.ff, x, mc.n(), 1e-6), 1e-3);  // it was not before
+    const std::vector<double> y = test::rigidMotion(
+        test::transformed(m.rest, 0.8 * Eigen::Matrix3d::Identity(), {0.0, 0.0, 0.0}), 19);
+    const Eigen::MatrixXd kc = test::assembledK(*mc.ff, y, mc.n());
+    EXPECT_LE(test::maxAbsCoeff(test::assembledK(*m.ff, y, m.n()) - kc),
+              1e-13 * test::maxAbsCoeff(kc));
+  }
+}
+
+TEST(TriangularFem, ProjectedStiffnessIsNegativeSemiDefiniteWhereTheExactOneIsNot) {
+  int indefinite = 0;
+  for (double s : kRestScales) {
+    TriangularFEMParameters pe = someParameters(s);
+    pe.exactHessian = true;
+    for (const auto& [name, mesh] : test::smallMeshes()) {
+      SCOPED_TRACE(name + scaleName(s));
+      Model m = makeModel(mesh, someParameters(s)), me = makeModel(mesh, pe);
+      for (std::uint64_t seed : {1u, 2u, 3u}) {
+        const std::vector<double> x = test::perturbed(m.rest, 0.3, seed);
+        const Eigen::MatrixXd k = test::assembledK(*m.ff, x, m.n());
+        const double scale = test::maxAbsCoeff(k);
+        EXPECT_LE(test::maxAsymmetry(k), 1e-13 * scale);
+        EXPECT_LE(test::symmetricEigenvalues(k).back(), 1e-10 * scale);
+        const Eigen::MatrixXd ke = test::assembledK(*me.ff, x, me.n());
+        indefinite += test::symmetricEigenvalues(ke).back() > 1e-6 * scale ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GE(indefinite, 3) << "the states should include some where the exact K is indefinite";
+}
+
+TEST(TriangularFem, TangentIsReadFromScenesAndChecked) {
+  const auto& entry = *ForceFieldRegistry::instance().find("TriangularFEM");
+  ScalarParameters none("TriangularFEM");
+  EXPECT_EQ(std::any_cast<TriangularFEMParameters>(entry.readValues(none)).tangent,
+            TriangularFEMParameters::Tangent::Projected);
+  ScalarParameters corot("TriangularFEM", {{"tangent", std::string("corotational")}});
+  EXPECT_EQ(std::any_cast<TriangularFEMParameters>(entry.readValues(corot)).tangent,
+            TriangularFEMParameters::Tangent::Corotational);
+  ScalarParameters bad("TriangularFEM", {{"tangent", std::string("exact")}});
+  try {
+    entry.readValues(bad);
+    ADD_FAILURE() << "tangent \"exact\" accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("tangent"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("corotational"), std::string::npos) << e.what();
   }
 }
 

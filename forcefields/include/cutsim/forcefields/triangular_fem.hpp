@@ -24,13 +24,28 @@
 // to first order in the strain, and with the polar factor the force is the exact gradient of the
 // energy.
 //
-// Stiffness. By default (exactHessian = false) K is the usual corotational approximation, R held
+// Stiffness. With tangent "corotational", K is the usual corotational approximation, R held
 // constant,
 //
 //   K block (k, l) = -A h R [ mu (g_k . g_l) I2 + mu g_l g_k^T + lambda g_k g_l^T ] R^T,
 //
 // symmetric and negative semi-definite, exact for rigid motions of the rest shape (eps = 0) and
-// off by O(strain) elsewhere: stiffnessIsExact() is false. With exactHessian = true (or
+// off by O(strain) elsewhere. It lacks the geometric stiffness of the stress, which is all the
+// out-of-plane stiffness a membrane in tension has: a linearised implicit step then treats a
+// prestressed sheet's out-of-plane mode explicitly and, once h omega > 2, flips its sign every
+// step (a period-two chatter). By default (tangent "projected") K is the exact Hessian projected
+// to the nearest negative semi-definite matrix per element, in closed form: the corotational K
+// plus, where their eigenvalues are positive, the twist mode (dF = R J, eigenvalue
+// 2 (mu + lambda) (tr S - 2) / tr S, times A) and the two out-of-plane modes (dF = n v_i^T,
+// eigenvalues (2 mu (s_i - 1) + lambda (tr S - 2)) / s_i with s_i, v_i the eigenpairs of S and n
+// the normal):
+//
+//   K block (k, l) += -A h [ twist/2 (R J g_k)(R J g_l)^T + (g_l^T m g_k) n n^T ],
+//   m = sum_i max(0, eigenvalue_i) v_i v_i^T,
+//
+// (Smith, de Goes and Kim 2019, "Analytic eigensystems for isotropic distortion energies", for a
+// 3 x 2 F). In tension it is the exact K; in compression it is the corotational K. Either way
+// stiffnessIsExact() is false. With exactHessian = true (or
 // setExactStiffness(true)) K is the exact Jacobian of the force, exact to rounding, in closed
 // form: with dF = sum_l dx_l g_l^T,
 //
@@ -72,8 +87,14 @@ struct TriangularFEMParameters {
   /// sheet held at its mesh positions under equibiaxial tension, strain 1/s - 1); the rest area
   /// is the scaled one, s^2 times the mesh's. See "Prestrain" at the top of this file.
   double restScale = 1.0;
-  /// K = the exact Jacobian of the force (symmetric, indefinite) instead of the corotational K
-  /// with R held constant (negative semi-definite): see "Stiffness" at the top of this file.
+  /// The stiffness K when it is not the exact one: "Stiffness" at the top of this file.
+  enum class Tangent {
+    Projected,     ///< the exact K projected to negative semi-definite (the default)
+    Corotational,  ///< R held constant: no geometric stiffness of tension
+  };
+  Tangent tangent = Tangent::Projected;
+  /// K = the exact Jacobian of the force (symmetric, indefinite) instead of `tangent`: see
+  /// "Stiffness" at the top of this file.
   bool exactHessian = false;
 
   /// Throws cutsim::InvalidInput with where() = the parameter's name for a value out of range,
@@ -202,7 +223,7 @@ class TriangularFEM : public ForceField, public topology::TopologyObserver {
 };
 
 /// The keys of a TriangularFEM-like registry entry (youngModulus, poissonRatio, thickness,
-/// restScale, and exactHessian if asked), checked.
+/// restScale, and tangent and exactHessian if asked), checked.
 TriangularFEMParameters readTriangularFEMParameters(const cutsim::ParameterSource& s,
                                                     bool withExactHessian);
 
