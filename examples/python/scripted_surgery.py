@@ -90,10 +90,12 @@ class Scalpel(cutsim.Controller):
 class Forceps(cutsim.Controller):
     """Grasps the flap's tip once the scalpel has gone round it (past the bottom of the U), then
     lifts it up and back towards the flap's uncut side (`lift` metres up over `duration` seconds,
-    starting and ending smoothly)."""
+    starting and ending smoothly). The skin lies on the tissue beneath (the scene's Attachment):
+    first the flap is undermined (the dissect action, in the rest-space box `undermine`)."""
 
-    def __init__(self, scalpel, tip, lift, duration):
+    def __init__(self, scalpel, tip, lift, duration, undermine):
         self.scalpel, self.tip, self.lift, self.duration = scalpel, tip, lift, duration
+        self.undermine = undermine
         self.grasped = False
 
     def on_step_end(self, sim):
@@ -102,6 +104,7 @@ class Forceps(cutsim.Controller):
         s = np.linspace(0, 1, 11)
         ease = s * s * (3 - 2 * s)  # smoothstep: no jolt at the start or the end
         path = [[self.duration * a, 0.0, 0.6 * self.lift * e, self.lift * e] for a, e in zip(s, ease)]
+        sim.act({"action": "dissect", "box": self.undermine})
         sim.grasp("forceps", box=[self.tip - [0.005, 0.0035, 1], self.tip + [0.005, 0.0035, 1]], path=path)
         self.grasped = True
 
@@ -158,7 +161,8 @@ def main():
     curve = u_curve()
     mean_edge = 0.1 / (scene["mesh"]["grid"]["nx"] - 1)
     scalpel = Scalpel(curve, speed=0.1, start=0.1, min_piece=0.5 * mean_edge)
-    forceps = Forceps(scalpel, tip=np.array([0.0503, 0.0375, 0.0]), lift=0.03, duration=0.8)
+    forceps = Forceps(scalpel, tip=np.array([0.0503, 0.0375, 0.0]), lift=0.03, duration=0.8,
+                      undermine=[[0.028, 0.028, -1.0], [0.0725, 0.0725, 1.0]])
     limit = ForceLimit(scalpel, args.limit)
     for c in (scalpel, forceps, limit):
         sim.add_controller(c)

@@ -19,7 +19,8 @@ using test::scene;
 using ::testing::HasSubstr;
 
 /// A JSON value of a key's declared type: a number, an integer, a boolean, a choice's or a
-/// string's last declared value (a choice's default comes first: the last is another one).
+/// string's last declared value (a choice's default comes first: the last is another one), a box,
+/// an object's declared example.
 std::string valueOf(const KeyInfo& key) {
   switch (key.type) {
     case KeyType::Number:
@@ -33,6 +34,11 @@ std::string valueOf(const KeyInfo& key) {
       if (key.choices.empty())
         ADD_FAILURE() << key.name << ": a " << toString(key.type) << " key declares no value";
       return "\"" + (key.choices.empty() ? std::string() : key.choices.back()) + "\"";
+    case KeyType::Box:
+      return "[[-1, -1, -1], [1, 1, 1]]";
+    case KeyType::Object:
+      if (!key.choices.empty()) return key.choices.back();  // an example object, as JSON
+      [[fallthrough]];
     default:
       ADD_FAILURE() << key.name << ": no value made for a key of type " << toString(key.type);
       return "null";
@@ -128,7 +134,7 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
           "threshold, maxPerStep"));
   EXPECT_THAT(parseError(timeline(
                   "{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
-              HasSubstr("(it belongs to cut)"));
+              HasSubstr("(it belongs to cut, dissect)"));
   EXPECT_THAT(
       parseError(timeline("{\"at\": 0, \"action\": \"remove\", \"sphere\": {\"center\": [0, 0, 0], "
                           "\"radius\": 1, \"colour\": 2}}")),

@@ -55,6 +55,7 @@ void Model::replaceForceField(std::size_t i, std::unique_ptr<forcefields::ForceF
     throw InvalidInput(labels_[i], "a " + fields_[i]->typeName() +
                                        " can only be replaced by another (got a " +
                                        field->typeName() + ")");
+  field->continueFrom(*fields_[i]);
   fields_[i] = std::move(field);
   fieldPointers_[i] = fields_[i].get();
 }

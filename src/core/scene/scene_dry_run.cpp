@@ -13,10 +13,18 @@ namespace {
 
 class SceneDryRun final : public DryRunContext {
  public:
-  SceneDryRun(const Reader& r, const topology::MeshData& mesh) : r_(r), mesh_(mesh), topo_(mesh) {}
+  SceneDryRun(const Reader& r, const Scene& scene, const topology::MeshData& mesh)
+      : r_(r), mesh_(mesh), topo_(mesh) {
+    const std::vector<std::string> labels = scene.forceFieldLabels();  // as the run names them
+    for (std::size_t i = 0; i < scene.forceFields.size(); ++i)
+      fields_.emplace_back(scene.forceFields[i].type, labels[i]);
+  }
   topology::Topology& topology() override { return topo_; }
   const topology::MeshData& restMesh() const override { return mesh_; }
   std::set<std::string>& activeGrasps() override { return grasps_; }
+  const std::vector<std::pair<std::string, std::string>>* forceFields() const override {
+    return &fields_;
+  }
   [[noreturn]] void fail(std::string_view key, const std::string& message) const override {
     r_.fail(key.empty() ? pointer_ : pointer_ + "/" + std::string(key), message);
   }
@@ -27,13 +35,14 @@ class SceneDryRun final : public DryRunContext {
   const topology::MeshData& mesh_;
   topology::Topology topo_;
   std::set<std::string> grasps_;
+  std::vector<std::pair<std::string, std::string>> fields_;
   std::string pointer_;
 };
 
 }  // namespace
 
 void dryRun(const Reader& r, const Scene& scene, const topology::MeshData& mesh) {
-  SceneDryRun c(r, mesh);
+  SceneDryRun c(r, scene, mesh);
   for (const ConstraintSpec& spec : scene.constraints) {
     c.at(spec.location.pointer);
     ConstraintRegistry::instance().find(spec.type)->build(spec.parameters)->dryRun(c);

@@ -160,9 +160,9 @@ enum class KeyType {
 const char* toString(KeyType type);
 
 /// A key of a component: its name, the kind of value it takes, what it means (for messages and
-/// `cutsim components`), the values of a choice (its default first) or examples of a string's,
-/// and whether it is required. The tests build every component from values made after these
-/// declarations.
+/// `cutsim components`), the values of a choice (its default first), examples of a string's or
+/// an example of an object's (as JSON), and whether it is required. The tests build every component
+/// from values made after these declarations.
 struct KeyInfo {
   std::string name;
   KeyType type;

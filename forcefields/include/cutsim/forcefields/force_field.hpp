@@ -126,6 +126,10 @@ class ForceField {
   /// Whether the model may replace this field by another of its type (new parameters between
   /// steps): false for a field that a step hook holds by reference (Contact).
   virtual bool replaceable() const { return true; }
+  /// Called on the field that replaces `previous` (the same type, on the same topology: new
+  /// parameters between steps) to carry over what the run has done to it that its parameters do
+  /// not say (a dissection's released points). Default: nothing.
+  virtual void continueFrom(const ForceField& /*previous*/) {}
 
   /// Checkpoints (cutsim run --checkpoint-every, docs/robustness.md): whether the field saves
   /// and restores everything its continuation depends on beyond the topology and its parameters,

@@ -13,6 +13,7 @@
 #include <set>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "cutsim/core/constraints.hpp"
@@ -100,6 +101,11 @@ class DryRunContext {
   virtual const topology::MeshData& restMesh() const = 0;
   /// Names of the grasps active at the action's time.
   virtual std::set<std::string>& activeGrasps() = 0;
+  /// The scene's force fields as (type, label, as the run labels them: Scene::forceFieldLabels),
+  /// or nullptr where they are not known (an action given while a simulation runs).
+  virtual const std::vector<std::pair<std::string, std::string>>* forceFields() const {
+    return nullptr;
+  }
   /// Fails the scene at a key path of the action ("polyline/2"; "" for the action itself).
   [[noreturn]] virtual void fail(std::string_view key, const std::string& message) const = 0;
 };
