@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -142,7 +143,7 @@ double liftForce(bool undermined) {
                                        R"({"at": 0, "action": "cut",
           "polyline": [[0.3, 0.7, 0], [0.3, 0.3, 0], [0.7, 0.3, 0], [0.7, 0.7, 0]]},
         )" + dissect + R"({"at": 0.02, "action": "grasp", "name": "forceps",
-          "box": [[0.45, 0.29, -1], [0.55, 0.31, 1]], "path": [[0, 0, 0, 0], [0.25, 0, 0, 0.05]]})"),
+          "box": [[0.45, 0.29, -1], [0.55, 0.41, 1]], "seed": [0.5, 0.4, 0], "path": [[0, 0, 0, 0], [0.25, 0, 0, 0.05]]})"),
                                  "inline.json", test::kSceneDir);
   SceneRunner runner(scene);
   runner.start();
@@ -159,6 +160,60 @@ double liftForce(bool undermined) {
 TEST(Tissue, AFlapStaysOnTheTissueUntilItIsUndermined) {
   const double held = liftForce(false), free = liftForce(true);
   EXPECT_GT(held, 4.0 * free) << "held " << held << " N, undermined " << free << " N";
+}
+
+}  // namespace
+}  // namespace cutsim::core
+
+namespace cutsim::core {
+namespace {
+
+/// The rest positions of the points a grasp took, after a cut across its box at y = 0.45.
+std::vector<Vec3> graspedAcrossACut(const std::string& piece) {
+  const Scene scene = parseScene(
+      sheet(kTissue, R"({"at": 0, "action": "cut", "polyline": [[0, 0.45, 0], [1, 0.45, 0]]},
+        {"at": 0, "action": "grasp", "name": "forceps", "box": [[0.35, 0.35, -1], [0.65, 0.65, 1]])" +
+                         piece + R"(, "path": [[0, 0, 0, 0], [0.2, 0, 0, 0.05]]})"),
+      "inline.json", test::kSceneDir);
+  SceneRunner runner(scene);
+  runner.start();
+  runner.advance();
+  const Simulation& sim = runner.simulation();
+  std::vector<Vec3> out;
+  for (PointId p : sim.model().grasp(0).points().points())
+    out.push_back(sim.topology().restPosition(p));
+  return out;
+}
+
+TEST(GraspPiece, ABoxStraddlingACutTakesTheSideOfItsSeed) {
+  // Default: the piece of the box's centre (above the cut); the cut's lip points appear once.
+  const std::vector<Vec3> one = graspedAcrossACut("");
+  ASSERT_FALSE(one.empty());
+  std::size_t onLip = 0;
+  for (const Vec3& x : one) {
+    EXPECT_GE(x[1], 0.45 - 1e-12) << "a point below the cut was taken";
+    onLip += std::fabs(x[1] - 0.45) < 1e-12 ? 1 : 0;
+  }
+  std::set<double> lipXs;
+  for (const Vec3& x : one)
+    if (std::fabs(x[1] - 0.45) < 1e-12) lipXs.insert(x[0]);
+  EXPECT_EQ(onLip, lipXs.size()) << "both copies of a lip point were taken";
+  EXPECT_GT(onLip, 0u);
+  // A seed below the cut takes the other side; "all" takes both.
+  for (const Vec3& x : graspedAcrossACut(R"(, "seed": [0.5, 0.36, 0])"))
+    EXPECT_LE(x[1], 0.45 + 1e-12) << "a point above the cut was taken";
+  const std::vector<Vec3> all = graspedAcrossACut(R"(, "piece": "all")");
+  EXPECT_GT(all.size(), one.size());
+  EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const Vec3& x) { return x[1] < 0.44; }));
+}
+
+TEST(GraspPiece, PieceAndSeedAreForABox) {
+  EXPECT_THAT(parseError(sheet(kTissue, R"({"at": 0, "action": "grasp", "name": "g",
+        "points": [3], "piece": "all", "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/0/piece: is for a box"));
+  EXPECT_THAT(parseError(sheet(kTissue, R"({"at": 0, "action": "grasp", "name": "g",
+        "box": [[0, 0, -1], [1, 1, 1]], "piece": "half", "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/0/piece"));
 }
 
 }  // namespace

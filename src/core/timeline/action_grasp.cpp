@@ -112,7 +112,16 @@ const bool graspRegistered = ActionRegistry::instance().add(
        true},
       {"points", KeyType::Integers, "[ids] of the mesh as loaded"},
       {"box", KeyType::Box,
-       "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates"},
+       "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates, that "
+       "are connected to the seed inside the box (one side of a cut that crosses it)"},
+      {"piece",
+       KeyType::Choice,
+       "with a box: \"seed\" (default), the piece connected to the seed inside the box; "
+       "\"all\", every point inside",
+       {"seed", "all"}},
+      {"seed", KeyType::Point,
+       "[x, y, z] in rest coordinates: the box's point nearest it starts the piece (default: the "
+       "box's centre)"},
       {"near", KeyType::Points,
        "[[x, y, z], ...]: the nearest live point to each position, in rest coordinates"},
       {"path",
@@ -125,6 +134,12 @@ const bool graspRegistered = ActionRegistry::instance().add(
        GraspParameters p;
        p.name = readName(s);
        p.selection = PointSelection::read(s);
+       if (p.selection.kind != PointSelection::Kind::Box) {
+         for (const char* key : {"piece", "seed"})
+           if (s.has(key)) s.fail(key, "is for a box");
+       }
+       p.selection.onePiece = s.choice("piece", "seed", {"seed", "all"}) == "seed";
+       if (s.has("seed")) p.selection.seed = s.vec3("seed");
        p.path = readPath(s);
        return p;
      },

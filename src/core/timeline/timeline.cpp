@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 
 #include "cutsim/base/numbers.hpp"
 #include "cutsim/topology/geometry.hpp"
@@ -49,6 +50,36 @@ std::string_view PointSelection::key() const {
   return "";
 }
 
+namespace {
+/// The points of `inside` (ascending) connected to the one nearest `seed` (ties: the lowest id) by
+/// edges whose both ends are in `inside`; ascending.
+std::vector<PointId> onePieceOf(const topology::Topology& topo, const std::vector<PointId>& inside,
+                                const Vec3& seed) {
+  PointId start = inside.front();
+  double best = dist2(topo.restPosition(start), seed);
+  for (PointId p : inside) {
+    const double d = dist2(topo.restPosition(p), seed);
+    if (d < best) {
+      best = d;
+      start = p;
+    }
+  }
+  const std::set<PointId> in(inside.begin(), inside.end());
+  std::set<PointId> reached = {start};
+  std::vector<PointId> stack = {start};
+  while (!stack.empty()) {
+    const PointId p = stack.back();
+    stack.pop_back();
+    for (topology::EdgeId e : topo.edgesAroundPoint(p)) {
+      const topology::EdgeVertices v = topo.edgeVertices(e);
+      const PointId q = v[0] == p ? v[1] : v[0];
+      if (in.count(q) && reached.insert(q).second) stack.push_back(q);
+    }
+  }
+  return {reached.begin(), reached.end()};
+}
+}  // namespace
+
 std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) const {
   std::vector<PointId> out;
   switch (kind) {
@@ -64,6 +95,11 @@ std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) con
         for (int k = 0; k < 3; ++k) inside = inside && x[k] >= boxMin[k] && x[k] <= boxMax[k];
         if (inside) out.push_back(p);
       }
+      if (onePiece && !out.empty())
+        out = onePieceOf(
+            topo, out,
+            seed.value_or(Vec3{0.5 * (boxMin[0] + boxMax[0]), 0.5 * (boxMin[1] + boxMax[1]),
+                               0.5 * (boxMin[2] + boxMax[2])}));
       break;
     case Kind::Near: {
       const std::vector<PointId> live = topo.points();

@@ -10,6 +10,7 @@
 // later step (the actions that go on: a progressive cut, tearing), in timeline order.
 #include <limits>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -31,6 +32,11 @@ struct PointSelection {
   std::vector<PointId> points;
   Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
   std::vector<Vec3> near;
+  /// A box takes one piece: only the points inside that are connected to the seed (the live point
+  /// inside nearest to `seed`, default the box's centre) by edges inside the box, so that a box
+  /// straddling a cut or a tear takes one side (a grasp's default; a fixed constraint takes all).
+  bool onePiece = false;
+  std::optional<Vec3> seed;
   /// The selected live points, ascending, without repeats.
   std::vector<PointId> resolve(const topology::Topology& topology) const;
   /// Reads "points", "box" or "near" (exactly one) from s.
