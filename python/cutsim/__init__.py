@@ -158,13 +158,19 @@ class Simulation(_cutsim._Simulation):
         self.act(entry)
         return before - self.num_triangles
 
-    def grasp(self, name, *, points=None, box=None, near=None, path=None, piece=None, seed=None):
+    def grasp(self, name, *, points=None, box=None, near=None, sphere=None, path=None, piece=None,
+              seed=None):
         """Grasps points (ids, a rest-space box, or the nearest point to each position) from now
         on; path: [[t, dx, dy, dz], ...] relative to now (default: hold them where they are). A box
         takes the piece connected to its seed inside it (piece="seed", the default; seed: a
-        rest-space point, default the box's centre), or every point inside (piece="all")."""
+        rest-space point, default the box's centre), or every point inside (piece="all").
+        sphere=(center, radius) in world coordinates takes the points of the surface as it is now
+        that lie in it (one piece: the side of a cut the centre is on)."""
         entry = {"action": "grasp", "name": name, "path": path if path is not None else [[0, 0, 0, 0]]}
-        entry.update(_selection(points, box, near))
+        if sphere is not None:
+            entry["sphere"] = {"center": list(map(float, sphere[0])), "radius": float(sphere[1])}
+        else:
+            entry.update(_selection(points, box, near))
         if piece is not None:
             entry["piece"] = piece
         if seed is not None:

@@ -218,3 +218,44 @@ TEST(GraspPiece, PieceAndSeedAreForABox) {
 
 }  // namespace
 }  // namespace cutsim::core
+
+namespace cutsim::core {
+namespace {
+
+TEST(GraspPiece, ASphereInWorldCoordinatesTakesWhatItMeetsNow) {
+  // A corner of the sheet is lifted 0.2 above its rest plane (a grasp, released just before);
+  // the sphere is centred where the corner IS, not where it rests.
+  const Scene scene = parseScene(sheet(kTissue, R"({"at": 0, "action": "grasp", "name": "lift",
+          "box": [[0.75, 0.75, -1], [1, 1, 1]], "piece": "all", "path": [[0, 0, 0, 0], [0.1, 0, 0, 0.2]]},
+        {"at": 0.14, "action": "release", "name": "lift"},
+        {"at": 0.15, "action": "grasp", "name": "forceps",
+          "sphere": {"center": [0.95, 0.95, 0.2], "radius": 0.12}, "path": [[0, 0, 0, 0]]})"),
+                                 "inline.json", test::kSceneDir);
+  EXPECT_THAT(
+      parseError(sheet(kTissue,
+                       R"({"at": 0, "action": "grasp", "name": "g", "box": [[0, 0, -1], [1, 1, 1]],
+        "sphere": {"center": [0, 0, 0], "radius": 0.1}, "path": [[0, 0, 0, 0]]})")),
+      HasSubstr("/timeline/0/box: give a sphere or a selection, not both"));
+  SceneRunner runner(scene);
+  runner.start();
+  while (runner.simulation().time() < 0.16) runner.advance();
+  const Simulation& sim = runner.simulation();
+  ASSERT_EQ(sim.model().numGrasps(), 1u);
+  const auto taken = sim.model().grasp(0).points().points();
+  ASSERT_FALSE(taken.empty());
+  for (PointId p : taken) {
+    double d2 = 0.0;
+    const Vec3 c = {0.95, 0.95, 0.2};
+    for (int k = 0; k < 3; ++k) d2 += std::pow(sim.state().x()[3 * p.idx() + k] - c[k], 2);
+    // Grasped when the sphere met it (it has not moved since: the grasp holds it).
+    EXPECT_LE(std::sqrt(d2), 0.12 + 1e-9) << "point " << p.idx();
+  }
+  // Nothing of the surface was within the sphere at rest: a rest-space choice would take nothing.
+  for (PointId p : sim.topology().points()) {
+    const Vec3 r = sim.topology().restPosition(p);
+    EXPECT_GT(std::hypot(r[0] - 0.95, r[1] - 0.95, r[2] - 0.2), 0.12);
+  }
+}
+
+}  // namespace
+}  // namespace cutsim::core

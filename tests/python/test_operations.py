@@ -232,3 +232,23 @@ def test_operations_say_what_they_did_and_why_they_did_not(small_scene, tmp_path
     sim.finish_recording()
     header = (tmp_path / "steps.csv").read_text().splitlines()[0]
     assert header.endswith("forceps_fx,forceps_fy,forceps_fz")
+
+
+def test_grasp_a_world_sphere_and_one_side_of_a_cut(small_scene):
+    small_scene["constraints"] = []
+    small_scene["gravity"] = [0, 0, 0]
+    sim = cutsim.Simulation(small_scene)
+    sim.cut([[0.0, 0.45, 0.0], [1.0, 0.45, 0.0]])
+    alive = np.asarray(sim.view().alive, dtype=bool)
+    with sim.edit() as e:  # the whole sheet moved up by 1: rest coordinates no longer say where it is
+        e.x[alive, 2] += 1.0
+    sim.grasp("jaws", sphere=([0.5, 0.5, 1.0], 0.2))
+    taken = np.asarray(sim.grasp_points("jaws"), dtype=int)
+    assert taken.size > 0
+    assert np.all(np.linalg.norm(sim.x[taken] - [0.5, 0.5, 1.0], axis=1) <= 0.2 + 1e-12)
+    assert np.all(sim.rest[taken, 1] >= 0.45 - 1e-12)  # one side of the cut: the centre's
+    sim.release("jaws")
+    sim.grasp("both", sphere=([0.5, 0.5, 1.0], 0.2), piece="all")
+    assert np.any(sim.rest[np.asarray(sim.grasp_points("both"), dtype=int), 1] < 0.45)
+    with pytest.raises(cutsim.InvalidInputError, match="none lies within"):
+        sim.grasp("air", sphere=([0.5, 0.5, 0.0], 0.2))

@@ -1,5 +1,9 @@
 // The "grasp" and "release" actions: points that follow a displacement path from where they are
 // when grasped, and the end of that.
+#include <cmath>
+#include <set>
+#include <sstream>
+
 #include "cutsim/base/numbers.hpp"
 #include "cutsim/core/timeline.hpp"
 
@@ -25,9 +29,11 @@ class GraspAction final : public TimelineAction {
   void dryRun(DryRunContext& c) const override {
     if (c.activeGrasps().count(p_.name))
       c.fail("name", "a grasp named \"" + p_.name + "\" is already active");
-    checkIds(c, p_.selection);
-    if (p_.selection.resolve(c.topology()).empty())
-      c.fail(std::string(p_.selection.key()), "selects no live point at that time");
+    if (!p_.worldSphere) {  // a world sphere meets the surface where it is then: start() checks
+      checkIds(c, p_.selection);
+      if (p_.selection.resolve(c.topology()).empty())
+        c.fail(std::string(p_.selection.key()), "selects no live point at that time");
+    }
     c.activeGrasps().insert(p_.name);
   }
   void start(ActionContext& c) override {
@@ -37,8 +43,18 @@ class GraspAction final : public TimelineAction {
         if (p.idx() >= sim.topology().pointCapacity() || !sim.topology().isPointAlive(p))
           c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p.idx()) +
                  " is not a point of the surface");
-    const std::vector<PointId> points = p_.selection.resolve(sim.topology());
-    if (points.empty()) c.fail("grasp \"" + p_.name + "\" selects no point of the surface");
+    const std::vector<PointId> points =
+        p_.worldSphere ? inWorldSphere(sim) : p_.selection.resolve(sim.topology());
+    if (points.empty()) {
+      if (p_.worldSphere) {
+        std::ostringstream os;
+        os << "grasp \"" << p_.name << "\" selects no point of the surface: none lies within "
+           << p_.radius << " of (" << p_.center[0] << ", " << p_.center[1] << ", " << p_.center[2]
+           << ") (world coordinates, the surface as it is now)";
+        c.fail(os.str());
+      }
+      c.fail("grasp \"" + p_.name + "\" selects no point of the surface");
+    }
     // A point is held by one constraint: a grasp cannot drag a fixed point, nor one another grasp
     // holds (their reactions would be meaningless).
     for (PointId p : points) {
@@ -56,6 +72,38 @@ class GraspAction final : public TimelineAction {
   std::string graspName() const override { return p_.name; }
 
  private:
+  /// The live points whose current position lies in the sphere; one piece: those connected to the
+  /// one nearest the centre by edges inside the sphere (the side of a cut the jaws are on).
+  std::vector<PointId> inWorldSphere(const Simulation& sim) const {
+    const topology::Topology& t = sim.topology();
+    const std::span<const double> x = sim.state().x();
+    const auto d2 = [&](PointId p) {
+      double d = 0.0;
+      for (int k = 0; k < 3; ++k) d += std::pow(x[3 * p.idx() + k] - p_.center[k], 2);
+      return d;
+    };
+    std::set<PointId> inside;
+    PointId nearest = PointId::invalid();
+    for (PointId p : t.points()) {
+      if (d2(p) > p_.radius * p_.radius) continue;
+      inside.insert(p);
+      if (nearest == PointId::invalid() || d2(p) < d2(nearest)) nearest = p;
+    }
+    if (inside.empty() || !p_.selection.onePiece) return {inside.begin(), inside.end()};
+    std::set<PointId> reached = {nearest};
+    std::vector<PointId> stack = {nearest};
+    while (!stack.empty()) {
+      const PointId p = stack.back();
+      stack.pop_back();
+      for (topology::EdgeId e : t.edgesAroundPoint(p)) {
+        const topology::EdgeVertices v = t.edgeVertices(e);
+        const PointId q = v[0] == p ? v[1] : v[0];
+        if (inside.count(q) && reached.insert(q).second) stack.push_back(q);
+      }
+    }
+    return {reached.begin(), reached.end()};
+  }
+
   GraspParameters p_;
 };
 
@@ -114,10 +162,16 @@ const bool graspRegistered = ActionRegistry::instance().add(
       {"box", KeyType::Box,
        "[[xmin, ymin, zmin], [xmax, ymax, zmax]]: the points inside, in rest coordinates, that "
        "are connected to the seed inside the box (one side of a cut that crosses it)"},
+      {"sphere",
+       KeyType::Object,
+       "{\"center\": [x, y, z], \"radius\": r} in WORLD coordinates: the points of the surface "
+       "as it is when the grasp starts that lie in it (one piece: the side of a cut the centre "
+       "is on), what forceps of that radius close on",
+       {R"({"center": [0.5, 0.5, 0], "radius": 0.1})"}},
       {"piece",
        KeyType::Choice,
-       "with a box: \"seed\" (default), the piece connected to the seed inside the box; "
-       "\"all\", every point inside",
+       "with a box or a sphere: \"seed\" (default), the piece connected to the seed (a "
+       "sphere's: the point nearest its centre) inside it; \"all\", every point inside",
        {"seed", "all"}},
       {"seed", KeyType::Point,
        "[x, y, z] in rest coordinates: the box's point nearest it starts the piece (default: the "
@@ -133,10 +187,21 @@ const bool graspRegistered = ActionRegistry::instance().add(
      [](const ParameterSource& s) -> std::any {
        GraspParameters p;
        p.name = readName(s);
-       p.selection = PointSelection::read(s);
-       if (p.selection.kind != PointSelection::Kind::Box) {
-         for (const char* key : {"piece", "seed"})
-           if (s.has(key)) s.fail(key, "is for a box");
+       if (s.has("sphere")) {
+         for (const char* key : {"points", "box", "near", "seed"})
+           if (s.has(key)) s.fail(key, "give a sphere or a selection, not both");
+         const auto sphere = s.object("sphere", {"center", "radius"});
+         sphere->require("center");
+         sphere->require("radius");
+         p.worldSphere = true;
+         p.center = sphere->vec3("center");
+         p.radius = sphere->positive("radius", 0.0);
+       } else {
+         p.selection = PointSelection::read(s);
+         if (p.selection.kind != PointSelection::Kind::Box) {
+           for (const char* key : {"piece", "seed"})
+             if (s.has(key)) s.fail(key, "is for a box or a sphere");
+         }
        }
        p.selection.onePiece = s.choice("piece", "seed", {"seed", "all"}) == "seed";
        if (s.has("seed")) p.selection.seed = s.vec3("seed");
