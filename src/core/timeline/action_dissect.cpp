@@ -106,17 +106,7 @@ const bool registered = ActionRegistry::instance().add(
        } else {
          if (s.has("width")) s.fail("width", "is for a polyline; a region has no width");
          p.inRegion = true;
-         if (where == "sphere") {
-           const auto sphere = s.object("sphere", {"center", "radius"});
-           sphere->require("center");
-           sphere->require("radius");
-           p.region.kind = Region::Kind::Sphere;
-           p.region.center = sphere->vec3("center");
-           p.region.radius = sphere->positive("radius", 0.0);
-         } else {
-           p.region.kind = Region::Kind::Box;
-           std::tie(p.region.boxMin, p.region.boxMax) = s.box("box");
-         }
+         p.region = Region::read(s, where);
        }
        if (s.has("field")) p.field = s.string("field");
        return p;

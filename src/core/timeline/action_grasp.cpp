@@ -1,7 +1,5 @@
 // The "grasp" and "release" actions: points that follow a displacement path from where they are
 // when grasped, and the end of that.
-#include <cmath>
-#include <set>
 #include <sstream>
 
 #include "cutsim/base/numbers.hpp"
@@ -77,31 +75,18 @@ class GraspAction final : public TimelineAction {
   std::vector<PointId> inWorldSphere(const Simulation& sim) const {
     const topology::Topology& t = sim.topology();
     const std::span<const double> x = sim.state().x();
-    const auto d2 = [&](PointId p) {
-      double d = 0.0;
-      for (int k = 0; k < 3; ++k) d += std::pow(x[3 * p.idx() + k] - p_.center[k], 2);
-      return d;
+    const auto current = [&x](PointId p) {
+      return Vec3{x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
     };
-    std::set<PointId> inside;
-    PointId nearest = PointId::invalid();
+    std::vector<PointId> inside;
     for (PointId p : t.points()) {
-      if (d2(p) > p_.radius * p_.radius) continue;
-      inside.insert(p);
-      if (nearest == PointId::invalid() || d2(p) < d2(nearest)) nearest = p;
+      const Vec3 q = current(p);
+      double d2 = 0.0;
+      for (int k = 0; k < 3; ++k) d2 += (q[k] - p_.center[k]) * (q[k] - p_.center[k]);
+      if (d2 <= p_.radius * p_.radius) inside.push_back(p);
     }
-    if (inside.empty() || !p_.selection.onePiece) return {inside.begin(), inside.end()};
-    std::set<PointId> reached = {nearest};
-    std::vector<PointId> stack = {nearest};
-    while (!stack.empty()) {
-      const PointId p = stack.back();
-      stack.pop_back();
-      for (topology::EdgeId e : t.edgesAroundPoint(p)) {
-        const topology::EdgeVertices v = t.edgeVertices(e);
-        const PointId q = v[0] == p ? v[1] : v[0];
-        if (inside.count(q) && reached.insert(q).second) stack.push_back(q);
-      }
-    }
-    return {reached.begin(), reached.end()};
+    if (inside.empty() || !p_.selection.onePiece) return inside;
+    return connectedWithin(t, inside, nearestPoint(inside, p_.center, current));
   }
 
   GraspParameters p_;

@@ -72,17 +72,7 @@ const bool registered = ActionRegistry::instance().add(
      {},
      [](const ParameterSource& s) -> std::any {
        RemoveParameters p;
-       if (s.oneOf({"sphere", "box"}) == "sphere") {
-         const auto sphere = s.object("sphere", {"center", "radius"});
-         p.region.kind = Region::Kind::Sphere;
-         sphere->require("center");
-         sphere->require("radius");
-         p.region.center = sphere->vec3("center");
-         p.region.radius = sphere->positive("radius", 0.0);
-       } else {
-         p.region.kind = Region::Kind::Box;
-         std::tie(p.region.boxMin, p.region.boxMax) = s.box("box");
-       }
+       p.region = Region::read(s, s.oneOf({"sphere", "box"}));
        if (s.has("boundary")) {
          const std::string b = s.string("boundary");
          if (b != "cut" && b != "centroid")

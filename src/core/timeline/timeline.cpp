@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <set>
 
@@ -38,6 +39,22 @@ PointSelection PointSelection::read(const ParameterSource& s) {
   return sel;
 }
 
+Region Region::read(const ParameterSource& s, std::string_view key) {
+  Region r;
+  if (key == "sphere") {
+    const auto sphere = s.object("sphere", {"center", "radius"});
+    sphere->require("center");
+    sphere->require("radius");
+    r.kind = Kind::Sphere;
+    r.center = sphere->vec3("center");
+    r.radius = sphere->positive("radius", 0.0);
+  } else {
+    r.kind = Kind::Box;
+    std::tie(r.boxMin, r.boxMax) = s.box("box");
+  }
+  return r;
+}
+
 std::string_view PointSelection::key() const {
   switch (kind) {
     case Kind::Points:
@@ -50,20 +67,22 @@ std::string_view PointSelection::key() const {
   return "";
 }
 
-namespace {
-/// The points of `inside` (ascending) connected to the one nearest `seed` (ties: the lowest id) by
-/// edges whose both ends are in `inside`; ascending.
-std::vector<PointId> onePieceOf(const topology::Topology& topo, const std::vector<PointId>& inside,
-                                const Vec3& seed) {
-  PointId start = inside.front();
-  double best = dist2(topo.restPosition(start), seed);
-  for (PointId p : inside) {
-    const double d = dist2(topo.restPosition(p), seed);
-    if (d < best) {
-      best = d;
-      start = p;
+PointId nearestPoint(std::span<const PointId> points, const Vec3& position,
+                     const std::function<Vec3(PointId)>& positionOf) {
+  PointId best = PointId::invalid();
+  double bestD = 0.0;
+  for (PointId p : points) {
+    const double d = dist2(positionOf(p), position);
+    if (best == PointId::invalid() || d < bestD) {
+      bestD = d;
+      best = p;
     }
   }
+  return best;
+}
+
+std::vector<PointId> connectedWithin(const topology::Topology& topo,
+                                     const std::vector<PointId>& inside, PointId start) {
   const std::set<PointId> in(inside.begin(), inside.end());
   std::set<PointId> reached = {start};
   std::vector<PointId> stack = {start};
@@ -78,9 +97,9 @@ std::vector<PointId> onePieceOf(const topology::Topology& topo, const std::vecto
   }
   return {reached.begin(), reached.end()};
 }
-}  // namespace
 
 std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) const {
+  const auto rest = [&topo](PointId p) { return topo.restPosition(p); };
   std::vector<PointId> out;
   switch (kind) {
     case Kind::Points:
@@ -95,27 +114,16 @@ std::vector<PointId> PointSelection::resolve(const topology::Topology& topo) con
         for (int k = 0; k < 3; ++k) inside = inside && x[k] >= boxMin[k] && x[k] <= boxMax[k];
         if (inside) out.push_back(p);
       }
-      if (onePiece && !out.empty())
-        out = onePieceOf(
-            topo, out,
-            seed.value_or(Vec3{0.5 * (boxMin[0] + boxMax[0]), 0.5 * (boxMin[1] + boxMax[1]),
-                               0.5 * (boxMin[2] + boxMax[2])}));
+      if (onePiece && !out.empty()) {
+        const Vec3 centre{0.5 * (boxMin[0] + boxMax[0]), 0.5 * (boxMin[1] + boxMax[1]),
+                          0.5 * (boxMin[2] + boxMax[2])};
+        out = connectedWithin(topo, out, nearestPoint(out, seed.value_or(centre), rest));
+      }
       break;
     case Kind::Near: {
       const std::vector<PointId> live = topo.points();
       if (live.empty()) break;
-      for (const Vec3& q : near) {
-        PointId best = live.front();
-        double bestD = dist2(topo.restPosition(best), q);
-        for (PointId p : live) {
-          const double d = dist2(topo.restPosition(p), q);
-          if (d < bestD) {
-            bestD = d;
-            best = p;
-          }
-        }
-        out.push_back(best);
-      }
+      for (const Vec3& q : near) out.push_back(nearestPoint(live, q, rest));
       break;
     }
   }

@@ -8,10 +8,12 @@
 // anything runs, dryRun() checks it on a copy of the rest mesh that the timeline's earlier actions
 // have already changed; during the run, start() runs it when it is due and afterStep() after each
 // later step (the actions that go on: a progressive cut, tearing), in timeline order.
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -45,6 +47,15 @@ struct PointSelection {
   std::string_view key() const;
 };
 
+/// Of `points`, the one whose position (positionOf: rest or current) is nearest `position` (ties:
+/// the first); PointId::invalid() if there is none.
+PointId nearestPoint(std::span<const PointId> points, const Vec3& position,
+                     const std::function<Vec3(PointId)>& positionOf);
+/// The points of `inside` connected to `start` by edges whose both ends are in `inside` (one piece
+/// of a region: the side of a cut that crosses it), ascending.
+std::vector<PointId> connectedWithin(const topology::Topology& topology,
+                                     const std::vector<PointId>& inside, PointId start);
+
 /// A region of rest space: a sphere or a box.
 struct Region {
   enum class Kind { Sphere, Box };
@@ -53,6 +64,8 @@ struct Region {
   double radius = 0.0;
   Vec3 boxMin{0, 0, 0}, boxMax{0, 0, 0};
   bool contains(const Vec3& p) const;
+  /// Reads key "sphere" ({"center", "radius" > 0}) or "box" ([[min], [max]]) from s.
+  static Region read(const ParameterSource& s, std::string_view key);
   /// Negative inside, positive outside, zero on the boundary (a sphere's signed distance; for a
   /// box, the largest of the signed distances to its slabs).
   double levelSet(const Vec3& p) const;
