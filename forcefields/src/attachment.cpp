@@ -203,18 +203,19 @@ double Attachment::potentialEnergy(std::span<const double> x) const {
 void Attachment::addKToMatrix(std::span<const double> x, MatrixAccumulator& m,
                               double kFactor) const {
   checkSize(x, "x", "addKToMatrix");
-  for (PointId p : topology_->points()) {
-    if (area_[p] == 0.0) continue;
-    m.addScaledIdentity(p, p, -kFactor * params_.stiffness * weight_[p] * area_[p]);
-  }
+  addDiagonal(m, -kFactor * params_.stiffness);
 }
 
 void Attachment::addBToMatrix(std::span<const double> x, MatrixAccumulator& m,
                               double bFactor) const {
   checkSize(x, "x", "addBToMatrix");
-  for (PointId p : topology_->points()) {
-    if (area_[p] == 0.0) continue;
-    m.addScaledIdentity(p, p, -bFactor * params_.damping * weight_[p] * area_[p]);
+  addDiagonal(m, -bFactor * params_.damping);
+}
+
+void Attachment::addDiagonal(MatrixAccumulator& m, double perArea) const {
+  const std::span<const double> w = weight_.values(), a = area_.values();
+  for (std::size_t p = 0; p < a.size(); ++p) {  // dead slots have no area
+    if (a[p] != 0.0) m.addScaledIdentity(PointId(p), PointId(p), perArea * w[p] * a[p]);
   }
 }
 

@@ -47,7 +47,8 @@ class GraspAction final : public TimelineAction {
       if (p_.worldSphere) {
         std::ostringstream os;
         os << "grasp \"" << p_.name << "\" selects no point of the surface: none lies within "
-           << p_.radius << " of (" << p_.center[0] << ", " << p_.center[1] << ", " << p_.center[2]
+           << p_.worldSphere->radius << " of (" << p_.worldSphere->center[0] << ", "
+           << p_.worldSphere->center[1] << ", " << p_.worldSphere->center[2]
            << ") (world coordinates, the surface as it is now)";
         c.fail(os.str());
       }
@@ -79,14 +80,10 @@ class GraspAction final : public TimelineAction {
       return Vec3{x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
     };
     std::vector<PointId> inside;
-    for (PointId p : t.points()) {
-      const Vec3 q = current(p);
-      double d2 = 0.0;
-      for (int k = 0; k < 3; ++k) d2 += (q[k] - p_.center[k]) * (q[k] - p_.center[k]);
-      if (d2 <= p_.radius * p_.radius) inside.push_back(p);
-    }
+    for (PointId p : t.points())
+      if (p_.worldSphere->contains(current(p))) inside.push_back(p);
     if (inside.empty() || !p_.selection.onePiece) return inside;
-    return connectedWithin(t, inside, nearestPoint(inside, p_.center, current));
+    return connectedWithin(t, inside, nearestPoint(inside, p_.worldSphere->center, current));
   }
 
   GraspParameters p_;
@@ -175,12 +172,7 @@ const bool graspRegistered = ActionRegistry::instance().add(
        if (s.has("sphere")) {
          for (const char* key : {"points", "box", "near", "seed"})
            if (s.has(key)) s.fail(key, "give a sphere or a selection, not both");
-         const auto sphere = s.object("sphere", {"center", "radius"});
-         sphere->require("center");
-         sphere->require("radius");
-         p.worldSphere = true;
-         p.center = sphere->vec3("center");
-         p.radius = sphere->positive("radius", 0.0);
+         p.worldSphere = Region::read(s, "sphere");
        } else {
          p.selection = PointSelection::read(s);
          if (p.selection.kind != PointSelection::Kind::Box) {

@@ -103,6 +103,8 @@ class Attachment final : public ForceField, public topology::TopologyObserver {
 
  private:
   void recomputePoint(PointId p);
+  /// perArea * w_p a_p I on every diagonal block of a point with area (K's and B's).
+  void addDiagonal(MatrixAccumulator& m, double perArea) const;
   void checkSize(std::span<const double> a, const char* name, const char* what) const;
 
   topology::Topology* topology_;

@@ -190,9 +190,7 @@ struct GraspParameters {
   /// Instead of `selection`: the points whose CURRENT position lies in this sphere when the grasp
   /// starts (world coordinates: what forceps of that radius close on), one piece unless
   /// selection.onePiece is false.
-  bool worldSphere = false;
-  Vec3 center{0, 0, 0};
-  double radius = 0.0;
+  std::optional<Region> worldSphere;
   DisplacementPath path;  ///< times relative to the grasp's start
 };
 struct ReleaseParameters {
