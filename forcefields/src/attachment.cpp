@@ -285,15 +285,11 @@ void Attachment::validate(const Topology& topology, std::vector<std::string>& pr
 // Checkpoints: the attached fractions (the areas and targets follow from the topology).
 
 void Attachment::saveState(ArchiveWriter& out) const {
-  out.f64s(weight_.values());
+  fields(out, slots(weight_.values(), "Attachment: attached fractions"));
 }
 
 void Attachment::loadState(ArchiveReader& in) {
-  const std::vector<double> w = in.f64s();
-  if (w.size() != weight_.numSlots())
-    in.fail("Attachment: " + std::to_string(w.size()) + " attached fractions for " +
-            std::to_string(weight_.numSlots()) + " point slots");
-  std::copy(w.begin(), w.end(), weight_.values().begin());
+  fields(in, slots(weight_.values(), "Attachment: attached fractions"));
   std::vector<std::string> problems;
   validate(*topology_, problems);
   if (!problems.empty()) in.fail(problems.front());

@@ -547,11 +547,13 @@ const bool registered = ForceFieldRegistry::instance().add(
      }});
 }  // namespace
 void DihedralBending::saveState(ArchiveWriter& out) const {
-  out.boolean(params_.exactHessian);
+  fields(out, params_.exactHessian);
   saveTable(out);
 }
 void DihedralBending::loadState(ArchiveReader& in) {
-  setExactStiffness(in.boolean());
+  bool exact = false;
+  fields(in, exact);
+  setExactStiffness(exact);  // (through the setter: it drops what the other Hessian cached)
   loadTable(in, *topology_);
 }
 

@@ -430,11 +430,11 @@ const bool registered = ForceFieldRegistry::instance().add(
      }});
 }  // namespace
 void StretchSprings::saveState(ArchiveWriter& out) const {
-  out.boolean(params_.stableJacobian);
+  fields(out, params_.stableJacobian);
   table_.save(out);
 }
 void StretchSprings::loadState(ArchiveReader& in) {
-  params_.stableJacobian = in.boolean();
+  fields(in, params_.stableJacobian);
   table_.load(in);
   linValid_ = false;
   eventProblems_.clear();

@@ -612,13 +612,11 @@ const bool registered = ForceFieldRegistry::instance().add(
      }});
 }  // namespace
 void TriangularFEM::saveState(ArchiveWriter& out) const {
-  out.boolean(params_.exactHessian);
-  out.u64(numDegenerate_);
+  fields(out, params_.exactHessian, numDegenerate_);
   table_.save(out);
 }
 void TriangularFEM::loadState(ArchiveReader& in) {
-  params_.exactHessian = in.boolean();
-  numDegenerate_ = std::size_t(in.u64());
+  fields(in, params_.exactHessian, numDegenerate_);
   table_.load(in);
   eventProblems_.clear();
   std::vector<std::string> problems;

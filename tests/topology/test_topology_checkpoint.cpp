@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <Eigen/Core>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -128,6 +130,103 @@ TEST(Archive, FieldsStoreEachMemberByItsTypeAndReadItBack) {
   EXPECT_EQ(s, name);
   EXPECT_EQ(ws, warm);
   EXPECT_TRUE(std::signbit(ws[1]));
+}
+
+// Tables of records (std::vector and Eigen vectors) and fixed tables (slots): the bytes a count
+// and raw values written by hand give; a record's padding written as zeros whatever the memory
+// held; a fixed table of another size, and a count past the section's end, refused by name.
+struct Padded {
+  std::uint8_t kind;  // three bytes of padding follow
+  std::int32_t index;
+  double value;
+};
+static_assert(sizeof(Padded) == 16);
+
+TEST(Archive, TablesAndSlotsAreCountsAndBytesWithTheirPaddingZeroed) {
+  std::vector<Padded> records(3);
+  for (Padded& r : records) std::memset(static_cast<void*>(&r), 0xAB, sizeof r);  // dirty padding
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    records[i].kind = std::uint8_t(i);
+    records[i].index = -int(i);
+    records[i].value = 0.5 * double(i);
+  }
+  const Eigen::VectorXd warm = Eigen::VectorXd::LinSpaced(4, -1.0, 2.0);
+  std::vector<float> fixed = {1.f, 2.f, 3.f};
+  const auto byHand = tempFile("by_hand.ckpt"), declared = tempFile("declared.ckpt");
+  {
+    ArchiveWriter w;
+    w.begin("t");
+    w.u64(records.size());
+    for (const Padded& r : records) {
+      unsigned char bytes[16] = {};
+      std::memcpy(bytes, &r.kind, 1);
+      std::memcpy(bytes + 4, &r.index, 4);
+      std::memcpy(bytes + 8, &r.value, 8);
+      w.raw(bytes, sizeof bytes);
+    }
+    w.f64s(std::span<const double>(warm.data(), 4));
+    w.u64(fixed.size());
+    w.raw(fixed.data(), fixed.size() * sizeof(float));
+    w.save(byHand);
+  }
+  {
+    ArchiveWriter w;
+    w.begin("t");
+    fields(w, records, warm, slots(std::span<const float>(fixed), "fixed"));
+    w.save(declared);
+  }
+  EXPECT_EQ(slurp(byHand), slurp(declared));
+  {
+    ArchiveReader r(declared);
+    r.open("t");
+    std::vector<Padded> back;
+    Eigen::VectorXd warmBack;
+    std::vector<float> fixedBack(3);
+    fields(r, back, warmBack, slots(std::span<float>(fixedBack), "fixed"));
+    r.close();
+    ASSERT_EQ(back.size(), records.size());
+    for (std::size_t i = 0; i < back.size(); ++i) {
+      EXPECT_EQ(back[i].kind, records[i].kind);
+      EXPECT_EQ(back[i].index, records[i].index);
+      EXPECT_EQ(back[i].value, records[i].value);
+    }
+    EXPECT_EQ(warmBack, warm);
+    EXPECT_EQ(fixedBack, fixed);
+  }
+  {
+    ArchiveReader r(declared);
+    r.open("t");
+    std::vector<Padded> back;
+    Eigen::VectorXd warmBack;
+    std::vector<float> four(4);
+    try {
+      fields(r, back, warmBack, slots(std::span<float>(four), "the fixed table"));
+      ADD_FAILURE() << "a fixed table of another size was read";
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("the fixed table: 3 values saved, 4 slots"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  const auto shortTable = tempFile("short.ckpt");
+  {
+    ArchiveWriter w;
+    w.begin("t");
+    w.u64(3);  // three records of 24 bytes announced, 48 bytes held
+    w.f64s(std::vector<double>(5, 1.0));
+    w.save(shortTable);
+  }
+  ArchiveReader r(shortTable);
+  r.open("t");
+  std::vector<Eigen::Vector3d> wide;
+  try {
+    fields(r, wide);
+    ADD_FAILURE() << "a table running past its section was read";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("a table of 3 records of 24 bytes runs past"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Archive, DamagedForeignAndMisreadArchivesAreRefusedByName) {

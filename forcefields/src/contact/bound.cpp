@@ -109,7 +109,7 @@ void Contact::Impl::sweptTrianglePair(int i, int j, std::span<const double> x,
   auto vt = [&](std::uint32_t v, int t, const Box& box) {
     const auto& T = triV[std::size_t(t)];
     if (!shares(T, v) && box.overlaps(sweptPoint(x, v)))
-      keep(Pair{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111});
+      keep(Pair{.kind = Kind::VT, .obstacle = -1, .id = {v, T[0], T[1], T[2]}, .surface = 0b1111});
   };
   for (int k = 0; k < 3; ++k) {
     if (pointOwner[A[std::size_t(k)]] == i) vt(A[std::size_t(k)], j, bb);
@@ -127,7 +127,8 @@ void Contact::Impl::sweptTrianglePair(int i, int j, std::span<const double> x,
       if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
       Box sb = sweptPoint(x, b0);
       sb.add(sweptPoint(x, b1));
-      if (sa.overlaps(sb)) keep(Pair{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111});
+      if (sa.overlaps(sb))
+        keep(Pair{.kind = Kind::EE, .obstacle = -1, .id = {a0, a1, b0, b1}, .surface = 0b1111});
     }
   }
 }

@@ -5,7 +5,7 @@
 #include <numeric>
 #include <sstream>
 
-#include "archive_records.hpp"
+#include "cutsim/base/archive.hpp"
 
 namespace cutsim::forcefields::contact {
 
@@ -192,15 +192,11 @@ void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problem
 }
 
 void Bvh::save(ArchiveWriter& out) const {
-  saveRecords(out, nodes_);
-  saveRecords(out, order_);
-  saveRecords(out, boxes_);
+  fields(out, nodes_, order_, boxes_);
 }
 
 void Bvh::load(ArchiveReader& in) {
-  loadRecords(in, nodes_, "BVH nodes");
-  loadRecords(in, order_, "BVH order");
-  loadRecords(in, boxes_, "BVH boxes");
+  fields(in, nodes_, order_, boxes_);
   const std::int32_t n = std::int32_t(nodes_.size()), m = std::int32_t(order_.size());
   for (const Node& node : nodes_)
     if (node.left < -1 || node.left >= n || node.right < -1 || node.right >= n || node.first < 0 ||

@@ -1,22 +1,12 @@
 // Contact's checkpoints: what the next steps depend on (contact_impl.hpp).
-#include "archive_records.hpp"
 #include "contact_impl.hpp"
 
 namespace cutsim::forcefields {
 
 namespace {
 
-// The members are declared once for both directions (cutsim/base/archive.hpp): fields() for
-// numbers, flags and vectors of doubles, record() for vectors of plain records (pairs, boxes,
-// vectors), each named for the load's messages.
-template <class T>
-void record(ArchiveWriter& out, const std::vector<T>& v, const char*) {
-  contact::saveRecords(out, v);
-}
-template <class T>
-void record(ArchiveReader& in, std::vector<T>& v, const char* what) {
-  contact::loadRecords(in, v, what);
-}
+// The members are declared once for both directions (cutsim/base/archive.hpp): numbers, flags
+// and tables of plain records (pairs, boxes, vectors) alike.
 
 /// What contact measured at the last step's end (the CSV's figures).
 template <class Archive, class Measure>
@@ -28,69 +18,47 @@ void measured(Archive& a, Measure& m) {
 /// The step's obstacle poses, pairs, margins and bounds.
 template <class Archive, class State>
 void stepState(Archive& a, State& s) {
-  record(a, s.offset, "obstacle offsets");
-  record(a, s.velocity, "obstacle velocities");
-  record(a, s.startOffset, "obstacle offsets");
-  record(a, s.move, "obstacle moves");
-  record(a, s.pairs, "pairs");
-  record(a, s.nearPairs, "pairs");
-  record(a, s.sweptMotion, "motions");
-  record(a, s.fastPoint, "fast points");
-  fields(a, s.moveLength, s.pointMargin, s.triMargin, s.obstacleMargin, s.bound);
-  record(a, s.anchor, "anchors");
-  fields(a, s.reframedAny, s.absoluteReach);
-  record(a, s.tight.tri, "boxes");
-  record(a, s.tight.edge, "boxes");
+  fields(a, s.offset, s.velocity, s.startOffset, s.move, s.pairs, s.nearPairs, s.sweptMotion,
+         s.fastPoint, s.moveLength, s.pointMargin, s.triMargin, s.obstacleMargin, s.bound, s.anchor,
+         s.reframedAny, s.absoluteReach, s.tight.tri, s.tight.edge);
 }
 
 /// The last positions, the search's cache and its schedule.
 template <class Archive, class State>
 void cacheState(Archive& a, State& s) {
-  fields(a, s.lastX);
-  record(a, s.cache, "cached pairs");
-  fields(a, s.cacheX);
-  record(a, s.cacheOffset, "cached offsets");
-  fields(a, s.cacheRevision, s.cacheR, s.cacheBuilt, s.sinceCache, s.obstacleSinceCache,
-         s.cacheUses, s.cacheBuilds, s.usesSinceBuild, s.plainSteps, s.backoff, s.plainSearches);
+  fields(a, s.lastX, s.cache, s.cacheX, s.cacheOffset, s.cacheRevision, s.cacheR, s.cacheBuilt,
+         s.sinceCache, s.obstacleSinceCache, s.cacheUses, s.cacheBuilds, s.usesSinceBuild,
+         s.plainSteps, s.backoff, s.plainSearches);
 }
 
 }  // namespace
 
 void Contact::saveState(ArchiveWriter& out) const {
   const Impl& I = *impl_;
-  using contact::saveRecords;
   out.u64(obstacles_.size());
-  for (const Obstacle& o : obstacles_) saveRecords(out, o.path);
+  for (const Obstacle& o : obstacles_) fields(out, o.path);
   measured(out, last_);
 
-  out.boolean(I.built);
-  out.u64(I.revision);
-  out.boolean(I.bvhBuilt);
-  out.f64(I.meanEdge);
-  saveRecords(out, I.boxes);
+  fields(out, I.built, I.revision, I.bvhBuilt, I.meanEdge, I.boxes);
   I.bvh.save(out);
   for (const auto& m : I.meshes) {
-    saveRecords(out, m.boxes);
+    fields(out, m.boxes);
     m.bvh.save(out);
   }
   stepState(out, I);
-  out.u64(I.excluded.size());
-  for (const auto& key : I.excluded) out.raw(key.data(), sizeof(key));
-  out.u64(I.released.size());
-  for (const auto& [a, b] : I.released) {
-    out.u64(a);
-    out.u64(b);
-  }
+  // The sets as tables in their order: an exclusion's key, a released pair as two u64.
+  std::vector<std::array<std::uint64_t, 2>> released;
+  for (const auto& [a, b] : I.released) released.push_back({a, b});
+  fields(out, std::vector(I.excluded.begin(), I.excluded.end()), released);
   cacheState(out, I);
 }
 
 void Contact::loadState(ArchiveReader& in) {
   Impl& I = *impl_;
-  using contact::loadRecords;
   if (in.u64() != obstacles_.size())
     in.fail("contact: the saved run has another number of obstacles");
   for (Obstacle& o : obstacles_) {
-    loadRecords(in, o.path, "an obstacle's path");
+    fields(in, o.path);
     try {
       o.validate();
     } catch (const InvalidInput& e) {
@@ -108,32 +76,19 @@ void Contact::loadState(ArchiveReader& in) {
   I.built = built;
   I.revision = revision;
   const bool current = built && revision == I.topo.revision();
-  I.bvhBuilt = in.boolean();
-  I.meanEdge = in.f64();
-  loadRecords(in, I.boxes, "boxes");
+  fields(in, I.bvhBuilt, I.meanEdge, I.boxes);
   I.bvh.load(in);
   for (auto& m : I.meshes) {
-    loadRecords(in, m.boxes, "obstacle boxes");
+    fields(in, m.boxes);
     m.bvh.load(in);
   }
   stepState(in, I);
-  const std::uint64_t excluded = in.u64();
-  if (excluded > in.remaining() / (5 * sizeof(std::uint32_t)))
-    in.fail("contact: a count of " + std::to_string(excluded) + " exclusions");
-  I.excluded.clear();
-  for (std::uint64_t k = 0; k < excluded; ++k) {
-    std::array<std::uint32_t, 5> key;
-    in.raw(key.data(), sizeof(key));
-    I.excluded.insert(key);
-  }
-  const std::uint64_t released = in.u64();
-  if (released > in.remaining() / 16)
-    in.fail("contact: a count of " + std::to_string(released) + " released pairs");
+  std::vector<std::array<std::uint32_t, 5>> excluded;
+  std::vector<std::array<std::uint64_t, 2>> released;
+  fields(in, excluded, released);
+  I.excluded = decltype(I.excluded)(excluded.begin(), excluded.end());
   I.released.clear();
-  for (std::uint64_t k = 0; k < released; ++k) {
-    const auto a = std::uint32_t(in.u64()), b = std::uint32_t(in.u64());
-    I.released.insert({a, b});
-  }
+  for (const auto& [a, b] : released) I.released.insert({std::uint32_t(a), std::uint32_t(b)});
   cacheState(in, I);
   I.evalValid = false;
   I.sweep = nullptr;

@@ -442,7 +442,7 @@ struct Contact::Impl {
     std::int32_t edge2;  // EE self pairs: the second edge (in what was padding: 48 bytes a record)
     double s;            // the distance when the cache was built
     Pair pair() const {
-      Pair p{kind, obstacle, id, surface};
+      Pair p{.kind = kind, .obstacle = obstacle, .id = id, .surface = surface};
       if (kind == Kind::EE)
         p.edges = {tri, edge2};
       else

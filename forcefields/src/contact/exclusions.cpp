@@ -19,7 +19,8 @@ std::array<std::uint32_t, 5> Contact::Impl::exclusionKey(const Pair& p) {
 }
 
 Pair Contact::Impl::fromKey(const std::array<std::uint32_t, 5>& key) {
-  Pair p{Kind(key[0]), -1, {key[1], key[2], key[3], key[4]}, 0};
+  Pair p{
+      .kind = Kind(key[0]), .obstacle = -1, .id = {key[1], key[2], key[3], key[4]}, .surface = 0};
   int used = 0;
   for (int i = 0; i < 4; ++i)
     if (p.id[std::size_t(i)] != std::uint32_t(kInvalidIndex)) ++used;

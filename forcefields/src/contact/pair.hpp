@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -24,8 +25,10 @@ enum class Kind : std::uint8_t {
   FO,  ///< a surface point [0], edge [0, 1] or triangle [0, 1, 2] vs a sphere or a capsule
 };
 
+// (Checkpoints store pairs as their bytes: the padding is declared, zeroed.)
 struct Pair {
   Kind kind;
+  std::array<std::uint8_t, 3> padding0{};
   std::int32_t obstacle = -1;         ///< -1: self-contact
   std::array<std::uint32_t, 4> id{};  ///< point ids (surface) or vertex indices (obstacle mesh)
   std::uint8_t surface = 0;           ///< bit i: id[i] is a surface point
@@ -35,6 +38,7 @@ struct Pair {
   /// penalty's pairs are the closest features (each met once); the displacement bound checks
   /// whole triangles.
   std::uint8_t shape = 3;
+  std::uint8_t padding1 = 0;
   /// The search's record (for the cache): VT, VO, OV: the triangle's index (in the surface or
   /// the obstacle mesh); `margins`: the surface triangles whose margins the search added.
   std::int32_t tri = -1;
@@ -70,6 +74,9 @@ struct Pair {
     return fa * (Eigen::Matrix3d::Identity() - n0 * n0.transpose()) + fb * ft * ft.transpose();
   }
 };
+static_assert(offsetof(Pair, obstacle) == 4 && offsetof(Pair, tri) == 28 &&
+                  offsetof(Pair, scale) == 48 && sizeof(Pair) == 176,
+              "Pair: a layout with undeclared padding (its bytes are checkpointed)");
 
 /// The penalty law: E(s) = k/3 (d - s)^3 / s for d / 100 < s < d, zero beyond d with its first
 /// two derivatives (C2), steep towards zero (the force at d / 100 is about 3300 k d) and continued

@@ -195,7 +195,7 @@ void Contact::Impl::selfTrianglePair(int i, int j, std::span<const double> x,
   auto vt = [&](std::uint32_t v, int t, const Box& box) {
     const auto& T = triV[std::size_t(t)];
     if (!shares(T, v) && box.contains(surfacePoint(x, v))) {
-      Pair p{Kind::VT, -1, {v, T[0], T[1], T[2]}, 0b1111};
+      Pair p{.kind = Kind::VT, .obstacle = -1, .id = {v, T[0], T[1], T[2]}, .surface = 0b1111};
       p.tri = t;
       p.margins = {i, j};
       keepIfNear(p, x, r, out, features, t);
@@ -218,7 +218,7 @@ void Contact::Impl::selfTrianglePair(int i, int j, std::span<const double> x,
       const std::uint32_t b0 = B[std::size_t((b + 1) % 3)], b1 = B[std::size_t((b + 2) % 3)];
       if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
       if (!sa.overlaps(boxesAtX.edge[eb])) continue;
-      Pair p{Kind::EE, -1, {a0, a1, b0, b1}, 0b1111};
+      Pair p{.kind = Kind::EE, .obstacle = -1, .id = {a0, a1, b0, b1}, .surface = 0b1111};
       p.margins = {i, j};
       p.edges = {std::int32_t(ea), std::int32_t(eb)};
       keepIfNear(p, x, r, out, features);
@@ -240,13 +240,18 @@ void Contact::Impl::meshTrianglePair(int k, int i, int j, std::span<const double
   };
   for (int c = 0; c < 3; ++c) {
     if (pointOwner[A[std::size_t(c)]] == i)
-      keep(Pair{Kind::VO,
-                k,
-                {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]), std::uint32_t(T[2])},
-                0b0001},
+      keep(Pair{.kind = Kind::VO,
+                .obstacle = k,
+                .id = {A[std::size_t(c)], std::uint32_t(T[0]), std::uint32_t(T[1]),
+                       std::uint32_t(T[2])},
+                .surface = 0b0001},
            j);
     if (m.vertexOwner[std::size_t(T[std::size_t(c)])] == j)
-      keep(Pair{Kind::OV, k, {std::uint32_t(T[std::size_t(c)]), A[0], A[1], A[2]}, 0b1110}, i);
+      keep(Pair{.kind = Kind::OV,
+                .obstacle = k,
+                .id = {std::uint32_t(T[std::size_t(c)]), A[0], A[1], A[2]},
+                .surface = 0b1110},
+           i);
   }
   for (int a = 0; a < 3; ++a) {
     if (edgeOwner[triE[std::size_t(i)][std::size_t(a)]] != i) continue;
@@ -254,11 +259,11 @@ void Contact::Impl::meshTrianglePair(int k, int i, int j, std::span<const double
     for (int b = 0; b < 3; ++b) {
       const int eb = m.triEdges[std::size_t(j)][std::size_t(b)];
       if (m.edgeOwner[std::size_t(eb)] != j) continue;
-      keep(Pair{Kind::EO,
-                k,
-                {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]),
-                 std::uint32_t(m.edges[std::size_t(eb)][1])},
-                0b0011},
+      keep(Pair{.kind = Kind::EO,
+                .obstacle = k,
+                .id = {a0, a1, std::uint32_t(m.edges[std::size_t(eb)][0]),
+                       std::uint32_t(m.edges[std::size_t(eb)][1])},
+                .surface = 0b0011},
            -1);
     }
   }
@@ -300,7 +305,7 @@ void Contact::Impl::analyticPairs(std::span<const double> x, std::vector<Pair>& 
           if (roundPoint(k) && planeSeparates(int(k), {q[0], q[1], q[2]}, within)) continue;
           const Eval e = roundObstacle(int(k), q, 3, V3::UnitZ());
           if (!(e.s < within)) continue;
-          Pair pr{Kind::FO, std::int32_t(k), {0, 0, 0, 0}, 0};
+          Pair pr{.kind = Kind::FO, .obstacle = std::int32_t(k), .id = {0, 0, 0, 0}, .surface = 0};
           int m = 0;
           for (int c = 0; c < 3; ++c)
             if (e.w[std::size_t(c)] > 0) {
@@ -358,7 +363,8 @@ void Contact::Impl::analyticPairs(std::span<const double> x, std::vector<Pair>& 
         V3 g;
         const double s = sdf(int(k), surfacePoint(x, p), g);
         if (s < pointMargin[p] + obstacleMargin[k]) {
-          Pair pr{Kind::PO, std::int32_t(k), {p, 0, 0, 0}, 0b0001};
+          Pair pr{
+              .kind = Kind::PO, .obstacle = std::int32_t(k), .id = {p, 0, 0, 0}, .surface = 0b0001};
           pr.s0 = s;
           pr.n0 = g;
           pr.w0 = {1, 0, 0, 0};

@@ -22,7 +22,10 @@ void Contact::onPointsRenumbered(const topology::Topology&, const topology::Renu
     std::set<std::array<std::uint32_t, 5>> out;
     for (const auto& key : keys) {
       gone = false;
-      Pair p{Kind(key[0]), -1, {map(key[1]), map(key[2]), map(key[3]), map(key[4])}, 0b1111};
+      Pair p{.kind = Kind(key[0]),
+             .obstacle = -1,
+             .id = {map(key[1]), map(key[2]), map(key[3]), map(key[4])},
+             .surface = 0b1111};
       if (!gone) out.insert(Impl::exclusionKey(p));
     }
     keys = std::move(out);

@@ -1,5 +1,5 @@
 // Second-order backward differentiation, linearised once per step (integrator.hpp).
-#include "checkpoint_io.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/core/integrator.hpp"
 
 namespace cutsim::core {
@@ -98,19 +98,16 @@ const bool registered = registerImplicitIntegrator<BDF2>(
 
 template <class Archive, class Self>
 void BDF2::members(Archive& a, Self& s) {
-  fields(a, s.dtLast_, s.revision_, s.have_, s.restarts_);
+  fields(a, s.xPrev_, s.vPrev_, s.xLast_, s.vLast_, s.dtLast_, s.revision_, s.have_, s.restarts_);
 }
 
 void BDF2::saveState(ArchiveWriter& out) const {
   ImplicitIntegrator::saveState(out);
-  for (const Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_})
-    checkpoint::saveVector(out, *v);
   members(out, *this);
 }
 
 void BDF2::loadState(ArchiveReader& in) {
   ImplicitIntegrator::loadState(in);
-  for (Eigen::VectorXd* v : {&xPrev_, &vPrev_, &xLast_, &vLast_}) *v = checkpoint::loadVector(in);
   members(in, *this);
 }
 

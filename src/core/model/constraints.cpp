@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "checkpoint_io.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 
 namespace cutsim::core {
@@ -133,13 +133,16 @@ Vec3 Grasp::target(PointId p, double t) const {
   return {a[0] + d[0], a[1] + d[1], a[2] + d[2]};
 }
 
+template <class Archive, class Self>
+void PointSet::members(Archive& a, Self& s) {
+  fields(a, slots(s.flags_.values(), s.name_ + ": members"),
+         slots(s.data_.values(), s.name_ + ": data"));
+}
 void PointSet::saveState(ArchiveWriter& out) const {
-  checkpoint::saveValues(out, flags_.values());
-  checkpoint::saveValues(out, data_.values());
+  members(out, *this);
 }
 void PointSet::loadState(ArchiveReader& in) {
-  checkpoint::loadValues(in, flags_.values(), name_ + ": members");
-  checkpoint::loadValues(in, data_.values(), name_ + ": data");
+  members(in, *this);
   count_ = 0;
   for (char f : flags_.values()) count_ += f ? 1 : 0;
 }

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "checkpoint_io.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
 
@@ -100,17 +100,18 @@ void LumpedMass::validate(const topology::Topology& t, std::vector<std::string>&
                          " != rebuilt " + std::to_string(expected[p.idx()]));
 }
 
+template <class Archive, class Self>
+void LumpedMass::members(Archive& a, Self& s) {
+  fields(a, s.density_, slots(s.mass_.values(), "masses"),
+         slots(s.triangleArea_.values(), "triangle areas"));
+}
 void LumpedMass::saveState(ArchiveWriter& out) const {
-  out.f64(density_);
-  checkpoint::saveValues(out, mass_.values());
-  checkpoint::saveValues(out, triangleArea_.values());
+  members(out, *this);
 }
 void LumpedMass::loadState(ArchiveReader& in) {
-  density_ = in.f64();
+  members(in, *this);
   if (!(density_ >= 0) || !std::isfinite(density_))
     in.fail("mass: a density of " + std::to_string(density_));
-  checkpoint::loadValues(in, mass_.values(), "masses");
-  checkpoint::loadValues(in, triangleArea_.values(), "triangle areas");
 }
 
 }  // namespace cutsim::core

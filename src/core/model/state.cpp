@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "checkpoint_io.hpp"
+#include "cutsim/base/archive.hpp"
 
 namespace cutsim::core {
 
@@ -57,16 +57,17 @@ void MechanicalState::validate(const topology::Topology& t,
   }
 }
 
+// (rest: interpolated for new points, within rounding of the topology's: kept as it is.)
+template <class Archive, class Self>
+void MechanicalState::members(Archive& a, Self& s) {
+  fields(a, slots(s.x(), "positions"), slots(s.v(), "velocities"),
+         slots(s.rest_.values(), "rest positions"));
+}
 void MechanicalState::saveState(ArchiveWriter& out) const {
-  checkpoint::saveValues(out, x());
-  checkpoint::saveValues(out, v());
-  checkpoint::saveValues(out,
-                         rest());  // interpolated for new points: within rounding of the topology's
+  members(out, *this);
 }
 void MechanicalState::loadState(ArchiveReader& in) {
-  checkpoint::loadValues(in, x(), "positions");
-  checkpoint::loadValues(in, v(), "velocities");
-  checkpoint::loadValues(in, rest_.values(), "rest positions");
+  members(in, *this);
 }
 
 }  // namespace cutsim::core

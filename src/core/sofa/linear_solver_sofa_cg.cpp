@@ -1,7 +1,7 @@
 // SOFA's CGLinearSolver, step for step (linear_solver.hpp).
 #include <cmath>
 
-#include "checkpoint_io.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
 #include "cutsim/core/linear_solver.hpp"
@@ -118,15 +118,12 @@ const bool registered = LinearSolverRegistry::instance().add(
      }});
 }  // namespace
 
-using checkpoint::loadVector;
-using checkpoint::saveVector;
-
 // (lastStop() describes the last solve only: not kept.)
 void SofaConjugateGradient::saveState(ArchiveWriter& out) const {
-  saveVector(out, warm_);
+  fields(out, warm_);
 }
 void SofaConjugateGradient::loadState(ArchiveReader& in) {
-  warm_ = loadVector(in);
+  fields(in, warm_);
 }
 
 }  // namespace cutsim::core

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "checkpoint_io.hpp"
+#include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
 
@@ -202,14 +202,12 @@ const bool registered = LinearSolverRegistry::instance().add(
      }});
 }  // namespace
 
-using checkpoint::loadVector;
-using checkpoint::saveVector;
-
+// (one member: fields() names it for both directions)
 void ConjugateGradient::saveState(ArchiveWriter& out) const {
-  saveVector(out, warm_);
+  fields(out, warm_);
 }
 void ConjugateGradient::loadState(ArchiveReader& in) {
-  warm_ = loadVector(in);
+  fields(in, warm_);
 }
 
 }  // namespace cutsim::core

@@ -13,6 +13,7 @@
 // another format version or byte order, a section whose checksum fails, a file that ends inside a
 // section, a missing section, a value read past its section's end, a section not read to its end.
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -20,6 +21,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "cutsim/base/errors.hpp"
@@ -98,12 +100,87 @@ class ArchiveReader {
 // and its load (as libigl's serialisation does):
 //
 //   template <class Archive, class Self>
-//   static void members(Archive& a, Self& self) { fields(a, self.time_, self.steps_); }
+//   static void members(Archive& a, Self& self) {
+//     fields(a, self.time_, self.steps_, slots(self.mass_.values(), "masses"));
+//   }
 //   void save(ArchiveWriter& out) const { members(out, *this); }
 //   void load(ArchiveReader& in) { members(in, *this); /* then check what was read */ }
 //
 // Each value is stored by its type: a floating-point number as f64, a signed integer as i64, an
-// unsigned one as u64, a bool as a flag, a string as str, a vector of doubles as f64s.
+// unsigned one as u64, a bool as a flag, a string as str. A table (a std::vector, or an Eigen
+// vector, of plain records: numbers, ids, structs of them, fixed-size Eigen vectors) is stored as
+// its count (u64) and its bytes as the machine holds them; its reader refuses a count that runs
+// past the section's end; a record's padding is written as zeros. slots() names a table of fixed
+// size (one value per slot of the topology the reader has built): its reader refuses a count other
+// than that size.
+
+/// A record stored as its bytes: plain data with nothing to destroy (fixed-size Eigen vectors
+/// qualify; their bytes are their values).
+template <class T>
+concept ArchiveRecord =
+    std::is_standard_layout_v<T> && std::is_trivially_destructible_v<T> && !std::is_pointer_v<T>;
+
+/// A resizable contiguous table of records (std::vector, Eigen's dynamic vectors).
+template <class C>
+concept ArchiveTable = !std::is_same_v<C, std::string> && requires(C & c) {
+  c.data();
+  c.size();
+  c.resize(0);
+  requires ArchiveRecord<std::remove_cv_t<std::remove_pointer_t<decltype(c.data())>>>;
+};
+
+/// A table of fixed size named for the reader's message (see slots()).
+template <class T>
+struct ArchiveSlots {
+  std::span<T> values;
+  std::string_view what;
+};
+/// The values of a table whose size the reader already knows (`what` names it in the message).
+template <class T>
+ArchiveSlots<T> slots(std::span<T> values, std::string_view what) {
+  static_assert(ArchiveRecord<std::remove_cv_t<T>>, "a slot type the archive does not store");
+  return {values, what};
+}
+
+namespace detail {
+/// Writes n records as stored, with their padding (if they have any) written as zeros: a
+/// checkpoint's bytes are a function of its values alone.
+template <class R>
+void writeRecords(ArchiveWriter& out, const R* records, std::size_t n) {
+  using Plain = std::remove_cv_t<R>;
+  if constexpr (std::is_arithmetic_v<Plain> || std::has_unique_object_representations_v<Plain> ||
+                !std::is_trivially_copyable_v<Plain>) {
+    // (A record that is not trivially copyable, one holding Eigen vectors, declares its padding
+    // as zeroed members: the compiler cannot clear it.)
+    out.raw(records, n * sizeof(Plain));
+  } else {
+    static_assert(__has_builtin(__builtin_clear_padding),
+                  "a compiler that can clear a record's padding (GCC 11, Clang 16)");
+    for (std::size_t i = 0; i < n; ++i) {
+      alignas(Plain) unsigned char copy[sizeof(Plain)];
+      std::memcpy(copy, static_cast<const void*>(records + i), sizeof(Plain));
+      __builtin_clear_padding(reinterpret_cast<Plain*>(copy));
+      out.raw(copy, sizeof(Plain));
+    }
+  }
+}
+}  // namespace detail
+
+template <class T>
+void field(ArchiveWriter& out, const ArchiveSlots<T>& s) {
+  out.u64(s.values.size());
+  detail::writeRecords(out, s.values.data(), s.values.size());
+}
+
+template <class T>
+void field(ArchiveReader& in, const ArchiveSlots<T>& s) {
+  static_assert(!std::is_const_v<T>, "slots() of a const table cannot be read into");
+  const std::uint64_t n = in.u64();
+  if (n != s.values.size())
+    in.fail(std::string(s.what) + ": " + std::to_string(n) + " values saved, " +
+            std::to_string(s.values.size()) + " slots in the topology");
+  in.raw(s.values.data(), s.values.size() * sizeof(T));
+}
 
 template <class T>
 void field(ArchiveWriter& out, const T& v) {
@@ -118,9 +195,9 @@ void field(ArchiveWriter& out, const T& v) {
   } else if constexpr (std::is_same_v<T, std::string>) {
     out.str(v);
   } else {
-    static_assert(std::is_same_v<T, std::vector<double>>,
-                  "a member type the archive does not store");
-    out.f64s(v);
+    static_assert(ArchiveTable<T>, "a member type the archive does not store");
+    out.u64(std::uint64_t(v.size()));
+    detail::writeRecords(out, v.data(), std::size_t(v.size()));
   }
 }
 
@@ -137,9 +214,14 @@ void field(ArchiveReader& in, T& v) {
   } else if constexpr (std::is_same_v<T, std::string>) {
     v = in.str();
   } else {
-    static_assert(std::is_same_v<T, std::vector<double>>,
-                  "a member type the archive does not store");
-    v = in.f64s();
+    static_assert(ArchiveTable<T>, "a member type the archive does not store");
+    using R = std::remove_cv_t<std::remove_pointer_t<decltype(v.data())>>;
+    const std::uint64_t n = in.u64();
+    if (n > in.remaining() / sizeof(R))
+      in.fail("a table of " + std::to_string(n) + " records of " + std::to_string(sizeof(R)) +
+              " bytes runs past the section's end");
+    v.resize(static_cast<decltype(v.size())>(n));
+    in.raw(v.data(), std::size_t(n) * sizeof(R));
   }
 }
 
@@ -148,10 +230,10 @@ template <class... T>
 void fields(ArchiveWriter& out, const T&... v) {
   (field(out, v), ...);
 }
-/// Reads them back in the same order.
+/// Reads them back in the same order (members, and the slots() of fixed tables).
 template <class... T>
-void fields(ArchiveReader& in, T&... v) {
-  (field(in, v), ...);
+void fields(ArchiveReader& in, T&&... v) {
+  (field(in, std::forward<T>(v)), ...);
 }
 
 }  // namespace cutsim

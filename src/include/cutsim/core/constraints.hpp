@@ -40,6 +40,8 @@ class PointSet : public topology::TopologyObserver {
   void loadState(ArchiveReader& in);
 
  private:
+  template <class Archive, class Self>
+  static void members(Archive& a, Self& s);  // the checkpointed members, for save and load
   std::string name_;
   topology::SlotData<PointId, char> flags_;
   topology::SlotData<PointId, Vec3> data_;

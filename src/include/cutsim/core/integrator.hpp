@@ -192,7 +192,7 @@ class BDF2 final : public ImplicitIntegrator {
   // x_n-1, v_n-1 and the x_n, v_n the previous step returned (to detect an edit between steps).
   Eigen::VectorXd xPrev_, vPrev_, xLast_, vLast_;
   template <class Archive, class Self>
-  static void members(Archive& a, Self& s);  // the checkpointed scalars, for save and load
+  static void members(Archive& a, Self& s);  // the checkpointed members, for save and load
   double dtLast_ = 0.0;
   std::uint64_t revision_ = 0;
   bool have_ = false;

@@ -56,6 +56,8 @@ class LumpedMass : public topology::TopologyObserver {
   static double triangleArea(const topology::Topology& t, topology::TriangleId f);
 
  private:
+  template <class Archive, class Self>
+  static void members(Archive& a, Self& s);  // the checkpointed members, for save and load
   MassLaw law_;
   double density_;  ///< law_.value with the area law, 0 with the per-point law
   topology::SlotData<topology::PointId, double> mass_;             // per point slot

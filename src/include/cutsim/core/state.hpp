@@ -41,6 +41,8 @@ class MechanicalState : public topology::TopologyObserver {
   void loadState(ArchiveReader& in);
 
  private:
+  template <class Archive, class Self>
+  static void members(Archive& a, Self& s);  // the checkpointed members, for save and load
   using PointVectors = topology::SlotData<topology::PointId, double, 3>;
   PointVectors x_, v_, rest_;
   topology::Subscription subscription_;  // after the SlotData: notified after them

@@ -209,20 +209,17 @@ class DenseSlotTable {
   /// order is the order of every sum over them).
   void save(ArchiveWriter& out) const {
     static_assert(std::is_trivially_copyable_v<Entry>);
-    out.u64(entries_.size());
-    out.raw(entries_.data(), entries_.size() * sizeof(Entry));
-    out.u32s(slotOfEntry_);
-    out.u32s(indexOfSlot_);
+    fields(out, entries_, slotOfEntry_, indexOfSlot_);
   }
   /// Reads what save() wrote; refuses (ArchiveReader::fail) a table whose entries, back-references
   /// and slot index do not agree.
   void load(ArchiveReader& in) {
-    const std::uint64_t n = in.u64();
-    if (n >= kStatusBase || n > in.remaining() / sizeof(Entry))
-      in.fail(std::string(Traits::kNoun) + " table: " + std::to_string(n) + " entries");
-    std::vector<Entry> entries(n);
-    in.raw(entries.data(), n * sizeof(Entry));
-    std::vector<Index> back = in.u32s(), slots = in.u32s();
+    std::vector<Entry> entries;
+    std::vector<Index> back, slots;
+    fields(in, entries, back, slots);
+    if (entries.size() >= kStatusBase)
+      in.fail(std::string(Traits::kNoun) + " table: " + std::to_string(entries.size()) +
+              " entries");
     entries_ = std::move(entries);
     slotOfEntry_ = std::move(back);
     indexOfSlot_ = std::move(slots);
