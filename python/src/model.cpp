@@ -129,7 +129,7 @@ py::object Simulation::contact() {
 
 std::vector<std::pair<std::string, double>> Simulation::intersections(std::size_t limit) {
   requireReadable("intersections");
-  const forcefields::Contact* c = core::findContact(sim());
+  forcefields::Contact* c = core::findContact(sim());
   if (!c) throw InvalidInput("intersections", "the scene has no contact section");
   std::vector<std::pair<std::string, double>> out;
   for (const auto& p : c->intersections(sim().state().x(), limit))

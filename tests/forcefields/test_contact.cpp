@@ -803,7 +803,7 @@ TEST(Contact, ThreadsChangeNothingBitForBit) {
       xa[i] += (i % 3 == 2 ? -0.25 * d : 0.0) + 0.05 * d * n(rng);
     const std::vector<double> proposal = xa;
     const std::size_t ca = a.limitDisplacement(x, xa, va, 1e-3, {});
-    for (const Contact* o : {&b, &c3}) {
+    for (Contact* o : {&b, &c3}) {
       std::vector<double> xb = proposal, vb(x.size(), 0.0);
       ASSERT_EQ(ca, o->limitDisplacement(x, xb, vb, 1e-3, {})) << "step " << step;
       ASSERT_TRUE(same(xa, xb) && same(va, vb)) << "bounded positions, step " << step;

@@ -365,7 +365,7 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
 
 std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<double> x1,
                                        std::span<double> v1, double dt,
-                                       std::span<const char> constrained) const {
+                                       std::span<const char> constrained) {
   Impl& I = *impl_;
   const std::size_t n = x0.size() / 3;
   I.updateTables();

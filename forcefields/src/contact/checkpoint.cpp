@@ -90,7 +90,7 @@ void Contact::loadState(ArchiveReader& in) {
   I.released.clear();
   for (const auto& [a, b] : released) I.released.insert({std::uint32_t(a), std::uint32_t(b)});
   cacheState(in, I);
-  I.evalValid = false;
+  I.evaluation.invalidate();
   I.sweep = nullptr;
   // Every index the records hold must be one of this mesh's.
   const std::size_t points = I.topo.pointCapacity(), tris = I.tris.size();

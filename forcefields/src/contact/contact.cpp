@@ -173,7 +173,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v,
       p.s0 = e.s;
     }
   I.lastX.assign(x.begin(), x.end());
-  I.evalValid = false;
+  I.evaluation.invalidate();
 
   // Exclusions. A self pair within d whose primitives are within d of each other in the rest
   // configuration (neighbours in the material: the two lips of a cut, which start at distance

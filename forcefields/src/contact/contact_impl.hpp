@@ -212,54 +212,84 @@ struct Contact::Impl {
 
   // ---------------------------------------------------------------------------------------------
   // The pairs at some positions, evaluated once per x (the integrators ask at the same x many
-  // times: forces, then every product of a CG solve). A pair whose points moved less than
-  // (s0 - d) / 2 from the step's start cannot be within d (the weights' magnitudes sum to at
-  // most 2) and is not evaluated.
-  std::vector<Eval> evals;
-  std::vector<char> closerThanD;  // per pair: evaluated and closer than d
-  // The same, packed for the products of the solves at one (kFactor, bFactor) (CG asks for
-  // many at the same ones): df_i += w_i A (sum_j w_j dx_j), A the sum of the penalty's
-  // Gauss-Newton stiffness -kFactor h n n^T and friction's bFactor dF/du, one gather and one
-  // scatter per pair where the two share their weights (the linearised steps evaluate at the
-  // step's start, where they do).
-  struct Product {
-    std::array<std::uint32_t, 4> id;
-    std::uint8_t surface;
-    std::array<double, 4> w;
-    std::array<double, 6> a;  // A's upper triangle: xx, xy, xz, yy, yz, zz
-  };
-  // Two packs (an implicit step asks at (1, 0) for its right-hand side, then at its own
-  // factors), each valid for the evaluation it was made from.
-  struct Products {
-    std::vector<Product> list;
-    double kFactor = 0.0, bFactor = 0.0;
-    std::uint64_t evaluation = 0;  // 0: none
-  };
-  std::array<Products, 2> packs;
-  std::size_t lastPack = 0;
-  std::uint64_t evaluation = 0;  // counts evaluateAt's evaluations
-  inline const std::vector<Product>& packProducts(double kFactor, double bFactor);
-  std::vector<double> evalX;
-  std::vector<double> movedScratch;  // (evaluateAt's: per point slot, how far it is from lastX)
-  bool evalValid = false;
+  // times: forces, then every product of a CG solve), and packed for the solves' products.
+  //
+  // A memo, not state: what it returns is a function of x and of the step's pairs alone (pairs,
+  // lastX, the obstacles' poses), computed the first time it is asked for; the force field's
+  // const methods fill it (the one mutable member of Impl, besides edgeFlat's once-per-step
+  // measures). Whoever changes the pairs, lastX or the poses calls invalidate(). Not safe for
+  // concurrent calls: the integrators call a force field from one thread at a time.
+  class Evaluation {
+   public:
+    /// The pairs evaluated at x: evals()[i] and closer(i) for pair i. A pair whose points moved
+    /// less than (s0 - d) / 2 from the step's start cannot be within d (the weights' magnitudes
+    /// sum to at most 2) and is not evaluated (closer(i) false).
+    inline const Evaluation& at(const Impl& I, std::span<const double> x);
+    const std::vector<Eval>& evals() const { return evals_; }
+    bool closer(std::size_t i) const { return closerThanD_[i] != 0; }
+    void invalidate() { valid_ = false; }
 
-  /// Whether x holds the same numbers, bit for bit, as y (the integrators ask at the same x
-  /// many times: compared as memory, which is several times faster than number by number).
-  static bool sameBits(std::span<const double> x, const std::vector<double>& y) {
-    return x.size() == y.size() &&
-           (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
-  }
-  /// The positions a solve's operator holds unchanged (ForceField::beginProducts), and where
-  /// the last evaluation read its x: an evaluation made at memory that is held since is still
-  /// that memory's, and needs no comparison.
-  std::vector<std::pair<const double*, std::size_t>> held;
-  const double* evalFrom = nullptr;
-  bool heldAt(std::span<const double> x) const {
-    for (const auto& h : held)
-      if (h.first == x.data() && h.second == x.size()) return true;
-    return false;
-  }
-  inline void evaluateAt(std::span<const double> x);
+    // The same, packed for the products of the solves at one (kFactor, bFactor) (CG asks for
+    // many at the same ones): df_i += w_i A (sum_j w_j dx_j), A the sum of the penalty's
+    // Gauss-Newton stiffness -kFactor h n n^T and friction's bFactor dF/du, one gather and one
+    // scatter per pair where the two share their weights (the linearised steps evaluate at the
+    // step's start, where they do).
+    struct Product {
+      std::array<std::uint32_t, 4> id;
+      std::uint8_t surface;
+      std::array<double, 4> w;
+      std::array<double, 6> a;  // A's upper triangle: xx, xy, xz, yy, yz, zz
+    };
+    /// The products of the last evaluation (at()).
+    inline const std::vector<Product>& products(const Impl& I, double kFactor, double bFactor);
+
+    /// The positions a solve's operator holds unchanged (ForceField::beginProducts) from hold()
+    /// to release(): an evaluation made at memory that is held since is still that memory's,
+    /// and needs no comparison.
+    void hold(const Impl& I, std::span<const double> x) {
+      at(I, x);  // (evaluated now, with a full comparison: from here on the memory is what it was)
+      held_.emplace_back(x.data(), x.size());
+    }
+    void release(std::span<const double> x) {
+      for (std::size_t k = held_.size(); k-- > 0;)
+        if (held_[k].first == x.data() && held_[k].second == x.size()) {
+          held_.erase(held_.begin() + std::ptrdiff_t(k));
+          return;
+        }
+    }
+
+    /// Whether x holds the same numbers, bit for bit, as y (compared as memory, which is several
+    /// times faster than number by number).
+    static bool sameBits(std::span<const double> x, const std::vector<double>& y) {
+      return x.size() == y.size() &&
+             (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
+    }
+
+   private:
+    bool heldAt(std::span<const double> x) const {
+      for (const auto& h : held_)
+        if (h.first == x.data() && h.second == x.size()) return true;
+      return false;
+    }
+    std::vector<Eval> evals_;
+    std::vector<char> closerThanD_;  // per pair: evaluated and closer than d
+    std::vector<double> x_;          // where the evaluation was made
+    const double* from_ = nullptr;   // the memory it last read x from
+    bool valid_ = false;
+    std::uint64_t count_ = 0;    // evaluations made (what the packs are valid for)
+    std::vector<double> moved_;  // (per point slot: how far it is from lastX)
+    std::vector<std::pair<const double*, std::size_t>> held_;
+    // Two packs (an implicit step asks at (1, 0) for its right-hand side, then at its own
+    // factors), each valid for the evaluation it was made from.
+    struct Pack {
+      std::vector<Product> list;
+      double kFactor = 0.0, bFactor = 0.0;
+      std::uint64_t evaluation = 0;  // 0: none
+    };
+    std::array<Pack, 2> packs_;
+    std::size_t lastPack_ = 0;
+  };
+  mutable Evaluation evaluation;
 
   // ---------------------------------------------------------------------------------------------
   // Tables

@@ -167,86 +167,88 @@ Eval Contact::Impl::roundObstacle(int k, const std::array<V3, 4>& q, int m,
   return e;
 }
 
-const std::vector<Contact::Impl::Product>& Contact::Impl::packProducts(double kFactor,
-                                                                       double bFactor) {
-  for (std::size_t k = 0; k < packs.size(); ++k)
-    if (packs[k].evaluation == evaluation && packs[k].kFactor == kFactor &&
-        packs[k].bFactor == bFactor) {
-      lastPack = k;
-      return packs[k].list;
+auto Contact::Impl::Evaluation::products(const Impl& I, double kFactor, double bFactor)
+    -> const std::vector<Product>& {
+  for (std::size_t k = 0; k < packs_.size(); ++k)
+    if (packs_[k].evaluation == count_ && packs_[k].kFactor == kFactor &&
+        packs_[k].bFactor == bFactor) {
+      lastPack_ = k;
+      return packs_[k].list;
     }
-  lastPack = 1 - lastPack;  // (replaces the pack used less recently)
-  Products& pack = packs[lastPack];
+  lastPack_ = 1 - lastPack_;  // (replaces the pack used less recently)
+  Pack& pack = packs_[lastPack_];
   std::vector<Product>& products = pack.list;
   products.clear();
-  const Law law{P.thickness, P.stiffness};
+  const Law law{I.P.thickness, I.P.stiffness};
   auto push = [&](const Pair& p, const std::array<double, 4>& w, const Eigen::Matrix3d& A) {
     products.push_back(
         {p.id, p.surface, w, {A(0, 0), A(0, 1), A(0, 2), A(1, 1), A(1, 2), A(2, 2)}});
   };
-  for (std::size_t i = 0; i < pairs.size(); ++i) {
-    const Pair& p = pairs[i];
+  for (std::size_t i = 0; i < I.pairs.size(); ++i) {
+    const Pair& p = I.pairs[i];
     if (p.excluded) continue;
-    const bool penalty = closerThanD[i] && kFactor != 0.0,
+    const bool penalty = closerThanD_[i] && kFactor != 0.0,
                rubs = p.lambda > 0 && p.mu > 0 && bFactor != 0.0;
     if (!penalty && !rubs) continue;
     const Eigen::Matrix3d K =
-        penalty ? Eigen::Matrix3d((-kFactor * p.scale * law.curvature(evals[i].s)) *
-                                  (evals[i].n * evals[i].n.transpose()))
+        penalty ? Eigen::Matrix3d((-kFactor * p.scale * law.curvature(evals_[i].s)) *
+                                  (evals_[i].n * evals_[i].n.transpose()))
                 : Eigen::Matrix3d::Zero();
     const Eigen::Matrix3d F =
         rubs ? Eigen::Matrix3d(bFactor * p.frictionMatrix()) : Eigen::Matrix3d::Zero();
-    if (penalty && rubs && evals[i].w == p.w0) {
+    if (penalty && rubs && evals_[i].w == p.w0) {
       push(p, p.w0, K + F);
       continue;
     }
-    if (penalty) push(p, evals[i].w, K);
+    if (penalty) push(p, evals_[i].w, K);
     if (rubs) push(p, p.w0, F);
   }
   pack.kFactor = kFactor;
   pack.bFactor = bFactor;
-  pack.evaluation = evaluation;
+  pack.evaluation = count_;
   return products;
 }
 
-void Contact::Impl::evaluateAt(std::span<const double> x) {
-  if (evalValid && evalFrom == x.data() && x.size() == evalX.size() && heldAt(x)) return;
-  if (evalValid && sameBits(x, evalX)) {
-    evalFrom = x.data();
-    return;
+auto Contact::Impl::Evaluation::at(const Impl& I, std::span<const double> x) -> const Evaluation& {
+  if (valid_ && from_ == x.data() && x.size() == x_.size() && heldAt(x)) return *this;
+  if (valid_ && sameBits(x, x_)) {
+    from_ = x.data();
+    return *this;
   }
-  const double d = P.thickness;
-  std::vector<double>& moved = movedScratch;
-  const bool atStart = sameBits(x, lastX);
+  const double d = I.P.thickness;
+  const auto& pairs = I.pairs;
+  const bool atStart = sameBits(x, I.lastX);
   if (!atStart) {
-    moved.assign(x.size() / 3, kInf);
-    if (lastX.size() == x.size())
-      for (std::size_t p = 0; p < moved.size(); ++p)
-        moved[p] =
-            (surfacePoint(x, std::uint32_t(p)) - surfacePoint(lastX, std::uint32_t(p))).norm();
+    moved_.assign(x.size() / 3, kInf);
+    if (I.lastX.size() == x.size())
+      for (std::size_t p = 0; p < moved_.size(); ++p)
+        moved_[p] =
+            (I.surfacePoint(x, std::uint32_t(p)) - I.surfacePoint(I.lastX, std::uint32_t(p)))
+                .norm();
   }
-  evals.resize(pairs.size());
-  closerThanD.assign(pairs.size(), 0);
+  evals_.resize(pairs.size());
+  closerThanD_.assign(pairs.size(), 0);
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const Pair& p = pairs[i];
     if (p.excluded) continue;
     double m = 0.0;
     if (!atStart)
       for (int k = 0; k < 4; ++k)
-        if ((p.surface >> k) & 1) m = std::max(m, moved[p.id[std::size_t(k)]]);
+        if ((p.surface >> k) & 1) m = std::max(m, moved_[p.id[std::size_t(k)]]);
     if (p.s0 - 2 * m >= d) continue;
     // At the step's start a pair is as the search measured it (but for a moving obstacle's,
     // whose distance was taken again where the obstacle ends the step).
-    if (atStart && !obstacleMoves(p))
-      evals[i] = Eval{p.s0, p.n0, p.w0};
+    if (atStart && !I.obstacleMoves(p))
+      evals_[i] = Eval{p.s0, p.n0, p.w0};
     else
-      evals[i] = evaluate(p, x, true);
-    closerThanD[i] = evals[i].s < d;
+      evals_[i] = I.evaluate(p, x, true);
+    closerThanD_[i] = evals_[i].s < d;
   }
-  ++evaluation;
-  evalX.assign(x.begin(), x.end());
-  evalFrom = x.data();
-  evalValid = true;
+  ++count_;
+  x_.assign(x.begin(), x.end());
+  from_ = x.data();
+  valid_ = true;
+  return *this;
 }
 
 }  // namespace cutsim::forcefields

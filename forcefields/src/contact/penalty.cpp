@@ -6,14 +6,14 @@ namespace cutsim::forcefields {
 
 void Contact::addForce(std::span<const double> x, std::span<const double> v,
                        std::span<double> f) const {
-  Impl& I = *impl_;
+  const Impl& I = *impl_;
   const Law law{parameters_.thickness, parameters_.stiffness};
-  I.evaluateAt(x);
+  const auto& E = I.evaluation.at(I, x);
   for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
     const Pair& p = I.pairs[pi];
     if (p.excluded) continue;
-    const Eval& e = I.evals[pi];
-    if (I.closerThanD[pi]) {
+    const Eval& e = E.evals()[pi];
+    if (E.closer(pi)) {
       const double mag = p.scale * law.force(e.s);
       for (int i = 0; i < 4; ++i)
         if ((p.surface >> i) & 1)
@@ -31,27 +31,20 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v,
 }
 
 void Contact::beginProducts(std::span<const double> x) const {
-  // (evaluated now, with a full comparison: from here on the held memory is what it was)
-  impl_->evaluateAt(x);
-  impl_->held.emplace_back(x.data(), x.size());
+  impl_->evaluation.hold(*impl_, x);
 }
 
 void Contact::endProducts(std::span<const double> x) const {
-  auto& held = impl_->held;
-  for (std::size_t k = held.size(); k-- > 0;)
-    if (held[k].first == x.data() && held[k].second == x.size()) {
-      held.erase(held.begin() + std::ptrdiff_t(k));
-      return;
-    }
+  impl_->evaluation.release(x);
 }
 
 void Contact::addDForce(std::span<const double> x, std::span<const double> dx, std::span<double> df,
                         double kFactor, double bFactor) const {
-  Impl& I = *impl_;
-  I.evaluateAt(x);
+  const Impl& I = *impl_;
+  I.evaluation.at(I, x);
   auto at = [&](std::uint32_t p) { return Eigen::Map<const V3>(dx.data() + 3 * std::size_t(p)); };
   auto to = [&](std::uint32_t p) { return Eigen::Map<V3>(df.data() + 3 * std::size_t(p)); };
-  for (const Impl::Product& c : I.packProducts(kFactor, bFactor)) {
+  for (const auto& c : I.evaluation.products(I, kFactor, bFactor)) {
     V3 u = V3::Zero();
     for (int i = 0; i < 4; ++i)
       if ((c.surface >> i) & 1) u += c.w[std::size_t(i)] * at(c.id[std::size_t(i)]);
@@ -64,15 +57,13 @@ void Contact::addDForce(std::span<const double> x, std::span<const double> dx, s
 }
 
 double Contact::potentialEnergy(std::span<const double> x) const {
-  Impl& I = *impl_;
+  const Impl& I = *impl_;
   const Law law{parameters_.thickness, parameters_.stiffness};
-  double E = 0.0;
-  I.evaluateAt(x);
-  for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
-    const Eval& e = I.evals[pi];
-    if (I.closerThanD[pi]) E += I.pairs[pi].scale * law.energy(e.s);
-  }
-  return E;
+  double energy = 0.0;
+  const auto& E = I.evaluation.at(I, x);
+  for (std::size_t pi = 0; pi < I.pairs.size(); ++pi)
+    if (E.closer(pi)) energy += I.pairs[pi].scale * law.energy(E.evals()[pi].s);
+  return energy;
 }
 
 namespace {
@@ -115,13 +106,13 @@ void addPairBlocks(const Pair& p, const std::array<double, 4>& w, const Eigen::M
 }  // namespace
 
 void Contact::addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const {
-  Impl& I = *impl_;
+  const Impl& I = *impl_;
   const Law law{parameters_.thickness, parameters_.stiffness};
-  I.evaluateAt(x);
+  const auto& E = I.evaluation.at(I, x);
   for (std::size_t pi = 0; pi < I.pairs.size(); ++pi) {
     const Pair& p = I.pairs[pi];
-    if (!I.closerThanD[pi]) continue;
-    const Eval& e = I.evals[pi];
+    if (!E.closer(pi)) continue;
+    const Eval& e = E.evals()[pi];
     const Eigen::Matrix3d nn = (-kFactor * p.scale * law.curvature(e.s)) * (e.n * e.n.transpose());
     addPairBlocks(p, e.w, nn, m);
   }
@@ -137,9 +128,9 @@ void Contact::addBToMatrix(std::span<const double> /*x*/, MatrixAccumulator& m,
 }
 
 ContactMeasure Contact::measure(std::span<const double> x, std::span<const double> v) const {
-  Impl& I = *impl_;
+  const Impl& I = *impl_;
   const Law law{parameters_.thickness, parameters_.stiffness};
-  I.evaluateAt(x);
+  const auto& E = I.evaluation.at(I, x);
   ContactMeasure m;
   m.obstacleNormal.assign(obstacles_.size(), 0.0);
   m.obstacleFriction.assign(obstacles_.size(), 0.0);
@@ -150,9 +141,9 @@ ContactMeasure Contact::measure(std::span<const double> x, std::span<const doubl
       ++m.excluded;
       continue;
     }
-    const Eval& e = I.evals[pi];
+    const Eval& e = E.evals()[pi];
     double fn = 0.0, ft = 0.0;
-    if (I.closerThanD[pi]) {
+    if (E.closer(pi)) {
       ++m.active;
       fn = p.scale * law.force(e.s);
     }

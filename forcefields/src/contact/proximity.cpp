@@ -7,7 +7,7 @@
 namespace cutsim::forcefields {
 
 std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, double within,
-                                                  std::size_t limit) const {
+                                                  std::size_t limit) {
   Impl& I = *impl_;
   I.updateTables();
   // (every kind of pair within the sum of two margins: within)
@@ -17,7 +17,7 @@ std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, dou
   std::vector<Pair> found;
   I.collect(x, found, false);
   I.pairs.clear();
-  I.evalValid = false;
+  I.evaluation.invalidate();
   std::sort(found.begin(), found.end(), [](const Pair& a, const Pair& b) { return a.s0 < b.s0; });
   std::vector<ContactProximity> out;
   for (const Pair& p : found) {
@@ -56,8 +56,7 @@ std::vector<ContactProximity> Contact::closePairs(std::span<const double> x, dou
   return out;
 }
 
-std::vector<ContactProximity> Contact::intersections(std::span<const double> x,
-                                                     std::size_t limit) const {
+std::vector<ContactProximity> Contact::intersections(std::span<const double> x, std::size_t limit) {
   Impl& I = *impl_;
   I.updateTables();
   I.pointMargin.assign(x.size() / 3, 0.0);

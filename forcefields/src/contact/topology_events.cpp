@@ -45,7 +45,7 @@ void Contact::onTransactionEnd(const topology::Topology&, const topology::Transa
   // pairs of the last step refer to points that may be gone: drop them now.
   Impl& I = *impl_;
   I.pairs.clear();
-  I.evalValid = false;
+  I.evaluation.invalidate();
 }
 
 void Contact::validate(const topology::Topology& topology,

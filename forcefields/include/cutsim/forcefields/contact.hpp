@@ -153,9 +153,9 @@ class Contact final : public ForceField, public topology::TopologyObserver {
 
   /// After the step's solve: clamps each unconstrained point's displacement x1 - x0 to its bound
   /// (velocities of clamped points become (x1 - x0) / dt). Returns the number of clamped points.
+  /// Part of the step (the bounds, anchors and pairs it finds are the step's state, bounds()).
   std::size_t limitDisplacement(std::span<const double> x0, std::span<double> x1,
-                                std::span<double> v1, double dt,
-                                std::span<const char> constrained) const;
+                                std::span<double> v1, double dt, std::span<const char> constrained);
 
   /// Forces and counts at x, v with the current pairs.
   ContactMeasure measure(std::span<const double> x, std::span<const double> v) const;
@@ -169,15 +169,18 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   std::size_t searchesReused() const;
   const ContactMeasure& lastStep() const { return last_; }
 
+  // The two queries below search with the step's tables (margins, boxes, hierarchies): call them
+  // between steps; they leave those tables as their search made them (the next step's start
+  // makes them again), and closePairs drops the last step's pairs.
+
   /// Pairs (surface-surface and surface-obstacle) closer than `within` at x, ignoring the
   /// exclusions; at most `limit` of them, closest first.
   std::vector<ContactProximity> closePairs(std::span<const double> x, double within,
-                                           std::size_t limit = 5) const;
+                                           std::size_t limit = 5);
 
   /// Triangles that intersect each other (sharing no point) or an obstacle at x, or have a
   /// corner inside an analytic obstacle; at most `limit` (the start check of a scene).
-  std::vector<ContactProximity> intersections(std::span<const double> x,
-                                              std::size_t limit = 5) const;
+  std::vector<ContactProximity> intersections(std::span<const double> x, std::size_t limit = 5);
 
   /// The bound of each point slot after the last limitDisplacement (infinity: none; for tests).
   const std::vector<double>& bounds() const;
