@@ -215,6 +215,19 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
   };
   const std::vector<Case> cases = {
       {"\"gravity\": [0, 0]", "6: /gravity: expected [x, y, z]"},
+      // contact's sections, read in their own file (SceneSections): still named by the reader
+      {"\"obstacles\": [{\"type\": \"plane\"}]",
+       "6: /obstacles: obstacles need a \"contact\" section (its thickness and stiffness)"},
+      {"\"contact\": {\"thickness\": 0.01}", "6: /contact: missing key \"stiffness\""},
+      {"\"contact\": {\"thickness\": 0.01, \"stiffness\": 10}, \"obstacles\": [{\"type\": "
+       "\"plane\", \"point\": [0, 0, -1], \"normal\": [0, 0, 1], \"name\": \"a\"}, "
+       "{\"type\": \"plane\", \"point\": [0, 0, -2], \"normal\": [0, 0, 1], \"name\": \"a\"}]",
+       "6: /obstacles/1/name: another obstacle has the name \"a\""},
+      {"\"obstacle\": []",
+       "6: /obstacle: unknown key \"obstacle\" (expected one of: name, "
+       "description, mesh, mass, gravity, forceFields, constraints, solver, "
+       "integrator, linearSolver, timeStep, duration, output, timeline, ignored, "
+       "contact, obstacles)"},
       {"\"gravity\": [0, 0, \"down\"]", "6: /gravity/2: expected a number, got a string"},
       {"\"solver\": {\"type\": \"magic\"}", "6: /solver/type: unknown solver type \"magic\""},
       {"\"solver\": {\"iterations\": 2.5}", "6: /solver/iterations: expected an integer"},

@@ -11,3 +11,41 @@ class Reader;
 void dryRun(const Reader& r, const Scene& scene, const topology::MeshData& mesh);
 
 }  // namespace cutsim::core::detail
+
+// ---- sections a component's own file reads ----
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+namespace cutsim::core::detail {
+
+/// A top-level section of scene files that a component reads in its own file (the scene reader
+/// names none of them): contact's "contact" and "obstacles" (scene_contact.cpp). Sections are
+/// read after the force fields, in the order they were added, a section naming `after` once that
+/// one is read; check() runs once the whole scene is read and dry run.
+struct SceneSection {
+  std::string name;
+  std::string after;  ///< a section read before this one ("" : none)
+  std::function<void(const Reader& r, const nlohmann::json& value, const std::string& pointer,
+                     const std::filesystem::path& baseDir, Scene& scene)>
+      read;
+  /// Optional: a check of the read scene (when the section was given).
+  std::function<void(const Reader& r, const Scene& scene, const topology::MeshData& mesh)> check;
+};
+
+class SceneSections {
+ public:
+  static SceneSections& instance();
+  /// Adds a section (its name once); returns true, for a namespace-scope registration.
+  bool add(SceneSection section);
+  /// In reading order: those with no `after` first, in the order added, then the others.
+  std::vector<const SceneSection*> inOrder() const;
+
+ private:
+  std::vector<SceneSection> sections_;
+};
+
+}  // namespace cutsim::core::detail

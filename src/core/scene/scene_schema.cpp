@@ -22,6 +22,28 @@ namespace cutsim::core {
 using namespace detail;
 using topology::geometry::dist2;
 
+SceneSections& SceneSections::instance() {
+  static SceneSections sections;
+  return sections;
+}
+
+bool SceneSections::add(SceneSection section) {
+  for (const SceneSection& s : sections_)
+    if (s.name == section.name)
+      throw std::logic_error("the scene section \"" + section.name + "\" is added twice");
+  sections_.push_back(std::move(section));
+  return true;
+}
+
+std::vector<const SceneSection*> SceneSections::inOrder() const {
+  std::vector<const SceneSection*> out;
+  for (const SceneSection& s : sections_)
+    if (s.after.empty()) out.push_back(&s);
+  for (const SceneSection& s : sections_)
+    if (!s.after.empty()) out.push_back(&s);
+  return out;
+}
+
 std::string SceneLocation::where(const std::string& file) const {
   const std::string& f = source.empty() ? file : source;
   return line ? f + ":" + std::to_string(line) : f;
@@ -563,81 +585,6 @@ void parseConstraintsAndTimeline(const Reader& r, const json& root, Scene& s) {
   }
 }
 
-/// The "contact" section: the step hook "contact" of StepHookRegistry (its keys checked as any
-/// component's); the "obstacles" list is added to its setup after.
-void parseContact(const Reader& r, const json& j, const std::string& ptr, Scene& s) {
-  r.expectObject(j, ptr);
-  const auto& registry = StepHookRegistry::instance();
-  const auto* entry = registry.find("contact");
-  if (!entry) r.fail(ptr, "this build has no contact");
-  checkComponentKeys(r, j, ptr, registry, *entry, {}, nullptr, "");
-  ComponentSpec spec;
-  spec.type = "contact";
-  spec.location = r.location(ptr);
-  spec.parameters = entry->read(JsonParameterSource(r, j, ptr));
-  s.stepHooks.push_back(std::move(spec));
-}
-
-forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::string& ptr,
-                                    const std::filesystem::path& baseDir) {
-  r.expectObject(j, ptr);
-  forcefields::Obstacle o;
-  const std::string type = r.string(r.require(j, ptr, "type"), ptr + "/type");
-  const auto& registry = forcefields::ObstacleShapeRegistry::instance();
-  const auto* entry = registry.find(type);
-  if (!entry)
-    r.fail(ptr + "/type",
-           "unknown obstacle type \"" + type + "\" (" + registeredNames(registry) + ")");
-  checkComponentKeys(r, j, ptr, registry, *entry, {"name", "friction", "path"});
-  if (const json* v = r.find(j, "name")) o.name = r.string(*v, ptr + "/name");
-  if (const json* v = r.find(j, "friction")) o.friction = r.nonNegative(*v, ptr + "/friction");
-  o.shape = entry->build(entry->read(JsonParameterSource(r, j, ptr, baseDir)));
-  if (const json* v = r.find(j, "path")) {
-    r.expectArray(*v, ptr + "/path");
-    if (v->empty()) r.fail(ptr + "/path", "expected at least one [time, dx, dy, dz]");
-    for (std::size_t k = 0; k < v->size(); ++k) {
-      const std::string kp = ptr + "/path/" + Reader::idx(k);
-      const json& row = (*v)[k];
-      if (!row.is_array() || row.size() != 4) r.fail(kp, "expected [time, dx, dy, dz]");
-      forcefields::ObstacleKey key;
-      key.time = r.number(row[0], kp + "/0");
-      for (int c = 0; c < 3; ++c)
-        key.offset[std::size_t(c)] =
-            r.number(row[std::size_t(c + 1)], kp + "/" + Reader::idx(std::size_t(c + 1)));
-      if (k > 0 && !(key.time > o.path.back().time)) r.fail(kp + "/0", "times must increase");
-      o.path.push_back(key);
-    }
-  }
-  try {
-    o.validate();
-  } catch (const InvalidInput& e) {
-    r.fail(ptr + "/" + e.where(), e.message());
-  }
-  return o;
-}
-
-/// A scene with contact must start free of intersections (within the thickness is allowed: the
-/// penalty pushes the primitives apart).
-void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshData& mesh) {
-  topology::Topology topo(mesh);
-  const forcefields::ContactSetup& setup = *s.contactSetup();
-  forcefields::Contact contact(topo, setup.parameters, setup.obstacles);
-  std::vector<double> x(3 * topo.pointCapacity(), 0.0);
-  for (topology::PointId p : topo.points())
-    for (int c = 0; c < 3; ++c)
-      x[3 * std::size_t(p.idx()) + std::size_t(c)] = topo.restPosition(p)[std::size_t(c)];
-  const auto found = contact.intersections(x, 1);
-  if (found.empty()) return;
-  const auto& c = found.front();
-  std::string where = "/contact";
-  for (std::size_t k = 0; k < setup.obstacles.size(); ++k)
-    if (c.what.find("obstacle \"" + setup.obstacles[k].name + "\"") != std::string::npos)
-      where = "/obstacles/" + Reader::idx(k);
-  r.fail(where,
-         "the scene starts in intersection: " + c.what +
-             " (contact can only keep apart what starts apart: move the mesh or the obstacle)");
-}
-
 }  // namespace
 }  // namespace detail
 
@@ -651,10 +598,13 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
   const Reader r(sourceName, doc.lines, doc.labels);
   const json& root = doc.root;
   r.expectObject(root, "");
-  r.checkKeys(root, "",
-              {"name", "description", "mesh", "mass", "gravity", "forceFields", "constraints",
-               "solver", "integrator", "linearSolver", "timeStep", "duration", "output", "timeline",
-               "contact", "obstacles", "ignored"});
+  std::vector<std::string> keys{"name",       "description",  "mesh",        "mass",
+                                "gravity",    "forceFields",  "constraints", "solver",
+                                "integrator", "linearSolver", "timeStep",    "duration",
+                                "output",     "timeline",     "ignored"};
+  for (const SceneSection* section : SceneSections::instance().inOrder())
+    keys.push_back(section->name);
+  r.checkKeys(root, "", keys);
   Scene s;
   parseHeader(r, root, sourceName, s);
   if (const json* v = r.find(root, "ignored")) {  // what an import left out: text, for the reader
@@ -675,30 +625,13 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
                "another force field has the label \"" + label + "\"");
     }
   }
-  if (const json* v = r.find(root, "contact")) parseContact(r, *v, "/contact", s);
-  if (const json* v = r.find(root, "obstacles")) {
-    r.expectArray(*v, "/obstacles");
-    const forcefields::ContactSetup* has = s.contactSetup();
-    if (!has && !v->empty())
-      r.fail("/obstacles", "obstacles need a \"contact\" section (its thickness and stiffness)");
-    std::vector<forcefields::Obstacle> obstacles;
-    std::set<std::string> names;
-    for (std::size_t i = 0; i < v->size(); ++i) {
-      const std::string ptr = "/obstacles/" + Reader::idx(i);
-      obstacles.push_back(parseObstacle(r, (*v)[i], ptr, baseDir));
-      if (obstacles.back().name.empty())
-        obstacles.back().name = obstacles.back().shapeName() + std::to_string(i);
-      const std::string& name = obstacles.back().name;
-      if (name.find_first_of(",\"\n\r") != std::string::npos)
-        r.fail(ptr + "/name",
-               "must not contain a comma, a quote or a line break (it names CSV columns)");
-      if (!names.insert(name).second)
-        r.fail(ptr + "/name", "another obstacle has the name \"" + name + "\"");
+  // The sections components read in their own files (contact's "contact" and "obstacles").
+  std::set<std::string> given;
+  for (const SceneSection* section : SceneSections::instance().inOrder())
+    if (const json* v = r.find(root, section->name)) {
+      section->read(r, *v, "/" + section->name, baseDir, s);
+      given.insert(section->name);
     }
-    for (ComponentSpec& h : s.stepHooks)
-      if (h.type == "contact")
-        std::any_cast<forcefields::ContactSetup&>(h.parameters).obstacles = std::move(obstacles);
-  }
   parseStepping(r, root, s);
   s.timeStep = r.positive(r.require(root, "", "timeStep"), "/timeStep");
   s.duration = r.nonNegative(r.require(root, "", "duration"), "/duration");
@@ -762,7 +695,8 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
           e.where(), e.message() + " (the timeline played before the run, the surface at rest)");
     }
   }
-  if (s.contactSetup()) checkContactAtStart(r, s, meshData);
+  for (const SceneSection* section : SceneSections::instance().inOrder())
+    if (section->check && given.count(section->name)) section->check(r, s, meshData);
   return s;
 }
 
