@@ -11,6 +11,8 @@
 #include <memory>
 #include <vector>
 
+#include "cutsim/core/integrators/bdf2.hpp"
+#include "cutsim/core/integrators/newton.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"

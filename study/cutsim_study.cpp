@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/core/integrators/newton.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"

@@ -10,6 +10,10 @@
 #include <sstream>
 
 #include "cutsim/core/integrator.hpp"
+#include "cutsim/core/integrators/bdf2.hpp"
+#include "cutsim/core/integrators/explicit_euler.hpp"
+#include "cutsim/core/integrators/implicit_euler.hpp"
+#include "cutsim/core/integrators/newton.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/dihedral_bending.hpp"

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "cutsim/core/integrators/newton.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
 #include "support/scene_text.hpp"

@@ -1,6 +1,8 @@
-// Second-order backward differentiation, linearised once per step (integrator.hpp).
+// Second-order backward differentiation, linearised once per step (integrators/*.hpp,
+// integrator.hpp).
+#include "cutsim/core/integrators/bdf2.hpp"
+
 #include "cutsim/base/archive.hpp"
-#include "cutsim/core/integrator.hpp"
 
 namespace cutsim::core {
 

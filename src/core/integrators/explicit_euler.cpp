@@ -1,5 +1,5 @@
-// Symplectic (semi-implicit) Euler (integrator.hpp).
-#include "cutsim/core/integrator.hpp"
+// Symplectic (semi-implicit) Euler (integrators/*.hpp, integrator.hpp).
+#include "cutsim/core/integrators/explicit_euler.hpp"
 
 namespace cutsim::core {
 

@@ -1,5 +1,5 @@
-// Backward Euler linearised once per step (integrator.hpp).
-#include "cutsim/core/integrator.hpp"
+// Backward Euler linearised once per step (integrators/*.hpp, integrator.hpp).
+#include "cutsim/core/integrators/implicit_euler.hpp"
 
 namespace cutsim::core {
 

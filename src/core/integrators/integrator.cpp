@@ -1,5 +1,5 @@
 // What the integrators share: step flags, the failure policy, the implicit base, the shorthand
-// settings of the first scenes (integrator.hpp).
+// settings of the first scenes (integrators/*.hpp, integrator.hpp).
 #include "cutsim/core/integrator.hpp"
 
 #include <cmath>
@@ -8,6 +8,8 @@
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
+#include "cutsim/core/integrators/explicit_euler.hpp"
+#include "cutsim/core/integrators/implicit_euler.hpp"
 #include "cutsim/core/registries.hpp"
 
 namespace cutsim::core {
@@ -53,12 +55,6 @@ void ImplicitSettings::validate() const {
   requireFiniteNonNegative("rayleighMass", rayleighMass);
   requireFiniteNonNegative("rayleighStiffness", rayleighStiffness);
   requireFinitePositive("fallbackAbove", fallbackAbove);
-}
-
-void NewtonSettings::validate() const {
-  if (maxIterations < 1)
-    throw InvalidInput("maxIterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  requireFinitePositive("tolerance", tolerance);
 }
 
 ImplicitIntegrator::ImplicitIntegrator(ImplicitSettings settings,

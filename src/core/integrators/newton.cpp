@@ -1,9 +1,19 @@
-// Backward Euler solved to convergence by Newton's method with a line search (integrator.hpp).
+// Backward Euler solved to convergence by Newton's method with a line search (integrators/*.hpp,
+// integrator.hpp).
+#include "cutsim/core/integrators/newton.hpp"
+
 #include <cmath>
 
-#include "cutsim/core/integrator.hpp"
+#include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
 
 namespace cutsim::core {
+
+void NewtonSettings::validate() const {
+  if (maxIterations < 1)
+    throw InvalidInput("maxIterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
+  requireFinitePositive("tolerance", tolerance);
+}
 
 NewtonImplicitEuler::NewtonImplicitEuler(ImplicitSettings settings, NewtonSettings newton,
                                          std::unique_ptr<LinearSolver> solver)

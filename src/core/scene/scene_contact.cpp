@@ -92,7 +92,6 @@ void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshDa
              " (contact can only keep apart what starts apart: move the mesh or the obstacle)");
 }
 
-
 /// The "obstacles" list, added to the contact's setup (an empty list needs no contact).
 void parseObstacles(const Reader& r, const json& v, const std::string& ptr,
                     const std::filesystem::path& baseDir, Scene& s) {
@@ -108,7 +107,8 @@ void parseObstacles(const Reader& r, const json& v, const std::string& ptr,
       obstacles.back().name = obstacles.back().shapeName() + std::to_string(i);
     const std::string& name = obstacles.back().name;
     if (name.find_first_of(",\"\n\r") != std::string::npos)
-      r.fail(at + "/name", "must not contain a comma, a quote or a line break (it names CSV columns)");
+      r.fail(at + "/name",
+             "must not contain a comma, a quote or a line break (it names CSV columns)");
     if (!names.insert(name).second)
       r.fail(at + "/name", "another obstacle has the name \"" + name + "\"");
   }

@@ -1,7 +1,10 @@
 #pragma once
-// Integrators: how a step of a model is taken. Each one reads the model (forces, their
-// derivatives, the potential energy, the masses) and the step's constraints, and returns the new
-// positions and velocities; the Simulation commits them after its finiteness checks.
+// Integrators: how a step of a model is taken (the interface and what the implicit ones share;
+// each method's class in its own header, cutsim/core/integrators/: explicit_euler.hpp,
+// implicit_euler.hpp, bdf2.hpp, newton.hpp; each registered by name in its source file). Each one
+// reads the model (forces, their derivatives, the potential energy, the masses) and the step's
+// constraints, and returns the new positions and velocities; the Simulation commits them after its
+// finiteness checks.
 //
 //   explicit-euler   symplectic Euler: v += h M^-1 f(x, v), x += h v. Conditionally stable.
 //   implicit-euler   backward Euler linearised once per step (Baraff and Witkin 1998):
@@ -81,15 +84,6 @@ struct ImplicitSettings {
   void validate() const;
 };
 
-/// Newton's own settings.
-struct NewtonSettings {
-  int maxIterations = 20;   ///< >= 1
-  double tolerance = 1e-8;  ///< |residual| <= tolerance |first residual| ends the iterations (> 0)
-  bool exactStiffness = true;  ///< ask the fields for their exact K
-  bool lineSearch = true;      ///< backtracking line search on the incremental potential
-  void validate() const;
-};
-
 /// The step's data an integrator is given.
 struct StepInput {
   double dt = 0.0;
@@ -131,14 +125,6 @@ class Integrator {
   virtual void loadState(ArchiveReader& /*in*/) {}
 };
 
-class ExplicitEuler final : public Integrator {
- public:
-  std::string_view name() const override { return "explicit-euler"; }
-  bool isExplicit() const override { return true; }
-  bool checkpointable() const override { return true; }  // nothing kept between steps
-  void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
-};
-
 /// What the implicit integrators share: the settings, the linear solver, the failure policy.
 class ImplicitIntegrator : public Integrator {
  public:
@@ -168,51 +154,6 @@ class ImplicitIntegrator : public Integrator {
   std::unique_ptr<LinearSolver> solver_;
   std::unique_ptr<LinearSolver> fallback_;  // settings_.fallbackSolver, made on first use
   std::vector<double> diagonalMass_;        // scratch for systemOperator()
-};
-
-class ImplicitEuler final : public ImplicitIntegrator {
- public:
-  using ImplicitIntegrator::ImplicitIntegrator;
-  std::string_view name() const override { return "implicit-euler"; }
-  void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
-};
-
-class BDF2 final : public ImplicitIntegrator {
- public:
-  using ImplicitIntegrator::ImplicitIntegrator;
-  std::string_view name() const override { return "bdf2"; }
-  void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
-  /// Steps taken as implicit Euler (the first, and after each restart).
-  long restarts() const { return restarts_; }
-  void saveState(ArchiveWriter& out) const override;
-  void loadState(ArchiveReader& in) override;
-
- private:
-  bool historyValid(const Model& model, const StepInput& in) const;
-  // x_n-1, v_n-1 and the x_n, v_n the previous step returned (to detect an edit between steps).
-  Eigen::VectorXd xPrev_, vPrev_, xLast_, vLast_;
-  template <class Archive, class Self>
-  static void members(Archive& a, Self& s);  // the checkpointed members, for save and load
-  double dtLast_ = 0.0;
-  std::uint64_t revision_ = 0;
-  bool have_ = false;
-  long restarts_ = 0;
-};
-
-class NewtonImplicitEuler final : public ImplicitIntegrator {
- public:
-  NewtonImplicitEuler(ImplicitSettings settings, NewtonSettings newton,
-                      std::unique_ptr<LinearSolver> solver);
-  std::string_view name() const override { return "newton"; }
-  void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) override;
-  const NewtonSettings& newtonSettings() const { return newton_; }
-  /// |residual| after each iteration of the last step (the first entry: before any), for the
-  /// convergence study.
-  const std::vector<double>& lastResiduals() const { return residuals_; }
-
- private:
-  NewtonSettings newton_;
-  std::vector<double> residuals_;
 };
 
 /// The three configurations of cutsim's first scenes as one shorthand (C++ API and the scenes'
