@@ -14,6 +14,7 @@ namespace {
 struct ImportOptions {
   std::string scene, output;
   long steps = 100;
+  bool force = false;
 };
 
 void importScene(const ImportOptions& options) {
@@ -21,6 +22,7 @@ void importScene(const ImportOptions& options) {
   std::error_code ec;
   if (std::filesystem::is_directory(out, ec))
     throw InvalidInput("-o", options.output + " is a folder, not a file");
+  checkReplaceable(out, "-o", {options.scene}, kImportMark, options.force);
   if (!out.parent_path().empty())
     std::filesystem::create_directories(out.parent_path(), ec);  // checked on writing
   core::SofaImportOptions o;
@@ -51,6 +53,9 @@ void registerImportCommand(CLI::App& app) {
       app.add_subcommand("import", "Translate a SOFA scene (.scn) into a cutsim JSON scene");
   cmd->add_option("scene", options->scene, "the SOFA scene (.scn)")->required();
   cmd->add_option("-o,--output", options->output, "the JSON scene to write")->required();
+  cmd->add_flag("--force", options->force,
+                "replace an existing file that is not a scene this command wrote (never the "
+                "input)");
   cmd->add_option("--steps", options->steps,
                   "the number of steps the JSON scene runs (default 100)")
       ->check(CLI::Range(1L, 1000000000L));

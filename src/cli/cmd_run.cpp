@@ -39,6 +39,7 @@ struct RunOptions {
   long steps = 0;            ///< a SOFA scene's number of steps (0: 100)
   long checkpointEvery = 0;  ///< a checkpoint every N steps (0: only when stopped by a signal)
   long stopAfter = 0;        ///< stop after this step as a signal would (0: run to the end)
+  bool force = false;        ///< --html may replace a file that is not a player page
 };
 
 bool isSofaScene(const std::string& file) {
@@ -328,6 +329,11 @@ void checkOutputOptions(const RunOptions& options, const core::Scene& scene,
       throw InvalidInput("--html",
                          options.html + " is one of the run's own files: name the page otherwise");
   }
+  if (!options.html.empty()) {
+    std::vector<std::filesystem::path> inputs{scene.file, options.scene};
+    if (scene.meshFile) inputs.push_back(*scene.meshFile);
+    checkReplaceable(options.html, "--html", inputs, kPlayerMark, options.force);
+  }
   if ((options.htmlAuto || !options.html.empty()) && !scene.output.vtk)
     throw InvalidInput(
         "--html",
@@ -500,6 +506,9 @@ void registerRunCommand(CLI::App& app) {
                   "also write the run's player page (as cutsim view) to this file; --html alone: "
                   "OUT/player.html")
       ->expected(0, 1);
+  cmd->add_flag("--force", options->force,
+                "let --html replace an existing file that is not a player page (never the scene "
+                "or its mesh)");
   cmd->add_option(
          "--checkpoint-every", options->checkpointEvery,
          "write OUT/checkpoint.ckpt every N steps (a stop by SIGINT or SIGTERM writes one too); "
@@ -538,6 +547,9 @@ void registerResumeCommand(CLI::App& app) {
                   "also write the run's player page (as cutsim view) to this file; --html alone: "
                   "OUT/player.html")
       ->expected(0, 1);
+  cmd->add_flag("--force", options->run.force,
+                "let --html replace an existing file that is not a player page (never the scene "
+                "or its mesh)");
   CLI::Option* every = cmd->add_option("--checkpoint-every", options->run.checkpointEvery,
                                        "a checkpoint every N steps (default: as the run did)")
                            ->check(CLI::Range(1L, 1000000000L));

@@ -25,6 +25,7 @@ struct ViewOptions {
   bool quiet = false;
   long png = -1;  ///< frame to render to a still image; -1 none
   std::string pngOut;
+  bool force = false;
 };
 
 std::string shellQuote(const std::string& s) {
@@ -90,6 +91,7 @@ void view(const ViewOptions& o) {
   if (std::filesystem::is_directory(dir) &&
       !std::filesystem::is_directory(parent))  // else: the run's error
     throw InvalidInput("-o", html.string() + ": the folder " + parent.string() + " does not exist");
+  if (!o.out.empty()) checkReplaceable(html, "-o", {}, kPlayerMark, o.force);
   view::PlayerOptions options;
   options.budgetBytes = std::size_t(o.maxMb * 1048576.0);
   options.up = o.up;
@@ -144,6 +146,8 @@ void registerViewCommand(CLI::App& app) {
   cmd->add_option("--png-out", options->pngOut,
                   "the PNG's path (default: beside the page, same name)");
   cmd->add_flag("--quiet", options->quiet, "print only the page's path");
+  cmd->add_flag("--force", options->force,
+                "with -o: replace an existing file that is not a player page");
   cmd->callback([options] { view(*options); });
 }
 

@@ -6,6 +6,10 @@
 // "PATH:LINE: message" on stderr) and other failures by throwing cutsim::Error (exit code 1);
 // main.cpp maps them. A command that returns normally exits with 0.
 #include <CLI/CLI.hpp>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
 
 namespace cutsim::cli {
 
@@ -44,6 +48,16 @@ void registerImportCommand(CLI::App& app);
 /// `cutsim regress LIST [--refs DIR] [--write]`: SOFA's regression tests of state
 /// (src/cli/cmd_regress.cpp).
 void registerRegressCommand(CLI::App& app);
+
+/// What an output option (`option`, for the message) may replace, checked before anything runs:
+/// never one of `inputs` (the same file under any name, even with `force`); an existing file only
+/// when this program wrote it (its first 4 KB hold `mark`) or `force`. Throws InvalidInput.
+void checkReplaceable(const std::filesystem::path& target, const std::string& option,
+                      const std::vector<std::filesystem::path>& inputs, std::string_view mark,
+                      bool force);
+/// The mark of a player page (cutsim view, cutsim run --html) and of an imported scene.
+inline constexpr std::string_view kPlayerMark = "<meta name=\"generator\" content=\"cutsim view\">";
+inline constexpr std::string_view kImportMark = "translated by cutsim's reader";
 
 // Further commands are declared here.
 

@@ -164,6 +164,48 @@ fi
 run components magnets
 expect_code 2 "components magnets" && { grep -q "forcefields, integrators, linearsolvers, constraints, actions, hooks, obstacles" "$tmp/err" || fail "components magnets: $(cat "$tmp/err")"; }
 
+# ---- outputs never replace an input, nor a file this program did not write ----
+# (run --html, view -o, import -o: the scene itself, its mesh, a file of the user's.)
+w="$tmp/writes"
+mkdir -p "$w"
+small="$w/small.json"
+cp "$CUTSIM_TEST_DATA_DIR/scenes/small.json" "$small"
+sed -i 's|"file": "\([^"/]*\)"|"file": "'"$CUTSIM_TEST_DATA_DIR"'/scenes/\1"|' "$small"
+before="$(md5sum <"$small")"
+run run "$small" --out "$w/run" --html "$small" --quiet
+expect_code 2 "run --html onto its own scene" && { grep -q "an input of this command: it is never replaced" "$tmp/err" || fail "run --html onto the scene: $(cat "$tmp/err")"; }
+run run "$small" --out "$w/run" --html "$small" --force --quiet
+expect_code 2 "run --html onto its own scene, --force"
+checks=$((checks + 1))
+[ "$(md5sum <"$small")" = "$before" ] || fail "the scene was changed by run --html onto it"
+echo "my notes" >"$w/notes.html"
+run run "$small" --out "$w/run" --html "$w/notes.html" --quiet
+expect_code 2 "run --html onto a file of the user's" && { grep -q "was not written by this command" "$tmp/err" || fail "run --html onto notes: $(cat "$tmp/err")"; }
+checks=$((checks + 1))
+[ "$(cat "$w/notes.html")" = "my notes" ] || fail "run --html replaced a file of the user's"
+run run "$small" --out "$w/run" --html "$w/page.html" --quiet
+expect_code 0 "run --html onto a new file"
+run run "$small" --out "$w/run" --html "$w/page.html" --quiet
+expect_code 0 "run --html onto its own earlier page"
+run view "$w/run" -o "$w/notes.html" --quiet
+expect_code 2 "view -o onto a file of the user's"
+run view "$w/run" -o "$w/page.html" --quiet
+expect_code 0 "view -o onto a player page"
+run view "$w/run" -o "$w/notes.html" --quiet --force
+expect_code 0 "view -o --force onto a file of the user's"
+scn="$CUTSIM_TEST_DATA_DIR/sofa-scenes/FastTriangularBendingSprings.scn"
+cp "$scn" "$w/copy.scn"
+run import "$w/copy.scn" -o "$w/copy.scn" --force
+expect_code 2 "import -o onto its input, --force"
+checks=$((checks + 1))
+cmp -s "$scn" "$w/copy.scn" || fail "import -o replaced its input"
+run import "$w/copy.scn" -o "$small"
+expect_code 2 "import -o onto a scene it did not write"
+run import "$scn" -o "$w/imported.json"
+expect_code 0 "import -o onto a new file"
+run import "$scn" -o "$w/imported.json"
+expect_code 0 "import -o onto a scene it wrote"
+
 # ---- --version ----
 run --version
 if expect_code 0 "--version"; then

@@ -1,6 +1,6 @@
 #pragma once
-// Second-order backward differentiation, linearised once per step (the method: cutsim/core/integrator.hpp; registered as "bdf2" in
-// src/core/integrators/).
+// Second-order backward differentiation, linearised once per step (the method:
+// cutsim/core/integrator.hpp; registered as "bdf2" in src/core/integrators/).
 #include <cstdint>
 
 #include "cutsim/core/integrator.hpp"

@@ -1,6 +1,6 @@
 #pragma once
-// Symplectic (semi-implicit) Euler (the method: cutsim/core/integrator.hpp; registered as "explicit-euler" in
-// src/core/integrators/).
+// Symplectic (semi-implicit) Euler (the method: cutsim/core/integrator.hpp; registered as
+// "explicit-euler" in src/core/integrators/).
 #include "cutsim/core/integrator.hpp"
 
 namespace cutsim::core {

@@ -1,6 +1,6 @@
 #pragma once
-// Backward Euler linearised once per step (the method: cutsim/core/integrator.hpp; registered as "implicit-euler" in
-// src/core/integrators/).
+// Backward Euler linearised once per step (the method: cutsim/core/integrator.hpp; registered as
+// "implicit-euler" in src/core/integrators/).
 #include "cutsim/core/integrator.hpp"
 
 namespace cutsim::core {

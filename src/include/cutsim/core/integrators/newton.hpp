@@ -1,6 +1,6 @@
 #pragma once
-// Backward Euler solved to convergence by Newton's method with a line search (the method: cutsim/core/integrator.hpp; registered as "newton" in
-// src/core/integrators/).
+// Backward Euler solved to convergence by Newton's method with a line search (the method:
+// cutsim/core/integrator.hpp; registered as "newton" in src/core/integrators/).
 #include <vector>
 
 #include "cutsim/core/integrator.hpp"
