@@ -158,6 +158,13 @@ TEST(SofaScene, ErrorsNameTheSceneLineAndWhatIsWrong) {
   text.replace(text.find("<UniformMass"), 12, "<UniformMass <");
   EXPECT_THAT(importError(text), AllOf(StartsWith((scratch() / "bad.scn").string() + ":9:"),
                                        HasSubstr("malformed XML")));
+  // Nodes nested 10,000 deep (a stack overflow once): refused at the node past the limit.
+  text = "<Node name=\"root\">\n";
+  for (int i = 0; i < 10000; ++i) text += "<Node name=\"n\">\n";
+  for (int i = 0; i < 10000; ++i) text += "</Node>";
+  text += "</Node>\n";
+  EXPECT_THAT(importError(text),
+              AllOf(HasSubstr("bad.scn:258: /root/n/n/"), HasSubstr("nested deeper than 256")));
   // A check of the translated scene lands on the component's line: a box that selects nothing.
   EXPECT_THAT(importError(scn("    <BoxROI name=\"b\" box=\"500 500 500 501 501 501\"/>\n    "
                               "<FixedConstraint indices=\"@b.indices\"/>\n")),

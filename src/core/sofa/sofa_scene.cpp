@@ -302,7 +302,10 @@ class Importer {
                             std::string& field);
 
   // ---- the tree ----
-  void readTree(pugi::xml_node xml, SofaNode* parent);
+  /// SOFA's scenes are a few nodes deep; a tree deeper than this is refused (a name, a line), not
+  /// walked into a stack overflow.
+  static constexpr int kMaxNodeDepth = 256;
+  void readTree(pugi::xml_node xml, SofaNode* parent, int depth = 0);
   void translate(SofaNode& n);
   void translateLoaders(SofaNode& n);
   /// One kind of SOFA component cutsim reads: its type names, whether it acts on the mechanical
@@ -509,7 +512,10 @@ std::string Importer::linkedValue(SofaComponent& c, const char* name, const std:
            inQuotes(field) + " that cutsim can read");
 }
 
-void Importer::readTree(pugi::xml_node xml, SofaNode* parent) {
+void Importer::readTree(pugi::xml_node xml, SofaNode* parent, int depth) {
+  if (depth > kMaxNodeDepth)
+    fail(lineOf(xml.offset_debug()), parent->path(),
+         "nodes nested deeper than " + std::to_string(kMaxNodeDepth) + " levels");
   auto node = std::make_unique<SofaNode>();
   node->xml = xml;
   node->parent = parent;
@@ -524,7 +530,7 @@ void Importer::readTree(pugi::xml_node xml, SofaNode* parent) {
     if (child.type() != pugi::node_element) continue;
     const std::string tag = child.name();
     if (tag == "Node") {
-      readTree(child, self);
+      readTree(child, self, depth + 1);
       continue;
     }
     auto c = std::make_unique<SofaComponent>();
