@@ -27,4 +27,12 @@ void requireFinitePositive(const char* name, double v) {
   }
 }
 
+void requireRelativeTolerance(const char* name, double v) {
+  requireFinitePositive(name, v);
+  if (!(v < 1.0))
+    throw InvalidInput(name, "must be < 1, got " + describeNumber(v) +
+                                 ": a relative tolerance of 1 or more is met before the first "
+                                 "iteration, and nothing would be solved");
+}
+
 }  // namespace cutsim

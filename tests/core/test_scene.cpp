@@ -288,6 +288,25 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
   }
 }
 
+// Values that would make a run do nothing are refused, naming them: a duration that rounds to no
+// step, a relative tolerance of 1 or more (met before the first iteration).
+TEST(Scene, ValuesThatWouldMakeARunDoNothingAreRefused) {
+  std::string text = scene();
+  text.replace(text.find("\"duration\": 0.1"), 15, "\"duration\": 1e-12");
+  EXPECT_THAT(parseError(text),
+              StartsWith("inline.json:5: /duration: is 1e-12 s, a vanishing part "
+                         "of the time step (0.01 s): the run would take no step"));
+  text = scene();
+  text.replace(text.find("\"duration\": 0.1"), 15, "\"duration\": 0");
+  EXPECT_EQ(parseScene(text, "inline.json", kScenes).numSteps(), 0);  // on purpose: allowed
+  EXPECT_THAT(parseError(scene("\"linearSolver\": {\"type\": \"cg\", \"tolerance\": 1e300}")),
+              StartsWith("inline.json:6: /linearSolver/tolerance: must be < 1, got 1e+300"));
+  EXPECT_THAT(parseError(scene("\"solver\": {\"tolerance\": 1}")),
+              StartsWith("inline.json:6: /solver/tolerance: must be < 1, got 1"));
+  EXPECT_THAT(parseError(scene("\"integrator\": {\"type\": \"newton\", \"tolerance\": 2}")),
+              StartsWith("inline.json:6: /integrator/tolerance: must be < 1, got 2"));
+}
+
 TEST(Scene, StretchFieldsReadTheirRestScale) {
   const Scene s =
       parseScene(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 5, "

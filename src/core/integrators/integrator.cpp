@@ -162,7 +162,7 @@ void SolverSettings::validate() const {
   if (cgMaxIterations < 1)
     throw InvalidInput("solver.iterations",
                        "must be >= 1 (got " + std::to_string(cgMaxIterations) + ")");
-  requireFinitePositive("solver.tolerance", cgTolerance);
+  requireRelativeTolerance("solver.tolerance", cgTolerance);
   requireFiniteNonNegative("solver.rayleighMass", rayleighMass);
   requireFiniteNonNegative("solver.rayleighStiffness", rayleighStiffness);
   requireFinitePositive("solver.fallbackAbove", fallbackAbove);

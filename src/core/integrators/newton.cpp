@@ -12,7 +12,7 @@ namespace cutsim::core {
 void NewtonSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("maxIterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  requireFinitePositive("tolerance", tolerance);
+  requireRelativeTolerance("tolerance", tolerance);
 }
 
 NewtonImplicitEuler::NewtonImplicitEuler(ImplicitSettings settings, NewtonSettings newton,

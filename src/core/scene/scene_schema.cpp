@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "cutsim/base/numbers.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
@@ -202,6 +203,11 @@ void parseSolverShorthand(const Reader& r, const json& j, const std::string& ptr
     cgs.maxIterations = int(r.integer(*v, ptr + "/iterations", 1, 1000000));
   if (const json* v = r.find(j, "tolerance")) cgs.tolerance = r.positive(*v, ptr + "/tolerance");
   if (const json* v = r.find(j, "warmStart")) cgs.warmStart = r.boolean(*v, ptr + "/warmStart");
+  try {
+    cgs.validate();
+  } catch (const InvalidInput& e) {
+    r.fail(ptr + "/" + e.where(), e.message());
+  }
   ImplicitSettings is;
   if (const json* v = r.find(j, "rayleighMass"))
     is.rayleighMass = r.nonNegative(*v, ptr + "/rayleighMass");
@@ -636,6 +642,11 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
   s.timeStep = r.positive(r.require(root, "", "timeStep"), "/timeStep");
   s.duration = r.nonNegative(r.require(root, "", "duration"), "/duration");
   if (s.duration / s.timeStep > 1e8) r.fail("/duration", "more than 1e8 steps of timeStep");
+  if (s.duration > 0 && s.numSteps() == 0)
+    r.fail("/duration", "is " + describeNumber(s.duration) +
+                            " s, a vanishing part of the time step (" + describeNumber(s.timeStep) +
+                            " s): the run would take no step (a duration of 0 writes the first "
+                            "state only, on purpose)");
   if (const json* v = r.find(root, "output")) parseOutput(r, *v, "/output", s.output);
 
   // The mesh is needed for point ids and for the dry run.

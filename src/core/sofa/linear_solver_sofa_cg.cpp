@@ -13,7 +13,7 @@ using Vec = Eigen::VectorXd;
 void SofaCGSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("iterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  requireFinitePositive("tolerance", tolerance);
+  requireRelativeTolerance("tolerance", tolerance);
   requireFiniteNonNegative("threshold", threshold);
 }
 

@@ -112,7 +112,7 @@ Vec SystemOperator::freeRhs(const Vec& b, const Vec& dv) const {
 void CGSettings::validate() const {
   if (maxIterations < 1)
     throw InvalidInput("iterations", "must be >= 1 (got " + std::to_string(maxIterations) + ")");
-  requireFinitePositive("tolerance", tolerance);
+  requireRelativeTolerance("tolerance", tolerance);
 }
 
 ConjugateGradient::ConjugateGradient(CGSettings settings) : settings_(settings) {

@@ -15,4 +15,8 @@ void requireFiniteNonNegative(const char* name, double v);
 /// v must be finite and > 0.
 void requireFinitePositive(const char* name, double v);
 
+/// A relative tolerance: in (0, 1). One of 1 or more is met before the first iteration (the
+/// residual starts at the right-hand side's, or the first residual), so nothing would be solved.
+void requireRelativeTolerance(const char* name, double v);
+
 }  // namespace cutsim
