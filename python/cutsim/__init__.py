@@ -11,10 +11,10 @@ grasps, constraints and parameters. The API and examples: docs/python.md.
     x = sim.x                      # (slots, 3) read-only view of the positions, shared memory
     sim.cut([[0.3, 0.5, 0], [0.7, 0.5, 0]])
 """
-import json
-import os
+import json as _jsonlib
+import os as _os
 
-import numpy as np
+import numpy as _np
 
 from . import _cutsim
 from ._cutsim import (  # noqa: F401  (the public names of the compiled part)
@@ -45,14 +45,14 @@ def _nonfinite(obj, pointer=""):
             p = _nonfinite(v, f"{pointer}/{str(k).replace('~', '~0').replace('/', '~1')}")
             if p is not None:
                 return p
-    elif isinstance(obj, (list, tuple, np.ndarray)):
+    elif isinstance(obj, (list, tuple, _np.ndarray)):
         for i, v in enumerate(obj):
             p = _nonfinite(v, f"{pointer}/{i}")
             if p is not None:
                 return p
-    elif isinstance(obj, (float, np.floating)) and not np.isfinite(obj):
+    elif isinstance(obj, (float, _np.floating)) and not _np.isfinite(obj):
         return (pointer or "/", obj)
-    elif isinstance(obj, (int, np.integer)) and not isinstance(obj, bool) and abs(int(obj)) > 1.7e308:
+    elif isinstance(obj, (int, _np.integer)) and not isinstance(obj, bool) and abs(int(obj)) > 1.7e308:
         return (pointer or "/", "an integer of %d digits" % len(str(abs(int(obj)))))
     return None
 
@@ -65,14 +65,14 @@ def _json(obj, what):
         raise InvalidInputError(f"{what}: {bad[0]}: {bad[1]} is not a finite number")
 
     def default(o):
-        if isinstance(o, np.ndarray):
+        if isinstance(o, _np.ndarray):
             return o.tolist()
-        if isinstance(o, np.generic):
+        if isinstance(o, _np.generic):
             return o.item()
-        if isinstance(o, os.PathLike):
-            return os.fspath(o)
+        if isinstance(o, _os.PathLike):
+            return _os.fspath(o)
         raise TypeError(f"{what}: {type(o).__name__} is not a JSON value")
-    return json.dumps(obj, indent=1, default=default)
+    return _jsonlib.dumps(obj, indent=1, default=default)
 
 
 class Controller:
@@ -102,18 +102,18 @@ class Simulation(_cutsim._Simulation):
         if "_fields" in self.__dict__:
             raise TypeError("a Simulation is initialised once")
         if isinstance(scene, dict):
-            base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
+            base = _os.fspath(base_dir) if base_dir is not None else _os.getcwd()
             super().__init__(_json(scene, source), source, base)
-            self._fields = json.loads(_json(scene.get("forceFields", []), source))
-        elif isinstance(scene, (str, os.PathLike)):
+            self._fields = _jsonlib.loads(_json(scene.get("forceFields", []), source))
+        elif isinstance(scene, (str, _os.PathLike)):
             if base_dir is not None:
                 raise TypeError("base_dir is for scenes given as dicts (a file's paths are relative to it)")
-            super().__init__(os.fspath(scene), "", "")
-            if os.fspath(scene).lower().endswith(".scn"):  # SOFA's scene: its JSON translation
-                self._fields = json.loads(_cutsim._sofa_scene_json(os.fspath(scene))).get("forceFields", [])
+            super().__init__(_os.fspath(scene), "", "")
+            if _os.fspath(scene).lower().endswith(".scn"):  # SOFA's scene: its JSON translation
+                self._fields = _jsonlib.loads(_cutsim._sofa_scene_json(_os.fspath(scene))).get("forceFields", [])
             else:
                 with open(scene, encoding="utf-8-sig") as f:  # read and checked by the line above
-                    self._fields = json.load(f).get("forceFields", [])
+                    self._fields = _jsonlib.load(f).get("forceFields", [])
         else:
             raise TypeError(f"Simulation: expected a scene file path or a dict, got {type(scene).__name__}")
 
@@ -128,7 +128,14 @@ class Simulation(_cutsim._Simulation):
         (smallest-angle target min_angle degrees; 0: no repair). Returns the incision: path,
         copies, copied_from, inserted (point slots) and the repair's figures. A cut the topology
         refuses raises TopologyError and changes nothing."""
-        return self._cut(np.asarray(polyline, dtype=float), float(snap_tolerance), float(min_angle))
+        polyline = _np.asarray(polyline, dtype=float)
+        try:
+            return self._cut(polyline, float(snap_tolerance), float(min_angle))
+        except TopologyError as e:
+            if "not on the surface" not in str(e) and "leaves the surface" not in str(e):
+                raise
+            raise TopologyError(f"{e} (a cut's polyline is in rest coordinates, those of sim.rest, "
+                                "not where the surface is now, sim.x)") from None
 
     def tear(self, edge=None, *, points=None, min_angle=20.0):
         """Tears one interior edge open (by its id, or by its two end points), then repairs."""
@@ -181,7 +188,7 @@ class Simulation(_cutsim._Simulation):
         """Writes frames and steps.csv to dir, as `cutsim run --out dir` does, from now until
         finish_recording(). The CSV has reaction-force columns for the scene's grasps, the grasps
         active now and the names in `grasps` (grasps a script will start later)."""
-        self._record(os.path.abspath(os.fspath(dir)), list(grasps))
+        self._record(_os.path.abspath(_os.fspath(dir)), list(grasps))
 
     def fix(self, *, points=None, box=None, near=None):
         """Fixes points (ids, a rest-space box, or the nearest point to each position) from now on."""
@@ -264,10 +271,10 @@ class Simulation(_cutsim._Simulation):
         """(points, triangles, slots): the live surface densely numbered (copies), as the frames
         write it: points[i] is the position of slot slots[i]; triangles index points."""
         alive = self.alive
-        slots = np.flatnonzero(alive)
-        dense = np.full(alive.shape[0], -1, dtype=np.int64)
-        dense[slots] = np.arange(slots.size)
-        return np.array(self.x[slots]), dense[self.triangles()], slots
+        slots = _np.flatnonzero(alive)
+        dense = _np.full(alive.shape[0], -1, dtype=_np.int64)
+        dense[slots] = _np.arange(slots.size)
+        return _np.array(self.x[slots]), dense[self.triangles()], slots
 
     def __repr__(self):
         try:
@@ -279,7 +286,7 @@ class Simulation(_cutsim._Simulation):
 
 def _index(value, what):
     """An id: an integer (not a bool, not a float with a fraction)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)):
         raise TypeError(f"{what}: expected an integer id, got {value!r}")
     return int(value)
 
@@ -289,16 +296,16 @@ def _selection(points, box, near):
     if len(given) != 1:
         raise TypeError("give exactly one of points=, box=, near=")
     if points is not None:
-        ids = list(np.ravel(np.asarray(points, dtype=object)))
+        ids = list(_np.ravel(_np.asarray(points, dtype=object)))
         if not ids:
             raise TypeError("points: expected point ids (integers), got none")
         return {"points": [_index(p, "points") for p in ids]}
     if box is not None:
-        b = np.asarray(box, dtype=float)
+        b = _np.asarray(box, dtype=float)
         if b.shape != (2, 3):
             raise ValueError(f"box: expected [[xmin, ymin, zmin], [xmax, ymax, zmax]], got {box!r}")
         return {"box": b.tolist()}
-    n = np.asarray(near, dtype=float)
+    n = _np.asarray(near, dtype=float)
     if n.ndim > 2 or n.size == 0 or n.shape[-1] != 3:
         raise ValueError(f"near: expected [x, y, z] positions, got {near!r}")
     return {"near": n.reshape(-1, 3).tolist()}
@@ -316,8 +323,8 @@ def write_player(run_dir, output=None, max_mb=48, up="auto"):
     `path` (the page, default RUN_DIR/player.html), `frames_in_run`, `frames_shown` (every k-th
     frame and the last beyond `max_mb`), `bytes`, `partial`. Raises InvalidInputError for a folder
     that is not a run or has no frames."""
-    run_dir = os.fspath(run_dir)
-    output = os.path.join(run_dir, "player.html") if output is None else os.fspath(output)
+    run_dir = _os.fspath(run_dir)
+    output = _os.path.join(run_dir, "player.html") if output is None else _os.fspath(output)
     result = _cutsim._write_player(run_dir, output, float(max_mb), str(up))
-    result["path"] = os.fspath(result["path"])
+    result["path"] = _os.fspath(result["path"])
     return result

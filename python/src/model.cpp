@@ -153,7 +153,9 @@ void bindModel(SimulationClass& cls) {
       .def("_eval", &Simulation::fieldEval)
       .def_property_readonly("field_labels", &Simulation::fieldLabels)
       .def_property_readonly("field_types", &Simulation::fieldTypes)
-      .def("grasp_forces", &Simulation::graspForces)
+      .def("grasp_forces", &Simulation::graspForces,
+           "grasp_forces() -> {name: array of 3}: the force (N) each active grasp exerts on the "
+           "surface over the last step, as the CSV's NAME_fx, NAME_fy, NAME_fz columns report it.")
       .def("grasp_points", &Simulation::graspPoints, "name"_a)
       .def("fixed_points", &Simulation::fixedPoints)
       .def("contact", &Simulation::contact)

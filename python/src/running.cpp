@@ -1,6 +1,8 @@
 // Running a scene from Python: stepping (the GIL released), the timeline's actions, constraints
 // and parameters between steps, grasps and obstacles moved, outputs, controllers; the SOFA
 // importer and the player.
+#include <algorithm>
+
 #include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/sofa_scene.hpp"
 #include "cutsim/forcefields/contact.hpp"
@@ -94,6 +96,17 @@ py::object Simulation::runUntil(double t) {
 void Simulation::act(const std::string& text, const std::string& source) {
   requireMutable(source.c_str());
   auto spec = core::parseActionEntry(text, source, runner_->time());
+  // A recording's CSV has its columns from the start: a grasp it has none for is refused now,
+  // not left out of the CSV without a word.
+  if (writer_) {
+    const std::string grasp = spec.build()->graspName();
+    const auto& columns = writer_->graspColumns();
+    if (!grasp.empty() && std::find(columns.begin(), columns.end(), grasp) == columns.end())
+      throw Usage(source + ": the recording to " + writer_->dir().string() +
+                  " has no CSV columns for the grasp \"" + grasp +
+                  "\": name it when the recording starts, record(dir, grasps=[\"" + grasp +
+                  "\"]), or start it before record()");
+  }
   struct Last {
     Simulation& s;
     ~Last() { s.keepBridgeLast(); }
@@ -284,7 +297,11 @@ void bindRunning(py::module_& m, SimulationClass& cls) {
       .def("_constrain", &Simulation::constrain)
       .def("_replace_field", &Simulation::replaceField)
       .def("unfix", &Simulation::unfix, "points"_a)
-      .def("move", &Simulation::move, "name"_a, "delta"_a, "duration"_a = 0.0)
+      .def("move", &Simulation::move, "name"_a, "delta"_a, "duration"_a = 0.0,
+           "move(name, delta, duration=0): the active grasp `name` moves its points by `delta` "
+           "([dx, dy, dz], m) more, over `duration` seconds from now (0: within the next step), "
+           "then holds; the rest of its path is dropped. Raises InvalidInputError if no grasp "
+           "of that name is active.")
       .def("release", &Simulation::release, "name"_a)
       .def("move_obstacle", &Simulation::moveObstacle, "name"_a, "delta"_a, "duration"_a)
       .def_property_readonly("last_stats",

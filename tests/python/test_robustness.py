@@ -304,3 +304,36 @@ def test_a_point_is_held_by_one_constraint(small_scene):
     sim.release("g")
     sim.fix(points=[40])
     assert 40 in sim.fixed_points()
+
+
+def test_a_grasp_the_recording_has_no_columns_for_is_refused(small_scene, tmp_path):
+    """A grasp started during a recording that was not named when it started would have no CSV
+    columns: refused, saying how to name it; a named one records its forces."""
+    sim = cutsim.Simulation(small_scene)
+    sim.record(tmp_path / "a", grasps=["named"])
+    with pytest.raises(cutsim.UsageError, match=r'no CSV columns for the grasp "late".*grasps=\["late"\]'):
+        sim.grasp("late", points=[40])
+    sim.grasp("named", points=[40], path=[[0, 0, 0, 0], [0.05, 0, 0, 0.01]])
+    sim.step(5)
+    sim.finish_recording()
+    header = next(p for p in tmp_path.glob("a/steps*.csv")).read_text().splitlines()[0]
+    assert "named_fx" in header and "late_fx" not in header
+
+
+def test_the_module_exports_only_its_own_names():
+    """No helper module (json, os, numpy) leaks into the cutsim namespace; the public methods
+    have their documentation."""
+    public = {n for n in dir(cutsim) if not n.startswith("_")}
+    assert not public & {"json", "os", "np", "numpy"}, public
+    for method in ("move", "grasp_forces", "grasp", "cut", "record"):
+        doc = getattr(cutsim.Simulation, method).__doc__ or ""
+        assert len(doc.split(")", 1)[-1].strip()) > 20, method
+
+
+def test_a_cut_at_world_positions_says_polylines_are_rest_coordinates(small_scene):
+    """A polyline given where the surface is now (not on the rest surface) is refused, saying
+    that a cut's polyline is in rest coordinates."""
+    sim = cutsim.Simulation(small_scene)
+    far = sim.rest.max(axis=0) + 5.0
+    with pytest.raises(cutsim.TopologyError, match="rest coordinates"):
+        sim.cut([far.tolist(), (far + 0.1).tolist()])

@@ -129,6 +129,8 @@ class OutputWriter {
   void finishPartial();
 
   const std::filesystem::path& dir() const { return dir_; }
+  /// The grasps the CSV has reaction-force columns for (fixed when the writer is made).
+  const std::vector<std::string>& graspColumns() const { return grasps_; }
   std::size_t framesWritten() const { return surfaceFrames_.size(); }
   /// Files of an earlier run removed from the folder when this writer took it.
   std::size_t replacedFiles() const { return replaced_; }
