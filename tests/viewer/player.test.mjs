@@ -132,6 +132,9 @@ await check('the last frame: the surface covers the view and the most strained t
   const last = expected.length - 1;
   await page.evaluate((i) => { window.cutsimPlayer.seek(i); window.cutsimPlayer.setLit(false); }, last);
   assert.equal(await page.evaluate(() => window.cutsimPlayer.frame), last);
+  // Frames count from 0 everywhere: the label names the frame seek(), --png and #frame= take.
+  const label = await page.evaluate(() => document.querySelector('.counts').textContent);
+  assert.ok(label.includes(`frame ${last} (0 to ${last})`), `the label of frame ${last}: ${label}`);
   const shot = decodePng(await page.screenshot({ path: path.join(work, 'last_frame.png') }));
   // The 3D view: the canvas's rectangle, minus the panels drawn over it.
   const view = await page.evaluate(() => {

@@ -587,8 +587,9 @@ class Player {
     const f = this.current();
     const run = this.meta.run;
     const lines = [
-      `t = ${fmt(f.t, 6)} s    frame ${this.index + 1} of ${this.frameList.length}` +
-        (run.framesShown < run.framesInRun ? ` (run frame ${run.frameIndices[this.index] + 1} of ${run.framesInRun})` : ''),
+      // Frames count from 0, as --png N and #frame=N do.
+      `t = ${fmt(f.t, 6)} s    frame ${this.index} (0 to ${this.frameList.length - 1})` +
+        (run.framesShown < run.framesInRun ? `, the run's frame ${run.frameIndices[this.index]} (0 to ${run.framesInRun - 1})` : ''),
       `${f.points} points, ${f.triangles} triangles`,
       f.borders === null || f.borders === undefined ? 'border edges: not in this run\'s frames'
         : `${f.borders} border edges, ${f.lipEdges} opened by cuts, tears or removals`,
