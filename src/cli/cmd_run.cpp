@@ -283,9 +283,13 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
     w << "warning: " << solves.flaggedSteps << " of " << runner.numSteps()
       << " steps were flagged by their solves (" << solves.missedTolerance
       << " missed their tolerance, " << solves.indefinite << " indefinite, " << solves.fellBack
-      << " fell back to CHOLMOD, " << solves.newtonNotConverged
+      << " fell back to the fallback solver, " << solves.newtonNotConverged
       << " Newton unconverged); worst relative residual " << solves.worstResidual << " at step "
       << solves.worstStep << "; the steps are flagged in the solver_flags column of steps.csv";
+    if (solves.missedTolerance > 0)
+      w << "; to meet the tolerance: a smaller time step, more iterations or a preconditioner "
+           "for CG, a looser tolerance if the residual shown is acceptable, or the direct solver "
+           "(cholmod)";
     std::cerr << w.str() << "\n";
   }
   if (!options.dumpFinal.empty()) {

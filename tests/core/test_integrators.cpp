@@ -365,6 +365,33 @@ TEST(SolveFailurePolicy, TheFallbackSolverIsTheOneNamed) {
   EXPECT_THROW(core::makeFallbackSolver("pardiso"), InvalidInput);
 }
 
+// When the fallback misses its tolerance too, the step goes on with the better of the two answers
+// (the smaller relative residual), flagged: here SOFA's CG (its defaults: 25 iterations) as the
+// fallback of a CG capped at one iteration, on a stiff sheet where neither meets its tolerance.
+TEST(SolveFailurePolicy, WhenBothMissTheBetterAnswerIsKeptAndFlagged) {
+  auto stiff = [](core::SolveFailurePolicy policy, const char* fallback) {
+    ImplicitSettings s;
+    s.onSolveFailure = policy;
+    s.fallbackAbove = 1e-12;
+    s.fallbackSolver = fallback;
+    return swingingSheet(std::make_unique<ImplicitEuler>(
+        s, std::make_unique<ConjugateGradient>(CGSettings{1, 1e-14, false})));
+  };
+  auto sim = stiff(core::SolveFailurePolicy::Fallback, "sofa-cg");
+  const StepStats s = sim->step(0.5);
+  ASSERT_TRUE(s.flags & StepStats::FellBack);
+  EXPECT_EQ(s.flagText(), "missed-tolerance+fallback");
+  EXPECT_EQ(s.solves, 2);
+  EXPECT_GT(s.residual, 1e-5);  // SOFA's CG missed its tolerance too (it used to end the run)
+  // The kept answer is the better one: at most the worse residual.
+  EXPECT_LE(s.residual, s.worstResidual);
+  // The capped CG alone (warn) is worse here: the step kept the fallback's answer.
+  auto alone = stiff(core::SolveFailurePolicy::Warn, "sofa-cg");
+  const StepStats w = alone->step(0.5);
+  EXPECT_GT(w.residual, s.residual);
+  EXPECT_EQ(s.worstResidual, w.residual);
+}
+
 TEST(SolveFailurePolicy, FailNamesTheStepAndTheResidual) {
   auto sim = stiffCappedCG(core::SolveFailurePolicy::Fail, 1e-3);
   const std::vector<double> before(sim->state().x().begin(), sim->state().x().end());

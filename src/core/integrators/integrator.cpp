@@ -143,6 +143,7 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   if (!far && !r.indefinite) return;
   if (solver_->direct()) throw StepFailure{describe(*solver_, r), r.indefinite};
   if (!fallback_) fallback_ = makeFallbackSolver(settings_.fallbackSolver);
+  const Eigen::VectorXd first = dv;
   dv = guess;
   const SolveReport f = fallback_->solve(A, b, dv);
   stats.iterations += f.iterations;
@@ -150,10 +151,18 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   stats.analysed = stats.analysed || f.analysed;
   stats.flags |= StepStats::FellBack;
   record(f);
-  if (f.indefinite || !f.converged)
+  if (f.indefinite || !std::isfinite(f.residual))
     throw StepFailure{
         describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4),
         f.indefinite};
+  if (f.converged) return;
+  // Both missed: the better of the two answers is kept, the step flagged (missed-tolerance and
+  // fallback); the run's warning says what to change.
+  stats.flags |= StepStats::MissedTolerance;
+  if (!r.indefinite && r.residual < f.residual) {
+    dv = first;
+    stats.residual = r.residual;
+  }
 }
 
 // ---- the shorthand of the first scenes ----
