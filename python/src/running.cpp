@@ -59,6 +59,7 @@ py::object Simulation::step(long n) {
     }
     stepping_ = false;
     keepBridgeLast();
+    if (writer_) recordingFailed_ = failure != nullptr;
     if (failure) {
       warnPendingCallbackError();  // the action's failure is raised; the callback's is a warning
       std::rethrow_exception(failure);
@@ -191,6 +192,7 @@ void Simulation::record(const std::filesystem::path& dir,
       throw InvalidInput("record", "grasp name \"" + g + "\" cannot name CSV columns");
     if (std::find(grasps.begin(), grasps.end(), g) == grasps.end()) grasps.push_back(g);
   }
+  recordingFailed_ = false;
   runner_->start();  // the scene's actions due at time 0, if they have not run yet
   keepBridgeLast();
   writer_ =
@@ -208,6 +210,17 @@ py::object Simulation::finishRecording() {
   const std::filesystem::path dir = writer_->dir();
   auto w = std::move(writer_);
   w->frame(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()});
+  if (recordingFailed_) {
+    recordingFailed_ = false;
+    w->finishPartial();
+    if (PyErr_WarnEx(gSolverWarning,
+                     ("finish_recording: the recording's last step failed: " + dir.string() +
+                      " is written as a partial run (steps.partial.csv, *.partial.pvd)")
+                         .c_str(),
+                     2) != 0)
+      throw py::error_already_set();
+    return py::cast(dir);
+  }
   w->finish();
   return py::cast(dir);
 }

@@ -14,8 +14,14 @@ Simulation::~Simulation() {
   subscription_.reset();
   eventLogSubscription_.reset();
   if (writer_) {
+    // Abandoned (the script raised, or dropped the simulation without finish_recording()): the
+    // outputs so far are written whole under partial names, never as a finished run's.
     try {
-      writer_->finish();
+      writer_->frame(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()});
+    } catch (...) {
+    }
+    try {
+      writer_->finishPartial();
     } catch (...) {
     }
   }

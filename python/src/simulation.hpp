@@ -149,6 +149,9 @@ class Simulation {
   std::unique_ptr<EventBridge> bridge_;
   topology::Subscription subscription_;
   std::unique_ptr<core::OutputWriter> writer_;
+  /// The recording's last step failed (a SolverError, an action's failure): finishing it writes
+  /// the outputs as partial, as `cutsim run` does for a run that did not reach its end.
+  bool recordingFailed_ = false;
   std::unique_ptr<EventLog> eventLog_;
   topology::Subscription eventLogSubscription_;
   std::vector<py::object> controllers_;

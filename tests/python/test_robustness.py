@@ -337,3 +337,37 @@ def test_a_cut_at_world_positions_says_polylines_are_rest_coordinates(small_scen
     far = sim.rest.max(axis=0) + 5.0
     with pytest.raises(cutsim.TopologyError, match="rest coordinates"):
         sim.cut([far.tolist(), (far + 0.1).tolist()])
+
+
+def test_an_abandoned_or_failed_recording_is_written_as_partial(small_scene, tmp_path):
+    """A recording dropped without finish_recording(), or finished right after a failed step, is
+    written whole under partial names (as an interrupted `cutsim run`), never as a finished run;
+    one finished after good steps is a finished run."""
+    sim = cutsim.Simulation(small_scene)
+    sim.record(tmp_path / "abandoned")
+    sim.step(3)
+    del sim
+    gc.collect()
+    names = {p.name for p in (tmp_path / "abandoned").iterdir()}
+    assert "steps.partial.csv" in names and "steps.csv" not in names, names
+    assert not any(n.endswith(".tmp") for n in names), names
+    assert any(n.endswith(".partial.pvd") for n in names) and "surface.pvd" not in names, names
+
+    small_scene.pop("linearSolver")
+    small_scene["integrator"] = {"type": "explicit-euler"}
+    small_scene["forceFields"][0]["stiffness"] = 1e9
+    small_scene["timeStep"] = 0.05
+    failing = cutsim.Simulation(small_scene)
+    failing.record(tmp_path / "failed")
+    with pytest.raises(cutsim.SolverError):
+        failing.step(200)
+    with pytest.warns(cutsim.SolverWarning, match="written as a partial run"):
+        failing.finish_recording()
+    names = {p.name for p in (tmp_path / "failed").iterdir()}
+    assert "steps.partial.csv" in names and "steps.csv" not in names, names
+
+    good = cutsim.Simulation(small_scene)
+    good.record(tmp_path / "good")
+    good.step(1)
+    good.finish_recording()
+    assert (tmp_path / "good" / "steps.csv").exists()
