@@ -384,6 +384,29 @@ TEST(Output, PartialCollectionsLagByAnEighthAtMost) {
   std::filesystem::remove_all(dir);
 }
 
+// The final collections are written under staging names and renamed only once all are written: a
+// collection that cannot be written (a full disk; here a folder in the way of its temporary file)
+// leaves no final collection beside the partial ones, and the run is not taken for complete.
+TEST(Output, AFinalCollectionThatCannotBeWrittenLeavesNoneFinal) {
+  const std::filesystem::path dir = freshDir("staged");
+  SmallRun run(0);
+  SceneRunner& runner = *run.runner;
+  OutputWriter writer(dir, run.scene.output, run.scene.forceFieldLabels(), run.scene.graspNames());
+  writer.record(runner.simulation(), {0, 0.0, {}}, false);
+  while (!runner.finished()) {
+    const StepStats stats = runner.advance();
+    writer.record(runner.simulation(), {runner.currentStep(), runner.time(), stats},
+                  runner.finished());
+  }
+  std::filesystem::create_directories(dir / ".springs.pvd.next.tmp");  // (surface's comes first)
+  EXPECT_THROW(writer.finish(), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "surface.pvd"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "surface.pvd.next"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "steps.csv"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "surface.partial.pvd"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Output, NoInfinityReachesTheCsv) {
   const std::filesystem::path dir = freshDir("finite");
   SmallRun run(2);

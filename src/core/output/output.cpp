@@ -847,7 +847,33 @@ void OutputWriter::finish() {
   // The CSV's data first: if the disk is full, the run stops here with its collections still
   // marked partial, and nothing looks complete.
   closeCsv();
-  writeCollections(".pvd");
+  // Then every final collection under a staging name: one that cannot be written (a full disk)
+  // leaves no final collection beside the partial ones; the renames that follow need no space.
+  const std::string staged = ".pvd.next";
+  auto stagedFiles = [&] {
+    std::vector<std::filesystem::path> out;
+    std::error_code ignored;
+    for (const auto& entry : std::filesystem::directory_iterator(dir_, ignored)) {
+      const std::string name = entry.path().filename().string();
+      if (name.size() > staged.size() &&
+          name.compare(name.size() - staged.size(), staged.size(), staged) == 0)
+        out.push_back(entry.path());
+    }
+    return out;
+  };
+  try {
+    writeCollections(staged);
+  } catch (...) {
+    std::error_code ignored;
+    for (const auto& p : stagedFiles()) std::filesystem::remove(p, ignored);
+    throw;
+  }
+  for (const auto& p : stagedFiles()) {
+    const std::string name = p.filename().string();
+    std::error_code ec;
+    std::filesystem::rename(p, dir_ / (name.substr(0, name.size() - staged.size()) + ".pvd"), ec);
+    if (ec) throw Error("cannot rename " + p.string() + ": " + ec.message());
+  }
   std::error_code removeError;
   for (const auto& name :
        {std::string("surface"), std::string("borders"), std::string("obstacles")})
