@@ -304,6 +304,16 @@ const bool registered = ForceFieldRegistry::instance().add(
            t, std::any_cast<const BendingParameters&>(p));
      }});
 }  // namespace
+std::string FastTriangularBendingSprings::problemAtRest() const {
+  const std::size_t dropped = counters().unrepresentable;
+  if (!(params_.bendingStiffness > 0) || dropped == 0) return "";
+  return "bendingStiffness: " + std::to_string(dropped) + " of " +
+         std::to_string(dropped + numActiveSprings()) +
+         " springs would be dropped: their stiffness (k times a factor of the hinge's shape) is "
+         "beyond what a spring can hold (1e306) at k = " +
+         describeNumber(params_.bendingStiffness) + "; lower bendingStiffness";
+}
+
 void FastTriangularBendingSprings::saveState(ArchiveWriter& out) const {
   saveTable(out);
 }

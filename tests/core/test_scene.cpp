@@ -307,6 +307,27 @@ TEST(Scene, ValuesThatWouldMakeARunDoNothingAreRefused) {
               StartsWith("inline.json:6: /integrator/tolerance: must be < 1, got 2"));
 }
 
+// A bending stiffness whose springs a hinge cannot hold (1e308: every spring would be dropped as
+// unrepresentable) is refused when the run is built, naming the key, not run without bending.
+TEST(Scene, ABendingStiffnessThatWouldDropEverySpringIsRefused) {
+  const Scene s = parseScene(
+      scene("\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": "
+            "1e308}]"),
+      "inline.json", kScenes);
+  try {
+    SceneRunner runner(s);
+    FAIL() << "a run without its bending springs was built";
+  } catch (const InvalidInput& e) {
+    EXPECT_THAT(e.what(), StartsWith("inline.json:6: /forceFields/0/bendingStiffness: 40 of 40 "
+                                     "springs would be dropped"));
+  }
+  const Scene fine = parseScene(
+      scene("\"forceFields\": [{\"type\": \"FastTriangularBendingSprings\", \"bendingStiffness\": "
+            "1e290}]"),
+      "inline.json", kScenes);
+  EXPECT_NO_THROW(SceneRunner{fine});
+}
+
 TEST(Scene, StretchFieldsReadTheirRestScale) {
   const Scene s =
       parseScene(scene("\"forceFields\": [{\"type\": \"StretchSprings\", \"stiffness\": 5, "

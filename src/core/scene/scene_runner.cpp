@@ -111,6 +111,10 @@ void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) 
       throw InvalidInput(f.location.where(scene_.file.string()),
                          "unknown force field type \"" + f.type + "\"");
     sim_->addForceField(entry->build(f.parameters, sim_->topology()), labels[i]);
+    const std::string problem = sim_->forceField(i).problemAtRest();
+    if (!problem.empty())
+      throw InvalidInput(f.location.where(scene_.file.string()),
+                         f.location.pointer + "/" + problem);
   }
   // The step hooks (contact), each with the label of the force field it may add (after the
   // scene's own).

@@ -161,6 +161,9 @@ class FastTriangularBendingSprings
   /// The active springs, compact (their order changes with removals and compaction).
   std::span<const BendingSpring> activeSprings() const { return entries(); }
   std::size_t numActiveSprings() const { return entries().size(); }
+  /// "bendingStiffness: ..." when springs are dropped as unrepresentable (k times a hinge's
+  /// geometry beyond 1e306, or a geometry beyond the range of doubles) while k > 0.
+  std::string problemAtRest() const override;
   /// The record of active spring i (0 <= i < numActiveSprings()).
   HingeRecord springRecord(std::size_t i) const { return entryRecord(i); }
   /// Records of every live edge of the table, ascending edge id.

@@ -123,6 +123,11 @@ class ForceField {
   /// default. Returns false, changing nothing, when the field has no exact K to offer.
   virtual bool setExactStiffness(bool exact) { return !exact || stiffnessIsExact(); }
 
+  /// Why the field, as built on the rest mesh, would not do what its parameters ask (its
+  /// elements dropped for values beyond what it can hold), as "KEY: message"; "" when nothing is
+  /// wrong. A scene refuses such a field before it runs.
+  virtual std::string problemAtRest() const { return ""; }
+
   /// Whether the model may replace this field by another of its type (new parameters between
   /// steps): false for a field that a step hook holds by reference (Contact).
   virtual bool replaceable() const { return true; }
