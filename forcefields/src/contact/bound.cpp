@@ -32,7 +32,7 @@ double Contact::Impl::pairSafeFraction(const Pair& p, std::span<const double> x0
         for (int i = 0; i < 4; ++i) q[std::size_t(i)] = q0[std::size_t(i)] + t * d[std::size_t(i)];
         return evaluatePoints(p, q).s;  // (unused points stay at zero)
       },
-      a + b);
+      a + b, gapFloor());
 }
 
 double Contact::Impl::reachOf(const Pair& p) const {
@@ -42,14 +42,15 @@ double Contact::Impl::reachOf(const Pair& p) const {
     double a = 0, b = 0;
     for (int i = 0; i < count; ++i)
       (i < split ? a : b) = std::max(i < split ? a : b, motionOf(p, i).norm());
-    return a + b;
+    return a + b + gapFloor();
   }
   V3 mean = V3::Zero();
   for (int i = 0; i < count; ++i) mean += motionOf(p, i) / double(count);
   double a = 0, b = 0;
   for (int i = 0; i < count; ++i)
     (i < split ? a : b) = std::max(i < split ? a : b, (motionOf(p, i) - mean).norm());
-  return a + b;
+  // (a pair that could come within the floor is bounded too)
+  return a + b + gapFloor();
 }
 
 Box Contact::Impl::sweptPoint(std::span<const double> x, std::uint32_t v) const {
@@ -65,7 +66,8 @@ void Contact::Impl::prepareSwept(std::span<const double> x, const std::vector<V3
   bvhBuilt = true;
   tightBoxes(x, tight);
   boxes.resize(tris.size());
-  const double eps = 1e-9 * std::max(meanEdge, 1e-300);
+  // (grown by the floor: a pair that could come within it is found)
+  const double eps = 1e-9 * std::max(meanEdge, 1e-300) + gapFloor();
   for (std::size_t i = 0; i < tris.size(); ++i) {
     Box b = tight.tri[i];
     for (int k = 0; k < 3; ++k)
@@ -120,6 +122,7 @@ void Contact::Impl::sweptTrianglePair(int i, int j, std::span<const double> x,
     const std::uint32_t a0 = A[std::size_t((a + 1) % 3)], a1 = A[std::size_t((a + 2) % 3)];
     Box sa = sweptPoint(x, a0);
     sa.add(sweptPoint(x, a1));
+    sa.inflate(gapFloor());
     if (!sa.overlaps(bb)) continue;
     for (int b = 0; b < 3; ++b) {
       if (edgeOwner[triE[std::size_t(j)][std::size_t(b)]] != j) continue;
@@ -215,8 +218,10 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
                                    surfacePoint(x, T[2])};
         const double smin = std::min({pointSdf[T[0]], pointSdf[T[1]], pointSdf[T[2]]});
         // Dropped only at 1.25 times its reach or more, where the CCD below would take the
-        // whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it.
-        const double D = triangleObstacleDistance(int(k), tv, 1.25 * reach, smin);
+        // whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it
+        // (and at ten floors more: its CCD's floor is then a tenth of its distance).
+        const double D =
+            triangleObstacleDistance(int(k), tv, 1.25 * reach + 10 * gapFloor(), smin);
         // Already touching or inside (a corner inside, or made so by a topology operation):
         // not bounded, the penalty pushes it out; bounding it at zero would freeze it there.
         if (D > 0 && D < kInf) to.push_back({int(k), t, D});
@@ -267,7 +272,7 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
     bool common = true;
     const V3 f = frameOf(p, common);
     if (!common) return false;
-    const double b = gamma * p.s0;
+    const double b = keepApart(p.s0, gamma);
     for (int i = 0; i < 4; ++i)
       if (((p.surface >> i) & 1) && (dx[p.id[std::size_t(i)]] - f).squaredNorm() > b * b)
         return false;
@@ -282,7 +287,7 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
       if (((p.surface >> i) & 1) && q < locked.size() && locked[q])
         lockedMove = std::max(lockedMove, (dx[q] - frame).norm());
     }
-    return gamma * std::max(p.s0 - lockedMove, 0.0);
+    return keepApart(p.s0 - lockedMove, gamma);
   };
   // Bounds point p by b in the frame f (a point keeps the first moving frame it is given).
   auto restrict = [&](std::uint32_t p, double b, const V3& f, bool& changed) {
@@ -347,13 +352,14 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
         // From its distance at the start (x and the obstacles' start do not change), unless a
         // displacement is not finite (then measured: not finite, nothing of the step is safe).
         const bool finite = dx[T[0]].allFinite() && dx[T[1]].allFinite() && dx[T[2]].allFinite();
-        const double safe = finite ? safeFraction(dist, lp, it.D) : safeFraction(dist, lp);
+        const double safe = finite ? safeFraction(dist, lp, it.D, gapFloor())
+                                   : safeFraction(dist, lp, gapFloor());
         if (safe >= 1.0) continue;
         for (std::uint32_t p : T)
-          restrict(p, std::max(gamma * it.D, safe * (dx[p] - m).norm()), m, changed);
+          restrict(p, std::max(keepApart(it.D, gamma), safe * (dx[p] - m).norm()), m, changed);
         continue;
       }
-      for (std::uint32_t p : T) restrict(p, gamma * it.D, m, changed);
+      for (std::uint32_t p : T) restrict(p, keepApart(it.D, gamma), m, changed);
     }
     any = any || changed;
     if (!changed) break;
@@ -411,7 +417,7 @@ std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<dou
     for (std::size_t p = 0; p < n; ++p) dx[p] = dxOf(p);
     I.obstacleMargin.assign(obstacles_.size(), 0.0);
     for (std::size_t k = 0; k < obstacles_.size(); ++k)
-      I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge;
+      I.obstacleMargin[k] = I.move[k].norm() + 1e-9 * I.meanEdge + I.gapFloor();
     std::vector<Pair>& near = I.nearPairs;
     near.clear();
     I.sweep = &dx;

@@ -176,20 +176,35 @@ struct Contact::Impl {
   /// distance to the round surface, the unit normal from the core, the weights on the points.
   inline Eval roundObstacle(int k, const std::array<V3, 4>& q, int m, const V3& fallback) const;
 
+  /// The gap no step lets two primitives close below (a pair found farther apart): a thousandth
+  /// of the thickness, where the law's force is about three times its value at d / 100. Without
+  /// it a pair pressed harder than the law holds closes by most of its distance every step and
+  /// reaches rounding's scale, where no distance proves a side (see docs/contact.md, "The
+  /// guarantee").
+  double gapFloor() const { return kGapFloor * P.thickness; }
+  static constexpr double kGapFloor = 1e-3;
+  /// How far each point of a pair at distance s may move, whatever the direction, for the pair
+  /// to stay apart: gamma s (gamma < 1/2: the two primitives cannot meet), and no closer than
+  /// the floor when it starts above it.
+  double keepApart(double s, double gamma) const {
+    const double g = gapFloor();
+    return s > g ? std::min(gamma * s, 0.5 * (s - g)) : gamma * std::max(s, 0.0);
+  }
+
   /// Additive continuous collision detection (Li, Kaufman and Jiang 2021) of something whose
   /// distance at time t in [0, 1] is dist(t) and changes by at most lp per unit of t: the part
-  /// [0, t] of the step over which the distance provably stays above a tenth of its start (1:
-  /// the whole step).
+  /// [0, t] of the step over which the distance provably stays above a tenth of its start and
+  /// above `floor` when it starts above it (1: the whole step).
   template <class Dist>
-  static double safeFraction(const Dist& dist, double lp) {
-    return safeFraction(dist, lp, dist(0.0));
+  static double safeFraction(const Dist& dist, double lp, double floor) {
+    return safeFraction(dist, lp, dist(0.0), floor);
   }
   /// The same, given d0 = dist(0).
   template <class Dist>
-  static double safeFraction(const Dist& dist, double lp, double d0) {
+  static double safeFraction(const Dist& dist, double lp, double d0, double floorGap) {
     if (!(d0 > 0)) return 0.0;
     if (!(lp > 0)) return 1.0;
-    const double floor = 0.1 * d0;
+    const double floor = d0 > floorGap ? std::max(0.1 * d0, floorGap) : 0.1 * d0;
     double t = 0.0, d = d0;
     // A pair that separates advances by growing steps: 32 advances prove separation from a
     // distance many times smaller than the motion. One that approaches gets the part of the

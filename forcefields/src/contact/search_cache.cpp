@@ -38,7 +38,7 @@ void Contact::Impl::nearFromCache(std::span<const double> x, const std::vector<c
     }
     if (!slow) return;  // (found around the fast points)
     const double lower = c.s - cachedShrink(c);
-    if (lower >= 4 * largestMove) return;
+    if (lower >= 4 * largestMove + gapFloor()) return;
     const Pair p = c.pair();
     const double reach = reachOf(p);
     if (lower < reach) keepIfNear(p, x, reach, to);
@@ -46,11 +46,11 @@ void Contact::Impl::nearFromCache(std::span<const double> x, const std::vector<c
   // (visited on several threads when there are many: runs of the visits, their pairs
   // appended in order, as one thread would have found them)
   // A pair is skipped below when its distance less its shrink is at least four times its
-  // points' largest motion. Every pair is at least cacheNearest apart at the cache's build:
+  // points' largest motion, plus the floor. Every pair is at least cacheNearest apart at the cache's build:
   // when only a few points move more than a quarter of cacheNearest - shrink (and no obstacle
   // does), only their pairs can pass, and they are visited (in the cache's order, as the
   // whole pass would).
-  const double still = 0.25 * (cacheNearest - shrink);
+  const double still = 0.25 * (cacheNearest - shrink - gapFloor());
   bool obstaclesStill = true;
   for (const V3& m : move) obstaclesStill = obstaclesStill && m.norm() <= still;
   std::vector<std::uint32_t>& moving = movingScratch;
@@ -71,7 +71,7 @@ void Contact::Impl::nearFromCache(std::span<const double> x, const std::vector<c
     gatherInParts(visits.size(), partsFor(visits.size(), kRecordsPerThread), partPairs, out,
                   [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
                     for (std::size_t k = begin; k < end; ++k)
-                      if (!(double(cacheLow[visits[k]]) - shrink >= 4 * largest))
+                      if (!(double(cacheLow[visits[k]]) - shrink >= 4 * largest + gapFloor()))
                         visit(visits[k], to);
                   });
     return;
@@ -79,7 +79,7 @@ void Contact::Impl::nearFromCache(std::span<const double> x, const std::vector<c
   gatherInParts(cache.size(), partsFor(cache.size(), kRecordsPerThread), partPairs, out,
                 [&](std::size_t begin, std::size_t end, std::vector<Pair>& to) {
                   for (std::size_t ci = begin; ci < end; ++ci) {
-                    if (double(cacheLow[ci]) - shrink >= 4 * largest)
+                    if (double(cacheLow[ci]) - shrink >= 4 * largest + gapFloor())
                       continue;  // (the test below, with bounds for every pair)
                     visit(ci, to);
                   }
