@@ -46,9 +46,9 @@ void Contact::Impl::nearFromCache(std::span<const double> x, const std::vector<c
   // (visited on several threads when there are many: runs of the visits, their pairs
   // appended in order, as one thread would have found them)
   // A pair is skipped below when its distance less its shrink is at least four times its
-  // points' largest motion, plus the floor. Every pair is at least cacheNearest apart at the cache's build:
-  // when only a few points move more than a quarter of cacheNearest - shrink (and no obstacle
-  // does), only their pairs can pass, and they are visited (in the cache's order, as the
+  // points' largest motion, plus the floor. Every pair is at least cacheNearest apart at the
+  // cache's build: when only a few points move more than a quarter of cacheNearest - shrink (and no
+  // obstacle does), only their pairs can pass, and they are visited (in the cache's order, as the
   // whole pass would).
   const double still = 0.25 * (cacheNearest - shrink - gapFloor());
   bool obstaclesStill = true;
