@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iomanip>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -561,10 +563,10 @@ TEST(Contact, PairsEqualABruteForceInATightFold) {
   EXPECT_GT(touching, 0u);
 }
 
-/// Two copies of a 9 x 9 grid (81 points each), the second moved by (dx, dy, dz).
-MeshData twoSheets(double dx, double dy, double dz) {
+/// Two copies of a side x side grid (side * side points each), the second moved by (dx, dy, dz).
+MeshData twoSheets(double dx, double dy, double dz, int side = 9) {
   core::GridSpec g;
-  g.nx = g.ny = 9;
+  g.nx = g.ny = side;
   const MeshData one = core::makeGrid(g);
   MeshData two = one;
   const auto n = topology::Index(one.points.size());
@@ -1033,6 +1035,80 @@ TEST(Contact, DisplacementBoundKeepsEveryPairApart) {
   };
   ASSERT_EQ(soup(c.x), 0u);
   EXPECT_EQ(soup(x1), 0u);
+}
+
+/// The smallest distance between a triangle of the first sheet and one of the second (CGAL's,
+/// every pair: the two sheets of twoSheets, points [0, n) and [n, 2n)).
+double sheetGap(const Topology& topo, const std::vector<double>& x, topology::Index n) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  std::vector<K::Triangle_3> lower, upper;
+  for (topology::TriangleId t : topo.triangles()) {
+    const auto v = topo.triangleVertices(t);
+    auto P = [&](PointId p) {
+      return K::Point_3(x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]);
+    };
+    (v[0].idx() < n ? lower : upper).push_back(K::Triangle_3(P(v[0]), P(v[1]), P(v[2])));
+  }
+  double gap = std::numeric_limits<double>::infinity();
+  for (const auto& a : lower)
+    for (const auto& b : upper) gap = std::min(gap, CGAL::to_double(CGAL::squared_distance(a, b)));
+  return std::sqrt(gap);
+}
+
+TEST(Contact, TwoSheetsPressedHarderThanAnyLawKeepTheFloorUnderTheirGapAndStillPart) {
+  // Two sheets, the upper one jittered sideways, are pressed together by proposals that would
+  // take each of them 0.15 d towards the other every step, far more than the gap (no force
+  // acts: as a pressure no law holds). Step after step the bound must keep the sheets at least
+  // the floor apart (a thousandth of the thickness), or, found below it, no closer than they
+  // started (less a millionth per step, as also once on the floor): without the floor they closed by most of the gap every
+  // step, down to rounding's scale, where a triangle turned through the other layer. Then the
+  // sheets must part by the whole of a separating proposal.
+  const double d = 0.05, floor = 1e-3 * d, dt = 1e-2;
+  const int side = 5;
+  const auto n = topology::Index(side * side);
+  Topology topo(twoSheets(0.0, 0.0, 2 * d, side));  // (apart at rest: no exclusion)
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> jitter(-1e-3 * d, 1e-3 * d);
+  for (const double start : {0.3 * d, 0.5 * floor}) {
+    std::vector<double> x(3 * topo.pointCapacity(), 0.0), v(x.size(), 0.0);
+    for (PointId p : topo.points())
+      for (int c = 0; c < 3; ++c)
+        x[3 * p.idx() + std::size_t(c)] =
+            topo.restPosition(p)[std::size_t(c)] + (p.idx() < n ? 0.0
+                                                    : c == 2    ? start - 2 * d
+                                                                : jitter(rng));
+    const double gap0 = sheetGap(topo, x, n);
+    ASSERT_NEAR(gap0, start, 1e-12);
+    Contact contact(topo, params(d), {});
+    const int steps = 60;
+    double gap = gap0;
+    for (int s = 0; s < steps; ++s) {
+      contact.beginStep(x, v, dt);
+      std::vector<double> x1 = x, v1(x.size(), 0.0);
+      for (PointId p : topo.points()) {
+        x1[3 * p.idx() + 2] += p.idx() < n ? 0.15 * d : -0.15 * d;
+        if (p.idx() >= n) x1[3 * p.idx()] += jitter(rng);
+      }
+      contact.limitDisplacement(x, x1, v1, dt, {});
+      x = x1;
+      gap = sheetGap(topo, x, n);
+      // (A pair that lands on the floor may be found a rounding below it: it then closes by at
+      // most a millionth of its gap per step.)
+      const double least = std::min(start, floor) * (1 - 1e-6 * (s + 1));
+      ASSERT_GE(gap, least * (1 - 1e-9))
+          << std::setprecision(17) << gap << ", start " << start << ", step " << s;
+    }
+    // The press was real: the sheets reached the floor (or stayed where they were found).
+    EXPECT_LT(gap, start > floor ? 1.5 * floor : start) << "start " << start;
+    // Parting: the upper sheet lifted by d, the lower one still, moves by all of it.
+    contact.beginStep(x, v, dt);
+    std::vector<double> x1 = x, v1(x.size(), 0.0);
+    for (PointId p : topo.points())
+      if (p.idx() >= n) x1[3 * p.idx() + 2] += d;
+    const std::vector<double> proposed = x1;
+    contact.limitDisplacement(x, x1, v1, dt, {});
+    EXPECT_EQ(x1, proposed) << "start " << start;
+  }
 }
 
 }  // namespace

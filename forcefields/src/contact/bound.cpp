@@ -220,7 +220,8 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
         // Dropped only at 1.25 times its reach or more, where the CCD below would take the
         // whole step at its first advance (0.81 D / lp >= 1): the same bounds as measuring it
         // (and at ten floors more: its CCD's floor is then a tenth of its distance).
-        const double D = triangleObstacleDistance(int(k), tv, 1.25 * reach + 10 * gapFloor(), smin);
+        const double D =
+            triangleObstacleDistance(int(k), tv, 1.25 * reach + gapFloor() / kCcdFraction, smin);
         // Already touching or inside (a corner inside, or made so by a topology operation):
         // not bounded, the penalty pushes it out; bounding it at zero would freeze it there.
         if (D > 0 && D < kInf) to.push_back({int(k), t, D});

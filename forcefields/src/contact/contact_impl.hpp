@@ -183,18 +183,30 @@ struct Contact::Impl {
   /// guarantee").
   double gapFloor() const { return kGapFloor * P.thickness; }
   static constexpr double kGapFloor = 1e-3;
+  /// The distance a pair found at d0 is kept above over a step, given the floor: the larger of
+  /// a tenth of d0 and the floor, but no more than all but a millionth of d0. So a pair found
+  /// above the floor stays above it (to within a millionth), and one found on or below it (a
+  /// topology operation, or a pair that reached the floor and is found a rounding below it) may
+  /// part but closes by at most a millionth of its distance per step: pressed, it would
+  /// otherwise close by most of its distance step after step. The millionth leaves the CCD room
+  /// to prove that such a pair parts. Without a floor (zero), a tenth of d0.
+  static double keptAbove(double d0, double floorGap) {
+    return std::max(kCcdFraction * d0, std::min(floorGap, (1.0 - kLeastClose) * d0));
+  }
+  static constexpr double kCcdFraction = 0.1;
+  static constexpr double kLeastClose = 1e-6;
   /// How far each point of a pair at distance s may move, whatever the direction, for the pair
-  /// to stay apart: gamma s (gamma < 1/2: the two primitives cannot meet), and no closer than
-  /// the floor when it starts above it.
+  /// to stay apart: gamma s (gamma < 1/2: the two primitives cannot meet), and no more than half
+  /// of what keeps it above keptAbove(s) (the floor; below the floor, almost nothing).
   double keepApart(double s, double gamma) const {
-    const double g = gapFloor();
-    return s > g ? std::min(gamma * s, 0.5 * (s - g)) : gamma * std::max(s, 0.0);
+    if (!(s > 0)) return 0.0;
+    return std::min(gamma * s, 0.5 * (s - keptAbove(s, gapFloor())));
   }
 
   /// Additive continuous collision detection (Li, Kaufman and Jiang 2021) of something whose
   /// distance at time t in [0, 1] is dist(t) and changes by at most lp per unit of t: the part
-  /// [0, t] of the step over which the distance provably stays above a tenth of its start and
-  /// above `floor` when it starts above it (1: the whole step).
+  /// [0, t] of the step over which the distance provably stays above keptAbove(dist(0), floor)
+  /// (1: the whole step).
   template <class Dist>
   static double safeFraction(const Dist& dist, double lp, double floor) {
     return safeFraction(dist, lp, dist(0.0), floor);
@@ -204,12 +216,14 @@ struct Contact::Impl {
   static double safeFraction(const Dist& dist, double lp, double d0, double floorGap) {
     if (!(d0 > 0)) return 0.0;
     if (!(lp > 0)) return 1.0;
-    const double floor = d0 > floorGap ? std::max(0.1 * d0, floorGap) : 0.1 * d0;
+    const double floor = keptAbove(d0, floorGap);
     double t = 0.0, d = d0;
     // A pair that separates advances by growing steps: 32 advances prove separation from a
-    // distance many times smaller than the motion. One that approaches gets the part of the
-    // step it provably has.
-    for (int i = 0; i < 32; ++i) {
+    // distance many times smaller than the motion (128 within ten floors, where the first
+    // advance may be as small as a millionth of the distance). One that approaches gets the
+    // part of the step it provably has.
+    const int advances = d0 > floorGap / kCcdFraction ? 32 : 128;
+    for (int i = 0; i < advances; ++i) {
       const double next =
           t + 0.9 * (d - floor) / lp;  // the distance cannot fall below `floor` before then
       if (next >= 1.0) return 1.0;
