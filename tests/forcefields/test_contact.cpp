@@ -1060,9 +1060,9 @@ TEST(Contact, TwoSheetsPressedHarderThanAnyLawKeepTheFloorUnderTheirGapAndStillP
   // take each of them 0.15 d towards the other every step, far more than the gap (no force
   // acts: as a pressure no law holds). Step after step the bound must keep the sheets at least
   // the floor apart (a thousandth of the thickness), or, found below it, no closer than they
-  // started (less a millionth per step, as also once on the floor): without the floor they closed by most of the gap every
-  // step, down to rounding's scale, where a triangle turned through the other layer. Then the
-  // sheets must part by the whole of a separating proposal.
+  // started (less a millionth per step, as also once on the floor): without the floor they closed
+  // by most of the gap every step, down to rounding's scale, where a triangle turned through the
+  // other layer. Then the sheets must part by the whole of a separating proposal.
   const double d = 0.05, floor = 1e-3 * d, dt = 1e-2;
   const int side = 5;
   const auto n = topology::Index(side * side);
