@@ -31,6 +31,8 @@ constexpr double kRelativeRestHeight = 1e-8;
 constexpr double kRelativeCurrentHeight2 = 1e-24;
 /// Rest coordinates beyond this are not representable (squares of cross products would overflow).
 constexpr double kMaxCoordinate = 1e60;
+/// A hinge stiffer than this at rest (2 c / h^2) is refused (problemAtRest), as a spring is.
+constexpr double kMaxHingeStiffness = 1e306;
 /// Current l^2 at or beyond this (or not finite): the exact stiffness gives the hinge zero blocks
 /// (its force overflows long before).
 constexpr double kMaxLength2 = 1e300;
@@ -546,6 +548,36 @@ const bool registered = ForceFieldRegistry::instance().add(
                                                 std::any_cast<const DihedralBendingParameters&>(p));
      }});
 }  // namespace
+std::string DihedralBending::problemAtRest() const {
+  // The hinge's stiffness scale: the Gauss-Newton K is 2 c grad(theta) grad(theta)^T, and
+  // |grad(theta)| is 1 / h at a wing of height h.
+  std::size_t beyond = 0;
+  for (const DihedralHinge& h : entries()) {
+    auto at = [&](int i) { return topology_->restPosition(PointId(h.v[std::size_t(i)])); };
+    const Vec3 a = at(0), b = at(1), c = at(2), d = at(3);
+    const double e[3] = {d[0] - c[0], d[1] - c[1], d[2] - c[2]};
+    const double l = std::sqrt(dot(e, e));
+    auto height = [&](const Vec3& q) {
+      const double w[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+      double n[3];
+      cross(w, e, n);
+      return std::sqrt(dot(n, n)) / l;
+    };
+    const double hmin = std::min(height(a), height(b));
+    if (!(h.coefficient > 0)) continue;
+    // (in logarithms: 2 c / h^2 itself may overflow)
+    if (!(std::log(2.0) + std::log(h.coefficient) - 2.0 * std::log(hmin) <
+          std::log(kMaxHingeStiffness)))
+      ++beyond;
+  }
+  if (beyond == 0) return "";
+  return "bendingStiffness: " + std::to_string(beyond) + " of " +
+         std::to_string(numActiveHinges()) +
+         " hinges would be stiffer than the solves can hold (2 c / h^2 >= 1e306, with c = k l / "
+         "(3 (hA + hB)) and h the smaller wing height) at k = " +
+         describeNumber(params_.bendingStiffness) + "; lower bendingStiffness";
+}
+
 void DihedralBending::saveState(ArchiveWriter& out) const {
   fields(out, params_.exactHessian);
   saveTable(out);

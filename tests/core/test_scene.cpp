@@ -326,6 +326,21 @@ TEST(Scene, ABendingStiffnessThatWouldDropEverySpringIsRefused) {
             "1e290}]"),
       "inline.json", kScenes);
   EXPECT_NO_THROW(SceneRunner{fine});
+  // The same for DihedralBending, whose hinges would not be dropped but would overflow the
+  // solve (it failed at step 7 with a residual of 1e131).
+  const Scene dihedral = parseScene(
+      scene("\"forceFields\": [{\"type\": \"DihedralBending\", \"bendingStiffness\": 1e308}]"),
+      "inline.json", kScenes);
+  try {
+    SceneRunner runner(dihedral);
+    FAIL() << "a run whose hinges overflow was built";
+  } catch (const InvalidInput& e) {
+    EXPECT_THAT(e.what(), StartsWith("inline.json:6: /forceFields/0/bendingStiffness: 40 of 40 "
+                                     "hinges would be stiffer than the solves can hold"));
+  }
+  EXPECT_NO_THROW(SceneRunner{parseScene(
+      scene("\"forceFields\": [{\"type\": \"DihedralBending\", \"bendingStiffness\": 1e290}]"),
+      "inline.json", kScenes)});
 }
 
 TEST(Scene, StretchFieldsReadTheirRestScale) {

@@ -203,6 +203,9 @@ class DihedralBending : public ForceField,
   bool setExactStiffness(bool exact) override;
   /// One segment per active hinge, from wing A to wing B.
   void draw(std::vector<std::array<PointId, 2>>& segments) const override;
+  /// "bendingStiffness: ..." when a hinge's stiffness at rest (2 c / h^2, h its smaller wing
+  /// height) is beyond what the solves can hold (1e306), as a stiffness of 1e308 makes it.
+  std::string problemAtRest() const override;
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override;
   void loadState(ArchiveReader& in) override;
