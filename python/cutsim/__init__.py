@@ -124,18 +124,13 @@ class Simulation(_cutsim._Simulation):
 
     # ---- topology operations ----
     def cut(self, polyline, snap_tolerance=0.1, min_angle=20.0):
-        """Cuts along a polyline in rest coordinates, then repairs the triangles around the cut
-        (smallest-angle target min_angle degrees; 0: no repair). Returns the incision: path,
-        copies, copied_from, inserted (point slots) and the repair's figures. A cut the topology
-        refuses raises TopologyError and changes nothing."""
+        """Cuts along a polyline in rest coordinates (those of sim.rest, not sim.x), then repairs
+        the triangles around the cut (smallest-angle target min_angle degrees; 0: no repair).
+        Returns the incision: path, copies, copied_from, inserted (point slots) and the repair's
+        figures. A cut the topology refuses raises TopologyError and changes nothing (a polyline
+        off the rest surface says so)."""
         polyline = _np.asarray(polyline, dtype=float)
-        try:
-            return self._cut(polyline, float(snap_tolerance), float(min_angle))
-        except TopologyError as e:
-            if "not on the surface" not in str(e) and "leaves the surface" not in str(e):
-                raise
-            raise TopologyError(f"{e} (a cut's polyline is in rest coordinates, those of sim.rest, "
-                                "not where the surface is now, sim.x)") from None
+        return self._cut(polyline, float(snap_tolerance), float(min_angle))
 
     def tear(self, edge=None, *, points=None, min_angle=20.0):
         """Tears one interior edge open (by its id, or by its two end points), then repairs."""

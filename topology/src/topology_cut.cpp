@@ -27,6 +27,12 @@ namespace {
 
 using Vector3 = Kernel::Vector_3;
 
+/// Added to the errors of a polyline that misses the surface: the likeliest cause on a deformed
+/// surface.
+const std::string kRestHint =
+    " (a cut's polyline is in rest coordinates, where the surface is at rest, not where it is "
+    "now)";
+
 std::string fmt(const Point3& p) {
   std::ostringstream s;
   s.precision(6);
@@ -269,14 +275,14 @@ class Walker {
     }
     if (!bestF.is_valid())
       throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
-                          " is not on the surface (no triangle near it)");
+                          " is not on the surface (no triangle near it)" + kRestHint);
     auto c = corners(m, bestF);
     double tol = 0.25 * longestEdge(c);
     if (std::sqrt(best) > tol)
       throw TopologyError("cutPolyline: point " + std::to_string(index) + " " + fmt(p) +
                           " is not on the surface (nearest triangle " +
                           std::to_string(bestF.idx()) + " is " + std::to_string(std::sqrt(best)) +
-                          " away)");
+                          " away)" + kRestHint);
     Point3 onSurface = closestOnTriangle(c, p);
     auto l = barycentric(c, onSurface);
     if (!l)
@@ -370,7 +376,8 @@ class Walker {
         Point3 here = fromBary(corners(m, loc.face), loc.bary);
         if (!st)
           throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" +
-                              std::to_string(k) + " leaves the surface at " + fmt(here));
+                              std::to_string(k) + " leaves the surface at " + fmt(here) +
+                              kRestHint);
         Location next{st->first.face, st->second.at};
         corridor.push_back(next.face);
         if (st->second.reached) {
@@ -393,7 +400,8 @@ class Walker {
         if (fromBary(corners(m, next.face), next.bary) == here && guard > 3) {
           // No progress from a vertex: the direction leaves the surface there.
           throw TopologyError("cutPolyline: segment " + std::to_string(k - 1) + "-" +
-                              std::to_string(k) + " leaves the surface at " + fmt(here));
+                              std::to_string(k) + " leaves the surface at " + fmt(here) +
+                              kRestHint);
         }
         loc = next;
       }

@@ -148,13 +148,23 @@ std::vector<std::string> Model::setExactStiffness(bool exact) {
 }
 
 double Model::kineticEnergy() const {
+  return kineticEnergyOf(state_->v());
+}
+
+double Model::kineticEnergyOf(std::span<const double> v, std::size_t* overflowAt) const {
+  const std::size_t n = v.size() / 3;
+  if (overflowAt) *overflowAt = n;
   if (!mass_) return 0.0;
   auto m = mass_->perPoint();
-  auto v = state_->v();
   double e = 0;
-  for (std::size_t p = 0; p < m.size(); ++p)
+  for (std::size_t p = 0; p < m.size() && p < n; ++p) {
     e += 0.5 * m[p] *
          (v[3 * p] * v[3 * p] + v[3 * p + 1] * v[3 * p + 1] + v[3 * p + 2] * v[3 * p + 2]);
+    if (overflowAt && !std::isfinite(e)) {
+      *overflowAt = p;
+      break;
+    }
+  }
   return e;
 }
 

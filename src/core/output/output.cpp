@@ -810,15 +810,17 @@ void OutputWriter::closeCsv() {
   if (!ok) throw Error("cannot write " + csvTemp_.string());
 }
 
-void OutputWriter::writeCollections(const std::string& suffix, std::size_t frames) {
+void OutputWriter::writeCollections(const std::string& suffix, std::size_t frames,
+                                    std::vector<std::filesystem::path>* written) {
   // Each collection lists its frames numbered below `frames` (a series may start late); an
   // empty one is not written.
   auto write = [&](const std::string& name, const Frames& all) {
     Frames listed;
     for (const auto& f : all)
       if (const auto k = frameNumber(f.second); k && *k < frames) listed.push_back(f);
-    if (!listed.empty())
-      writeFileAtomically(dir_ / (name + suffix), [&](std::ostream& o) { writePvd(o, listed); });
+    if (listed.empty()) return;
+    writeFileAtomically(dir_ / (name + suffix), [&](std::ostream& o) { writePvd(o, listed); });
+    if (written) written->push_back(dir_ / (name + suffix));
   };
   if (!settings_.vtk) return;
   write("surface", surfaceFrames_);
@@ -849,26 +851,18 @@ void OutputWriter::finish() {
   closeCsv();
   // Then every final collection under a staging name: one that cannot be written (a full disk)
   // leaves no final collection beside the partial ones; the renames that follow need no space.
+  // (Only the files written here are renamed: a stale staged file of an earlier run that died
+  // is not taken for this run's.)
   const std::string staged = ".pvd.next";
-  auto stagedFiles = [&] {
-    std::vector<std::filesystem::path> out;
-    std::error_code ignored;
-    for (const auto& entry : std::filesystem::directory_iterator(dir_, ignored)) {
-      const std::string name = entry.path().filename().string();
-      if (name.size() > staged.size() &&
-          name.compare(name.size() - staged.size(), staged.size(), staged) == 0)
-        out.push_back(entry.path());
-    }
-    return out;
-  };
+  std::vector<std::filesystem::path> written;
   try {
-    writeCollections(staged);
+    writeCollections(staged, ~std::size_t(0), &written);
   } catch (...) {
     std::error_code ignored;
-    for (const auto& p : stagedFiles()) std::filesystem::remove(p, ignored);
+    for (const auto& p : written) std::filesystem::remove(p, ignored);
     throw;
   }
-  for (const auto& p : stagedFiles()) {
+  for (const auto& p : written) {
     const std::string name = p.filename().string();
     std::error_code ec;
     std::filesystem::rename(p, dir_ / (name.substr(0, name.size() - staged.size()) + ".pvd"), ec);

@@ -100,13 +100,10 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
     requireFinite(std::span<const double>(out.x.data(), std::size_t(out.x.size())), "position", "");
     // Finite velocities are a blow-up too when their kinetic energy is beyond the range of
     // doubles (what the CSV's first column would meet): named here, with the same hint.
-    const auto m = model_->mass().perPoint();
-    double kinetic = 0.0;
-    for (std::size_t p = 0; p < n && p < m.size(); ++p) {
-      const double* w = out.v.data() + 3 * p;
-      kinetic += 0.5 * m[p] * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-      if (!std::isfinite(kinetic)) throw NonFiniteValue{"kinetic energy", "", p};
-    }
+    std::size_t overflow = n;
+    model_->kineticEnergyOf(std::span<const double>(out.v.data(), std::size_t(out.v.size())),
+                            &overflow);
+    if (overflow < n) throw NonFiniteValue{"kinetic energy", "", overflow};
   } catch (const NonFiniteValue& e) {
     std::ostringstream s;
     s << stepName() << "non-finite " << e.what;

@@ -98,6 +98,10 @@ class Model {
 
   // ---- energies at the current state ----
   double kineticEnergy() const;
+  /// Sum of 1/2 m |v|^2 over the points of the velocities v (3 per slot): the state's, or a
+  /// step's before it is taken. With `overflowAt`, the sum stops at the first point where it is
+  /// no longer finite and that point is written there (else the slot count).
+  double kineticEnergyOf(std::span<const double> v, std::size_t* overflowAt = nullptr) const;
   double gravityEnergy() const;  ///< -sum m g.x
   double fieldEnergy(std::size_t i) const;
   /// Total force on each point slot from the force fields and gravity (not the constraints).

@@ -155,8 +155,11 @@ class OutputWriter {
   // The ends of a run (finish, finishPartial): the CSV flushed and closed, every collection
   // written whole with a suffix (".pvd", ".partial.pvd"), the CSV renamed, the lock released.
   void closeCsv();
-  /// Every collection under its name + suffix, listing the frames numbered below `frames`.
-  void writeCollections(const std::string& suffix, std::size_t frames = ~std::size_t(0));
+  /// Every collection under its name + suffix, listing the frames numbered below `frames`;
+  /// `written`, when given, receives each file as soon as it is written (so that a failure part
+  /// way knows what to take back).
+  void writeCollections(const std::string& suffix, std::size_t frames = ~std::size_t(0),
+                        std::vector<std::filesystem::path>* written = nullptr);
   void renameCsv(const std::string& name);
   void releaseFolder();
   /// Whether the partial collections are rewritten after the frames-th frame.
