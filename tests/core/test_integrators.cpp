@@ -392,6 +392,33 @@ TEST(SolveFailurePolicy, WhenBothMissTheBetterAnswerIsKeptAndFlagged) {
   EXPECT_EQ(s.worstResidual, w.residual);
 }
 
+// And the other way: a capped CG that got further than the fallback (SOFA's CG, 25 iterations,
+// against 40) keeps its own answer, bit for bit what the capped CG alone gives, still flagged.
+TEST(SolveFailurePolicy, WhenBothMissTheFirstAnswerIsKeptWhenItIsTheBetter) {
+  auto stiff = [](core::SolveFailurePolicy policy) {
+    ImplicitSettings s;
+    s.onSolveFailure = policy;
+    s.fallbackAbove = 1e-300;  // (always re-solved)
+    s.fallbackSolver = "sofa-cg";
+    return swingingSheet(std::make_unique<ImplicitEuler>(
+        s, std::make_unique<ConjugateGradient>(CGSettings{40, 1e-300, false})));
+  };
+  auto sim = stiff(core::SolveFailurePolicy::Fallback);
+  const StepStats s = sim->step(0.5);
+  ASSERT_TRUE(s.flags & StepStats::FellBack);
+  EXPECT_EQ(s.flagText(), "missed-tolerance+fallback");
+  EXPECT_EQ(s.solves, 2);
+  auto alone = stiff(core::SolveFailurePolicy::Warn);
+  const StepStats w = alone->step(0.5);
+  // The fallback's answer was the worse one (else this test does not reach its branch).
+  ASSERT_GT(s.worstResidual, w.residual);
+  EXPECT_EQ(s.residual, w.residual);
+  auto a = sim->state().x();
+  auto b = alone->state().x();
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << "coordinate " << i;
+}
+
 TEST(SolveFailurePolicy, FailNamesTheStepAndTheResidual) {
   auto sim = stiffCappedCG(core::SolveFailurePolicy::Fail, 1e-3);
   const std::vector<double> before(sim->state().x().begin(), sim->state().x().end());
