@@ -278,6 +278,16 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
        "0.5, 0]]}, {\"at\": 0.02, \"action\": \"cut\", \"polyline\": [[0.25, 0, 0], [0.25, 1, "
        "0]]}]",
        "6: /timeline/1/polyline: the cut cannot be made on the rest surface"},
+      // A second cut a millimetre beside the first snaps onto its lips and opens nothing; a cut
+      // along the border opens nothing either: both used to be run and not counted, unsaid.
+      {"\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0.5, 0], [0.5, "
+       "0.5, 0]]}, {\"at\": 0.02, \"action\": \"cut\", \"polyline\": [[0, 0.501, 0], [0.5, "
+       "0.501, 0]]}]",
+       "6: /timeline/1/polyline: the cut opens nothing: its path runs along the border or along "
+       "the lips of an earlier cut"},
+      {"\"timeline\": [{\"at\": 0.01, \"action\": \"cut\", \"polyline\": [[0, 0, 0], [1, 0, "
+       "0]]}]",
+       "6: /timeline/0/polyline: the cut opens nothing"},
       {"\"timeline\": {}", "6: /timeline: expected an array, got an object"},
       {"\"name\": \"a/b\"", "6: /name: must be a plain file name"},
       {"\"duration\": 1", "6: /duration: duplicate key"},

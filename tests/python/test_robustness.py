@@ -339,6 +339,23 @@ def test_a_cut_at_world_positions_says_polylines_are_rest_coordinates(small_scen
         sim.cut([far.tolist(), (far + 0.1).tolist()])
 
 
+def test_a_cut_beside_an_earlier_one_that_opens_nothing_says_so(small_scene):
+    """A cut a millimetre beside an earlier one snaps onto its lips: it opens nothing, and says
+    so (it used to return an empty incision, counted as no cut, without a word); the mesh is
+    unchanged, and a cut farther away is made."""
+    sim = cutsim.Simulation(small_scene)
+    lo, hi = sim.rest.min(axis=0), sim.rest.max(axis=0)
+    y = 0.5 * (lo[1] + hi[1])
+    sim.cut([[lo[0], y, 0.0], [0.5 * (lo[0] + hi[0]), y, 0.0]])
+    assert sim.cuts_done == 1
+    before = (sim.num_points, sim.num_triangles)
+    with pytest.raises(cutsim.TopologyError, match="opens nothing"):
+        sim.cut([[lo[0], y + 1e-3, 0.0], [0.5 * (lo[0] + hi[0]), y + 1e-3, 0.0]])
+    assert (sim.num_points, sim.num_triangles) == before
+    assert sim.cuts_done == 1
+    sim.validate()
+
+
 def test_an_abandoned_or_failed_recording_is_written_as_partial(small_scene, tmp_path):
     """A recording dropped without finish_recording(), or finished right after a failed step, is
     written whole under partial names (as an interrupted `cutsim run`), never as a finished run;

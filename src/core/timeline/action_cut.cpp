@@ -52,7 +52,10 @@ class CutAction final : public TimelineAction {
       topology::CutOptions options;
       options.snapTolerance = p_.snapTolerance;
       options.repair.minAngle = p_.minAngle;
-      c.topology().cutPolyline(p_.polyline, options);
+      const topology::IncisionResult r = c.topology().cutPolyline(p_.polyline, options);
+      // Its path ran along edges that are already border: the lips of an earlier cut (its ends
+      // snapped onto them) or the border itself. Said here rather than counted as nothing.
+      if (!opened(r)) c.fail("polyline", opensNothing());
     } catch (const TopologyError& e) {
       c.fail("polyline", std::string("the cut cannot be made on the rest surface: ") + e.what());
     }
@@ -60,7 +63,9 @@ class CutAction final : public TimelineAction {
 
   void start(ActionContext& c) override {
     if (!timing_.interval) {
-      cut(c, p_.polyline);
+      // (made on the mesh as it is now: one that opens nothing, for example given from Python
+      // beside a cut made since the check, is refused the same way; nothing changed)
+      if (!opened(cut(c, p_.polyline))) c.failTopology(opensNothing());
       return;
     }
     minPiece_ = 0.5 * c.meanRestEdge();
@@ -135,6 +140,12 @@ class CutAction final : public TimelineAction {
   }
 
  private:
+  std::string opensNothing() const {
+    return "the cut opens nothing: its path runs along the border or along the lips of an "
+           "earlier cut, onto which its points snapped (within snapTolerance, " +
+           describeNumber(p_.snapTolerance) +
+           " of the local edge length); a cut beside another must be farther from it than that";
+  }
   topology::CutOptions options(ActionContext& c) const {
     topology::CutOptions o;
     o.snapTolerance = p_.snapTolerance;
