@@ -369,12 +369,64 @@ bool Contact::Impl::limit(std::span<const double> x, const std::vector<Pair>& ne
   return any;
 }
 
+std::size_t Contact::respondToMovingObstacles(std::span<const double> x0, std::span<double> x1,
+                                              std::span<double> v1, double dt,
+                                              std::span<const char> constrained) {
+  Impl& I = *impl_;
+  const std::size_t n = x0.size() / 3;
+  const double d = I.P.thickness;
+  std::size_t moved = 0;
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    const Obstacle& o = obstacles_[k];
+    if (!o.moving() || !o.shape->solid() || I.move[k] == V3::Zero()) continue;
+    const Vec3 off0{I.startOffset[k][0], I.startOffset[k][1], I.startOffset[k][2]};
+    const Vec3 off1{I.offset[k][0], I.offset[k][1], I.offset[k][2]};
+    const double mu = o.friction;  // (an obstacle pair's, as the penalty's)
+    for (std::size_t p = 0; p < n; ++p) {
+      if (!I.topo.isPointAlive(PointId(Index(p)))) continue;
+      if (I.pointOwner.size() > p && I.pointOwner[p] < 0) continue;
+      if (p < constrained.size() && constrained[p]) continue;
+      Vec3 g0, g1;
+      const double s0 =
+          o.shape->signedDistance({x0[3 * p], x0[3 * p + 1], x0[3 * p + 2]}, off0, g0);
+      // (only points the obstacle may reach in the step: within d plus its travel and theirs)
+      const V3 step(x1[3 * p] - x0[3 * p], x1[3 * p + 1] - x0[3 * p + 1],
+                    x1[3 * p + 2] - x0[3 * p + 2]);
+      if (!(s0 > 0) || !(s0 < d + I.move[k].norm() + step.norm())) continue;
+      const double s1 =
+          o.shape->signedDistance({x1[3 * p], x1[3 * p + 1], x1[3 * p + 2]}, off1, g1);
+      // Within the thickness: no closer than at the start; coming in from farther: no closer
+      // than the thickness. (Half the thickness, where the law pushes, was tried: the next
+      // linearised solve lags behind the obstacle again there, and the rising ball of the tests
+      // split 865 times in 210 steps instead of none.)
+      const double keep = std::min(s0, d);
+      if (!(s1 < keep)) continue;
+      const V3 nrm(g1[0], g1[1], g1[2]);
+      const double push = keep - s1;
+      // The displacement relative to the obstacle, its tangential part reduced by mu times
+      // the normal correction (Coulomb), the normal correction itself.
+      const V3 rel = step - I.move[k];
+      const V3 tangential = rel - rel.dot(nrm) * nrm;
+      const double t = tangential.norm();
+      V3 delta = push * nrm;
+      if (t > 0) delta -= std::min(t, mu * push) / t * tangential;
+      for (int c = 0; c < 3; ++c) {
+        x1[3 * p + std::size_t(c)] += delta[c];
+        v1[3 * p + std::size_t(c)] += delta[c] / dt;
+      }
+      ++moved;
+    }
+  }
+  return moved;
+}
+
 std::size_t Contact::limitDisplacement(std::span<const double> x0, std::span<double> x1,
                                        std::span<double> v1, double dt,
                                        std::span<const char> constrained) {
   Impl& I = *impl_;
   const std::size_t n = x0.size() / 3;
   I.updateTables();
+  respondToMovingObstacles(x0, x1, v1, dt, constrained);
   // Margins: the proposed displacements. A pair farther apart than its two primitives' largest
   // displacements cannot meet; the others bound their points.
   std::vector<V3> disp(n, V3::Zero());

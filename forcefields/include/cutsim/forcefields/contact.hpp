@@ -151,9 +151,11 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// The same with every obstacle at its scene position (offset zero) over the step.
   void beginStep(std::span<const double> x, std::span<const double> v, double dt);
 
-  /// After the step's solve: clamps each unconstrained point's displacement x1 - x0 to its bound
-  /// (velocities of clamped points become (x1 - x0) / dt). Returns the number of clamped points.
-  /// Part of the step (the bounds, anchors and pairs it finds are the step's state, bounds()).
+  /// After the step's solve: first the response to moving obstacles
+  /// (respondToMovingObstacles), then clamps each unconstrained point's displacement x1 - x0 to
+  /// its bound (velocities of clamped points become (x1 - x0) / dt). Returns the number of
+  /// clamped points. Part of the step (the bounds, anchors and pairs it finds are the step's
+  /// state, bounds()).
   std::size_t limitDisplacement(std::span<const double> x0, std::span<double> x1,
                                 std::span<double> v1, double dt, std::span<const char> constrained);
 
@@ -181,6 +183,17 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// Triangles that intersect each other (sharing no point) or an obstacle at x, or have a
   /// corner inside an analytic obstacle; at most `limit` (the start check of a scene).
   std::vector<ContactProximity> intersections(std::span<const double> x, std::size_t limit = 5);
+
+  /// Before the bound: each free point within d of a moving solid obstacle (a sphere, a capsule,
+  /// a box, a plane, a closed mesh) that the step would take closer to it than it starts (or,
+  /// coming from farther, closer than d) is moved back along the obstacle's normal at its end:
+  /// an inelastic impulse from a body of infinite mass, with Coulomb friction (the obstacle's
+  /// coefficient) taken off its motion along the surface relative to the obstacle. It corrects
+  /// what the linearised solve gets wrong about a moving obstacle (docs/contact.md, "Moving
+  /// obstacles"), so that the bound does not have to. Returns how many points it moved.
+  std::size_t respondToMovingObstacles(std::span<const double> x0, std::span<double> x1,
+                                       std::span<double> v1, double dt,
+                                       std::span<const char> constrained);
 
   /// The bound of each point slot after the last limitDisplacement (infinity: none; for tests).
   const std::vector<double>& bounds() const;
