@@ -402,14 +402,23 @@ std::size_t Contact::respondToMovingObstacles(std::span<const double> x0, std::s
       const double keep = std::min(s0, d);
       if (!(s1 < keep)) continue;
       const V3 nrm(g1[0], g1[1], g1[2]);
-      const double push = keep - s1;
-      // The displacement relative to the obstacle, its tangential part reduced by mu times
-      // the normal correction (Coulomb), the normal correction itself.
+      // The displacement relative to the obstacle.
       const V3 rel = step - I.move[k];
-      const V3 tangential = rel - rel.dot(nrm) * nrm;
-      const double t = tangential.norm();
-      V3 delta = push * nrm;
-      if (t > 0) delta -= std::min(t, mu * push) / t * tangential;
+      V3 delta;
+      if (s1 > 0 && nrm.dot(V3(g0[0], g0[1], g0[2])) > 0) {
+        // Back along the normal at the end by what it lacks, its tangential part reduced by mu
+        // times that correction (Coulomb).
+        const double push = keep - s1;
+        const V3 tangential = rel - rel.dot(nrm) * nrm;
+        const double t = tangential.norm();
+        delta = push * nrm;
+        if (t > 0) delta -= std::min(t, mu * push) / t * tangential;
+      } else {
+        // It would end inside the obstacle or past its middle (an obstacle that travels more
+        // than its half-width in a step), where the normal points to the other side: carried
+        // with the obstacle instead, at its start distance (obstacles only translate).
+        delta = -rel;
+      }
       for (int c = 0; c < 3; ++c) {
         x1[3 * p + std::size_t(c)] += delta[c];
         v1[3 * p + std::size_t(c)] += delta[c] / dt;

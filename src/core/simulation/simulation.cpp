@@ -100,10 +100,11 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
     requireFinite(std::span<const double>(out.x.data(), std::size_t(out.x.size())), "position", "");
     // Finite velocities are a blow-up too when their kinetic energy is beyond the range of
     // doubles (what the CSV's first column would meet): named here, with the same hint.
-    std::size_t overflow = n;
+    const std::size_t slots = std::size_t(out.v.size()) / 3;
+    std::size_t overflow = slots;
     model_->kineticEnergyOf(std::span<const double>(out.v.data(), std::size_t(out.v.size())),
                             &overflow);
-    if (overflow < n) throw NonFiniteValue{"kinetic energy", "", overflow};
+    if (overflow < slots) throw NonFiniteValue{"kinetic energy", "", overflow};
   } catch (const NonFiniteValue& e) {
     std::ostringstream s;
     s << stepName() << "non-finite " << e.what;

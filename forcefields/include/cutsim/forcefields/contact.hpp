@@ -185,10 +185,12 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   std::vector<ContactProximity> intersections(std::span<const double> x, std::size_t limit = 5);
 
   /// Before the bound: each free point within d of a moving solid obstacle (a sphere, a capsule,
-  /// a box, a plane, a closed mesh) that the step would take closer to it than it starts (or,
-  /// coming from farther, closer than d) is moved back along the obstacle's normal at its end:
-  /// an inelastic impulse from a body of infinite mass, with Coulomb friction (the obstacle's
-  /// coefficient) taken off its motion along the surface relative to the obstacle. It corrects
+  /// a box, a plane; not a triangle mesh, whose distance is unsigned) that the step would take
+  /// closer to it than it starts (or, coming from farther, closer than d) is moved back along
+  /// the obstacle's normal at its end: an inelastic impulse from a body of infinite mass, with
+  /// Coulomb friction (the obstacle's coefficient) taken off its motion along the surface
+  /// relative to the obstacle; one that would end inside or past the obstacle's middle is
+  /// carried with the obstacle at its start distance. It corrects
   /// what the linearised solve gets wrong about a moving obstacle (docs/contact.md, "Moving
   /// obstacles"), so that the bound does not have to. Returns how many points it moved.
   std::size_t respondToMovingObstacles(std::span<const double> x0, std::span<double> x1,
