@@ -16,6 +16,34 @@ py::dict Simulation::energies() {
   return d;
 }
 
+py::object Simulation::energyAccount() {
+  requireSettled("energy_account");
+  const core::EnergyLedger* e = sim().energy();
+  if (!e) return py::none();
+  auto flows = [](const core::EnergyFlows& f) {
+    py::dict d;
+    d["work_gravity"] = f.gravity;
+    d["work_constraints"] = f.constraints;
+    d["work_contact"] = f.contact;
+    d["dissipated_damping"] = f.damping;
+    d["removed"] = f.removed;
+    return d;
+  };
+  py::dict d = flows(e->total());
+  d["stored"] = e->storedEnergy();
+  d["balance"] = e->balance();
+  d["drift"] = e->drift();
+  py::dict step = flows(e->lastStep());
+  step["drift"] = e->stepDrift();
+  d["step"] = step;
+  return d;
+}
+
+void Simulation::accountEnergy() {
+  requireMutable("account_energy");
+  sim().enableEnergyAccounting();
+}
+
 py::array_t<double> Simulation::forces() {
   requireSettled("forces");
   const auto f = sim().totalForce();
@@ -149,6 +177,14 @@ void bindModel(SimulationClass& cls) {
            s.sim().setGravity(readVec3(g, "gravity"));
          })
       .def("energies", &Simulation::energies)
+      .def("energy_account", &Simulation::energyAccount,
+           "energy_account() -> dict or None: the energy accounts (docs/energy.md) since they were "
+           "opened: stored, the cumulative work_gravity, work_constraints, work_contact, "
+           "dissipated_damping and removed, balance and drift, and under 'step' the last step's "
+           "flows and drift. None unless the scene's output has \"energy\": true or "
+           "account_energy() was called.")
+      .def("account_energy", &Simulation::accountEnergy,
+           "account_energy(): opens the energy accounts at the current state (a new start).")
       .def("forces", &Simulation::forces)
       .def("_eval", &Simulation::fieldEval)
       .def_property_readonly("field_labels", &Simulation::fieldLabels)

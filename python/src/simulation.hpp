@@ -60,6 +60,10 @@ class Simulation {
 
   // ---- queries ----
   py::dict energies();
+  /// The energy accounts (docs/energy.md), None when the simulation does not keep them.
+  py::object energyAccount();
+  /// Opens the energy accounts now (again: a new start).
+  void accountEnergy();
   py::array_t<double> forces();
   std::size_t fieldIndex(const std::string& label);
   py::tuple fieldEval(const std::string& label, const py::object& xObj, const py::object& vObj);

@@ -65,3 +65,18 @@ def test_scripted_surgery_as_documented(tmp_path):
     assert float(re.search(r"flap lifted to z = ([\d.]+) mm", r.stdout).group(1)) > 25, r.stdout
     assert float(re.search(r"smallest triangle angle ([\d.]+)", r.stdout).group(1)) >= 19.9
     assert "forceps_fx" in (tmp_path / "steps.csv").read_text().splitlines()[0]
+
+
+def test_energy_balance(tmp_path):
+    r = run("energy_balance.py", "--quick", "--out", str(tmp_path))
+    rows = (tmp_path / "energy_integrators.csv").read_text().splitlines()
+    assert rows[0] == "integrator,time_step,final_drift,largest_drift" and len(rows) == 9, r.stdout
+    drift = {}
+    for line in rows[1:]:
+        name, dt, final, largest = line.split(",")
+        drift[(name, float(dt))] = float(final)
+    # Implicit Euler only loses energy, and less at half the step; BDF2 far less at the same step.
+    assert 0.8 * drift[("implicit-euler", 4e-4)] < drift[("implicit-euler", 2e-4)] < 0
+    assert abs(drift[("bdf2", 4e-4)]) < 0.2 * abs(drift[("implicit-euler", 4e-4)])
+    assert (tmp_path / "energy_tearing.csv").read_text().startswith("run,time,kinetic,stored,")
+    assert (tmp_path / "energy_balance.png").stat().st_size > 0

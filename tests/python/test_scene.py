@@ -135,6 +135,26 @@ def test_missed_tolerance_warns(small_scene):
     assert sim.last_stats["flags"].startswith("missed-tolerance")
 
 
+def test_energy_account(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    assert sim.energy_account() is None  # off unless asked for
+    sim.step(3)
+    sim.account_energy()
+    sim.step(20)
+    a = sim.energy_account()
+    assert set(a) >= {"stored", "balance", "drift", "work_gravity", "work_constraints", "work_contact",
+                      "dissipated_damping", "removed", "step"}
+    flows = a["dissipated_damping"] + a["removed"] - a["work_gravity"] - a["work_constraints"] - a["work_contact"]
+    assert a["balance"] == pytest.approx(a["stored"] + flows, rel=1e-12, abs=1e-15)
+    e = sim.energies()
+    assert a["stored"] == pytest.approx(e["kinetic"] + e["StretchSprings"] + e["FastTriangularBendingSprings"])
+    assert a["work_gravity"] != 0 and np.isfinite(a["drift"])
+    assert set(a["step"]) == {"work_gravity", "work_constraints", "work_contact", "dissipated_damping",
+                              "removed", "drift"}
+    small_scene["output"] = {"energy": True}
+    assert cutsim.Simulation(small_scene).energy_account()["drift"] == 0.0
+
+
 def test_energies_forces_and_bending_eval(small_scene):
     sim = cutsim.Simulation(small_scene)
     sim.step(30)

@@ -307,8 +307,13 @@ class Player {
     const time = this.seriesData.time;
     const groups = [];
     const pick = (re) => names.filter((n) => n !== 'time' && re.test(n));
-    const energy = pick(/energy|^potential_/);
+    const energy = pick(/^kinetic_energy$|^potential_|^gravity_energy$/);
     if (energy.length) groups.push({ name: 'energies (J)', columns: energy });
+    // The energy accounts (docs/energy.md): cumulative, then per step.
+    const accounts = pick(/^energy_stored$|^work_|^dissipated_damping$|^energy_removed$|^energy_drift$/);
+    if (accounts.length) groups.push({ name: 'energy accounts (J)', columns: accounts });
+    const perStep = pick(/^step_/);
+    if (perStep.length) groups.push({ name: 'energy accounts per step (J)', columns: perStep });
     const solver = pick(/^solver_iterations$|^newton_iterations$/);
     if (solver.length) groups.push({ name: 'solver iterations', columns: solver });
     const residual = pick(/^solver_residual$/);
@@ -325,7 +330,8 @@ class Player {
       this.plotsEl.append(el('div', { style: 'padding: 12px; color: #8a929c' }, `${why}: no plots`));
       return;
     }
-    const defaults = [groups[0], groups.find((g) => g.name.startsWith('grasp')) || groups.find((g) => g.name.startsWith('contact')) ||
+    // A run that keeps energy accounts asked for them: they come first.
+    const defaults = [groups.find((g) => g.name === 'energy accounts (J)') || groups[0], groups.find((g) => g.name.startsWith('grasp')) || groups.find((g) => g.name.startsWith('contact')) ||
       groups.find((g) => g.name === 'solver iterations') || groups[1] || groups[0]];
     for (let k = 0; k < 2; k++) {
       const box = el('div', { class: 'plot' });

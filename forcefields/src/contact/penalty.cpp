@@ -30,6 +30,20 @@ void Contact::addForce(std::span<const double> x, std::span<const double> v,
   }
 }
 
+void Contact::addFrictionForce(std::span<const double> /*x*/, std::span<const double> v,
+                               std::span<double> f) const {
+  // Lagged: the normal forces and directions frozen at the step's start, the positions unread.
+  const Impl& I = *impl_;
+  for (const Pair& p : I.pairs) {
+    if (p.excluded || !(p.lambda > 0 && p.mu > 0)) continue;
+    const V3 ff = frictionForce(p, parameters_.stickVelocity, I.relativeVelocity(p, v));
+    for (int i = 0; i < 4; ++i)
+      if ((p.surface >> i) & 1)
+        for (int c = 0; c < 3; ++c)
+          f[3 * p.id[std::size_t(i)] + std::size_t(c)] += p.w0[std::size_t(i)] * ff[c];
+  }
+}
+
 void Contact::beginProducts(std::span<const double> x) const {
   impl_->evaluation.hold(*impl_, x);
 }

@@ -674,6 +674,10 @@ std::string OutputWriter::csvHeader() const {
          "self_normal_force,self_friction_force";
     for (const std::string& o : obstacles_) h += "," + o + "_normal_force," + o + "_friction_force";
   }
+  if (settings_.energy)
+    h += ",energy_stored,work_gravity,work_constraints,work_contact,dissipated_damping,energy_"
+         "removed,energy_balance,energy_drift,step_work_gravity,step_work_constraints,step_work_"
+         "contact,step_dissipated_damping,step_energy_removed,step_energy_drift";
   return h;
 }
 
@@ -718,6 +722,24 @@ void OutputWriter::record(Simulation& sim, const StepRecord& r, bool last) {
             << ','
             << num(k < m.obstacleFriction.size() ? m.obstacleFriction[k] : 0.0,
                    obstacles_[k] + "_friction_force");
+    }
+    if (settings_.energy) {
+      const EnergyLedger* e = sim.energy();
+      if (!e)
+        throw Error(
+            "the scene's output asks for energy columns but the simulation does not "
+            "account for energy");
+      const EnergyFlows& t = e->total();
+      const EnergyFlows& s = e->lastStep();
+      row << ',' << num(e->storedEnergy(), "energy_stored") << ',' << num(t.gravity, "work_gravity")
+          << ',' << num(t.constraints, "work_constraints") << ',' << num(t.contact, "work_contact")
+          << ',' << num(t.damping, "dissipated_damping") << ',' << num(t.removed, "energy_removed")
+          << ',' << num(e->balance(), "energy_balance") << ',' << num(e->drift(), "energy_drift")
+          << ',' << num(s.gravity, "step_work_gravity") << ','
+          << num(s.constraints, "step_work_constraints") << ','
+          << num(s.contact, "step_work_contact") << ',' << num(s.damping, "step_dissipated_damping")
+          << ',' << num(s.removed, "step_energy_removed") << ','
+          << num(e->stepDrift(), "step_energy_drift");
     }
     writeCsv(row.str() + '\n');
   }

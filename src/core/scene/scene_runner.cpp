@@ -134,6 +134,7 @@ void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) 
     entry->build(c.parameters)->apply(*sim_);
   }
   if (physics) sim_->setIntegrator(makeIntegrator(scene_));
+  if (physics && scene_.output.energy) sim_->enableEnergyAccounting();
   numSteps_ = scene_.numSteps();
   timeStep_ = scene_.timeStep;
 }

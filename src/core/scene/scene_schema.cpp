@@ -276,12 +276,13 @@ void parseStepping(const Reader& r, const json& root, Scene& s) {
 
 void parseOutput(const Reader& r, const json& j, const std::string& ptr, OutputSettings& o) {
   r.expectObject(j, ptr);
-  r.checkKeys(j, ptr, {"every", "vtk", "springs", "obj", "csv"});
+  r.checkKeys(j, ptr, {"every", "vtk", "springs", "obj", "csv", "energy"});
   if (const json* v = r.find(j, "every")) o.every = int(r.integer(*v, ptr + "/every", 1, 1 << 30));
   if (const json* v = r.find(j, "vtk")) o.vtk = r.boolean(*v, ptr + "/vtk");
   if (const json* v = r.find(j, "springs")) o.springs = r.boolean(*v, ptr + "/springs");
   if (const json* v = r.find(j, "obj")) o.obj = r.boolean(*v, ptr + "/obj");
   if (const json* v = r.find(j, "csv")) o.csv = r.boolean(*v, ptr + "/csv");
+  if (const json* v = r.find(j, "energy")) o.energy = r.boolean(*v, ptr + "/energy");
 }
 
 /// A time of the timeline: finite, in [0, duration].

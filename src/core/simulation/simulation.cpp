@@ -2,7 +2,9 @@
 // (simulation.hpp).
 #include "cutsim/core/simulation.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include "cutsim/base/archive.hpp"
@@ -45,6 +47,12 @@ StepStats Simulation::step(double dt) {
   StepStats stats;
   stats.substeps = 0;
   const double t0 = time_;
+  // A failed step leaves the accounts as they were, like the state.
+  std::optional<EnergyLedger> ledger0;
+  if (ledger_) {
+    ledger_->beginStep(*model_);
+    ledger0 = *ledger_;
+  }
   // With step hooks a step may be taken in parts: a failing part leaves the state as at the start.
   std::vector<double> x0, v0;
   if (!hooks_.empty()) {
@@ -59,8 +67,10 @@ StepStats Simulation::step(double dt) {
       std::copy(x0.begin(), x0.end(), model_->state().x().begin());
       std::copy(v0.begin(), v0.end(), model_->state().v().begin());
     }
+    if (ledger0) *ledger_ = *ledger0;
     throw;
   }
+  if (ledger_) ledger_->endStep(*model_);
   time_ = t0 + dt;
   ++steps_;
   if (stats.flagged()) {
@@ -117,6 +127,19 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
   } catch (const StepFailure& e) {
     throw SolverError(stepName() + e.message);
   }
+  // The step's energy flows, measured on the integrator's proposal (kept if no hook splits it).
+  EnergyFlows flows;
+  std::vector<double> xp, vp;
+  if (ledger_) {
+    flows = ledger_->proposalFlows(*model_, *integrator_, h,
+                                   std::span<const double>(out.x.data(), std::size_t(out.x.size())),
+                                   std::span<const double>(out.v.data(), std::size_t(out.v.size())),
+                                   out.reaction, constraints.constrained);
+    if (!hooks_.empty()) {
+      xp.assign(out.x.data(), out.x.data() + out.x.size());
+      vp.assign(out.v.data(), out.v.data() + out.v.size());
+    }
+  }
   if (!hooks_.empty()) {
     const StepProposal proposal{*model_,
                                 time_,
@@ -160,9 +183,24 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
         for (int c = 0; c < 3; ++c) r[c] += out.reaction[Eigen::Index(3 * p.idx() + c)];
     grasp.setReaction(r);
   }
+  if (ledger_) {
+    // The hooks' corrections (contact's bound and response) are their work.
+    const bool changed = !xp.empty() && (!std::equal(xp.begin(), xp.end(), out.x.data()) ||
+                                         !std::equal(vp.begin(), vp.end(), out.v.data()));
+    ledger_->commit(*model_, flows, xp, vp, changed, out.reaction, constraints.constrained);
+  }
   time_ += h;
   const StepEnd end{*model_, time_};
   for (const auto& hook : hooks_) hook->endStep(end);
+}
+
+void Simulation::enableEnergyAccounting() {
+  ledger_ = std::make_unique<EnergyLedger>(*model_);
+}
+
+const EnergyLedger* Simulation::energy() {
+  if (ledger_) ledger_->settle(*model_);
+  return ledger_.get();
 }
 
 std::vector<std::string> Simulation::notCheckpointable() const {
@@ -190,6 +228,10 @@ void Simulation::saveState(ArchiveWriter& out) const {
   out.str(integrator_->name());
   integrator_->saveState(out);
   model_->saveState(out);
+  if (ledger_) {  // a section of its own: checkpoints of runs without accounting are unchanged
+    out.begin("energy");
+    ledger_->saveState(out);
+  }
 }
 
 void Simulation::loadState(ArchiveReader& in) {
@@ -206,6 +248,13 @@ void Simulation::loadState(ArchiveReader& in) {
   integrator_->loadState(in);
   in.close();
   model_->loadState(in);
+  if (ledger_) {
+    if (!in.has("energy"))
+      in.fail("the run accounts for energy, the checkpoint's did not: it has no energy accounts");
+    in.open("energy");
+    ledger_->loadState(in);
+    in.close();
+  }
 }
 
 }  // namespace cutsim::core

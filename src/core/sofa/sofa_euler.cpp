@@ -45,6 +45,9 @@ class SofaEuler final : public Integrator {
   }
   std::string_view name() const override { return "sofa-euler"; }
   LinearSolver* linearSolver() const override { return solver_.get(); }
+  std::array<double, 2> rayleigh() const override {
+    return {s_.rayleighMass, s_.rayleighStiffness};
+  }
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override {
     solver_->saveState(out);

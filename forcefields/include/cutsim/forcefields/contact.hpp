@@ -210,6 +210,11 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   void beginProducts(std::span<const double> x) const override;
   void endProducts(std::span<const double> x) const override;
   double potentialEnergy(std::span<const double> x) const override;
+  /// Its obstacles move and its friction is not linear in v: its work is counted, not its energy.
+  bool conservative() const override { return false; }
+  /// The friction forces of addForce alone.
+  void addFrictionForce(std::span<const double> x, std::span<const double> v,
+                        std::span<double> f) const override;
   void addKToMatrix(std::span<const double> x, MatrixAccumulator& m, double kFactor) const override;
   void addBToMatrix(std::span<const double> x, MatrixAccumulator& m, double bFactor) const override;
   bool stiffnessIsExact() const override { return false; }

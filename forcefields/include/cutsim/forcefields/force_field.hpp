@@ -103,6 +103,16 @@ class ForceField {
 
   /// The potential energy at x.
   virtual double potentialEnergy(std::span<const double> x) const = 0;
+  /// Whether F(x, v) is -grad potentialEnergy(x) plus a damping B(x) v at every time (true), or
+  /// not (contact: its obstacles move, its friction is not linear in v). Energy accounting
+  /// (cutsim/core/energy.hpp) counts a conservative field's damping as dissipated; of a field
+  /// that is not, what its potential changes by when the field itself changes at fixed x (its
+  /// obstacles move) and the work of its friction (addFrictionForce).
+  virtual bool conservative() const { return true; }
+  /// f += the part of F(x, v) that is not -grad potentialEnergy(x): friction (a field that is
+  /// not conservative()). Default: nothing.
+  virtual void addFrictionForce(std::span<const double> /*x*/, std::span<const double> /*v*/,
+                                std::span<double> /*f*/) const {}
 
   /// Adds kFactor * K(x) to m.
   virtual void addKToMatrix(std::span<const double> x, MatrixAccumulator& m,

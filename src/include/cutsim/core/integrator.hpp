@@ -31,6 +31,7 @@
 // with the fallbackSolver, CHOLMOD by default, when the relative residual is above fallbackAbove;
 // a capped solve that got closer is only flagged).
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -118,6 +119,9 @@ class Integrator {
   virtual void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) = 0;
   /// The linear solver, if the method uses one.
   virtual LinearSolver* linearSolver() const { return nullptr; }
+  /// Its Rayleigh damping factors (mass, stiffness): the damping force -rM M v + rK K v, which
+  /// energy accounting counts as dissipated. Default: none.
+  virtual std::array<double, 2> rayleigh() const { return {0.0, 0.0}; }
   /// Checkpoints: whether the method (with its solvers) saves what its next steps depend on (a
   /// previous step, a warm start); saveState and loadState write and read it in the open section.
   virtual bool checkpointable() const { return false; }
@@ -131,6 +135,9 @@ class ImplicitIntegrator : public Integrator {
   ImplicitIntegrator(ImplicitSettings settings, std::unique_ptr<LinearSolver> solver);
   ~ImplicitIntegrator() override;
   LinearSolver* linearSolver() const override { return solver_.get(); }
+  std::array<double, 2> rayleigh() const override {
+    return {settings_.rayleighMass, settings_.rayleighStiffness};
+  }
   const ImplicitSettings& settings() const { return settings_; }
   /// Whether its solver and its fallback solver save their state.
   bool checkpointable() const override;

@@ -91,7 +91,10 @@ struct StepRecord {
 ///     <grasp>_fx, <grasp>_fy, <grasp>_fz per grasp of the scene (0 while it is not active);
 ///     with contact: contact_candidates, contact_active, contact_excluded, contact_clamped,
 ///     contact_splits, self_normal_force, self_friction_force, and <obstacle>_normal_force,
-///     <obstacle>_friction_force per obstacle (sums of the pairs' force magnitudes, N)
+///     <obstacle>_friction_force per obstacle (sums of the pairs' force magnitudes, N);
+///     with settings.energy: energy_stored, the cumulative work_gravity, work_constraints,
+///     work_contact, dissipated_damping, energy_removed, energy_balance, energy_drift, and the
+///     step's step_work_gravity, ..., step_energy_removed, step_energy_drift (energy.hpp)
 ///   obstacles.pvd, obstacles_NNNNNN.vtp: the obstacles' surfaces (cell data "obstacle": the
 ///     obstacle's index), when the scene has obstacles
 class OutputWriter {

@@ -104,6 +104,9 @@ struct OutputSettings {
   bool springs = true;  ///< the spring network frames (with vtk)
   bool obj = false;     ///< OBJ frames of the surface at current positions
   bool csv = true;      ///< one CSV row per step
+  /// Energy accounting (docs/energy.md): the simulation counts work, dissipation and removed
+  /// energy, and the CSV has their columns.
+  bool energy = false;
 };
 
 struct Scene {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cutsim/core/energy.hpp"
 #include "cutsim/core/integrator.hpp"
 #include "cutsim/core/model.hpp"
 #include "cutsim/core/step_hook.hpp"
@@ -107,6 +108,15 @@ class Simulation {
   /// Total force on each point slot from the force fields and gravity (not the constraints).
   std::vector<double> totalForce() const { return model_->totalForce(); }
 
+  // ---- energy accounting (energy.hpp, docs/energy.md) ----
+  /// Opens the energy accounts at the current state (again: a new start); off by default (it
+  /// costs a few force evaluations a step).
+  void enableEnergyAccounting();
+  bool energyAccounting() const { return ledger_ != nullptr; }
+  /// The accounts, settled (what changed since the last step counted as removed); nullptr when
+  /// accounting is off.
+  const EnergyLedger* energy();
+
  private:
   /// One integrator step of h (its proposal limited by the step hooks), or two of h / 2 when a
   /// hook asks for a split.
@@ -118,6 +128,7 @@ class Simulation {
   std::unique_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
   std::vector<std::unique_ptr<StepHook>> hooks_;
+  std::unique_ptr<EnergyLedger> ledger_;
   SolveSummary summary_;
   double time_ = 0.0;
   long steps_ = 0;
