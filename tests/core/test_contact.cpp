@@ -524,6 +524,9 @@ TEST(ContactScenes, BadContactInputIsReportedWhereItIs) {
       {R"("contact": {"thickness": 0, "stiffness": 1})", "/contact/thickness", "> 0"},
       {R"("contact": {"thickness": -0.01, "stiffness": 1})", "/contact/thickness", "> 0"},
       {R"("contact": {"thickness": 0.01})", "/contact", "stiffness"},
+      // The grid's mean edge is about 0.28 m: the thinnest layer it may ask for, 2.8 mm.
+      {R"("contact": {"thickness": 0.001, "stiffness": 1})", "/contact/thickness",
+       "below a hundredth of the mesh's mean rest edge"},
       {R"("contact": {"thickness": 0.01, "stiffness": 1, "friction": -0.1})", "/contact/friction",
        ">= 0"},
       {R"("contact": {"thickness": 0.01, "stiffness": 1, "displacementFraction": 0.7})",

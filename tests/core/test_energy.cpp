@@ -1,19 +1,22 @@
 // Energy accounting (cutsim/core/energy.hpp, docs/energy.md): the balance of a closed system within
-// each integrator's error (first order for implicit Euler, bounded for symplectic Euler), damping,
-// grasps, gravity, cuts and contact each accounted, a failed step leaving the accounts as they
-// were, the scene key and the CSV columns.
+// each integrator's error (bounded and first order for symplectic Euler, only losing for implicit
+// Euler, far less for BDF2), damping, grasps, gravity, a removal and contact each accounted,
+// checkpoints, a failed step leaving the accounts as they were, the scene key and the CSV columns.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <regex>
+#include <sstream>
 #include <string>
 
 #include "cutsim/base/archive.hpp"
-
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/energy.hpp"
+#include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "support/scene_text.hpp"
@@ -35,8 +38,8 @@ std::string ringing(const std::string& integrator, double dt, double duration,
   ],
   "integrator": )" +
          integrator + R"(,
-  "timeStep": )" + std::to_string(dt) +
-         R"(, "duration": )" + std::to_string(duration) + extra + R"(,
+  "timeStep": )" +
+         std::to_string(dt) + R"(, "duration": )" + std::to_string(duration) + extra + R"(,
   "output": {"energy": true}
 })";
 }
@@ -93,7 +96,8 @@ TEST(Energy, ImplicitEulerOnlyLosesEnergyAndBDF2LosesFarLess) {
   EXPECT_TRUE(coarse.driftNeverPositive);
   EXPECT_TRUE(fine.driftNeverPositive);
   EXPECT_LT(coarse.finalDrift, -0.05 * coarse.storedStart);
-  EXPECT_LT(fine.finalDrift / coarse.finalDrift, 0.8) << fine.finalDrift << " / " << coarse.finalDrift;
+  EXPECT_LT(fine.finalDrift / coarse.finalDrift, 0.8)
+      << fine.finalDrift << " / " << coarse.finalDrift;
   // BDF2, second order, loses a small part of what implicit Euler does at the same step.
   EXPECT_LT(std::abs(bdf2.finalDrift), 0.1 * std::abs(coarse.finalDrift))
       << bdf2.finalDrift << " against " << coarse.finalDrift;
@@ -104,7 +108,8 @@ TEST(Energy, WhatDampingTakesIsCountedAsDissipated) {
   // Rayleigh mass damping and the springs' own damping; Rayleigh stiffness damping.
   for (const std::string& text :
        {std::regex_replace(ringing(R"({"type": "bdf2", "rayleighMass": 20})", 1e-4, 0.05, solver),
-                           std::regex("\"restScale\": 0.9"), "\"restScale\": 0.9, \"damping\": 0.05"),
+                           std::regex("\"restScale\": 0.9"),
+                           "\"restScale\": 0.9, \"damping\": 0.05"),
         ringing(R"({"type": "bdf2", "rayleighStiffness": 0.001})", 1e-4, 0.05, solver)}) {
     const Account a = play(text);
     // Half the energy and more goes, and the balance holds it to a thousandth of what went.
@@ -210,7 +215,8 @@ std::string drop(double friction, double slide) {
   return R"({
   "mesh": {"grid": {"nx": 11, "ny": 11, "size": [0.3, 0.3], "origin": [-0.15, -0.15, 0.03]}},
   "mass": {"total": 0.02},
-  "gravity": [)" + std::to_string(slide) +
+  "gravity": [)" +
+         std::to_string(slide) +
          R"(, 0, -9.81],
   "forceFields": [{"type": "StretchSprings", "stiffness": 300},
                   {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.0005}],
@@ -237,8 +243,8 @@ TEST(Energy, AStillObstacleDoesNoWorkAndFrictionTakesEnergy) {
 }
 
 TEST(Energy, AResumedRunKeepsTheSameAccounts) {
-  const std::string text = std::regex_replace(drop(0.3, 1.0), std::regex("\"duration\": 0.15"),
-                                              "\"duration\": 0.1");
+  const std::string text =
+      std::regex_replace(drop(0.3, 1.0), std::regex("\"duration\": 0.15"), "\"duration\": 0.1");
   const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
   const std::filesystem::path file =
       std::filesystem::path(::testing::TempDir()) / "cutsim_energy.ckpt";
@@ -262,6 +268,77 @@ TEST(Energy, AResumedRunKeepsTheSameAccounts) {
     ASSERT_EQ(ea->stepDrift(), eb->stepDrift());
   }
   std::filesystem::remove(file);
+}
+
+TEST(Energy, AFailedStepLeavesTheAccountsAsTheyWere) {
+  // A solve capped at one CG iteration under "fail": the step throws, the state and the
+  // accounts are those before it.
+  const std::string text = std::regex_replace(
+      drop(0.3, 1.0),
+      std::regex(R"("integrator": \{"type": "bdf2"\}, "linearSolver": \{"type": "cholmod"\})"),
+      R"("integrator": {"type": "implicit-euler", "onSolveFailure": "fail"},
+         "linearSolver": {"type": "cg", "iterations": 1, "tolerance": 1e-12})");
+  ASSERT_NE(text, drop(0.3, 1.0));
+  const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
+  SceneRunner runner(scene);
+  Simulation& sim = runner.simulation();
+  runner.start();
+  const double balance = sim.energy()->balance();
+  const EnergyFlows total = sim.energy()->total();
+  const double stored = sim.energy()->storedEnergy();
+  EXPECT_THROW(runner.advance(), SolverError);
+  const EnergyLedger* e = sim.energy();
+  EXPECT_EQ(e->balance(), balance);
+  EXPECT_EQ(e->storedEnergy(), stored);
+  EXPECT_EQ(e->total().gravity, total.gravity);
+  EXPECT_EQ(e->total().contact, total.contact);
+  EXPECT_EQ(e->total().removed, total.removed);
+}
+
+TEST(Energy, TheCsvHasTheAccountsColumnsWithTheLedgersValues) {
+  const std::string text =
+      std::regex_replace(drop(0.3, 1.0), std::regex("\"duration\": 0.15"), "\"duration\": 0.01");
+  const Scene scene = parseScene(text, "inline.json", test::kSceneDir);
+  SceneRunner runner(scene);
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_energy_csv";
+  std::filesystem::remove_all(dir);
+  double balance = 0.0, gravity = 0.0;
+  {
+    OutputWriter writer(dir, scene.output, scene.forceFieldLabels(), scene.graspNames(), true,
+                        {"table"});
+    runner.start();
+    writer.record(runner.simulation(), {0, 0.0, {}}, false);
+    while (!runner.finished()) {
+      const StepStats stats = runner.advance();
+      writer.record(runner.simulation(), {runner.currentStep(), runner.time(), stats},
+                    runner.finished());
+    }
+    writer.finish();
+    balance = runner.simulation().energy()->balance();
+    gravity = runner.simulation().energy()->lastStep().gravity;
+  }
+  std::ifstream in(dir / "steps.csv");
+  std::string header, line, last;
+  std::getline(in, header);
+  while (std::getline(in, line)) last = line;
+  auto column = [&](const std::string& name) {
+    std::stringstream h(header), row(last);
+    std::string n, v;
+    while (std::getline(h, n, ',') && std::getline(row, v, ','))
+      if (n == name) return std::stod(v);
+    ADD_FAILURE() << "no column " << name << " in " << header;
+    return std::nan("");
+  };
+  for (const char* name : {"energy_stored", "work_gravity", "work_constraints", "work_contact",
+                           "dissipated_damping", "energy_removed", "energy_balance", "energy_drift",
+                           "step_work_gravity", "step_work_constraints", "step_work_contact",
+                           "step_dissipated_damping", "step_energy_removed", "step_energy_drift"})
+    EXPECT_THAT(header, HasSubstr(std::string(",") + name));
+  EXPECT_DOUBLE_EQ(column("energy_balance"), balance);
+  EXPECT_DOUBLE_EQ(column("step_work_gravity"), gravity);
+  EXPECT_GT(column("work_gravity"), 0.0);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Energy, TheSceneKeyIsABoolean) {

@@ -144,11 +144,11 @@ def test_energy_account(small_scene):
     a = sim.energy_account()
     assert set(a) >= {"stored", "balance", "drift", "work_gravity", "work_constraints", "work_contact",
                       "dissipated_damping", "removed", "step"}
-    flows = a["dissipated_damping"] + a["removed"] - a["work_gravity"] - a["work_constraints"] - a["work_contact"]
-    assert a["balance"] == pytest.approx(a["stored"] + flows, rel=1e-12, abs=1e-15)
     e = sim.energies()
+    # Gravity's work is the fall of the weight since the accounts opened; the drift, implicit
+    # Euler's loss, is a small part of it and never a gain.
+    assert a["work_gravity"] > 0 and -0.2 * a["work_gravity"] < a["drift"] <= 1e-12
     assert a["stored"] == pytest.approx(e["kinetic"] + e["StretchSprings"] + e["FastTriangularBendingSprings"])
-    assert a["work_gravity"] != 0 and np.isfinite(a["drift"])
     assert set(a["step"]) == {"work_gravity", "work_constraints", "work_contact", "dissipated_damping",
                               "removed", "drift"}
     small_scene["output"] = {"energy": True}

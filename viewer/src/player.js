@@ -310,9 +310,9 @@ class Player {
     const energy = pick(/^kinetic_energy$|^potential_|^gravity_energy$/);
     if (energy.length) groups.push({ name: 'energies (J)', columns: energy });
     // The energy accounts (docs/energy.md): cumulative, then per step.
-    const accounts = pick(/^energy_stored$|^work_|^dissipated_damping$|^energy_removed$|^energy_drift$/);
+    const accounts = pick(/^energy_stored$|^work_(gravity|constraints|contact)$|^dissipated_damping$|^energy_removed$|^energy_drift$/);
     if (accounts.length) groups.push({ name: 'energy accounts (J)', columns: accounts });
-    const perStep = pick(/^step_/);
+    const perStep = pick(/^step_(work_(gravity|constraints|contact)|dissipated_damping|energy_removed|energy_drift)$/);
     if (perStep.length) groups.push({ name: 'energy accounts per step (J)', columns: perStep });
     const solver = pick(/^solver_iterations$|^newton_iterations$/);
     if (solver.length) groups.push({ name: 'solver iterations', columns: solver });

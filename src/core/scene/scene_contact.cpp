@@ -3,14 +3,18 @@
 // "obstacles", the list of obstacles added to its setup, each a shape of ObstacleShapeRegistry
 // with a name, a friction and a path; once the scene is read, the check that it starts free of
 // intersections. The format is in docs/scenes.md and docs/contact.md.
+#include <cmath>
+#include <cstdio>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "cutsim/core/output.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/obstacle.hpp"
+#include "cutsim/topology/geometry.hpp"
 #include "scene/scene_internal.hpp"
 #include "scene/scene_json.hpp"
 
@@ -70,11 +74,41 @@ forcefields::Obstacle parseObstacle(const Reader& r, const json& j, const std::s
   return o;
 }
 
+/// The thinnest contact layer a scene may ask for, as a fraction of its mesh's mean rest edge.
+constexpr double kThinnestContact = 100.0;
+
 /// A scene with contact must start free of intersections (within the thickness is allowed: the
 /// penalty pushes the primitives apart).
 void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshData& mesh) {
   topology::Topology topo(mesh);
   const forcefields::ContactSetup& setup = *s.contactSetup();
+  // The guarantee is shown down to a hundredth of the mean rest edge (docs/contact.md, "A floor
+  // under every gap"): a thinner layer is refused rather than run without it.
+  double edgeSum = 0;
+  std::size_t edgeCount = 0;
+  for (topology::EdgeId e : topo.edges()) {
+    const auto v = topo.edgeVertices(e);
+    edgeSum +=
+        std::sqrt(topology::geometry::dist2(topo.restPosition(v[0]), topo.restPosition(v[1])));
+    ++edgeCount;
+  }
+  const double smallest = edgeCount ? edgeSum / double(edgeCount) / kThinnestContact : 0.0;
+  if (setup.parameters.thickness < smallest) {
+    // Three significant digits, the smallest rounded up (a value that passes).
+    auto digits = [](double v, bool up) {
+      const double unit = std::pow(10.0, std::floor(std::log10(v)) - 2);
+      char text[32];
+      std::snprintf(text, sizeof text, "%.3g",
+                    (up ? std::ceil(v / unit) : std::round(v / unit)) * unit);
+      return std::string(text);
+    };
+    r.fail("/contact/thickness",
+           formatNumber(setup.parameters.thickness) +
+               " is below a hundredth of the mesh's mean rest edge (" +
+               digits(smallest * kThinnestContact, false) +
+               " m), where the intersection-free guarantee is not shown: give at least " +
+               digits(smallest, true) + " or refine the mesh");
+  }
   forcefields::Contact contact(topo, setup.parameters, setup.obstacles);
   std::vector<double> x(3 * topo.pointCapacity(), 0.0);
   for (topology::PointId p : topo.points())

@@ -50,7 +50,8 @@ EnergyLedger::EnergyLedger(const Model& model) {
 double EnergyLedger::stored(const Model& model, std::span<const double> x,
                             std::span<const double> v) {
   double e = model.kineticEnergyOf(v);
-  for (std::size_t i = 0; i < model.numForceFields(); ++i) e += model.forceField(i).potentialEnergy(x);
+  for (std::size_t i = 0; i < model.numForceFields(); ++i)
+    e += model.forceField(i).potentialEnergy(x);
   return e;
 }
 
@@ -103,8 +104,7 @@ EnergyFlows EnergyLedger::proposalFlows(const Model& model, const Integrator& in
   // mesh, the point held then too), else by the step's own reaction: a grasp that loads a sheet
   // slowly does the work its stored energy gains, not the end force times the move.
   if (std::size_t(reaction.size()) == N) {
-    const bool known =
-        lastReaction_.size() == N && lastRevision_ == model.topology().revision();
+    const bool known = lastReaction_.size() == N && lastRevision_ == model.topology().revision();
     for (std::size_t p = 0; p < constrained.size(); ++p) {
       if (!constrained[p]) continue;
       for (std::size_t k = 0; k < 3; ++k) {
@@ -159,7 +159,8 @@ void EnergyLedger::commit(const Model& model, EnergyFlows flows, std::span<const
   if (std::size_t(reaction.size()) == N)
     for (std::size_t p = 0; p < constrained.size(); ++p)
       if (constrained[p])
-        for (std::size_t k = 0; k < 3; ++k) lastReaction_[3 * p + k] = reaction[Eigen::Index(3 * p + k)];
+        for (std::size_t k = 0; k < 3; ++k)
+          lastReaction_[3 * p + k] = reaction[Eigen::Index(3 * p + k)];
   const auto x = model.state().x();
   if (hooksChanged) {
     // What the hooks changed, kinetic, potential and gravity energy together, is their work.
@@ -188,8 +189,12 @@ void EnergyLedger::members(Archive& a, Self& s) {
          s.lastRevision_);
 }
 
-void EnergyLedger::saveState(ArchiveWriter& out) const { members(out, *this); }
+void EnergyLedger::saveState(ArchiveWriter& out) const {
+  members(out, *this);
+}
 
-void EnergyLedger::loadState(ArchiveReader& in) { members(in, *this); }
+void EnergyLedger::loadState(ArchiveReader& in) {
+  members(in, *this);
+}
 
 }  // namespace cutsim::core

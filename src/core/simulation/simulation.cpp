@@ -250,7 +250,10 @@ void Simulation::loadState(ArchiveReader& in) {
   model_->loadState(in);
   if (ledger_) {
     if (!in.has("energy"))
-      in.fail("the run accounts for energy, the checkpoint's did not: it has no energy accounts");
+      in.fail(
+          "the scene keeps energy accounts (\"output\": {\"energy\": true}) and the checkpoint "
+          "has none (its run did not keep them): resume it without them, or run the scene from "
+          "the start");
     in.open("energy");
     ledger_->loadState(in);
     in.close();
