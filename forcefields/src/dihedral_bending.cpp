@@ -204,6 +204,15 @@ inline Eigen::Matrix<double, 12, 12> hingeExactStiffness(const double* x, const 
   return kh;
 }
 
+/// A wing's height over its hinge: the distance of q to the line through c along e (|e| = l),
+/// |(q - c) x e| / l.
+double wingHeight(const Vec3& q, const Vec3& c, const double (&e)[3], double l) {
+  const double w[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+  double n[3];
+  cross(w, e, n);
+  return std::sqrt(dot(n, n)) / l;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -257,13 +266,7 @@ DihedralRecord dihedralHinge(const Vec3& a, const Vec3& b, const Vec3& c, const 
     return r;
   }
   // Heights as |(p - C) x e| / l (distance to the line CD).
-  const auto height = [&](const Vec3& q) {
-    const double w[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
-    double n[3];
-    cross(w, e, n);
-    return std::sqrt(dot(n, n)) / l;
-  };
-  const double ha = height(a), hb = height(b);
+  const double ha = wingHeight(a, c, e, l), hb = wingHeight(b, c, e, l);
   const double minH = std::max(p.minDist, kRelativeRestHeight * l);
   if (!(ha > minH) || !(hb > minH)) {
     r.status = DihedralStatus::SmallHeight;
@@ -557,13 +560,7 @@ std::string DihedralBending::problemAtRest() const {
     const Vec3 a = at(0), b = at(1), c = at(2), d = at(3);
     const double e[3] = {d[0] - c[0], d[1] - c[1], d[2] - c[2]};
     const double l = std::sqrt(dot(e, e));
-    auto height = [&](const Vec3& q) {
-      const double w[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
-      double n[3];
-      cross(w, e, n);
-      return std::sqrt(dot(n, n)) / l;
-    };
-    const double hmin = std::min(height(a), height(b));
+    const double hmin = std::min(wingHeight(a, c, e, l), wingHeight(b, c, e, l));
     if (!(h.coefficient > 0)) continue;
     // (in logarithms: 2 c / h^2 itself may overflow)
     if (!(std::log(2.0) + std::log(h.coefficient) - 2.0 * std::log(hmin) <
