@@ -199,8 +199,6 @@ TEST(Energy, ARemovalTakesOutTheEnergyOfWhatItRemoves) {
   const EnergyLedger* e = sim.energy();
   ASSERT_GT(before, 0.0);
   EXPECT_NEAR(e->total().removed, before * (1 - trianglesAfter / trianglesBefore), 1e-9 * before);
-  EXPECT_NEAR(e->storedEnergy(), before - e->total().removed, 1e-12 * before);
-  EXPECT_EQ(e->drift(), 0.0);
   // The hole's rim then pulls back (what BDF2 loses of that recoil is the drift); nothing more is
   // removed, and the balance never gains.
   while (!runner.finished()) {

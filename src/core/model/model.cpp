@@ -169,9 +169,12 @@ double Model::kineticEnergyOf(std::span<const double> v, std::size_t* overflowAt
 }
 
 double Model::gravityEnergy() const {
+  return gravityEnergyOf(state_->x());
+}
+
+double Model::gravityEnergyOf(std::span<const double> x) const {
   if (!mass_) return 0.0;
   auto m = mass_->perPoint();
-  auto x = state_->x();
   double e = 0;
   for (std::size_t p = 0; p < m.size(); ++p)
     e -= m[p] * (gravity_[0] * x[3 * p] + gravity_[1] * x[3 * p + 1] + gravity_[2] * x[3 * p + 2]);

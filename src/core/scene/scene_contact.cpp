@@ -14,7 +14,6 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/obstacle.hpp"
-#include "cutsim/topology/geometry.hpp"
 #include "scene/scene_internal.hpp"
 #include "scene/scene_json.hpp"
 
@@ -84,15 +83,7 @@ void checkContactAtStart(const Reader& r, const Scene& s, const topology::MeshDa
   const forcefields::ContactSetup& setup = *s.contactSetup();
   // The guarantee is shown down to a hundredth of the mean rest edge (docs/contact.md, "A floor
   // under every gap"): a thinner layer is refused rather than run without it.
-  double edgeSum = 0;
-  std::size_t edgeCount = 0;
-  for (topology::EdgeId e : topo.edges()) {
-    const auto v = topo.edgeVertices(e);
-    edgeSum +=
-        std::sqrt(topology::geometry::dist2(topo.restPosition(v[0]), topo.restPosition(v[1])));
-    ++edgeCount;
-  }
-  const double smallest = edgeCount ? edgeSum / double(edgeCount) / kThinnestContact : 0.0;
+  const double smallest = meanRestEdge(topo) / kThinnestContact;
   if (setup.parameters.thickness < smallest) {
     // Three significant digits, the smallest rounded up (a value that passes).
     auto digits = [](double v, bool up) {

@@ -10,6 +10,9 @@ class Reader;
 /// one's dryRun). Fails through r.
 void dryRun(const Reader& r, const Scene& scene, const topology::MeshData& mesh);
 
+/// The mean rest length of the topology's edges (0 without edges).
+double meanRestEdge(const topology::Topology& topology);
+
 }  // namespace cutsim::core::detail
 
 // ---- sections a component's own file reads ----

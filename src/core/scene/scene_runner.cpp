@@ -11,10 +11,22 @@
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/topology/geometry.hpp"
+#include "scene/scene_internal.hpp"
 
 namespace cutsim::core {
 
 using topology::geometry::dist2;
+
+double detail::meanRestEdge(const topology::Topology& topology) {
+  double sum = 0;
+  std::size_t count = 0;
+  for (topology::EdgeId e : topology.edges()) {
+    const auto v = topology.edgeVertices(e);
+    sum += std::sqrt(dist2(topology.restPosition(v[0]), topology.restPosition(v[1])));
+    ++count;
+  }
+  return count ? sum / double(count) : 0.0;
+}
 
 namespace {
 /// Throws the failures of the actions of one step: the one, or every message of several (none
@@ -92,14 +104,7 @@ void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) 
   if (!topo) topo = std::make_unique<topology::Topology>(scene_.mesh());
   const MassLaw mass = scene_.massLaw(*topo);
   // Mean rest edge length: the smallest piece a progressive cut makes is half of it.
-  double edgeSum = 0;
-  std::size_t edgeCount = 0;
-  for (topology::EdgeId e : topo->edges()) {
-    const auto v = topo->edgeVertices(e);
-    edgeSum += std::sqrt(dist2(topo->restPosition(v[0]), topo->restPosition(v[1])));
-    ++edgeCount;
-  }
-  meanEdge_ = edgeCount ? edgeSum / double(edgeCount) : 0.0;
+  meanEdge_ = detail::meanRestEdge(*topo);
 
   sim_ = std::make_unique<Simulation>(std::move(topo), mass);
   sim_->setGravity(scene_.gravity);

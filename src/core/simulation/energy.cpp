@@ -19,17 +19,6 @@ double dot(std::span<const double> a, std::span<const double> b) {
   return s;
 }
 
-/// -sum m g . x: gravity's potential, which the accounts count as work (sum m g . dx) instead.
-double gravityPotential(const Model& model, std::span<const double> x) {
-  if (!model.hasMass()) return 0.0;
-  const auto m = model.mass().perPoint();
-  const Vec3& g = model.gravity();
-  double e = 0.0;
-  for (std::size_t p = 0; p < m.size(); ++p)
-    e -= m[p] * (g[0] * x[3 * p] + g[1] * x[3 * p + 1] + g[2] * x[3 * p + 2]);
-  return e;
-}
-
 }  // namespace
 
 EnergyFlows& EnergyFlows::operator+=(const EnergyFlows& o) {
@@ -130,9 +119,8 @@ EnergyFlows EnergyLedger::proposalFlows(const Model& model, const Integrator& in
   // dx. (Their potential force's work is the change of their potential, which the stored energy
   // holds exactly.)
   std::fill(scratch.begin(), scratch.end(), 0.0);
-  std::vector<double> friction;
+  std::vector<double> friction;  // sized when a field is not conservative
   double potential = 0.0;
-  bool others = false;
   for (std::size_t i = 0; i < model.numForceFields(); ++i) {
     const forcefields::ForceField& field = model.forceField(i);
     if (field.conservative()) {
@@ -141,11 +129,10 @@ EnergyFlows EnergyLedger::proposalFlows(const Model& model, const Integrator& in
       if (friction.empty()) friction.assign(N, 0.0);
       field.addFrictionForce(xp, vp, friction);
       potential += field.potentialEnergy(x0);
-      others = true;
     }
   }
   f.damping -= h * dot(vp, scratch);
-  if (others) f.contact += dot(friction, dx) + potential - lastPotential_;
+  if (!friction.empty()) f.contact += dot(friction, dx) + potential - lastPotential_;
   return f;
 }
 
@@ -165,8 +152,8 @@ void EnergyLedger::commit(const Model& model, EnergyFlows flows, std::span<const
   if (hooksChanged) {
     // What the hooks changed, kinetic, potential and gravity energy together, is their work.
     const auto v = model.state().v();
-    flows.contact += (stored(model, x, v) + gravityPotential(model, x)) -
-                     (stored(model, xp, vp) + gravityPotential(model, xp));
+    flows.contact += (stored(model, x, v) + model.gravityEnergyOf(x)) -
+                     (stored(model, xp, vp) + model.gravityEnergyOf(xp));
   }
   lastPotential_ = nonConservativePotential(model, x);
   total_ += flows;
@@ -174,8 +161,7 @@ void EnergyLedger::commit(const Model& model, EnergyFlows flows, std::span<const
 }
 
 void EnergyLedger::endStep(const Model& model) {
-  stored_ = stored(model);
-  lastPotential_ = nonConservativePotential(model, model.state().x());
+  stored_ = stored(model);  // (lastPotential_: the last substep's commit read it at this state)
 }
 
 template <class Archive, class Self>

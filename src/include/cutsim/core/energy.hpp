@@ -8,14 +8,14 @@
 //   constraints  work done by fixed points and grasps, their reactions . dx (trapezoidal: the
 //                reactions at the substep's start and end)
 //   contact      work done by the fields that are not conservative (ForceField::conservative():
-//                contact, whose obstacles move and whose friction is not linear in v): the
-//                change of their potential plus their force's work, (F(x0) + F(x1)) / 2 . dx,
-//                which for a still obstacle without friction cancel, leaving the work of moving
-//                obstacles and of friction; and the work of the step hooks' corrections of a
-//                step (contact's displacement bound and moving-obstacle response), the change of
-//                kinetic, potential and gravity energy they make
+//                contact, whose obstacles move and whose friction is not linear in v): what
+//                their potential jumps by at fixed positions when the field itself changes (its
+//                obstacles move, its pairs are found again), their friction's work
+//                (ForceField::addFrictionForce . dx), and the work of the step hooks' corrections
+//                of a step (contact's displacement bound and moving-obstacle response), the change
+//                of kinetic, potential and gravity energy they make
 //   damping      dissipated by damping: Rayleigh's, h (rM v1' M v1 - rK v1' K v1), and the
-//                conservative fields' own, -h v1' B v1
+//                conservative fields' own, -h v1' B v1 (v1, x1: the integrator's proposal)
 //   removed      stored energy that changed between steps: springs and elements removed by cuts,
 //                tears and carving, masses moved by a repair, attachments released, a field
 //                given new parameters (negative when energy was added)

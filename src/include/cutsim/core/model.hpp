@@ -103,6 +103,8 @@ class Model {
   /// no longer finite and that point is written there (else the slot count).
   double kineticEnergyOf(std::span<const double> v, std::size_t* overflowAt = nullptr) const;
   double gravityEnergy() const;  ///< -sum m g.x
+  /// The same at positions x (3 per slot).
+  double gravityEnergyOf(std::span<const double> x) const;
   double fieldEnergy(std::size_t i) const;
   /// Total force on each point slot from the force fields and gravity (not the constraints).
   std::vector<double> totalForce() const;
