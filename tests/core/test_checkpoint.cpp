@@ -212,6 +212,37 @@ TEST(Checkpoint, TheDrapeDemoGoesOnBitForBitFromTheStepOfItsCut) {
   std::filesystem::remove(file);
 }
 
+TEST(Checkpoint, AScalpelGoesOnBitForBitFromAnyStepOfItsIncision) {
+  // A sheet hanging from its top border, cut by a blade that crosses it in world space while it
+  // sways: checkpoints between the pieces of the incision (the blade's position at its last cut
+  // and the incision's tip are saved), at a piece and at random steps.
+  const std::string text = R"({
+  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+  "mass": {"total": 0.1},
+  "gravity": [0, -9.81, -2],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
+                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01}],
+  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
+  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
+  "timeStep": 0.01, "duration": 0.3,
+  "timeline": [{"action": "scalpel", "from": 0.02, "to": 0.22, "depth": 0.2,
+                "path": [[0, -0.1, 0.5, -0.1, 0, 0, 1], [0.2, 0.7, 0.45, -0.1, 0, 0.3, 1]]}]
+})";
+  const Scene scene = parseScene(text, "scalpel.json", test::kSceneDir);
+  {
+    SceneRunner probe(scene);
+    probe.start();
+    while (!probe.finished()) probe.advance();
+    ASSERT_GT(probe.cutsDone(), 3);  // an incision in pieces, through the moving sheet
+  }
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_scalpel.ckpt";
+  std::mt19937 rng(5);
+  for (long stop : {3L, 8L, 13L, 22L}) resumeAndCompare(scene, stop, file);
+  resumeAndCompare(scene, std::uniform_int_distribution<long>(2, 24)(rng), file);
+  std::filesystem::remove(file);
+}
+
 TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   // A run changed while running (an action given, a field replaced) is not the scene's run any
   // more: its checkpoint could not be resumed from the scene.

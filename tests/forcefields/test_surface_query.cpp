@@ -200,6 +200,91 @@ TEST_F(SurfaceQueryTest, ASweptTriangleFindsWhatItsPrismMeetsOrHolds) {
   }
 }
 
+// A blade's incision curves (sweptSegmentCurves): every point lies on its triangle and on the
+// swept surface; consecutive points lie in one triangle and one swept triangle (their midpoint is
+// on both); every crossing CGAL finds between a triangle and the swept surface is covered by a
+// curve; the curves run by increasing sweep. Translated blades and a blade that turns (three
+// positions), on the wavy cut sheet.
+TEST_F(SurfaceQueryTest, ABladesIncisionCurvesAreWhereTheSweptSurfaceMeetsTheSurface) {
+  WavySheet s;
+  SurfaceQuery q(s.topo, s.x);
+  const std::vector<TriangleId> tris = s.topo.triangles();
+  int curves = 0, missed = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    const Vec3 a = randomPoint(0.1, 0.9), m = randomPoint(-0.4, 0.4);
+    std::vector<std::array<Vec3, 2>> poses;
+    const Vec3 up{0.1 * m[1], -0.1 * m[0], 0.5};
+    const Vec3 tip{a[0], a[1], a[2] - 0.25};
+    poses.push_back({tip, Vec3{tip[0] + up[0], tip[1] + up[1], tip[2] + up[2]}});
+    const Vec3 t1{tip[0] + m[0], tip[1] + m[1], tip[2] + m[2]};
+    if (trial % 2 == 0) {
+      poses.push_back({t1, Vec3{t1[0] + up[0], t1[1] + up[1], t1[2] + up[2]}});
+    } else {  // the blade turns about its tip's path on the way
+      const Vec3 mid{tip[0] + 0.5 * m[0], tip[1] + 0.5 * m[1], tip[2] + 0.5 * m[2]};
+      poses.push_back({mid, Vec3{mid[0] + 0.2, mid[1] + up[1], mid[2] + 0.45}});
+      poses.push_back({t1, Vec3{t1[0] + 0.3, t1[1] - 0.1, t1[2] + 0.4}});
+    }
+    std::vector<K::Triangle_3> faces;
+    for (std::size_t k = 0; k + 1 < poses.size(); ++k) {
+      faces.emplace_back(p3(poses[k][0]), p3(poses[k][1]), p3(poses[k + 1][1]));
+      faces.emplace_back(p3(poses[k][0]), p3(poses[k + 1][1]), p3(poses[k + 1][0]));
+    }
+    auto toSwept = [&](const P3& p) {
+      double d2 = std::numeric_limits<double>::infinity();
+      for (const auto& f : faces) d2 = std::min(d2, CGAL::squared_distance(p, f));
+      return std::sqrt(d2);
+    };
+    auto toSurface = [&](const P3& p) {
+      double d2 = std::numeric_limits<double>::infinity();
+      for (TriangleId t : tris) d2 = std::min(d2, CGAL::squared_distance(p, s.triangle(t)));
+      return std::sqrt(d2);
+    };
+    const auto found = q.sweptSegmentCurves(poses);
+    std::vector<K::Segment_3> pieces;
+    for (const auto& curve : found) {
+      ++curves;
+      ASSERT_GE(curve.size(), 2u);
+      EXPECT_LE(curve.front().s, curve.back().s);
+      for (std::size_t k = 0; k < curve.size(); ++k) {
+        const auto& x = curve[k];
+        const auto tri = s.triangle(x.triangle);
+        const P3 fromWeights(x.weights[0] * tri.vertex(0).x() + x.weights[1] * tri.vertex(1).x() +
+                                 x.weights[2] * tri.vertex(2).x(),
+                             x.weights[0] * tri.vertex(0).y() + x.weights[1] * tri.vertex(1).y() +
+                                 x.weights[2] * tri.vertex(2).y(),
+                             x.weights[0] * tri.vertex(0).z() + x.weights[1] * tri.vertex(1).z() +
+                                 x.weights[2] * tri.vertex(2).z());
+        EXPECT_NEAR(std::sqrt(CGAL::squared_distance(fromWeights, p3(x.point))), 0.0, 1e-12);
+        EXPECT_NEAR(std::sqrt(CGAL::squared_distance(p3(x.point), tri)), 0.0, 1e-12);
+        EXPECT_NEAR(toSwept(p3(x.point)), 0.0, 1e-10);
+        EXPECT_GE(x.s, -1e-12);
+        EXPECT_LE(x.s, double(poses.size() - 1) + 1e-12);
+        if (k == 0) continue;
+        const P3 mid = CGAL::midpoint(p3(curve[k - 1].point), p3(x.point));
+        EXPECT_NEAR(toSurface(mid), 0.0, 1e-10) << "point " << k;
+        EXPECT_NEAR(toSwept(mid), 0.0, 1e-10) << "point " << k;
+        pieces.emplace_back(p3(curve[k - 1].point), p3(x.point));
+      }
+    }
+    // Every crossing is on a curve (none of these sweeps makes a closed curve, which would not be
+    // returned).
+    for (TriangleId t : tris)
+      for (const auto& f : faces) {
+        const auto x = CGAL::intersection(s.triangle(t), f);
+        if (!x) continue;
+        const K::Segment_3* seg = boost::get<K::Segment_3>(&*x);
+        if (!seg || seg->squared_length() < 1e-18) continue;
+        const P3 mid = CGAL::midpoint(seg->source(), seg->target());
+        double best = std::numeric_limits<double>::infinity();
+        for (const auto& p : pieces) best = std::min(best, CGAL::squared_distance(mid, p));
+        if (std::sqrt(best) > 1e-9) ++missed;
+      }
+  }
+  EXPECT_GT(curves, 20);
+  EXPECT_EQ(missed, 0);
+}
+
 TEST(SurfaceQuery, RefusesARayWithoutDirectionAndEmptyQueriesAreEmpty) {
   WavySheet s;
   SurfaceQuery q(s.topo, s.x);

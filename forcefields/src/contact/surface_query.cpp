@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 
 #include "bvh.hpp"
 #include "cutsim/base/errors.hpp"
@@ -308,6 +310,212 @@ std::vector<topology::TriangleId> SurfaceQuery::sweptTriangleHits(
     }
   });
   return I.sorted(found);
+}
+
+std::vector<std::vector<SweptCrossing>> SurfaceQuery::sweptSegmentCurves(
+    std::span<const std::array<topology::Vec3, 2>> positions) const {
+  const Impl& I = *impl_;
+  std::vector<std::vector<SweptCrossing>> out;
+  if (positions.size() < 2) return out;
+  // The swept surface's triangles, with their corners' (u, s): between positions k and k + 1,
+  // (a_k, b_k, b_k+1) and (a_k, b_k+1, a_k+1).
+  struct Face {
+    std::array<V3, 3> p;
+    std::array<std::array<double, 2>, 3> us;
+  };
+  std::vector<Face> faces;
+  std::vector<std::array<V3, 3>> corners;
+  for (std::size_t k = 0; k + 1 < positions.size(); ++k) {
+    const V3 a0 = v3(positions[k][0]), b0 = v3(positions[k][1]);
+    const V3 a1 = v3(positions[k + 1][0]), b1 = v3(positions[k + 1][1]);
+    const double s0 = double(k), s1 = double(k + 1);
+    faces.push_back({{a0, b0, b1}, {{{0, s0}, {1, s0}, {1, s1}}}});
+    faces.push_back({{a0, b1, a1}, {{{0, s0}, {1, s1}, {0, s1}}}});
+    corners.push_back(faces[faces.size() - 2].p);
+    corners.push_back(faces.back().p);
+  }
+  const std::vector<std::size_t> found = [&] {
+    std::vector<std::size_t> f = I.nearFaces(corners, 0.0);
+    std::sort(f.begin(), f.end());
+    return f;
+  }();
+
+  // The curves' points, shared: a mesh vertex, a point of an edge (by its ends, lower id first,
+  // and the fraction from the lower), or a point inside one triangle (where the swept surface's
+  // own edges cross it).
+  std::vector<SweptCrossing> nodes;
+  std::map<topology::Index, int> atVertex;
+  std::map<std::pair<topology::Index, topology::Index>, std::vector<std::pair<double, int>>> onEdge;
+  std::map<std::size_t, std::vector<int>> inside;
+  std::set<std::pair<int, int>> pieces;
+  constexpr double kEnd = 1e-9;  // an edge's crossing this close to an end is at the end
+
+  struct Candidate {
+    int kind;  // 0: a vertex, 1: on an edge, 2: inside the triangle
+    topology::Index a = 0, b = 0;
+    double t = 0.0;
+    SweptCrossing c;
+  };
+  for (std::size_t i : found) {
+    const auto& c = I.corners[i];
+    const topology::TriangleId id = I.ids[i];
+    const auto tv = I.topology.triangleVertices(id);
+    const double tol =
+        1e-9 * std::max({(c[1] - c[0]).norm(), (c[2] - c[1]).norm(), (c[0] - c[2]).norm()});
+    for (const Face& f : faces) {
+      std::vector<Candidate> pts;
+      // The triangle's edges through the swept triangle, each from its lower vertex id.
+      for (std::size_t j = 0; j < 3; ++j) {
+        std::size_t lo = (j + 1) % 3, hi = (j + 2) % 3;
+        if (topology::Index(tv[hi]) < topology::Index(tv[lo])) std::swap(lo, hi);
+        const auto hit = rayTriangle(c[lo], c[hi] - c[lo], 1.0, f.p[0], f.p[1], f.p[2]);
+        if (!hit) continue;
+        const double t = hit->first;
+        Candidate k{1, topology::Index(tv[lo]), topology::Index(tv[hi]), t, {}};
+        k.c.triangle = id;
+        k.c.weights[lo] = 1.0 - t;
+        k.c.weights[hi] = t;
+        if (t <= kEnd || t >= 1.0 - kEnd) {
+          const std::size_t at = t <= kEnd ? lo : hi;
+          k.kind = 0;
+          k.a = topology::Index(tv[at]);
+          k.c.weights = {0, 0, 0};
+          k.c.weights[at] = 1.0;
+        }
+        const V3 q = k.c.weights[0] * c[0] + k.c.weights[1] * c[1] + k.c.weights[2] * c[2];
+        k.c.point = vec(q);
+        const auto& w = hit->second;
+        k.c.u = w[0] * f.us[0][0] + w[1] * f.us[1][0] + w[2] * f.us[2][0];
+        k.c.s = w[0] * f.us[0][1] + w[1] * f.us[1][1] + w[2] * f.us[2][1];
+        pts.push_back(k);
+      }
+      // The swept triangle's edges through the triangle.
+      for (std::size_t m = 0; m < 3; ++m) {
+        const std::size_t n = (m + 1) % 3;
+        const V3 d = f.p[n] - f.p[m];
+        if (!(d.squaredNorm() > 0)) continue;
+        const auto hit = rayTriangle(f.p[m], d, 1.0, c[0], c[1], c[2]);
+        if (!hit) continue;
+        const double t = hit->first;
+        Candidate k{2, 0, 0, t, {}};
+        k.c.triangle = id;
+        k.c.weights = hit->second;
+        k.c.point = vec(f.p[m] + t * d);
+        // On an edge or at a corner of the triangle (within rounding): the edge's or the
+        // corner's point, which the triangle across finds as well.
+        std::array<std::size_t, 3> zero{};
+        std::size_t zeros = 0;
+        for (std::size_t j = 0; j < 3; ++j)
+          if (k.c.weights[j] <= kEnd) zero[zeros++] = j;
+        if (zeros == 2) {
+          const std::size_t at = 3 - zero[0] - zero[1];
+          k.kind = 0;
+          k.a = topology::Index(tv[at]);
+          k.c.weights = {0, 0, 0};
+          k.c.weights[at] = 1.0;
+          k.c.point = vec(c[at]);
+        } else if (zeros == 1) {
+          std::size_t lo = (zero[0] + 1) % 3, hi = (zero[0] + 2) % 3;
+          if (topology::Index(tv[hi]) < topology::Index(tv[lo])) std::swap(lo, hi);
+          const double e = k.c.weights[hi] / (k.c.weights[lo] + k.c.weights[hi]);
+          k.kind = 1;
+          k.a = topology::Index(tv[lo]);
+          k.b = topology::Index(tv[hi]);
+          k.t = e;
+          k.c.weights = {0, 0, 0};
+          k.c.weights[lo] = 1.0 - e;
+          k.c.weights[hi] = e;
+          k.c.point = vec((1.0 - e) * c[lo] + e * c[hi]);
+        }
+        k.c.u = (1 - t) * f.us[m][0] + t * f.us[n][0];
+        k.c.s = (1 - t) * f.us[m][1] + t * f.us[n][1];
+        pts.push_back(k);
+      }
+      // The same point found twice is one (a vertex or an edge's point first).
+      std::stable_sort(pts.begin(), pts.end(),
+                       [](const Candidate& x, const Candidate& y) { return x.kind < y.kind; });
+      std::vector<Candidate> kept;
+      for (const Candidate& k : pts) {
+        bool seen = false;
+        for (const Candidate& o : kept)
+          if ((v3(o.c.point) - v3(k.c.point)).norm() <= tol) seen = true;
+        if (!seen) kept.push_back(k);
+      }
+      if (kept.size() < 2) continue;
+      std::size_t e0 = 0, e1 = 1;
+      double far = -1.0;
+      for (std::size_t x = 0; x < kept.size(); ++x)
+        for (std::size_t y = x + 1; y < kept.size(); ++y) {
+          const double d = (v3(kept[x].c.point) - v3(kept[y].c.point)).norm();
+          if (d > far) {
+            far = d;
+            e0 = x;
+            e1 = y;
+          }
+        }
+      auto node = [&](const Candidate& k) {
+        auto make = [&] {
+          nodes.push_back(k.c);
+          return int(nodes.size()) - 1;
+        };
+        if (k.kind == 0) {
+          auto [it, added] = atVertex.try_emplace(k.a, 0);
+          if (added) it->second = make();
+          return it->second;
+        }
+        if (k.kind == 1) {
+          auto& list = onEdge[{k.a, k.b}];
+          for (const auto& [t, n] : list)
+            if (std::abs(t - k.t) <= kEnd) return n;
+          list.emplace_back(k.t, make());
+          return list.back().second;
+        }
+        auto& list = inside[i];
+        for (int n : list)
+          if ((v3(nodes[std::size_t(n)].point) - v3(k.c.point)).norm() <= tol) return n;
+        list.push_back(make());
+        return list.back();
+      };
+      const int n0 = node(kept[e0]), n1 = node(kept[e1]);
+      if (n0 != n1) pieces.insert({std::min(n0, n1), std::max(n0, n1)});
+    }
+  }
+
+  // Walk the pieces into curves, from every point that is not in the middle of one.
+  std::vector<std::vector<std::pair<int, int>>> next(nodes.size());  // (node, piece)
+  std::vector<std::pair<int, int>> list(pieces.begin(), pieces.end());
+  for (std::size_t p = 0; p < list.size(); ++p) {
+    next[std::size_t(list[p].first)].emplace_back(list[p].second, int(p));
+    next[std::size_t(list[p].second)].emplace_back(list[p].first, int(p));
+  }
+  std::vector<char> used(list.size(), 0);
+  for (std::size_t start = 0; start < nodes.size(); ++start) {
+    if (next[start].size() == 2) continue;
+    for (const auto& first : next[start]) {
+      if (used[std::size_t(first.second)]) continue;
+      std::vector<SweptCrossing> curve{nodes[start]};
+      int at = int(start);
+      std::pair<int, int> step = first;
+      while (true) {
+        used[std::size_t(step.second)] = 1;
+        at = step.first;
+        curve.push_back(nodes[std::size_t(at)]);
+        const auto& around = next[std::size_t(at)];
+        if (around.size() != 2) break;
+        const auto& other = used[std::size_t(around[0].second)] ? around[1] : around[0];
+        if (used[std::size_t(other.second)]) break;
+        step = other;
+      }
+      if (curve.front().s > curve.back().s) std::reverse(curve.begin(), curve.end());
+      out.push_back(std::move(curve));
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) {
+    if (x.front().s != y.front().s) return x.front().s < y.front().s;
+    if (x.front().triangle != y.front().triangle) return x.front().triangle < y.front().triangle;
+    return x.front().weights < y.front().weights;
+  });
+  return out;
 }
 
 }  // namespace cutsim::forcefields

@@ -42,6 +42,18 @@ struct SurfaceHit {
   topology::Vec3 point{};
 };
 
+/// A point of the curve along which a moving segment (a blade) meets the surface: a triangle it
+/// lies on and its weights there (a point on an edge is given by the edge's ends, its third weight
+/// zero), the point, and where it is on the blade's sweep: `s` in [0, n] counts the sweep's
+/// stages (s = k at its k-th position), `u` in [0, 1] runs along the blade from its first end.
+struct SweptCrossing {
+  topology::TriangleId triangle;
+  std::array<double, 3> weights{};
+  topology::Vec3 point{};
+  double s = 0.0;
+  double u = 0.0;
+};
+
 class SurfaceQuery {
  public:
   /// Over the live triangles of `topology` at positions x (3 per point slot, as the state's).
@@ -82,6 +94,18 @@ class SurfaceQuery {
   std::vector<topology::TriangleId> sweptTriangleHits(const std::array<topology::Vec3, 3>& from,
                                                       const std::array<topology::Vec3, 3>& to,
                                                       double within = 0.0) const;
+
+  /// Where the surface that a segment sweeps while it moves through the given positions (each a
+  /// pair of ends; between consecutive ones linearly, the bilinear surface split along a diagonal)
+  /// meets the surface: the curves of crossing points, each ordered by increasing sweep `s`. The
+  /// points are where the curve crosses the triangles' edges (the same point for the triangles on
+  /// both sides of an edge, so that a curve goes on across it), and its two ends: on the blade's
+  /// first or last position, on the path of either end of the blade, or on the border. A curve
+  /// ends where the surface ends (a border or the lip of a cut: the triangles on its two sides do
+  /// not share the edge). One curve per layer of a fold the blade passes through. Closed curves
+  /// (a blade that sweeps around a bump of the surface without leaving it) are not returned.
+  std::vector<std::vector<SweptCrossing>> sweptSegmentCurves(
+      std::span<const std::array<topology::Vec3, 2>> positions) const;
 
   /// How many triangles it holds.
   std::size_t size() const;
