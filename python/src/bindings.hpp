@@ -119,6 +119,7 @@ void bindViews(py::module_& m, SimulationClass& cls);
 void bindTopology(SimulationClass& cls);
 void bindModel(SimulationClass& cls);
 void bindEvents(py::module_& m, SimulationClass& cls);
+void bindLocate(SimulationClass& cls);
 
 /// Lets Python's garbage collector see the callbacks and controllers a simulation holds (a
 /// closure that refers to the simulation makes a cycle): simulation.cpp.

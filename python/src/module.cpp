@@ -22,6 +22,7 @@ PYBIND11_MODULE(_cutsim, m) {
   bindTopology(cls);
   bindModel(cls);
   bindEvents(m, cls);
+  bindLocate(cls);
 }
 
 }  // namespace cutsim::python

@@ -2,6 +2,8 @@
 // collector's view (simulation.hpp).
 #include "simulation.hpp"
 
+#include "cutsim/forcefields/surface_query.hpp"
+
 namespace cutsim::python {
 
 Simulation::Simulation(const core::Scene& scene)

@@ -7,6 +7,10 @@
 
 #include "events.hpp"
 
+namespace cutsim::forcefields {
+class SurfaceQuery;
+}
+
 namespace cutsim::python {
 
 class Simulation {
@@ -79,6 +83,15 @@ class Simulation {
   /// of a scene): (description, distance), at most `limit`.
   std::vector<std::pair<std::string, double>> intersections(std::size_t limit);
   std::vector<std::string> validate();
+  // ---- world and material (locate.cpp) ----
+  /// The nearest surface point to each world point (within maxDistance).
+  py::dict locate(const py::handle& points, double maxDistance);
+  /// The first surface point each ray meets (within maxT along its unit direction).
+  py::dict rayHits(const py::handle& origins, const py::handle& directions, double maxT);
+  /// Every surface point the segment a-b crosses, by its fraction from a.
+  py::dict segmentHits(const py::handle& a, const py::handle& b);
+  /// Where material points (triangle ids, barycentric weights) are now, and at rest.
+  py::array_t<double> worldOf(const py::handle& triangles, const py::handle& weights, bool rest);
 
   // ---- outputs ----
   void record(const std::filesystem::path& dir, const std::vector<std::string>& extraGrasps);
@@ -151,6 +164,10 @@ class Simulation {
 
   std::unique_ptr<core::SceneRunner> runner_;
   std::unique_ptr<EventBridge> bridge_;
+  /// The deformed surface's search structure for locate and the ray queries (made at the first,
+  /// refitted or rebuilt at each); before runner_'s topology goes.
+  std::unique_ptr<forcefields::SurfaceQuery> query_;
+  forcefields::SurfaceQuery& surfaceQuery();
   topology::Subscription subscription_;
   std::unique_ptr<core::OutputWriter> writer_;
   /// The recording's last step failed (a SolverError, an action's failure): finishing it writes

@@ -54,9 +54,9 @@ std::string text(double x) {
 std::string scalpel(const Vec3& a, const Vec3& b, const Vec3& axis, double depth, double to,
                     const std::string& extra = "") {
   auto v = [](const Vec3& p) { return text(p[0]) + ", " + text(p[1]) + ", " + text(p[2]); };
-  return R"({"action": "scalpel", "from": 0, "to": )" + text(to) +
-         R"(, "depth": )" + text(depth) + R"(, "path": [[0, )" + v(a) + ", " + v(axis) +
-         "], [" + text(to) + ", " + v(b) + ", " + v(axis) + "]]" + extra + "}";
+  return R"({"action": "scalpel", "from": 0, "to": )" + text(to) + R"(, "depth": )" + text(depth) +
+         R"(, "path": [[0, )" + v(a) + ", " + v(axis) + "], [" + text(to) + ", " + v(b) + ", " +
+         v(axis) + "]]" + extra + "}";
 }
 
 /// Runs the scene, the surface first put where `place` says (a function of the rest position),
@@ -112,17 +112,17 @@ TEST(Scalpel, OnAFlatSheetAtRestCutsAsThePolylineCutAlongItsPath) {
   const double y0 = a[1] + (b[1] - a[1]) * (0 - a[0]) / (b[0] - a[0]);  // where it enters
   for (const char* minAngle : {"0", "20"}) {
     const std::string extra = std::string(", \"minAngle\": ") + minAngle;
-    SceneRunner cut(parseScene(
-        sheet(R"({"action": "cut", "at": 0.01, "polyline": [[0, )" + text(y0) +
-              R"(, 0], [0.7, 0.61, 0]])" + extra + "}"),
-        "a.json", test::kSceneDir));
+    SceneRunner cut(parseScene(sheet(R"({"action": "cut", "at": 0.01, "polyline": [[0, )" +
+                                     text(y0) + R"(, 0], [0.7, 0.61, 0]])" + extra + "}"),
+                               "a.json", test::kSceneDir));
     SceneRunner blade(
         parseScene(sheet(scalpel(a, b, {0, 0, 1}, 0.02, 0.01, extra)), "b.json", test::kSceneDir));
     run(cut);
     run(blade);
     EXPECT_EQ(cut.cutsDone(), 1);
     EXPECT_EQ(blade.cutsDone(), 1);
-    const Shape x = shapeOf(cut.simulation().topology()), y = shapeOf(blade.simulation().topology());
+    const Shape x = shapeOf(cut.simulation().topology()),
+                y = shapeOf(blade.simulation().topology());
     ASSERT_EQ(x.points.size(), y.points.size()) << "minAngle " << minAngle;
     for (std::size_t i = 0; i < x.points.size(); ++i)
       for (int d = 0; d < 3; ++d)
@@ -147,10 +147,9 @@ TEST(Scalpel, OnAFlatSheetAtRestCutsAsThePolylineCutAlongItsPath) {
 
 TEST(Scalpel, AboveTheSurfaceCutsNothing) {
   // 1 mm above the sheet, along its whole width.
-  SceneRunner runner(parseScene(sheet(scalpel({-0.1, 0.4, 0.001}, {1.1, 0.45, 0.001}, {0, 0, 1},
-                                              0.05, 0.1),
-                                      0.1),
-                                "a.json", test::kSceneDir));
+  SceneRunner runner(
+      parseScene(sheet(scalpel({-0.1, 0.4, 0.001}, {1.1, 0.45, 0.001}, {0, 0, 1}, 0.05, 0.1), 0.1),
+                 "a.json", test::kSceneDir));
   run(runner);
   EXPECT_EQ(runner.cutsDone(), 0);
   EXPECT_EQ(runner.simulation().topology().numPoints(), 441u);
@@ -169,10 +168,9 @@ TEST(Scalpel, AlongACylindersAxisCutsAStraightLineOfTheRestSheet) {
     return Vec3{c[0] + (R - 0.01) * out[0], y, c[2] + (R - 0.01) * out[2]};
   };
   for (double to : {0.01, 0.2}) {
-    SceneRunner runner(parseScene(sheet(scalpel(at(-0.1), at(1.1), out, 0.02, to,
-                                                ", \"minAngle\": 0"),
-                                        to + 0.01),
-                                  "a.json", test::kSceneDir));
+    SceneRunner runner(
+        parseScene(sheet(scalpel(at(-0.1), at(1.1), out, 0.02, to, ", \"minAngle\": 0"), to + 0.01),
+                   "a.json", test::kSceneDir));
     run(runner, roll);
     const auto added = newPoints(runner.simulation());
     ASSERT_GT(added.size(), 20u);
@@ -213,9 +211,12 @@ TEST(Scalpel, ADeepBladeCutsBothLayersOfAFoldAShallowOneTheLayerItReaches) {
     run(runner, fold);
     bool bottom = false, top = false;
     for (const Vec3& p : newPoints(runner.simulation())) {
-      if (std::abs(p[0] - 0.23) < 1e-9) bottom = true;
-      else if (std::abs(p[0] - 0.77) < 1e-9) top = true;
-      else ADD_FAILURE() << "a new point off both lines: " << p[0] << ", " << p[1];
+      if (std::abs(p[0] - 0.23) < 1e-9)
+        bottom = true;
+      else if (std::abs(p[0] - 0.77) < 1e-9)
+        top = true;
+      else
+        ADD_FAILURE() << "a new point off both lines: " << p[0] << ", " << p[1];
     }
     EXPECT_EQ(bottom, k.bottom) << "tip " << k.tipZ << ", depth " << k.depth;
     EXPECT_EQ(top, k.top) << "tip " << k.tipZ << ", depth " << k.depth;

@@ -96,6 +96,21 @@ class SurfaceQueryTest : public ::testing::Test {
                   0.0, 1e-12);
       EXPECT_NEAR(std::sqrt(CGAL::squared_distance(p3(near->point), p3(c))), near->distance, 1e-12);
       EXPECT_FALSE(q.closestPoint(c, 0.5 * best));  // nothing that near
+      // Many at once (in the order of a space-filling curve): the same answers.
+      if (trial == 0) {
+        std::vector<Vec3> many(200);
+        for (Vec3& m : many) m = randomPoint();
+        const auto all = q.closestPoints(many, 0.3);
+        ASSERT_EQ(all.size(), many.size());
+        for (std::size_t k = 0; k < many.size(); ++k) {
+          const auto one = q.closestPoint(many[k], 0.3);
+          ASSERT_EQ(bool(all[k]), bool(one));
+          if (one) {
+            EXPECT_EQ(all[k]->triangle, one->triangle);
+            EXPECT_EQ(all[k]->distance, one->distance);
+          }
+        }
+      }
 
       // Segment and ray: the triangles it crosses (CGAL's exact predicate), the first one's
       // distance.

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cutsim/base/archive.hpp"
@@ -35,6 +36,60 @@ class Bvh {
   void traverse(const std::function<bool(const Box&)>& enter,
                 const std::function<double(const Box&)>& order,
                 const std::function<void(int)>& f) const;
+
+  /// traverse() without the calls through std::function (the queries of one point: locate's
+  /// nearest point, rays), its stack on the call's frame: the hierarchy halves each node's
+  /// elements, so that its depth is at most 32 and the stack holds at most two entries a level.
+  template <class Enter, class Order, class F>
+  void visit(Enter&& enter, Order&& order, F&& f) const {
+    if (nodes_.empty()) return;
+    std::int32_t stack[80];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& n = nodes_[std::size_t(stack[--top])];
+      if (!enter(n.box)) continue;
+      if (n.left < 0) {
+        for (std::int32_t i = n.first; i < n.first + n.count; ++i) {
+          const int e = order_[std::size_t(i)];
+          if (enter(boxes_[std::size_t(e)])) f(e);
+        }
+      } else {
+        const bool leftFirst =
+            order(nodes_[std::size_t(n.left)].box) <= order(nodes_[std::size_t(n.right)].box);
+        stack[top++] = leftFirst ? n.right : n.left;  // the nearer one on top
+        stack[top++] = leftFirst ? n.left : n.right;
+      }
+    }
+  }
+
+  /// A nearest-first descent: dist(box) is a lower bound of what the elements in the box can
+  /// give, within(d) whether a bound d may still beat the best so far. Each box's bound is
+  /// computed once (a child's when its parent is entered, kept on the stack with it).
+  template <class Dist, class Within, class F>
+  void visitNearest(Dist&& dist, Within&& within, F&& f) const {
+    if (nodes_.empty()) return;
+    std::pair<std::int32_t, double> stack[80];
+    int top = 0;
+    stack[top++] = {0, dist(nodes_[0].box)};
+    while (top > 0) {
+      const auto [index, d] = stack[--top];
+      if (!within(d)) continue;
+      const Node& n = nodes_[std::size_t(index)];
+      if (n.left < 0) {
+        for (std::int32_t i = n.first; i < n.first + n.count; ++i) {
+          const int e = order_[std::size_t(i)];
+          if (within(dist(boxes_[std::size_t(e)]))) f(e);
+        }
+      } else {
+        const double dl = dist(nodes_[std::size_t(n.left)].box);
+        const double dr = dist(nodes_[std::size_t(n.right)].box);
+        const bool leftFirst = dl <= dr;
+        stack[top++] = leftFirst ? std::pair{n.right, dr} : std::pair{n.left, dl};
+        stack[top++] = leftFirst ? std::pair{n.left, dl} : std::pair{n.right, dr};
+      }
+    }
+  }
 
   /// Problems of the hierarchy against the boxes it was last given: every element in exactly one
   /// leaf, every node's box the union of its children's.

@@ -25,7 +25,7 @@ topology::Vec3 vec(const V3& p) {
   return {p.x(), p.y(), p.z()};
 }
 
-double boxDistance2(const V3& q, const Box& b) {
+inline double boxDistance2(const V3& q, const Box& b) {
   const V3 d = (b.lo - q).cwiseMax(q - b.hi).cwiseMax(V3::Zero());
   return d.squaredNorm();
 }
@@ -132,6 +132,27 @@ struct SurfaceQuery::Impl {
     return out;
   }
 
+  /// The nearest point to p within maxDistance, ties to the smaller triangle id.
+  std::optional<SurfacePoint> nearest(const V3& p, double maxDistance) const {
+    double best2 = maxDistance * maxDistance;  // infinity stays infinity
+    std::optional<SurfacePoint> out;
+    auto consider = [&](int e) {
+      const auto& c = corners[std::size_t(e)];
+      const auto w = contact::closestOnTriangle(p, c[0], c[1], c[2]);
+      const V3 on = w[0] * c[0] + w[1] * c[1] + w[2] * c[2];
+      const double d2 = (on - p).squaredNorm();
+      // Ties go to the smaller triangle id, whatever the visiting order.
+      const topology::TriangleId id = ids[std::size_t(e)];
+      if (d2 < best2 || (d2 == best2 && (!out || id < out->triangle))) {
+        best2 = d2;
+        out = SurfacePoint{id, w, vec(on), std::sqrt(d2)};
+      }
+    };
+    bvh.visitNearest([&](const Box& b) { return boxDistance2(p, b); },
+                     [&](double d2) { return d2 <= best2; }, consider);
+    return out;
+  }
+
   /// The triangles within `within` of any of the faces (whose boxes overlap theirs).
   std::vector<std::size_t> nearFaces(const std::vector<std::array<V3, 3>>& faces,
                                      double within) const {
@@ -168,24 +189,37 @@ std::size_t SurfaceQuery::size() const {
 
 std::optional<SurfacePoint> SurfaceQuery::closestPoint(const topology::Vec3& q,
                                                        double maxDistance) const {
-  const Impl& I = *impl_;
-  const V3 p = v3(q);
-  double best2 = maxDistance * maxDistance;  // infinity stays infinity
-  std::optional<SurfacePoint> out;
-  I.bvh.traverse([&](const Box& b) { return boxDistance2(p, b) <= best2; },
-                 [&](const Box& b) { return boxDistance2(p, b); },
-                 [&](int e) {
-                   const auto& c = I.corners[std::size_t(e)];
-                   const auto w = contact::closestOnTriangle(p, c[0], c[1], c[2]);
-                   const V3 on = w[0] * c[0] + w[1] * c[1] + w[2] * c[2];
-                   const double d2 = (on - p).squaredNorm();
-                   // Ties go to the smaller triangle id, whatever the visiting order.
-                   const topology::TriangleId id = I.ids[std::size_t(e)];
-                   if (d2 < best2 || (d2 == best2 && (!out || id < out->triangle))) {
-                     best2 = d2;
-                     out = SurfacePoint{id, w, vec(on), std::sqrt(d2)};
-                   }
-                 });
+  return impl_->nearest(v3(q), maxDistance);
+}
+
+std::vector<std::optional<SurfacePoint>> SurfaceQuery::closestPoints(
+    std::span<const topology::Vec3> q, double maxDistance) const {
+  std::vector<std::optional<SurfacePoint>> out(q.size());
+  if (q.empty()) return out;
+  Box all;
+  for (const topology::Vec3& p : q) all.add(v3(p));
+  const V3 lo = all.lo, size = (all.hi - all.lo).cwiseMax(V3::Constant(1e-300));
+  // 21 bits a coordinate, interleaved.
+  auto spread = [](std::uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+  };
+  std::vector<std::pair<std::uint64_t, std::size_t>> order(q.size());
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    std::uint64_t code = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double f = std::clamp((q[i][k] - lo[k]) / size[k], 0.0, 1.0);
+      code |= spread(std::uint64_t(f * double(0x1fffff))) << k;
+    }
+    order[i] = {code, i};
+  }
+  std::sort(order.begin(), order.end());
+  for (const auto& [code, i] : order) out[i] = impl_->nearest(v3(q[i]), maxDistance);
   return out;
 }
 
@@ -200,19 +234,19 @@ std::optional<SurfaceHit> SurfaceQuery::rayHit(const topology::Vec3& origin,
   const V3 o = v3(origin);
   double bestT = maxT;
   std::optional<SurfaceHit> out;
-  I.bvh.traverse(
-      [&](const Box& b) { return rayMeetsBox(o, d, bestT, b); },
-      [&](const Box& b) { return boxDistance2(o, b); },
-      [&](int e) {
-        const auto& c = I.corners[std::size_t(e)];
-        const auto hit = rayTriangle(o, d, bestT, c[0], c[1], c[2]);
-        if (!hit) return;
-        const topology::TriangleId id = I.ids[std::size_t(e)];
-        if (out && (hit->first > out->t || (hit->first == out->t && id > out->triangle))) return;
-        bestT = hit->first;
-        const auto& w = hit->second;
-        out = SurfaceHit{id, hit->first, w, vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])};
-      });
+  I.bvh.visit([&](const Box& b) { return rayMeetsBox(o, d, bestT, b); },
+              [&](const Box& b) { return boxDistance2(o, b); },
+              [&](int e) {
+                const auto& c = I.corners[std::size_t(e)];
+                const auto hit = rayTriangle(o, d, bestT, c[0], c[1], c[2]);
+                if (!hit) return;
+                const topology::TriangleId id = I.ids[std::size_t(e)];
+                if (out && (hit->first > out->t || (hit->first == out->t && id > out->triangle)))
+                  return;
+                bestT = hit->first;
+                const auto& w = hit->second;
+                out = SurfaceHit{id, hit->first, w, vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])};
+              });
   return out;
 }
 
@@ -222,16 +256,16 @@ std::vector<SurfaceHit> SurfaceQuery::segmentHits(const topology::Vec3& a,
   const V3 p = v3(a), d = v3(b) - p;
   std::vector<SurfaceHit> out;
   if (!(d.squaredNorm() > 0)) return out;
-  I.bvh.traverse([&](const Box& box) { return rayMeetsBox(p, d, 1.0, box); },
-                 [&](const Box& box) { return boxDistance2(p, box); },
-                 [&](int e) {
-                   const auto& c = I.corners[std::size_t(e)];
-                   if (const auto hit = rayTriangle(p, d, 1.0, c[0], c[1], c[2])) {
-                     const auto& w = hit->second;
-                     out.push_back(SurfaceHit{I.ids[std::size_t(e)], hit->first, w,
-                                              vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])});
-                   }
-                 });
+  I.bvh.visit([&](const Box& box) { return rayMeetsBox(p, d, 1.0, box); },
+              [&](const Box& box) { return boxDistance2(p, box); },
+              [&](int e) {
+                const auto& c = I.corners[std::size_t(e)];
+                if (const auto hit = rayTriangle(p, d, 1.0, c[0], c[1], c[2])) {
+                  const auto& w = hit->second;
+                  out.push_back(SurfaceHit{I.ids[std::size_t(e)], hit->first, w,
+                                           vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])});
+                }
+              });
   std::sort(out.begin(), out.end(), [](const SurfaceHit& x, const SurfaceHit& y) {
     return x.t < y.t || (x.t == y.t && x.triangle < y.triangle);
   });

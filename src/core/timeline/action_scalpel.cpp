@@ -196,8 +196,7 @@ class ScalpelAction final : public TimelineAction {
         }
       }
       for (std::size_t k = from; k < rest.size(); ++k)
-        if (piece.rest.empty() ||
-            dist2(piece.rest.back(), rest[k]) > 1e-18 * minPiece_ * minPiece_)
+        if (piece.rest.empty() || dist2(piece.rest.back(), rest[k]) > 1e-18 * minPiece_ * minPiece_)
           piece.rest.push_back(rest[k]);
       piece.rest = thinned(straightened(piece.rest, 1e-9 * minPiece_), 0.2 * minPiece_);
       if (piece.rest.size() < 2) {
@@ -304,8 +303,7 @@ ScalpelParameters readScalpel(const ParameterSource& s) {
     const auto& r = rows[i];
     const std::string key = "path/" + std::to_string(i);
     for (std::size_t k = 0; k < 7; ++k)
-      if (!std::isfinite(r[k]))
-        s.fail(key + "/" + std::to_string(k), "must be a finite number");
+      if (!std::isfinite(r[k])) s.fail(key + "/" + std::to_string(k), "must be a finite number");
     if (r[0] < 0) s.fail(key + "/0", "path times are from the scalpel's start: must be >= 0");
     if (!p.times.empty() && !(r[0] > p.times.back()))
       s.fail(key + "/0", "path times must increase strictly");
@@ -314,7 +312,8 @@ ScalpelParameters readScalpel(const ParameterSource& s) {
       s.fail(key + "/4", "the blade's axis (the last three numbers) must not be zero");
     const Vec3 a = unit(axis);
     if (!p.axes.empty() && angleDegrees(p.axes.back(), a) > kMaxTurn)
-      s.fail(key + "/4", "the blade's axis turns by " + describeNumber(angleDegrees(p.axes.back(), a)) +
+      s.fail(key + "/4", "the blade's axis turns by " +
+                             describeNumber(angleDegrees(p.axes.back(), a)) +
                              " degrees from the keyframe before (at most " +
                              describeNumber(kMaxTurn) + "): add a keyframe between");
     p.times.push_back(r[0]);
@@ -347,9 +346,11 @@ const bool registered = ActionRegistry::instance().add(
        "blade; linear between keyframes, held before the first and after the last",
        {},
        true},
-      {"depth", KeyType::Number,
+      {"depth",
+       KeyType::Number,
        "the blade's cutting length from its tip (m): what lies within it along the axis is cut",
-       {}, true},
+       {},
+       true},
       {"snapTolerance", KeyType::Number,
        "how far (relative to the local edge length) the incision's ends snap onto a vertex or "
        "the border, in [0, 0.5) (default 0.1)"},

@@ -68,6 +68,12 @@ class SurfaceQuery {
   /// The nearest point of the surface to q within maxDistance (none if farther, or no triangle).
   std::optional<SurfacePoint> closestPoint(
       const topology::Vec3& q, double maxDistance = std::numeric_limits<double>::infinity()) const;
+  /// closestPoint of many points, answered in the order of a space-filling (Morton) curve
+  /// through them, so that consecutive queries walk the same branches of the hierarchy (the
+  /// same answers as one by one, in the given order).
+  std::vector<std::optional<SurfacePoint>> closestPoints(
+      std::span<const topology::Vec3> q,
+      double maxDistance = std::numeric_limits<double>::infinity()) const;
   /// The first triangle the ray from origin along direction (not zero; normalised here) meets
   /// within maxT.
   std::optional<SurfaceHit> rayHit(const topology::Vec3& origin, const topology::Vec3& direction,

@@ -1,0 +1,125 @@
+"""World and material from Python: locate, rays and segments against a brute force over every
+triangle (numpy), material points carried back to the world and to rest; a scalpel played from a
+dict cuts the surface where it hangs."""
+import numpy as np
+import pytest
+
+import cutsim
+
+
+def closest_on_triangles(q, a, b, c):
+    """Closest points of every triangle (rows of a, b, c) to q: (points, distances), by sampling
+    the exact region tests of Ericson written with numpy (a twin of nothing in cutsim)."""
+    ab, ac, ap = b - a, c - a, q - a
+    d1, d2 = (ab * ap).sum(1), (ac * ap).sum(1)
+    bp = q - b
+    d3, d4 = (ab * bp).sum(1), (ac * bp).sum(1)
+    cp = q - c
+    d5, d6 = (ab * cp).sum(1), (ac * cp).sum(1)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    out = np.empty_like(a)
+    for i in range(a.shape[0]):
+        if d1[i] <= 0 and d2[i] <= 0:
+            out[i] = a[i]
+        elif d3[i] >= 0 and d4[i] <= d3[i]:
+            out[i] = b[i]
+        elif d6[i] >= 0 and d5[i] <= d6[i]:
+            out[i] = c[i]
+        elif vc[i] <= 0 and d1[i] >= 0 and d3[i] <= 0:
+            out[i] = a[i] + d1[i] / (d1[i] - d3[i]) * ab[i]
+        elif vb[i] <= 0 and d2[i] >= 0 and d6[i] <= 0:
+            out[i] = a[i] + d2[i] / (d2[i] - d6[i]) * ac[i]
+        elif va[i] <= 0 and (d4[i] - d3[i]) >= 0 and (d5[i] - d6[i]) >= 0:
+            w = (d4[i] - d3[i]) / ((d4[i] - d3[i]) + (d5[i] - d6[i]))
+            out[i] = b[i] + w * (c[i] - b[i])
+        else:
+            den = 1.0 / (va[i] + vb[i] + vc[i])
+            out[i] = a[i] + ab[i] * vb[i] * den + ac[i] * vc[i] * den
+    return out, np.linalg.norm(out - q, axis=1)
+
+
+def draped(small_scene):
+    """The small cloth after falling a while (curved), cut once."""
+    sim = cutsim.Simulation(small_scene)
+    sim.cut([[0.2, 0.5, 0], [0.7, 0.45, 0]])
+    sim.step(40)
+    return sim
+
+
+def test_locate_agrees_with_the_brute_force(small_scene):
+    sim = draped(small_scene)
+    x, tri = sim.x, sim.triangles()
+    ids = sim.triangle_ids()
+    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
+    rng = np.random.default_rng(3)
+    q = np.column_stack([rng.uniform(-0.2, 1.2, 60), rng.uniform(-0.2, 1.2, 60),
+                         rng.uniform(-0.6, 0.3, 60)])
+    got = sim.locate(q)
+    assert got["found"].all()
+    for i in range(q.shape[0]):
+        _, d = closest_on_triangles(q[i], a, b, c)
+        assert got["distance"][i] == pytest.approx(d.min(), abs=1e-12)
+        # The point is on its triangle, from its weights, and its rest position from the same.
+        k = int(np.flatnonzero(ids == got["triangle"][i])[0])
+        w = got["weights"][i]
+        assert w.min() >= -1e-12 and w.sum() == pytest.approx(1, abs=1e-12)
+        np.testing.assert_allclose(w @ np.array([a[k], b[k], c[k]]), got["point"][i], atol=1e-12)
+        r = sim.rest[tri[k]]
+        np.testing.assert_allclose(w @ r, got["rest"][i], atol=1e-12)
+    # Material to world and to rest, and back: a surface point locates to itself.
+    np.testing.assert_allclose(sim.world_of(got["triangle"], got["weights"]), got["point"],
+                               atol=1e-12)
+    np.testing.assert_allclose(sim.rest_of(got["triangle"], got["weights"]), got["rest"],
+                               atol=1e-12)
+    again = sim.locate(got["point"])
+    np.testing.assert_allclose(again["distance"], 0, atol=1e-12)
+    # Nothing within a small radius of far points; one point alone is one row.
+    far = sim.locate([[5, 5, 5]], max_distance=1.0)
+    assert not far["found"][0] and far["triangle"][0] == -1
+    assert sim.locate([0.5, 0.5, 0])["found"].shape == (1,)
+
+
+def test_rays_and_segments(small_scene):
+    sim = draped(small_scene)
+    # Straight down onto the cloth from above: the first hit is the top of the surface there.
+    origins = np.array([[0.3, 0.8, 1.0], [0.6, 0.9, 1.0], [3.0, 3.0, 1.0]])
+    hits = sim.ray_hits(origins, [0, 0, -1])
+    assert hits["found"].tolist() == [True, True, False]
+    for i in range(2):
+        seg = sim.segment_hits(origins[i], origins[i] - [0, 0, 3])
+        assert seg["t"].size >= 1
+        assert np.all(np.diff(seg["t"]) >= 0)
+        assert hits["t"][i] == pytest.approx(3 * seg["t"][0], abs=1e-12)
+        np.testing.assert_allclose(hits["point"][i], seg["point"][0], atol=1e-12)
+    with pytest.raises(ValueError, match="direction 0 is zero"):
+        sim.ray_hits([[0, 0, 0]], [[0, 0, 0]])
+    with pytest.raises(ValueError, match="triangle 100000"):
+        sim.world_of([100000], [[1, 0, 0]])
+    with pytest.raises(ValueError, match="non-finite"):
+        sim.locate([[np.nan, 0, 0]])
+
+
+def test_a_scalpel_from_a_dict_cuts_where_the_cloth_hangs(small_scene):
+    # The cloth falls from its two top corners; a blade crossing the hanging cloth horizontally
+    # at a height it has there (found with locate, in world space) cuts it along that height.
+    small_scene["duration"] = 1.0
+    sim = cutsim.Simulation(small_scene)
+    sim.step(60)
+    mid = sim.locate([[0.5, 0.7, -1.0]])
+    z = mid["point"][0][2]
+    y = mid["point"][0][1]
+    sim.act({"action": "scalpel", "from": sim.time, "to": sim.time + 0.1, "depth": 0.2,
+             "path": [[0, -0.2, y - 0.1, z, 0, 1, 0], [0.1, 1.2, y - 0.1, z, 0, 1, 0]]})
+    made = []
+    for _ in range(20):
+        before = sim.alive.copy()
+        sim.step()
+        alive = sim.alive
+        new = np.flatnonzero(alive[: before.size] & ~before).tolist() + list(range(before.size, alive.size))
+        made += [sim.x[i][2] - z for i in new if alive[i]]
+        assert not sim.validate()
+    assert len(made) > 5  # it cut
+    # Where the cloth was when it was cut: at the blade's height (the repair moves a few points
+    # around the incision by a fraction of an edge, 0.125 here).
+    assert np.median(np.abs(made)) < 1e-6
+    assert np.max(np.abs(made)) < 0.05
