@@ -1,5 +1,5 @@
-// World-space instruments' queries of the deformed surface (forcefields::SurfaceQuery), side by side
-// with a CG20 step of the same cloth:
+// World-space instruments' queries of the deformed surface (forcefields::SurfaceQuery), side by
+// side with a CG20 step of the same cloth:
 //   BM_Locate/N          10^4 world points located on a wavy N x N sheet (2 (N-1)^2 triangles;
 //                        N = 225: 10^5 triangles): near it (within 2 mm) or far (up to 10 cm)
 //   BM_Refit/N           the search structure following new positions

@@ -62,8 +62,8 @@ struct Results {
     scalar.mutable_data()[i] = value;
   }
   py::dict dict(const char* scalarName) const {
-    py::dict d("found"_a = found, "triangle"_a = triangle, "weights"_a = weights,
-               "point"_a = point, "rest"_a = rest);
+    py::dict d("found"_a = found, "triangle"_a = triangle, "weights"_a = weights, "point"_a = point,
+               "rest"_a = rest);
     d[scalarName] = scalar;
     return d;
   }
@@ -91,8 +91,7 @@ py::dict Simulation::locate(const py::handle& points, double maxDistance) {
   return out.dict("distance");
 }
 
-py::dict Simulation::rayHits(const py::handle& origins, const py::handle& directions,
-                             double maxT) {
+py::dict Simulation::rayHits(const py::handle& origins, const py::handle& directions, double maxT) {
   requireReadable("ray_hits");
   if (!(maxT > 0)) throw py::value_error("ray_hits: max_t must be > 0");
   const auto o = readRows(origins, "ray_hits: origins");

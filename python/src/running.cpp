@@ -198,6 +198,7 @@ void Simulation::record(const std::filesystem::path& dir,
   writer_ =
       std::make_unique<core::OutputWriter>(dir, scene().output, scene().forceFieldLabels(), grasps,
                                            scene().contactSetup() != nullptr, obstacles);
+  writer_->setInstruments([this] { return runner_->instrumentSegments(); });
   if (scene().output.vtk) core::writeRunInfo(dir, scene());
   writer_->record(sim(), {runner_->currentStep(), runner_->time(), runner_->lastStats()},
                   runner_->currentStep() == runner_->numSteps());

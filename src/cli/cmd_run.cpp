@@ -415,6 +415,7 @@ void runScene(const RunOptions& options) {
   }
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
                             scene.contactSetup() != nullptr, obstacleNamesOf(scene));
+  writer.setInstruments([&runner] { return runner.instrumentSegments(); });
   if (writer.replacedFiles() > 0)
     std::cerr << "note: removed " << writer.replacedFiles() << " files of an earlier run from "
               << outDir.string() << "\n";
@@ -480,6 +481,7 @@ void resumeRun(const ResumeOptions& options) {
                                            std::to_string(runner.currentStep()));
   core::OutputWriter writer(outDir, scene.output, scene.forceFieldLabels(), scene.graspNames(),
                             scene.contactSetup() != nullptr, obstacleNamesOf(scene), in);
+  writer.setInstruments([&runner] { return runner.instrumentSegments(); });
   if (!run.quiet)
     std::cerr << "resuming " << source.sceneName << " at step " << runner.currentStep() << " of "
               << runner.numSteps() << " (t = " << runner.time() << " s), into " << outDir.string()

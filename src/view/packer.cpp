@@ -91,6 +91,7 @@ void FramePacker::add(const Frame& f) {
     j["obstacleX"] = put("obstacleX", f.obstacleX);
     j["obstacleTri"] = put("obstacleTri", f.obstacleTriangles);
   }
+  if (!f.instrumentX.empty()) j["instrumentX"] = put("instrumentX", f.instrumentX);
   meta_["frames"].push_back(std::move(j));
 }
 

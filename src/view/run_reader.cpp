@@ -217,6 +217,7 @@ RunFolder scanRun(const fs::path& dir) {
   optional("borders", run.borders);
   optional("springs", run.springs);
   optional("obstacles", run.obstacles);
+  optional("instruments", run.instruments);
   if (fs::exists(dir / "steps.csv"))
     run.csv = dir / "steps.csv";
   else if (fs::exists(dir / "steps.partial.csv"))  // a run stopped before its end
@@ -267,6 +268,14 @@ Frame readFrame(const RunFolder& run, std::size_t index) {
     const Piece p = openPiece(*o);
     f.obstacleX = required<float>(p, p.node.child("Points"), "position", 3 * p.points);
     f.obstacleTriangles = cells(p, "Polys", p.polys, 3);
+  }
+  if (auto i = companion(run, run.instruments, index)) {
+    const Piece p = openPiece(*i);
+    f.instrumentX = required<float>(p, p.node.child("Points"), "position", 3 * p.points);
+    // Segments as written (two points each): an odd count is not ours.
+    if (p.points % 2 != 0)
+      throw InvalidInput(i->string(), "has " + std::to_string(p.points) +
+                                          " points, not two per instrument segment");
   }
   return f;
 }

@@ -28,11 +28,13 @@ constexpr double kPi = 3.14159265358979323846;
 
 /// A 1 m sheet of 21 x 21 points that hardly moves in a step (no gravity, soft springs), so that
 /// the positions a test gives it are where the blade finds it.
-std::string sheet(const std::string& timeline, double duration = 0.01) {
+std::string sheet(const std::string& timeline, double duration = 0.01,
+                  const std::string& gravity = "[0, 0, 0]") {
   return R"({
   "mesh": {"grid": {"nx": 21, "ny": 21, "size": [1, 1], "plane": "xy"}},
   "mass": {"total": 0.2},
-  "gravity": [0, 0, 0],
+  "gravity": )" +
+         gravity + R"(,
   "forceFields": [{"type": "StretchSprings", "stiffness": 1e-9}],
   "integrator": {"type": "implicit-euler"},
   "linearSolver": {"type": "cg", "iterations": 100, "tolerance": 1e-8},
@@ -82,6 +84,28 @@ std::vector<Vec3> newPoints(const Simulation& sim) {
   for (PointId p : sim.topology().points())
     if (p.idx() >= 441) out.push_back(sim.topology().restPosition(p));
   return out;
+}
+
+/// How many closed loops the border edges make (connected pieces of the graph of border edges):
+/// an incision from the border adds none, one with two ends inside adds one, a cut across a sheet
+/// that parts it adds one.
+std::size_t borderLoops(const topology::Topology& t) {
+  std::vector<topology::Index> parent(t.pointCapacity());
+  for (topology::Index i = 0; i < parent.size(); ++i) parent[i] = i;
+  const std::function<topology::Index(topology::Index)> find = [&](topology::Index i) {
+    return parent[i] == i ? i : parent[i] = find(parent[i]);
+  };
+  std::set<topology::Index> on;
+  for (topology::EdgeId e : t.edges()) {
+    if (!t.isBoundaryEdge(e)) continue;
+    const auto v = t.edgeVertices(e);
+    on.insert(v[0].idx());
+    on.insert(v[1].idx());
+    parent[find(v[0].idx())] = find(v[1].idx());
+  }
+  std::set<topology::Index> roots;
+  for (topology::Index i : on) roots.insert(find(i));
+  return roots.size();
 }
 
 /// The mesh as sorted rest positions and triangles given by their corners' rest positions.
@@ -134,6 +158,9 @@ TEST(Scalpel, OnAFlatSheetAtRestCutsAsThePolylineCutAlongItsPath) {
                               "c.json", test::kSceneDir));
   run(slow);
   EXPECT_GT(slow.cutsDone(), 2);
+  // One incision, from the border to its tip: the border is still one loop (pieces that did not
+  // join would leave a strip uncut and a second loop).
+  EXPECT_EQ(borderLoops(slow.simulation().topology()), 1u);
   const auto added = newPoints(slow.simulation());
   ASSERT_FALSE(added.empty());
   // Every new point is on the path (snapping moves a piece's end by at most a tenth of an edge).
@@ -143,6 +170,99 @@ TEST(Scalpel, OnAFlatSheetAtRestCutsAsThePolylineCutAlongItsPath) {
     EXPECT_LT(off, 0.1 * 0.05 * 1.5) << p[0] << ", " << p[1];
     EXPECT_LE(p[0], 0.7 + 1e-9);
   }
+}
+
+TEST(Scalpel, ABladeThatEntersAndLeavesMakesAnIncisionWithTwoEnds) {
+  // From above the sheet down through it at x = 0.3, along to x = 0.7, and up out of it: one
+  // incision from about 0.3 to 0.7 (where the tip crossed the sheet), both ends inside.
+  const std::string path =
+      R"([[0, 0.25, 0.43, 0.02, 0, 0, 1], [0.05, 0.35, 0.43, -0.02, 0, 0, 1],
+          [0.15, 0.65, 0.47, -0.02, 0, 0, 1], [0.2, 0.75, 0.47, 0.02, 0, 0, 1]])";
+  SceneRunner runner(parseScene(sheet(R"({"action": "scalpel", "from": 0, "to": 0.2,
+      "depth": 0.03, "minAngle": 0, "path": )" +
+                                          path + "}",
+                                      0.2),
+                                "a.json", test::kSceneDir));
+  run(runner);
+  const auto added = newPoints(runner.simulation());
+  ASSERT_GT(added.size(), 8u);
+  double lo = 1, hi = 0;
+  for (const Vec3& p : added) {
+    lo = std::min(lo, p[0]);
+    hi = std::max(hi, p[0]);
+    EXPECT_GT(p[1], 0.42);
+    EXPECT_LT(p[1], 0.48);
+  }
+  // The tip crosses z = 0 half way down and half way up: at x = 0.3 and x = 0.7 (snapping moves
+  // an end by at most a tenth of an edge, 0.005).
+  EXPECT_NEAR(lo, 0.3, 0.006);
+  EXPECT_NEAR(hi, 0.7, 0.006);
+  // Two ends inside: the sheet's border is its own 80 edges plus the incision's two lips, which
+  // meet at its ends (each lip has as many edges as the other).
+  const auto& topo = runner.simulation().topology();
+  std::size_t border = 0;
+  for (topology::EdgeId e : topo.edges()) border += topo.isBoundaryEdge(e);
+  EXPECT_GT(border, 80u);
+  EXPECT_EQ((border - 80) % 2, 0u);
+  EXPECT_EQ(borderLoops(topo), 2u);  // the sheet's and the incision's
+  for (PointId p : topo.points()) {
+    const Vec3 r = topo.restPosition(p);
+    const bool onOuterBorder = r[0] < 1e-12 || r[0] > 1 - 1e-12 || r[1] < 1e-12 || r[1] > 1 - 1e-12;
+    if (p.idx() >= 441) EXPECT_FALSE(onOuterBorder) << "the incision reached the border";
+  }
+}
+
+TEST(Scalpel, ABladeThatPausesInsideGoesOnWithTheSameIncision) {
+  // In from the left border, still for 0.1 s at x = 0.4 (two keyframes alike), then on to 0.7:
+  // one incision from the border (one border loop). The sheet falls slowly in its own plane
+  // (gravity along -y, nothing fixed), so that where the blade meets it after the pause is not
+  // the incision's tip: the incision goes on from its tip all the same.
+  const std::string path =
+      R"([[0, -0.1, 0.43, -0.01, 0, 0, 1], [0.1, 0.4, 0.43, -0.01, 0, 0, 1],
+          [0.2, 0.4, 0.43, -0.01, 0, 0, 1], [0.3, 0.7, 0.43, -0.01, 0, 0, 1]])";
+  SceneRunner runner(parseScene(sheet(R"({"action": "scalpel", "from": 0, "to": 0.35,
+      "depth": 0.02, "minAngle": 0, "path": )" +
+                                          path + "}",
+                                      0.35, "[0, -0.5, 0]"),
+                                "a.json", test::kSceneDir));
+  run(runner);
+  EXPECT_GT(runner.cutsDone(), 2);
+  EXPECT_EQ(borderLoops(runner.simulation().topology()), 1u);
+  for (const Vec3& p : newPoints(runner.simulation())) {
+    // (the sheet falls 0.5 g t^2 / 2 by t: 3 cm by the end, so the incision runs up the rest
+    // sheet by as much)
+    EXPECT_GT(p[1], 0.43 - 0.006);
+    EXPECT_LT(p[1], 0.43 + 0.035);
+  }
+  // It ends where the blade stopped, x = 0.7 (a grid vertex there: snapped onto it).
+  const auto& topo = runner.simulation().topology();
+  double hi = 0;
+  for (topology::EdgeId e : topo.edges())
+    if (topo.isBoundaryEdge(e))
+      for (PointId q : topo.edgeVertices(e)) {
+        const Vec3 r = topo.restPosition(q);
+        if (r[0] > 1e-9 && r[0] < 1 - 1e-9 && r[1] > 1e-9 && r[1] < 1 - 1e-9)
+          hi = std::max(hi, r[0]);
+      }
+  EXPECT_NEAR(hi, 0.7, 0.1 * 0.05 * 1.01);
+}
+
+TEST(Scalpel, ABladeWhoseTipGrazesOutOfTheTissueGoesOnWithTheSameIncision) {
+  // In from the left border; at x = 0.4 the tip rises 0.5 mm out of the sheet for a centimetre
+  // (less than half an edge) and goes back in, on to x = 0.7: one incision (the tip kept while the
+  // blade was out), where without it a second incision would start beside the first's tip.
+  const std::string path =
+      R"([[0, -0.1, 0.43, -0.002, 0, 0, 1], [0.1, 0.395, 0.43, -0.002, 0, 0, 1],
+          [0.11, 0.40, 0.43, 0.0005, 0, 0, 1], [0.12, 0.405, 0.43, 0.0005, 0, 0, 1],
+          [0.13, 0.41, 0.43, -0.002, 0, 0, 1], [0.3, 0.7, 0.43, -0.002, 0, 0, 1]])";
+  SceneRunner runner(parseScene(sheet(R"({"action": "scalpel", "from": 0, "to": 0.3,
+      "depth": 0.02, "minAngle": 0, "path": )" +
+                                          path + "}",
+                                      0.3),
+                                "a.json", test::kSceneDir));
+  run(runner);
+  EXPECT_GT(runner.cutsDone(), 2);
+  EXPECT_EQ(borderLoops(runner.simulation().topology()), 1u);
 }
 
 TEST(Scalpel, AboveTheSurfaceCutsNothing) {
@@ -203,25 +323,35 @@ TEST(Scalpel, ADeepBladeCutsBothLayersOfAFoldAShallowOneTheLayerItReaches) {
     double tipZ, depth;
     bool bottom, top;
   };
-  for (const Case k : {Case{-0.01, 0.06, true, true}, Case{-0.01, 0.02, true, false},
-                       Case{0.015, 0.03, false, true}}) {
-    SceneRunner runner(parseScene(sheet(scalpel({0.23, -0.1, k.tipZ}, {0.23, 1.1, k.tipZ},
-                                                {0, 0, 1}, k.depth, 0.01, ", \"minAngle\": 0")),
-                                  "a.json", test::kSceneDir));
-    run(runner, fold);
-    bool bottom = false, top = false;
-    for (const Vec3& p : newPoints(runner.simulation())) {
-      if (std::abs(p[0] - 0.23) < 1e-9)
-        bottom = true;
-      else if (std::abs(p[0] - 0.77) < 1e-9)
-        top = true;
-      else
-        ADD_FAILURE() << "a new point off both lines: " << p[0] << ", " << p[1];
+  // In one step, and in 20 (each layer's incision going on from its own tip).
+  for (const double to : {0.01, 0.2})
+    for (const Case k : {Case{-0.01, 0.06, true, true}, Case{-0.01, 0.02, true, false},
+                         Case{0.015, 0.03, false, true}}) {
+      SCOPED_TRACE("over " + std::to_string(to) + " s, tip " + std::to_string(k.tipZ) + ", depth " +
+                   std::to_string(k.depth));
+      SceneRunner runner(parseScene(sheet(scalpel({0.23, -0.1, k.tipZ}, {0.23, 1.1, k.tipZ},
+                                                  {0, 0, 1}, k.depth, to, ", \"minAngle\": 0"),
+                                          to + 0.01),
+                                    "a.json", test::kSceneDir));
+      run(runner, fold);
+      // New points on the lines (one step: exactly; pieces' ends snap by a tenth of an edge).
+      const double tol = to == 0.01 ? 1e-9 : 0.1 * 0.05 * 1.01;
+      bool bottom = false, top = false;
+      for (const Vec3& p : newPoints(runner.simulation())) {
+        if (std::abs(p[0] - 0.23) < tol)
+          bottom = true;
+        else if (std::abs(p[0] - 0.77) < tol)
+          top = true;
+        else
+          ADD_FAILURE() << "a new point off both lines: " << p[0] << ", " << p[1];
+      }
+      EXPECT_EQ(bottom, k.bottom);
+      EXPECT_EQ(top, k.top);
+      if (to == 0.01) EXPECT_EQ(runner.cutsDone(), int(k.bottom) + int(k.top));
+      // Each layer cut through from border to border parts a strip off: one loop more each.
+      EXPECT_EQ(borderLoops(runner.simulation().topology()),
+                1u + std::size_t(k.bottom) + std::size_t(k.top));
     }
-    EXPECT_EQ(bottom, k.bottom) << "tip " << k.tipZ << ", depth " << k.depth;
-    EXPECT_EQ(top, k.top) << "tip " << k.tipZ << ", depth " << k.depth;
-    EXPECT_EQ(runner.cutsDone(), int(k.bottom) + int(k.top));
-  }
 }
 
 TEST(Scalpel, BadInputIsRefusedBeforeTheRunNamingThePlace) {

@@ -1,6 +1,8 @@
 """World and material from Python: locate, rays and segments against a brute force over every
 triangle (numpy), material points carried back to the world and to rest; a scalpel played from a
 dict cuts the surface where it hangs."""
+import pathlib
+
 import numpy as np
 import pytest
 
@@ -123,3 +125,50 @@ def test_a_scalpel_from_a_dict_cuts_where_the_cloth_hangs(small_scene):
     # around the incision by a fraction of an edge, 0.125 here).
     assert np.median(np.abs(made)) < 1e-6
     assert np.max(np.abs(made)) < 0.05
+
+
+def test_bad_scalpel_paths_are_refused(small_scene):
+    sim = cutsim.Simulation(small_scene)
+    entry = {"action": "scalpel", "from": 0, "to": 0.1, "depth": 0.1,
+             "path": [[0, 0, 0.5, 0, 0, 0, 1], [0.1, float("nan"), 0.5, 0, 0, 0, 1]]}
+    with pytest.raises(cutsim.InvalidInputError, match="path/1/1"):
+        sim.act(entry)
+    entry["path"] = [[0, 0, 0.5, 0, 0, 0, 1], [0.1, 1, 0.5, 0, 0, 0, 0]]
+    with pytest.raises(cutsim.InvalidInputError, match="axis"):
+        sim.act(entry)
+    entry["path"] = [[0, 0, 0.5, 0, 0, 0, 1]]
+    entry["depth"] = 0
+    with pytest.raises(cutsim.InvalidInputError, match="depth"):
+        sim.act(entry)
+
+
+def test_the_blade_is_drawn_in_the_frames_and_the_player(small_scene, tmp_path):
+    import re
+    small_scene["duration"] = 0.3
+    small_scene["output"] = {"every": 4}
+    sim = cutsim.Simulation(small_scene)
+    run = tmp_path / "run"
+    sim.record(run)
+    tip0, tip1 = np.array([-0.2, 0.5, -0.3]), np.array([1.2, 0.5, -0.3])
+    sim.act({"action": "scalpel", "from": 0.05, "to": 0.15, "depth": 0.6,
+             "path": [[0, *tip0, 0, 0, 1], [0.1, *tip1, 0, 0, 1]]})
+    sim.run()
+    sim.finish_recording()
+    frames = re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', (run / "instruments.pvd").read_text())
+    assert frames, "no instruments series"
+    drawn = 0
+    for t, name in frames:
+        t = float(t)
+        text = (run / name).read_text()
+        points = re.search(r'Name="position"[^>]*>([^<]*)<', text).group(1).split()
+        if not 0.05 - 1e-9 <= t <= 0.15 + 1e-9:
+            assert points == [], f"a blade drawn at t = {t}, outside its interval"
+            continue
+        drawn += 1
+        p = np.array(points, dtype=float).reshape(-1, 3)
+        expected = tip0 + (tip1 - tip0) * (t - 0.05) / 0.1
+        np.testing.assert_allclose(p[0], expected, atol=1e-12)
+        np.testing.assert_allclose(p[1], expected + [0, 0, 0.6], atol=1e-12)
+    assert drawn >= 3
+    page = cutsim.write_player(run)
+    assert "instrumentX" in pathlib.Path(page["path"]).read_text()

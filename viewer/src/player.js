@@ -143,7 +143,7 @@ class Player {
     this.lit = true;
     this.playing = false;
     this.speed = 1;
-    this.show = { borders: true, springs: false, held: true, obstacles: true, wireframe: false };
+    this.show = { borders: true, springs: false, held: true, obstacles: true, instruments: true, wireframe: false };
     this.ranges = {};
     this.hasSprings = this.frameList.some((f) => f.spring);
     this.buildDom();
@@ -197,6 +197,7 @@ class Player {
     if (this.hasSprings) toggle('springs', 'bending springs', 'one line between the two wing points of each bending spring');
     if (this.frameList.some((f) => f.held)) toggle('held', 'fixed and grasped points', 'fixed points white, grasped points orange');
     if (this.frameList.some((f) => f.obstacleX)) toggle('obstacles', 'obstacles', 'the contact obstacles');
+    if (this.frameList.some((f) => f.instrumentX)) toggle('instruments', 'instruments', 'a scalpel\'s blade (yellow, its tip marked) where it is');
     toggle('wireframe', 'triangle edges', 'the mesh edges over the colours');
     const litBox = el('input', { type: 'checkbox', id: 'lit' });
     litBox.checked = true;
@@ -281,9 +282,19 @@ class Player {
     this.obstacles = new THREE.Mesh(this.obstacleGeometry, new THREE.MeshPhongMaterial({ color: 0x8b95a3,
       transparent: true, opacity: 0.45, side: THREE.DoubleSide, depthWrite: false }));
     scene.add(this.obstacles);
+    this.instrumentGeometry = new THREE.BufferGeometry();
+    this.instruments = new THREE.LineSegments(this.instrumentGeometry,
+      new THREE.LineBasicMaterial({ color: 0xffd23f, depthTest: false }));
+    this.instruments.renderOrder = 2;
+    scene.add(this.instruments);
+    this.tipGeometry = new THREE.BufferGeometry();
+    this.tips = new THREE.Points(this.tipGeometry, new THREE.PointsMaterial({ color: 0xffd23f, size: 7,
+      sizeAttenuation: false, depthTest: false }));
+    this.tips.renderOrder = 2;
+    scene.add(this.tips);
 
     // Their geometries change with every frame: never culled by a bounding sphere of another frame.
-    for (const o of [this.borders, this.springs, this.wire, this.held, this.obstacles]) o.frustumCulled = false;
+    for (const o of [this.borders, this.springs, this.wire, this.held, this.obstacles, this.instruments, this.tips]) o.frustumCulled = false;
     this.raycaster = new THREE.Raycaster();
     const resize = () => {
       const w = this.viewEl.clientWidth, h = Math.max(1, this.viewEl.clientHeight);
@@ -530,6 +541,12 @@ class Player {
       this.obstacleGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
       this.obstacleGeometry.setIndex(null);
     }
+    // Instruments: segments from their tips (two points each), drawn over the surface.
+    const ix = this.array(Float32Array, f.instrumentX) || new Float32Array(0);
+    this.instrumentGeometry.setAttribute('position', new THREE.BufferAttribute(ix, 3));
+    const tips = new Float32Array(ix.length / 2);
+    for (let k = 0; 6 * k < ix.length; k++) tips.set(ix.subarray(6 * k, 6 * k + 3), 3 * k);
+    this.tipGeometry.setAttribute('position', new THREE.BufferAttribute(tips, 3));
     this.applyVisibility();
   }
 
@@ -538,6 +555,7 @@ class Player {
     this.springs.visible = this.show.springs;
     this.held.visible = this.show.held;
     this.obstacles.visible = this.show.obstacles;
+    this.instruments.visible = this.tips.visible = this.show.instruments;
     this.wire.visible = this.show.wireframe;
     if (this.show.wireframe && this.x) this.updateSurface();
   }

@@ -291,6 +291,30 @@ void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string
          "</VTKFile>\n";
 }
 
+void writeSegmentsVtp(std::ostream& out, std::span<const std::array<Vec3, 2>> segments) {
+  vtpHeader(out);
+  out << "    <Piece NumberOfPoints=\"" << 2 * segments.size()
+      << "\" NumberOfVerts=\"0\" NumberOfLines=\"" << segments.size()
+      << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n"
+         "      <Points>\n"
+         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n";
+  for (const auto& s : segments)
+    for (const Vec3& p : s)
+      out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
+  out << "        </DataArray>\n"
+         "      </Points>\n"
+         "      <Lines>\n"
+         "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  for (std::size_t k = 0; k < segments.size(); ++k) out << 2 * k << ' ' << 2 * k + 1 << '\n';
+  out << "        </DataArray>\n"
+         "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (std::size_t k = 0; k < segments.size(); ++k) out << 2 * (k + 1) << '\n';
+  out << "        </DataArray>\n"
+         "      </Lines>\n";
+  vtpFooter(out);
+}
+
 void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles,
                        double t, double planeSize) {
   std::vector<Vec3> points;
@@ -647,7 +671,7 @@ bool OutputWriter::isRunOutput(const std::string& name) {
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
   if (ends(".vtp"))
     return starts("surface_") || starts("borders_") || starts("springs_") || starts("network_") ||
-           starts("obstacles_");
+           starts("obstacles_") || starts("instruments_");
   return starts("frame_") && ends(".obj");
 }
 
@@ -814,6 +838,20 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
       if (partial)
         writeFileAtomically(dir_ / "obstacles.partial.pvd",
                             [&](std::ostream& o) { writePvd(o, obstacleFrames_); });
+    }
+    if (instruments_) {
+      // A series from the first frame with an instrument on, then a frame for every frame (empty
+      // while none is), so that its collection has no gap.
+      const std::vector<std::array<Vec3, 2>> segments = instruments_();
+      if (!segments.empty() || networkFrames_.count("instruments")) {
+        auto& frames = networkFrames_["instruments"];
+        const std::string name = frameName("instruments", index, ".vtp");
+        writeFileAtomically(dir_ / name, [&](std::ostream& o) { writeSegmentsVtp(o, segments); });
+        frames.emplace_back(r.time, name);
+        if (partial)
+          writeFileAtomically(dir_ / "instruments.partial.pvd",
+                              [&](std::ostream& o) { writePvd(o, frames); });
+      }
     }
   } else {
     surfaceFrames_.emplace_back(r.time, "");

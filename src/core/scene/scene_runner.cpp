@@ -235,6 +235,12 @@ void SceneRunner::start() {
   runDueActions(0.0);
 }
 
+std::vector<std::array<Vec3, 2>> SceneRunner::instrumentSegments() const {
+  std::vector<std::array<Vec3, 2>> out;
+  for (const Running& r : running_) r.action->instruments(time(), out);
+  return out;
+}
+
 StepStats SceneRunner::advance() {
   if (!started_) start();
   if (finished()) return lastStats_;

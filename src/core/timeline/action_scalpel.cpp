@@ -52,6 +52,22 @@ double angleDegrees(const Vec3& a, const Vec3& b) {
   return std::acos(std::clamp(topology::geometry::dot(a, b), -1.0, 1.0)) * 180.0 / kPi;
 }
 
+/// The unit vector a fraction f of the way from unit a to unit b along the great circle (the
+/// axis turns at a constant rate; at most 170 degrees apart, so sin of the angle is not small).
+Vec3 slerp(const Vec3& a, const Vec3& b, double f) {
+  const double theta = std::acos(std::clamp(topology::geometry::dot(a, b), -1.0, 1.0));
+  if (!(theta > 1e-9)) return a;
+  const double wa = std::sin((1 - f) * theta) / std::sin(theta),
+               wb = std::sin(f * theta) / std::sin(theta);
+  return unit({wa * a[0] + wb * b[0], wa * a[1] + wb * b[1], wa * a[2] + wb * b[2]});
+}
+
+/// Whether a point of an incision curve is on the path of the blade's tip or of the end of its
+/// edge (where the blade enters or leaves the tissue through its own movement), not a border.
+bool onBladePath(const forcefields::SweptCrossing& x) {
+  return x.u <= 1e-6 || x.u >= 1.0 - 1e-6;
+}
+
 /// Whether a cut changed the mesh (one along the border or an earlier cut's lips opens nothing).
 bool opened(const topology::IncisionResult& r) {
   const topology::RepairReport& q = r.repair;
@@ -119,6 +135,12 @@ class ScalpelAction final : public TimelineAction {
     afterStep(c);
   }
 
+  void instruments(double time, std::vector<std::array<Vec3, 2>>& out) const override {
+    const double eps = 1e-9 * std::max(1.0, std::abs(timing_.to));
+    if (time >= timing_.from - eps && time <= timing_.to + eps)
+      out.push_back(pose(std::clamp(time, timing_.from, timing_.to) - timing_.from));
+  }
+
   bool checkpointable() const override { return true; }
   void saveState(ArchiveWriter& out) const override {
     fields(out, started_, finished_, last_, minPiece_);
@@ -132,7 +154,11 @@ class ScalpelAction final : public TimelineAction {
     in.raw(&n, sizeof n);
     if (n > 1000000) in.fail("a scalpel's " + std::to_string(n) + " incision tips");
     tips_.assign(n, Vec3{});
-    for (Vec3& t : tips_) in.raw(t.data(), sizeof(double) * 3);
+    for (Vec3& t : tips_) {
+      in.raw(t.data(), sizeof(double) * 3);
+      if (!std::isfinite(t[0]) || !std::isfinite(t[1]) || !std::isfinite(t[2]))
+        in.fail("a scalpel's incision tip that is not a finite point");
+    }
     if (!(last_ >= 0 && last_ <= timing_.to - timing_.from) || !std::isfinite(minPiece_))
       in.fail("a scalpel's progress of " + std::to_string(last_));
     query_.reset();
@@ -145,6 +171,12 @@ class ScalpelAction final : public TimelineAction {
     const double now = std::min(c.time(), timing_.to) - timing_.from;
     if (!(now > last_)) return;
     const std::vector<std::array<Vec3, 2>> poses = posesBetween(last_, now);
+    if (poses.size() < 2) {
+      // The blade has not moved since its last cut (it pauses): nothing swept, the incisions it
+      // is in kept as they are.
+      if (final) finished_ = true;
+      return;
+    }
     if (!query_)
       query_ = std::make_unique<forcefields::SurfaceQuery>(sim.topology(), sim.state().x());
     else
@@ -156,12 +188,19 @@ class ScalpelAction final : public TimelineAction {
     struct Piece {
       std::vector<Vec3> rest;
       bool endsInside = false;  // on the blade's current position: it goes on next time
+      // Its end is where the blade left the surface, not a border: on its current position, or
+      // on the path of its tip (it rose out of the tissue, or the tissue fell away from it) or of
+      // the end of its edge. The incision's tip is kept: a curve that starts near it later (the
+      // blade back in) goes on from it.
+      bool keepsTip = false;
     };
     std::vector<Piece> pieces;
+    std::vector<char> claimed(tips_.size(), 0);
     const topology::Topology& topo = sim.topology();
     for (const auto& curve : curves) {
       Piece piece;
       piece.endsInside = curve.back().s >= last - 1e-6;
+      piece.keepsTip = piece.endsInside || onBladePath(curve.back());
       std::vector<Vec3> rest;
       for (const forcefields::SweptCrossing& x : curve) {
         const auto tv = topo.triangleVertices(x.triangle);
@@ -175,16 +214,20 @@ class ScalpelAction final : public TimelineAction {
       // A curve starting on the blade's previous position continues the incision whose tip is
       // nearest its start (the surface moved under the blade since: the point is near the tip,
       // behind it or ahead): from the tip, on from the curve's point nearest it.
+      // Each tip goes on in one curve at most (two curves near one tip: the nearer one takes it).
       std::size_t from = 0;
-      if (curve.front().s <= 1e-9 && !tips_.empty()) {
+      std::size_t tipIndex = tips_.size();  // the tip it goes on from (none: tips_.size())
+      if ((curve.front().s <= 1e-9 || onBladePath(curve.front())) && !tips_.empty()) {
         const Vec3* tip = nullptr;
         double best = minPiece_ * minPiece_;
-        for (const Vec3& t : tips_)
-          if (dist2(t, rest.front()) < best) {
-            best = dist2(t, rest.front());
-            tip = &t;
+        for (std::size_t k = 0; k < tips_.size(); ++k)
+          if (!claimed[k] && dist2(tips_[k], rest.front()) < best) {
+            best = dist2(tips_[k], rest.front());
+            tip = &tips_[k];
           }
         if (tip) {
+          tipIndex = std::size_t(tip - tips_.data());
+          claimed[tipIndex] = 1;
           best = dist2(*tip, rest.front());
           for (std::size_t k = 1; k < rest.size(); ++k)
             if (dist2(*tip, rest[k]) < best) {
@@ -199,8 +242,13 @@ class ScalpelAction final : public TimelineAction {
         if (piece.rest.empty() || dist2(piece.rest.back(), rest[k]) > 1e-18 * minPiece_ * minPiece_)
           piece.rest.push_back(rest[k]);
       piece.rest = thinned(straightened(piece.rest, 1e-9 * minPiece_), 0.2 * minPiece_);
+      // (a piece not cut leaves the tip it would have gone on from as it is)
+      const auto unclaim = [&] {
+        if (tipIndex < tips_.size()) claimed[tipIndex] = 0;
+      };
       if (piece.rest.size() < 2) {
         if (!final && piece.endsInside) return;  // the blade has not moved on from the tip yet
+        unclaim();
         continue;
       }
       double length = 0.0;
@@ -211,7 +259,10 @@ class ScalpelAction final : public TimelineAction {
       if (!final && piece.endsInside && length < minPiece_) return;
       // A piece the blade has left (its tip came out, or it reached the border) that is shorter
       // than a tenth of a mean edge is below what the mesh can show: not cut.
-      if (length < 0.2 * minPiece_) continue;
+      if (length < 0.2 * minPiece_) {
+        unclaim();
+        continue;
+      }
       pieces.push_back(std::move(piece));
     }
 
@@ -229,9 +280,12 @@ class ScalpelAction final : public TimelineAction {
       }
       cutSome = true;
       if (opened(result)) c.countCut();
-      if (piece.endsInside && !result.path.empty())
+      if (piece.keepsTip && !result.path.empty())
         tips.push_back(sim.topology().restPosition(result.path.back()));
     }
+    // The tips no curve went on from stay (the blade may come back into the tissue there).
+    for (std::size_t k = 0; k < tips_.size(); ++k)
+      if (!claimed[k]) tips.push_back(tips_[k]);
     tips_ = std::move(tips);
     last_ = now;
     if (final) finished_ = true;
@@ -256,7 +310,7 @@ class ScalpelAction final : public TimelineAction {
       const std::size_t i = std::size_t(std::upper_bound(T.begin(), T.end(), t) - T.begin());
       const double f = (t - T[i - 1]) / (T[i] - T[i - 1]);
       tip = lerp(p_.tips[i - 1], p_.tips[i], f);
-      axis = unit(lerp(p_.axes[i - 1], p_.axes[i], f));
+      axis = slerp(p_.axes[i - 1], p_.axes[i], f);
     }
     return {tip, lerp(tip, {tip[0] + axis[0], tip[1] + axis[1], tip[2] + axis[2]}, p_.depth)};
   }
@@ -277,8 +331,13 @@ class ScalpelAction final : public TimelineAction {
       const double turn = angleDegrees(unit(topology::geometry::sub(a[1], a[0])),
                                        unit(topology::geometry::sub(b[1], b[0])));
       const int n = std::clamp(int(std::ceil(turn / kSampleTurn)), 1, 64);
-      for (int k = 1; k <= n; ++k)
-        out.push_back(pose(times[i - 1] + (times[i] - times[i - 1]) * k / n));
+      for (int k = 1; k <= n; ++k) {
+        // (a blade that holds still adds nothing: no sweep of zero area)
+        const auto next = pose(times[i - 1] + (times[i] - times[i - 1]) * k / n);
+        const double same = 1e-24 * p_.depth * p_.depth;
+        if (dist2(next[0], out.back()[0]) > same || dist2(next[1], out.back()[1]) > same)
+          out.push_back(next);
+      }
     }
     return out;
   }

@@ -64,6 +64,8 @@ std::vector<BorderEdge> borderEdges(const topology::Topology& topo, const Origin
 void writeBordersVtp(std::ostream& out, const Simulation& sim, const OriginalBorder& original);
 /// A ParaView collection: (time, file name relative to the .pvd) per frame.
 void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string>>& frames);
+/// Line segments in world coordinates (the instruments), two points each.
+void writeSegmentsVtp(std::ostream& out, std::span<const std::array<Vec3, 2>> segments);
 /// The obstacles' surfaces at time t (planes drawn as squares of side planeSize).
 void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacle>& obstacles,
                        double t, double planeSize);
@@ -97,6 +99,8 @@ struct StepRecord {
 ///     step's step_work_gravity, ..., step_energy_removed, step_energy_drift (energy.hpp)
 ///   obstacles.pvd, obstacles_NNNNNN.vtp: the obstacles' surfaces (cell data "obstacle": the
 ///     obstacle's index), when the scene has obstacles
+///   instruments.pvd, instruments_NNNNNN.vtp: the instruments in the world (a scalpel's blade:
+///     a line from its tip), from the first frame that has one on
 class OutputWriter {
  public:
   /// Creates the folder. fieldLabels, graspNames, contact and obstacleNames fix the CSV's columns.
@@ -130,6 +134,12 @@ class OutputWriter {
   /// is given the name of a finished run's file. Throws cutsim::Error if the CSV could not be
   /// written.
   void finishPartial();
+
+  /// What draws the instruments at each frame (world segments: a scalpel's blade from its tip);
+  /// none: no instruments series.
+  void setInstruments(std::function<std::vector<std::array<Vec3, 2>>()> source) {
+    instruments_ = std::move(source);
+  }
 
   const std::filesystem::path& dir() const { return dir_; }
   /// The grasps the CSV has reaction-force columns for (fixed when the writer is made).
@@ -180,6 +190,7 @@ class OutputWriter {
   std::filesystem::path csvTemp_;
   std::vector<std::pair<double, std::string>> surfaceFrames_;
   std::map<std::string, std::vector<std::pair<double, std::string>>> networkFrames_;  // by series
+  std::function<std::vector<std::array<Vec3, 2>>()> instruments_;
   long lastFrameStep_ = -1;
   std::size_t nextPartial_ = 0;
   std::size_t partialFrames_ = 0;  // frames the partial collections listed when last written

@@ -212,6 +212,9 @@ class SceneRunner {
   void setTimeStep(double dt);
   double timeStep() const { return timeStep_; }
   const StepStats& lastStats() const { return lastStats_; }
+  /// The instruments the started actions move in the world now (TimelineAction::instruments):
+  /// what the output's frames draw.
+  std::vector<std::array<Vec3, 2>> instrumentSegments() const;
 
   /// The first FastTriangularBendingSprings field, or null.
   const forcefields::FastTriangularBendingSprings* bendingField() const;

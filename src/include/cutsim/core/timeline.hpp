@@ -140,6 +140,9 @@ class TimelineAction {
   /// Whether the scene check's rehearsal of the timeline (SceneRunner::rehearseTimeline, the
   /// surface at rest) plays it: not the actions that act on strains.
   virtual bool rehearsed() const { return true; }
+  /// The instrument it moves in the world at `time`, if any, as segments (a scalpel's blade, from
+  /// its tip): what the frames draw.
+  virtual void instruments(double /*time*/, std::vector<std::array<Vec3, 2>>& /*out*/) const {}
   /// Checkpoints: whether the action saves what it goes on with (a progressive cut's progress,
   /// crack tips); saveState and loadState write and read it in the open section (loadState on the
   /// restored simulation, which it checks what it read against). An action that is done once

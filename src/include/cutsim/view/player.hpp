@@ -36,6 +36,7 @@ struct Frame {
   std::vector<std::uint32_t> springs;    ///< 2 per bending spring
   std::vector<float> obstacleX;          ///< 3 per obstacle point
   std::vector<std::uint32_t> obstacleTriangles;
+  std::vector<float> instrumentX;  ///< 6 per instrument segment (a scalpel's blade: tip, end)
 };
 
 /// The steps' series (steps.csv): numeric columns, one value per row.
@@ -50,7 +51,8 @@ struct RunFolder {
   std::filesystem::path dir;
   bool partial = false;  ///< only surface.partial.pvd: the run stopped or is still going
   std::vector<std::pair<double, std::string>> surface;  ///< (time, file) per frame
-  std::vector<std::pair<double, std::string>> borders, springs, obstacles;  ///< may be empty
+  std::vector<std::pair<double, std::string>> borders, springs, obstacles,
+      instruments;  ///< may be empty
   std::optional<std::filesystem::path> csv;
   nlohmann::json info = nlohmann::json::object();  ///< run.json when the run wrote one (scene name,
                                                    ///< description, gravity)
