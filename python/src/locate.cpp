@@ -21,17 +21,6 @@ std::vector<core::Vec3> readRows(const py::handle& obj, const char* what) {
   return readVec3List(obj, what);
 }
 
-core::Vec3 restAt(const topology::Topology& topo, topology::TriangleId t,
-                  const std::array<double, 3>& w) {
-  const auto v = topo.triangleVertices(t);
-  core::Vec3 r{0, 0, 0};
-  for (std::size_t k = 0; k < 3; ++k) {
-    const core::Vec3 q = topo.restPosition(v[k]);
-    for (int c = 0; c < 3; ++c) r[c] += w[k] * q[c];
-  }
-  return r;
-}
-
 /// The arrays of n results, rows of zeros (triangle -1) where nothing was found.
 struct Results {
   py::array_t<bool> found;
@@ -53,7 +42,7 @@ struct Results {
            const std::array<double, 3>& w, const core::Vec3& p, double value) {
     found.mutable_data()[i] = true;
     triangle.mutable_data()[i] = std::int64_t(t.idx());
-    const core::Vec3 r = restAt(topo, t, w);
+    const core::Vec3 r = topo.restPositionOn(t, w);
     for (std::size_t c = 0; c < 3; ++c) {
       weights.mutable_data()[3 * i + c] = w[c];
       point.mutable_data()[3 * i + c] = p[c];
@@ -152,7 +141,7 @@ py::array_t<double> Simulation::worldOf(const py::handle& triangles, const py::h
     const auto tid = topology::TriangleId(Index(id));
     core::Vec3 p{0, 0, 0};
     if (rest) {
-      p = restAt(topo, tid, wi);
+      p = topo.restPositionOn(tid, wi);
     } else {
       const auto v = topo.triangleVertices(tid);
       for (std::size_t k = 0; k < 3; ++k)

@@ -61,6 +61,17 @@ std::string scalpel(const Vec3& a, const Vec3& b, const Vec3& axis, double depth
          v(axis) + "]]" + extra + "}";
 }
 
+/// The sheet with a scalpel following `path` (rows of [t, x, y, z, ax, ay, az]) over [0, to], no
+/// quality repair, the run lasting `to`.
+Scene scalpelScene(const std::string& path, double to, double depth,
+                   const std::string& gravity = "[0, 0, 0]") {
+  return parseScene(
+      sheet(R"({"action": "scalpel", "from": 0, "to": )" + text(to) + R"(, "depth": )" +
+                text(depth) + R"(, "minAngle": 0, "path": )" + path + "}",
+            to, gravity),
+      "a.json", test::kSceneDir);
+}
+
 /// Runs the scene, the surface first put where `place` says (a function of the rest position),
 /// checking the topology and its observers after every step.
 void run(SceneRunner& runner, const std::function<Vec3(const Vec3&)>& place = nullptr) {
@@ -178,11 +189,7 @@ TEST(Scalpel, ABladeThatEntersAndLeavesMakesAnIncisionWithTwoEnds) {
   const std::string path =
       R"([[0, 0.25, 0.43, 0.02, 0, 0, 1], [0.05, 0.35, 0.43, -0.02, 0, 0, 1],
           [0.15, 0.65, 0.47, -0.02, 0, 0, 1], [0.2, 0.75, 0.47, 0.02, 0, 0, 1]])";
-  SceneRunner runner(parseScene(sheet(R"({"action": "scalpel", "from": 0, "to": 0.2,
-      "depth": 0.03, "minAngle": 0, "path": )" +
-                                          path + "}",
-                                      0.2),
-                                "a.json", test::kSceneDir));
+  SceneRunner runner(scalpelScene(path, 0.2, 0.03));
   run(runner);
   const auto added = newPoints(runner.simulation());
   ASSERT_GT(added.size(), 8u);
@@ -220,11 +227,7 @@ TEST(Scalpel, ABladeThatPausesInsideGoesOnWithTheSameIncision) {
   const std::string path =
       R"([[0, -0.1, 0.43, -0.01, 0, 0, 1], [0.1, 0.4, 0.43, -0.01, 0, 0, 1],
           [0.2, 0.4, 0.43, -0.01, 0, 0, 1], [0.3, 0.7, 0.43, -0.01, 0, 0, 1]])";
-  SceneRunner runner(parseScene(sheet(R"({"action": "scalpel", "from": 0, "to": 0.35,
-      "depth": 0.02, "minAngle": 0, "path": )" +
-                                          path + "}",
-                                      0.35, "[0, -0.5, 0]"),
-                                "a.json", test::kSceneDir));
+  SceneRunner runner(scalpelScene(path, 0.35, 0.02, "[0, -0.5, 0]"));
   run(runner);
   EXPECT_GT(runner.cutsDone(), 2);
   EXPECT_EQ(borderLoops(runner.simulation().topology()), 1u);
@@ -255,11 +258,7 @@ TEST(Scalpel, ABladeWhoseTipGrazesOutOfTheTissueGoesOnWithTheSameIncision) {
       R"([[0, -0.1, 0.43, -0.002, 0, 0, 1], [0.1, 0.395, 0.43, -0.002, 0, 0, 1],
           [0.11, 0.40, 0.43, 0.0005, 0, 0, 1], [0.12, 0.405, 0.43, 0.0005, 0, 0, 1],
           [0.13, 0.41, 0.43, -0.002, 0, 0, 1], [0.3, 0.7, 0.43, -0.002, 0, 0, 1]])";
-  SceneRunner runner(parseScene(sheet(R"({"action": "scalpel", "from": 0, "to": 0.3,
-      "depth": 0.02, "minAngle": 0, "path": )" +
-                                          path + "}",
-                                      0.3),
-                                "a.json", test::kSceneDir));
+  SceneRunner runner(scalpelScene(path, 0.3, 0.02));
   run(runner);
   EXPECT_GT(runner.cutsDone(), 2);
   EXPECT_EQ(borderLoops(runner.simulation().topology()), 1u);

@@ -212,6 +212,16 @@ Vec3 Topology::restPosition(PointId p) const {
   return toVec(impl_->mesh.point(VI(p.idx())));
 }
 
+Vec3 Topology::restPositionOn(TriangleId t, const std::array<double, 3>& weights) const {
+  const TriangleVertices v = triangleVertices(t);
+  Vec3 r{0, 0, 0};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Vec3 q = restPosition(v[k]);
+    for (std::size_t d = 0; d < 3; ++d) r[d] += weights[k] * q[d];
+  }
+  return r;
+}
+
 EdgeVertices Topology::edgeVertices(EdgeId e) const {
   if (!impl_->edgeAlive(EI(e.idx()))) badIndex("edge", e.idx());
   const Mesh& m = impl_->mesh;

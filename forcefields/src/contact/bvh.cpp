@@ -136,29 +136,6 @@ void Bvh::query(const Box& b, const std::function<void(int)>& f) const {
   }
 }
 
-void Bvh::traverse(const std::function<bool(const Box&)>& enter,
-                   const std::function<double(const Box&)>& order,
-                   const std::function<void(int)>& f) const {
-  if (nodes_.empty()) return;
-  std::vector<std::int32_t> stack{0};
-  while (!stack.empty()) {
-    const Node& n = nodes_[std::size_t(stack.back())];
-    stack.pop_back();
-    if (!enter(n.box)) continue;
-    if (n.left < 0) {
-      for (std::int32_t i = n.first; i < n.first + n.count; ++i) {
-        const int e = order_[std::size_t(i)];
-        if (enter(boxes_[std::size_t(e)])) f(e);
-      }
-    } else {
-      const bool leftFirst =
-          order(nodes_[std::size_t(n.left)].box) <= order(nodes_[std::size_t(n.right)].box);
-      stack.push_back(leftFirst ? n.right : n.left);  // the nearer one on top
-      stack.push_back(leftFirst ? n.left : n.right);
-    }
-  }
-}
-
 void Bvh::check(const std::vector<Box>& boxes, std::vector<std::string>& problems) const {
   std::vector<int> seen(boxes.size(), 0);
   if (boxes.size() != boxes_.size()) {

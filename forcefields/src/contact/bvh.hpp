@@ -29,51 +29,20 @@ class Bvh {
   void crossPairs(const Bvh& other, const std::function<void(int, int)>& f) const;
   /// Calls f(i) for every element whose box overlaps b.
   void query(const Box& b, const std::function<void(int)>& f) const;
-  /// Visits the nodes whose box `enter` accepts (it may tighten what it accepts as it goes, as a
-  /// nearest-point search does) and calls f(i) for every element of an accepted leaf whose own
-  /// box `enter` accepts too. The nearer child of a node (by `order`, smaller first) is visited
-  /// first.
-  void traverse(const std::function<bool(const Box&)>& enter,
-                const std::function<double(const Box&)>& order,
-                const std::function<void(int)>& f) const;
-
-  /// traverse() without the calls through std::function (the queries of one point: locate's
-  /// nearest point, rays), its stack on the call's frame: the hierarchy halves each node's
-  /// elements, so that its depth is at most 32 and the stack holds at most two entries a level.
-  template <class Enter, class Order, class F>
-  void visit(Enter&& enter, Order&& order, F&& f) const {
-    if (nodes_.empty()) return;
-    std::int32_t stack[80];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& n = nodes_[std::size_t(stack[--top])];
-      if (!enter(n.box)) continue;
-      if (n.left < 0) {
-        for (std::int32_t i = n.first; i < n.first + n.count; ++i) {
-          const int e = order_[std::size_t(i)];
-          if (enter(boxes_[std::size_t(e)])) f(e);
-        }
-      } else {
-        const bool leftFirst =
-            order(nodes_[std::size_t(n.left)].box) <= order(nodes_[std::size_t(n.right)].box);
-        stack[top++] = leftFirst ? n.right : n.left;  // the nearer one on top
-        stack[top++] = leftFirst ? n.left : n.right;
-      }
-    }
-  }
-
-  /// A nearest-first descent: dist(box) is a lower bound of what the elements in the box can
-  /// give, within(d) whether a bound d may still beat the best so far. Each box's bound is
-  /// computed once (a child's when its parent is entered, kept on the stack with it).
+  /// A nearest-first descent (a nearest point, a ray's first hit): dist(box) is a lower bound of
+  /// what the elements in the box can give, within(d) whether a bound d may still beat the best
+  /// so far (it may tighten as the search goes); f(i) is called for every element whose box's
+  /// bound is within. Each box's bound is computed once (a child's when its parent is entered,
+  /// kept on the stack with it); without calls through std::function.
   template <class Dist, class Within, class F>
   void visitNearest(Dist&& dist, Within&& within, F&& f) const {
     if (nodes_.empty()) return;
-    std::pair<std::int32_t, double> stack[80];
-    int top = 0;
-    stack[top++] = {0, dist(nodes_[0].box)};
-    while (top > 0) {
-      const auto [index, d] = stack[--top];
+    std::vector<std::pair<std::int32_t, double>> stack;
+    stack.reserve(64);
+    stack.emplace_back(0, dist(nodes_[0].box));
+    while (!stack.empty()) {
+      const auto [index, d] = stack.back();
+      stack.pop_back();
       if (!within(d)) continue;
       const Node& n = nodes_[std::size_t(index)];
       if (n.left < 0) {
@@ -85,8 +54,9 @@ class Bvh {
         const double dl = dist(nodes_[std::size_t(n.left)].box);
         const double dr = dist(nodes_[std::size_t(n.right)].box);
         const bool leftFirst = dl <= dr;
-        stack[top++] = leftFirst ? std::pair{n.right, dr} : std::pair{n.left, dl};
-        stack[top++] = leftFirst ? std::pair{n.left, dl} : std::pair{n.right, dr};
+        stack.push_back(leftFirst ? std::pair{n.right, dr} : std::pair{n.left, dl});
+        stack.push_back(leftFirst ? std::pair{n.left, dl}
+                                  : std::pair{n.right, dr});  // nearer on top
       }
     }
   }

@@ -30,21 +30,23 @@ inline double boxDistance2(const V3& q, const Box& b) {
   return d.squaredNorm();
 }
 
-/// Whether the ray o + t d, t in [0, tMax], meets the box (slabs; d's zero components handled).
-bool rayMeetsBox(const V3& o, const V3& d, double tMax, const Box& b) {
-  double t0 = 0.0, t1 = tMax;
+/// Where the ray o + t d, t >= 0, enters the box (0 from inside it; slabs, d's zero components
+/// handled), infinity if it misses it: a lower bound of the t of what the box holds.
+double rayEntry(const V3& o, const V3& d, const Box& b) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  double t0 = 0.0, t1 = inf;
   for (int k = 0; k < 3; ++k) {
     if (d[k] == 0.0) {
-      if (o[k] < b.lo[k] || o[k] > b.hi[k]) return false;
+      if (o[k] < b.lo[k] || o[k] > b.hi[k]) return inf;
       continue;
     }
     double a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
     if (a > c) std::swap(a, c);
     t0 = std::max(t0, a);
     t1 = std::min(t1, c);
-    if (t0 > t1) return false;
+    if (t0 > t1) return inf;
   }
-  return true;
+  return t0;
 }
 
 /// Where the ray o + t d meets triangle (a, b, c) for t in [0, tMax] (Moeller and Trumbore;
@@ -234,19 +236,18 @@ std::optional<SurfaceHit> SurfaceQuery::rayHit(const topology::Vec3& origin,
   const V3 o = v3(origin);
   double bestT = maxT;
   std::optional<SurfaceHit> out;
-  I.bvh.visit([&](const Box& b) { return rayMeetsBox(o, d, bestT, b); },
-              [&](const Box& b) { return boxDistance2(o, b); },
-              [&](int e) {
-                const auto& c = I.corners[std::size_t(e)];
-                const auto hit = rayTriangle(o, d, bestT, c[0], c[1], c[2]);
-                if (!hit) return;
-                const topology::TriangleId id = I.ids[std::size_t(e)];
-                if (out && (hit->first > out->t || (hit->first == out->t && id > out->triangle)))
-                  return;
-                bestT = hit->first;
-                const auto& w = hit->second;
-                out = SurfaceHit{id, hit->first, w, vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])};
-              });
+  I.bvh.visitNearest(
+      [&](const Box& b) { return rayEntry(o, d, b); }, [&](double t) { return t <= bestT; },
+      [&](int e) {
+        const auto& c = I.corners[std::size_t(e)];
+        const auto hit = rayTriangle(o, d, bestT, c[0], c[1], c[2]);
+        if (!hit) return;
+        const topology::TriangleId id = I.ids[std::size_t(e)];
+        if (out && (hit->first > out->t || (hit->first == out->t && id > out->triangle))) return;
+        bestT = hit->first;
+        const auto& w = hit->second;
+        out = SurfaceHit{id, hit->first, w, vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])};
+      });
   return out;
 }
 
@@ -256,16 +257,16 @@ std::vector<SurfaceHit> SurfaceQuery::segmentHits(const topology::Vec3& a,
   const V3 p = v3(a), d = v3(b) - p;
   std::vector<SurfaceHit> out;
   if (!(d.squaredNorm() > 0)) return out;
-  I.bvh.visit([&](const Box& box) { return rayMeetsBox(p, d, 1.0, box); },
-              [&](const Box& box) { return boxDistance2(p, box); },
-              [&](int e) {
-                const auto& c = I.corners[std::size_t(e)];
-                if (const auto hit = rayTriangle(p, d, 1.0, c[0], c[1], c[2])) {
-                  const auto& w = hit->second;
-                  out.push_back(SurfaceHit{I.ids[std::size_t(e)], hit->first, w,
-                                           vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])});
-                }
-              });
+  I.bvh.visitNearest([&](const Box& box) { return rayEntry(p, d, box); },
+                     [](double t) { return t <= 1.0; },
+                     [&](int e) {
+                       const auto& c = I.corners[std::size_t(e)];
+                       if (const auto hit = rayTriangle(p, d, 1.0, c[0], c[1], c[2])) {
+                         const auto& w = hit->second;
+                         out.push_back(SurfaceHit{I.ids[std::size_t(e)], hit->first, w,
+                                                  vec(w[0] * c[0] + w[1] * c[1] + w[2] * c[2])});
+                       }
+                     });
   std::sort(out.begin(), out.end(), [](const SurfaceHit& x, const SurfaceHit& y) {
     return x.t < y.t || (x.t == y.t && x.triangle < y.triangle);
   });

@@ -23,6 +23,7 @@
 #include "cutsim/core/contact_step.hpp"
 #include "cutsim/forcefields/contact.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/topology/geometry.hpp"
 #include "timeline/tearing.hpp"
 
 namespace cutsim::core {
@@ -217,25 +218,6 @@ OriginalBorder restBorder(const topology::Topology& topo) {
   return out;
 }
 
-namespace {
-
-double distanceToSegment(const Vec3& p, const std::array<Vec3, 2>& s) {
-  Vec3 d{}, w{};
-  double dd = 0.0, t = 0.0;
-  for (std::size_t k = 0; k < 3; ++k) {
-    d[k] = s[1][k] - s[0][k];
-    w[k] = p[k] - s[0][k];
-    dd += d[k] * d[k];
-    t += w[k] * d[k];
-  }
-  t = dd > 0.0 ? std::clamp(t / dd, 0.0, 1.0) : 0.0;
-  double r = 0.0;
-  for (std::size_t k = 0; k < 3; ++k) r += (w[k] - t * d[k]) * (w[k] - t * d[k]);
-  return std::sqrt(r);
-}
-
-}  // namespace
-
 std::vector<BorderEdge> borderEdges(const topology::Topology& topo,
                                     const OriginalBorder& original) {
   // The tolerance: a millionth of the original border's extent.
@@ -246,7 +228,7 @@ std::vector<BorderEdge> borderEdges(const topology::Topology& topo,
   const double tolerance = 1e-6 * std::max(extent, 1e-300);
   auto onOriginal = [&](const Vec3& p) {
     for (const auto& s : original.segments)
-      if (distanceToSegment(p, s) <= tolerance) return true;
+      if (topology::geometry::distanceToSegment(p, s[0], s[1]) <= tolerance) return true;
     return false;
   };
   std::vector<BorderEdge> border;
@@ -291,20 +273,28 @@ void writePvd(std::ostream& out, const std::vector<std::pair<double, std::string
          "</VTKFile>\n";
 }
 
+namespace {
+/// A piece's <Points> in world coordinates (the instruments', the obstacles').
+void worldPoints(std::ostream& out, const std::vector<Vec3>& points) {
+  out << "      <Points>\n"
+         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n";
+  for (const Vec3& p : points)
+    out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
+  out << "        </DataArray>\n"
+         "      </Points>\n";
+}
+}  // namespace
+
 void writeSegmentsVtp(std::ostream& out, std::span<const std::array<Vec3, 2>> segments) {
   vtpHeader(out);
   out << "    <Piece NumberOfPoints=\"" << 2 * segments.size()
       << "\" NumberOfVerts=\"0\" NumberOfLines=\"" << segments.size()
-      << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n"
-         "      <Points>\n"
-         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
-         "format=\"ascii\">\n";
-  for (const auto& s : segments)
-    for (const Vec3& p : s)
-      out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
-  out << "        </DataArray>\n"
-         "      </Points>\n"
-         "      <Lines>\n"
+      << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  std::vector<Vec3> points;
+  for (const auto& s : segments) points.insert(points.end(), s.begin(), s.end());
+  worldPoints(out, points);
+  out << "      <Lines>\n"
          "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
   for (std::size_t k = 0; k < segments.size(); ++k) out << 2 * k << ' ' << 2 * k + 1 << '\n';
   out << "        </DataArray>\n"
@@ -339,15 +329,9 @@ void writeObstaclesVtp(std::ostream& out, const std::vector<forcefields::Obstacl
          "        <DataArray type=\"Int32\" Name=\"obstacle\" format=\"ascii\">\n";
   for (std::size_t o : owner) out << o << '\n';
   out << "        </DataArray>\n"
-         "      </CellData>\n"
-         "      <Points>\n"
-         "        <DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
-         "format=\"ascii\">\n";
-  for (const Vec3& p : points)
-    out << formatNumber(p[0]) << ' ' << formatNumber(p[1]) << ' ' << formatNumber(p[2]) << '\n';
-  out << "        </DataArray>\n"
-         "      </Points>\n"
-         "      <Polys>\n"
+         "      </CellData>\n";
+  worldPoints(out, points);
+  out << "      <Polys>\n"
          "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
   for (const auto& tr : tris) out << tr[0] << ' ' << tr[1] << ' ' << tr[2] << '\n';
   out << "        </DataArray>\n"

@@ -24,13 +24,6 @@ std::string vecText(const Vec3& p) {
          ")";
 }
 
-/// Whether a cut changed the mesh (one along the border opens nothing: it is not counted).
-bool opened(const topology::IncisionResult& r) {
-  const topology::RepairReport& q = r.repair;
-  return !r.copies.empty() || !r.insertedPoints.empty() ||
-         q.flips + q.collapses + q.relocations + q.splits + q.insertions > 0;
-}
-
 class CutAction final : public TimelineAction {
  public:
   CutAction(CutParameters p, const ActionTiming& timing) : p_(std::move(p)), timing_(timing) {
@@ -55,7 +48,7 @@ class CutAction final : public TimelineAction {
       const topology::IncisionResult r = c.topology().cutPolyline(p_.polyline, options);
       // Its path ran along edges that are already border: the lips of an earlier cut (its ends
       // snapped onto them) or the border itself. Said here rather than counted as nothing.
-      if (!opened(r)) c.fail("polyline", opensNothing());
+      if (!incisionOpened(r)) c.fail("polyline", opensNothing());
     } catch (const TopologyError& e) {
       c.fail("polyline", std::string("the cut cannot be made on the rest surface: ") + e.what());
     }
@@ -65,7 +58,7 @@ class CutAction final : public TimelineAction {
     if (!timing_.interval) {
       // (made on the mesh as it is now: one that opens nothing, for example given from Python
       // beside a cut made since the check, is refused the same way; nothing changed)
-      if (!opened(cut(c, p_.polyline))) c.failTopology(opensNothing());
+      if (!incisionOpened(cut(c, p_.polyline))) c.failTopology(opensNothing());
       return;
     }
     minPiece_ = 0.5 * c.meanRestEdge();
@@ -127,7 +120,7 @@ class CutAction final : public TimelineAction {
       // scalpel is.
       try {
         result = c.simulation().topology().cutPolyline(piece, options(c));
-        if (opened(result)) c.countCut();
+        if (incisionOpened(result)) c.countCut();
       } catch (const TopologyError&) {
         return;
       }
@@ -155,7 +148,7 @@ class CutAction final : public TimelineAction {
   topology::IncisionResult cut(ActionContext& c, std::span<const Vec3> polyline) {
     try {
       topology::IncisionResult result = c.simulation().topology().cutPolyline(polyline, options(c));
-      if (opened(result)) c.countCut();
+      if (incisionOpened(result)) c.countCut();
       c.recordIncision(result);
       return result;
     } catch (const TopologyError& e) {

@@ -21,6 +21,9 @@ namespace cutsim::core {
 namespace {
 
 using topology::geometry::dist2;
+using topology::geometry::dot;
+using topology::geometry::lerp;
+using topology::geometry::unit;
 
 constexpr double kPi = 3.14159265358979323846;
 /// The largest turn of the blade's axis between two keyframes (degrees): beyond it the axis's
@@ -38,24 +41,14 @@ struct ScalpelParameters {
   double minAngle = kDefaultMinAngle;
 };
 
-Vec3 lerp(const Vec3& a, const Vec3& b, double t) {
-  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
-}
-double norm(const Vec3& a) {
-  return std::sqrt(topology::geometry::dot(a, a));
-}
-Vec3 unit(const Vec3& a) {
-  const double n = norm(a);
-  return {a[0] / n, a[1] / n, a[2] / n};
-}
 double angleDegrees(const Vec3& a, const Vec3& b) {
-  return std::acos(std::clamp(topology::geometry::dot(a, b), -1.0, 1.0)) * 180.0 / kPi;
+  return std::acos(std::clamp(dot(a, b), -1.0, 1.0)) * 180.0 / kPi;
 }
 
 /// The unit vector a fraction f of the way from unit a to unit b along the great circle (the
 /// axis turns at a constant rate; at most 170 degrees apart, so sin of the angle is not small).
 Vec3 slerp(const Vec3& a, const Vec3& b, double f) {
-  const double theta = std::acos(std::clamp(topology::geometry::dot(a, b), -1.0, 1.0));
+  const double theta = std::acos(std::clamp(dot(a, b), -1.0, 1.0));
   if (!(theta > 1e-9)) return a;
   const double wa = std::sin((1 - f) * theta) / std::sin(theta),
                wb = std::sin(f * theta) / std::sin(theta);
@@ -68,30 +61,17 @@ bool onBladePath(const forcefields::SweptCrossing& x) {
   return x.u <= 1e-6 || x.u >= 1.0 - 1e-6;
 }
 
-/// Whether a cut changed the mesh (one along the border or an earlier cut's lips opens nothing).
-bool opened(const topology::IncisionResult& r) {
-  const topology::RepairReport& q = r.repair;
-  return !r.copies.empty() || !r.insertedPoints.empty() ||
-         q.flips + q.collapses + q.relocations + q.splits + q.insertions > 0;
-}
-
 /// The polyline without the points that lie on the segment between their neighbours kept (within
 /// eps): a straight incision in rest coordinates (a flat sheet at rest) is given to the cut as its
 /// two ends, as a polyline cut along the same path is, so that both walk and snap alike.
 std::vector<Vec3> straightened(const std::vector<Vec3>& p, double eps) {
   if (p.size() < 3) return p;
-  const auto off = [](const Vec3& q, const Vec3& a, const Vec3& b) {
-    const Vec3 ab = topology::geometry::sub(b, a), aq = topology::geometry::sub(q, a);
-    const double l2 = topology::geometry::dot(ab, ab);
-    const double t = l2 > 0 ? std::clamp(topology::geometry::dot(aq, ab) / l2, 0.0, 1.0) : 0.0;
-    return std::sqrt(dist2(q, lerp(a, b, t)));
-  };
   std::vector<Vec3> out{p.front()};
   std::size_t anchor = 0;
   for (std::size_t k = 2; k < p.size(); ++k) {
     bool straight = true;
     for (std::size_t j = anchor + 1; j < k && straight; ++j)
-      straight = off(p[j], p[anchor], p[k]) <= eps;
+      straight = topology::geometry::distanceToSegment(p[j], p[anchor], p[k]) <= eps;
     if (!straight) {
       out.push_back(p[k - 1]);
       anchor = k - 1;
@@ -202,15 +182,8 @@ class ScalpelAction final : public TimelineAction {
       piece.endsInside = curve.back().s >= last - 1e-6;
       piece.keepsTip = piece.endsInside || onBladePath(curve.back());
       std::vector<Vec3> rest;
-      for (const forcefields::SweptCrossing& x : curve) {
-        const auto tv = topo.triangleVertices(x.triangle);
-        Vec3 r{0, 0, 0};
-        for (std::size_t k = 0; k < 3; ++k) {
-          const Vec3 q = topo.restPosition(tv[k]);
-          for (int d = 0; d < 3; ++d) r[d] += x.weights[k] * q[d];
-        }
-        rest.push_back(r);
-      }
+      for (const forcefields::SweptCrossing& x : curve)
+        rest.push_back(topo.restPositionOn(x.triangle, x.weights));
       // A curve starting on the blade's previous position continues the incision whose tip is
       // nearest its start (the surface moved under the blade since: the point is near the tip,
       // behind it or ahead): from the tip, on from the curve's point nearest it.
@@ -279,7 +252,7 @@ class ScalpelAction final : public TimelineAction {
         c.failTopology(std::string("the scalpel's cut failed: ") + e.what());
       }
       cutSome = true;
-      if (opened(result)) c.countCut();
+      if (incisionOpened(result)) c.countCut();
       if (piece.keepsTip && !result.path.empty())
         tips.push_back(sim.topology().restPosition(result.path.back()));
     }
@@ -367,7 +340,7 @@ ScalpelParameters readScalpel(const ParameterSource& s) {
     if (!p.times.empty() && !(r[0] > p.times.back()))
       s.fail(key + "/0", "path times must increase strictly");
     const Vec3 axis{r[4], r[5], r[6]};
-    if (!(norm(axis) > 0))
+    if (!(dot(axis, axis) > 0))
       s.fail(key + "/4", "the blade's axis (the last three numbers) must not be zero");
     const Vec3 a = unit(axis);
     if (!p.axes.empty() && angleDegrees(p.axes.back(), a) > kMaxTurn)

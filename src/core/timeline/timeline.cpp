@@ -18,6 +18,12 @@ using topology::geometry::dist2;
 ActionContext::~ActionContext() = default;
 DryRunContext::~DryRunContext() = default;
 TimelineAction::~TimelineAction() = default;
+
+bool incisionOpened(const topology::IncisionResult& r) {
+  const topology::RepairReport& q = r.repair;
+  return !r.copies.empty() || !r.insertedPoints.empty() ||
+         q.flips + q.collapses + q.relocations + q.splits + q.insertions > 0;
+}
 SceneConstraint::~SceneConstraint() = default;
 
 PointSelection PointSelection::read(const ParameterSource& s) {

@@ -90,6 +90,10 @@ struct ActionTiming {
   double start() const { return interval ? from : at; }
 };
 
+/// Whether a cut changed the mesh (one whose path runs along the border or an earlier cut's lips,
+/// onto which its ends snapped, opens nothing): what the cut counters count.
+bool incisionOpened(const topology::IncisionResult& r);
+
 /// What a running action may use.
 class ActionContext {
  public:

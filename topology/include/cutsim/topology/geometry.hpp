@@ -17,6 +17,23 @@ inline double dist2(const Vec3& a, const Vec3& b) {
   return dot(sub(a, b), sub(a, b));
 }
 
+/// a + t (b - a).
+inline Vec3 lerp(const Vec3& a, const Vec3& b, double t) {
+  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+}
+/// a scaled to length 1 (a must not be zero).
+inline Vec3 unit(const Vec3& a) {
+  const double n = std::sqrt(dot(a, a));
+  return {a[0] / n, a[1] / n, a[2] / n};
+}
+/// The distance from p to the segment a-b.
+inline double distanceToSegment(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = sub(b, a);
+  const double l2 = dot(ab, ab);
+  const double t = l2 > 0 ? std::clamp(dot(sub(p, a), ab) / l2, 0.0, 1.0) : 0.0;
+  return std::sqrt(dist2(p, lerp(a, b, t)));
+}
+
 /// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection, 5.1.5).
 inline Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);

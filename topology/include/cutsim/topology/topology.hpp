@@ -130,6 +130,9 @@ class Topology {
 
   // ---- geometry (rest configuration: material coordinates) ----
   Vec3 restPosition(PointId p) const;
+  /// The rest position of a point of triangle t given by its barycentric weights (in the order
+  /// of triangleVertices(t)): where a located surface point is in the material.
+  Vec3 restPositionOn(TriangleId t, const std::array<double, 3>& weights) const;
 
   // ---- queries ----
   EdgeVertices edgeVertices(EdgeId e) const;
