@@ -13,7 +13,8 @@ exclude=()
 if [ "$config" = sanitize ]; then
   # The longest contact scenes (about 250 s under the sanitizers, a quarter of this suite, and
   # the thin-layer fold, 26 s in release) run in the release suite; here the shorter contact
-  # tests cover the same code for memory errors.
-  exclude=(-E '^(ContactScenes\.(AClothOnAMovingMeshObstacleStaysClearOfIt|AFoldOfThinLayersStaysFreeOfIntersections)|Contact/ContactDemoScene\..*)$')
+  # tests cover the same code for memory errors. So does cli.resume (155 s here, the longest
+  # test): the checkpoint code runs under the sanitizers through the Checkpoint tests.
+  exclude=(-E '^(ContactScenes\.(AClothOnAMovingMeshObstacleStaysClearOfIt|AFoldOfThinLayersStaysFreeOfIntersections)|Contact/ContactDemoScene\..*|cli\.resume)$')
 fi
 ctest --output-on-failure --parallel "${CUTSIM_JOBS:-$(nproc)}" "${exclude[@]}"

@@ -34,7 +34,7 @@ from ._cutsim import (  # noqa: F401  (the public names of the compiled part)
 __all__ = [
     "Controller", "Editor", "Error", "InvalidInputError", "Simulation", "SolverError",
     "SolverWarning", "StaleViewError", "StateView", "TopologyError", "TopologyEvent",
-    "UsageError", "load", "write_player", "__version__",
+    "UsageError", "load", "sweep", "write_player", "__version__",
 ]
 
 
@@ -304,6 +304,13 @@ def _selection(points, box, near):
     if n.ndim > 2 or n.size == 0 or n.shape[-1] != 3:
         raise ValueError(f"near: expected [x, y, z] positions, got {near!r}")
     return {"near": n.reshape(-1, 3).tolist()}
+
+
+def sweep(sweep, **options):
+    """Runs a parameter sweep on Dask (a sweep file or dict: docs/sweeps.md) and returns its rows;
+    the options and what is written: cutsim.sweeps.sweep."""
+    from .sweeps import sweep as run_sweep
+    return run_sweep(sweep, **options)
 
 
 def load(path):

@@ -1,0 +1,1379 @@
+"""Parameter sweeps on Dask: one scene run many times with parameters varied by JSON pointer, each
+run one task (a `cutsim` process writing its usual run folder), on a local cluster of processes or
+on any cluster a Dask scheduler runs. The sweep file, the quantities extracted from each run, the
+results folder and how to run on a cluster: docs/sweeps.md.
+
+    cutsim-sweep SWEEP.json [--scheduler tcp://HOST:PORT] [--workers N] [--results DIR]
+
+    import cutsim
+    rows = cutsim.sweep("examples/sweeps/tearing.json")
+
+Nothing is lost: a run that fails is a row with its error; a run whose worker dies is given to
+another worker and resumes from its last checkpoint; a sweep stopped and started again skips the
+runs it finished (a run is named by a hash of its scene, so a changed scene runs again).
+"""
+import ast
+import bisect
+import copy
+import csv
+import hashlib
+import importlib.util
+import io
+import itertools
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+__all__ = ["sweep", "load_sweep", "main", "Sweep", "Run", "Rows"]
+
+_VERSION_CACHE = {}
+_EXTRACTOR_CACHE = {}
+
+
+class _Input(Exception):
+    """Bad input in a sweep (its file, its scene or its results folder): FILE:LINE: /pointer: message."""
+
+
+# ---------------------------------------------------------------------------------------------
+# JSON with the line of each value (for FILE:LINE: /pointer: message)
+# ---------------------------------------------------------------------------------------------
+
+def _escape(key):
+    return str(key).replace("~", "~0").replace("/", "~1")
+
+
+def _unescape(token):
+    return token.replace("~1", "/").replace("~0", "~")
+
+
+class _Doc:
+    """A JSON document with the line of every value, by JSON pointer."""
+
+    _ws = re.compile(r"[ \t\n\r]*")
+
+    def __init__(self, text, source):
+        self.source = source
+        self.lines = {}
+        self._text = text
+        self._starts = [0] + [m.end() for m in re.finditer("\n", text)]
+        self._decoder = json.JSONDecoder(parse_constant=self._constant)
+        try:
+            i = self._skip(0)
+            self.value, i = self._value(i, "")
+            i = self._skip(i)
+            if i != len(text):
+                self._fail_at(i, "", "unexpected text after the JSON value")
+        except json.JSONDecodeError as e:
+            raise _Input(f"{source}:{e.lineno}: /: not valid JSON: {e.msg} (column {e.colno})") from None
+
+    def _constant(self, name):
+        raise json.JSONDecodeError(f"{name} is not a JSON number", self._text, self._pos)
+
+    def _line(self, i):
+        return bisect.bisect_right(self._starts, i)
+
+    def _fail_at(self, i, pointer, message):
+        raise _Input(f"{self.source}:{self._line(i)}: {pointer or '/'}: {message}")
+
+    def _skip(self, i):
+        return self._ws.match(self._text, i).end()
+
+    def _value(self, i, pointer):
+        self.lines[pointer] = self._line(i)
+        t = self._text
+        if i >= len(t):
+            self._fail_at(i, pointer, "the file ends where a value was expected")
+        if t[i] == "{":
+            out, keys = {}, set()
+            i = self._skip(i + 1)
+            if t.startswith("}", i):
+                return out, i + 1
+            while True:
+                if not t.startswith('"', i):
+                    self._fail_at(i, pointer, "expected a key in double quotes")
+                self._pos = i
+                key, i = self._decoder.raw_decode(t, i)
+                if key in keys:
+                    self._fail_at(i, f"{pointer}/{_escape(key)}", f"the key \"{key}\" is given twice")
+                keys.add(key)
+                i = self._skip(i)
+                if not t.startswith(":", i):
+                    self._fail_at(i, pointer, "expected ':' after a key")
+                i = self._skip(i + 1)
+                out[key], i = self._value(i, f"{pointer}/{_escape(key)}")
+                i = self._skip(i)
+                if t.startswith(",", i):
+                    i = self._skip(i + 1)
+                elif t.startswith("}", i):
+                    return out, i + 1
+                else:
+                    self._fail_at(i, pointer, "expected ',' or '}'")
+        if t[i] == "[":
+            out = []
+            i = self._skip(i + 1)
+            if t.startswith("]", i):
+                return out, i + 1
+            while True:
+                v, i = self._value(i, f"{pointer}/{len(out)}")
+                out.append(v)
+                i = self._skip(i)
+                if t.startswith(",", i):
+                    i = self._skip(i + 1)
+                elif t.startswith("]", i):
+                    return out, i + 1
+                else:
+                    self._fail_at(i, pointer, "expected ',' or ']'")
+        self._pos = i
+        v, end = self._decoder.raw_decode(t, i)
+        if isinstance(v, float) and not math.isfinite(v):
+            self._fail_at(i, pointer, f"{t[i:end]} is not a finite number")
+        return v, end
+
+    def line(self, pointer):
+        """The line of the value at pointer, or of its nearest ancestor that has one."""
+        p = pointer
+        while p not in self.lines and p:
+            p = p.rsplit("/", 1)[0]
+        return self.lines.get(p, 1)
+
+    def fail(self, pointer, message):
+        raise _Input(f"{self.source}:{self.line(pointer)}: {pointer or '/'}: {message}")
+
+
+class _DictDoc(_Doc):
+    """A sweep given as a dict (from Python): no lines (1 for all)."""
+
+    def __init__(self, value, source):  # noqa: D107  (no parse)
+        self.source = source
+        self.lines = {}
+        self.value = json.loads(json.dumps(value))  # a copy, and only JSON values in it
+
+
+def _type_name(v):
+    return {dict: "an object", list: "an array", str: "a string", bool: "a boolean",
+            type(None): "null"}.get(type(v), "a number")
+
+
+# ---------------------------------------------------------------------------------------------
+# JSON pointers on the scene
+# ---------------------------------------------------------------------------------------------
+
+def _tokens(pointer):
+    if pointer == "":
+        return []
+    if not pointer.startswith("/"):
+        raise ValueError("a JSON pointer starts with '/'")
+    return [_unescape(t) for t in pointer[1:].split("/")]
+
+
+def _resolve(scene, pointer, create):
+    """(container, key) of pointer in scene; raises ValueError naming what is missing."""
+    tokens = _tokens(pointer)
+    if not tokens:
+        raise ValueError("the empty pointer names the whole scene, not one of its keys")
+    node, walked = scene, ""
+    for n, tok in enumerate(tokens):
+        last = n == len(tokens) - 1
+        if isinstance(node, dict):
+            if tok not in node and not (last and create):
+                keys = ", ".join(sorted(node)) or "none"
+                raise ValueError(f"{walked or '/'} has no key \"{tok}\" (its keys: {keys})")
+            if last:
+                return node, tok
+            node = node[tok]
+        elif isinstance(node, list):
+            if not re.fullmatch(r"0|[1-9][0-9]*", tok) or int(tok) >= len(node):
+                raise ValueError(f"{walked or '/'} is an array of {len(node)} entries: \"{tok}\" is not one of its indices")
+            if last:
+                return node, int(tok)
+            node = node[int(tok)]
+        else:
+            raise ValueError(f"{walked or '/'} is {_type_name(node)}, which has no \"{tok}\"")
+        walked += "/" + _escape(tok)
+    raise AssertionError("unreachable")
+
+
+def _set(scene, pointer, value, create=False):
+    container, key = _resolve(scene, pointer, create)
+    container[key] = copy.deepcopy(value)
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep file
+# ---------------------------------------------------------------------------------------------
+
+_SWEEP_KEYS = {"name", "description", "scene", "steps", "parameters", "combine", "samples", "seed",
+               "extract", "results", "checkpointEvery", "timeout"}
+_VALUE_KINDS = ("values", "range", "uniform", "logUniform", "integers", "choice")
+_RANDOM_KINDS = ("uniform", "logUniform", "integers", "choice")
+_REDUCE = ("max", "min", "mean", "final", "first", "argmax", "argmin")
+_MESH = ("triangles", "points", "pieces", "minAngle", "minAngleWorld", "borderLength",
+         "maxStrain", "area")
+
+
+class Parameter:
+    """One varied parameter: its name (a CSV column), the JSON pointers it sets, its values."""
+
+    def __init__(self, name, pointers, values, create):
+        self.name, self.pointers, self.values, self.create = name, pointers, values, create
+
+
+class Run:
+    """One run of a sweep, as extraction functions see it: `index`, `id` (its hash), `dir` (its
+    run folder), `scene` (the scene it ran, a dict), `parameters` ({name: value}), `steps` (the
+    per-step CSV: {column: numpy array}, numbers as floats, other columns as strings) and
+    `final()` (the last frame's surface: a dict of numpy arrays `position`, `rest`, `triangles`,
+    and the point arrays the frame holds, such as `velocity` and `strain`)."""
+
+    def __init__(self, index, run_id, folder, scene, parameters):
+        self.index, self.id, self.dir = index, run_id, folder
+        self.scene, self.parameters = scene, parameters
+        self._steps = None
+        self._final = None
+
+    @property
+    def steps(self):
+        if self._steps is None:
+            self._steps = _read_steps(os.path.join(self.dir, "steps.csv"))
+        return self._steps
+
+    def final(self):
+        if self._final is None:
+            self._final = _read_final_surface(self.dir)
+        return self._final
+
+
+class Sweep:
+    """A checked sweep: its base scene, its runs (index, parameters, scene, id) and what each run
+    gives (extract), ready to run (cutsim.sweep, or `cutsim-sweep`)."""
+
+    def __init__(self):
+        self.name = ""
+        self.source = ""
+        self.base_dir = ""
+        self.scene_path = ""
+        self.parameters = []
+        self.runs = []
+        self.extract = []
+        self.results = ""
+        self.checkpoint_every = 0
+        self.timeout = None
+
+
+def _number(doc, v, pointer, what="a number"):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        doc.fail(pointer, f"expected {what}, got {_type_name(v)}")
+    return v
+
+
+def _check_keys(doc, obj, pointer, allowed):
+    for k in obj:
+        if k not in allowed:
+            doc.fail(f"{pointer}/{_escape(k)}", f"unknown key \"{k}\" (expected one of: {', '.join(sorted(allowed))})")
+
+
+def _parameter(doc, p, at, samples, rng):
+    if not isinstance(p, dict):
+        doc.fail(at, f"expected an object {{\"pointer\", and one of {', '.join(_VALUE_KINDS)}}}, got {_type_name(p)}")
+    _check_keys(doc, p, at, {"name", "pointer", "pointers", "create", *_VALUE_KINDS})
+    if ("pointer" in p) == ("pointers" in p):
+        doc.fail(at, "give \"pointer\" (one JSON pointer into the scene) or \"pointers\" (several set to the same value)")
+    pointers = [p["pointer"]] if "pointer" in p else p["pointers"]
+    where = f"{at}/pointer" if "pointer" in p else f"{at}/pointers"
+    if not isinstance(pointers, list) or not pointers:
+        doc.fail(where, "expected a non-empty array of JSON pointers")
+    for i, q in enumerate(pointers):
+        if not isinstance(q, str) or not q.startswith("/"):
+            doc.fail(where if "pointer" in p else f"{where}/{i}", f"expected a JSON pointer (\"/key/...\"), got {json.dumps(q)}")
+    kinds = [k for k in _VALUE_KINDS if k in p]
+    if len(kinds) != 1:
+        doc.fail(at, f"give exactly one of {', '.join(_VALUE_KINDS)} (got {', '.join(kinds) or 'none'})")
+    kind = kinds[0]
+    v, vp = p[kind], f"{at}/{kind}"
+    if kind == "values":
+        if not isinstance(v, list) or not v:
+            doc.fail(vp, "expected a non-empty array of values")
+        values = v
+    elif kind == "range":
+        if not isinstance(v, dict):
+            doc.fail(vp, "expected {\"from\", \"to\", \"count\"} or {\"from\", \"to\", \"step\"}, and optionally \"scale\": \"log\"")
+        _check_keys(doc, v, vp, {"from", "to", "count", "step", "scale"})
+        for k in ("from", "to"):
+            if k not in v:
+                doc.fail(vp, f"missing \"{k}\"")
+            _number(doc, v[k], f"{vp}/{k}")
+        lo, hi = float(v["from"]), float(v["to"])
+        scale = v.get("scale", "linear")
+        if scale not in ("linear", "log"):
+            doc.fail(f"{vp}/scale", f"expected \"linear\" or \"log\", got {json.dumps(scale)}")
+        if ("count" in v) == ("step" in v):
+            doc.fail(vp, "give \"count\" (values from \"from\" to \"to\" inclusive) or \"step\"")
+        if scale == "log" and (lo <= 0 or hi <= 0):
+            doc.fail(vp, "a log range needs \"from\" and \"to\" > 0")
+        if "count" in v:
+            n = v["count"]
+            if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000000:
+                doc.fail(f"{vp}/count", f"expected an integer from 1 to 10^6, got {json.dumps(n)}")
+            if n == 1:
+                values = [lo]
+            elif scale == "log":
+                values = [float(x) for x in np.geomspace(lo, hi, n)]
+            else:
+                values = [float(x) for x in np.linspace(lo, hi, n)]
+        else:
+            step = float(_number(doc, v["step"], f"{vp}/step"))
+            if scale == "log":
+                doc.fail(f"{vp}/step", "a log range is given by \"count\"")
+            if step == 0 or (hi - lo) / step < 0:
+                doc.fail(f"{vp}/step", f"{step:g} does not lead from {lo:g} to {hi:g}")
+            n = int(math.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)) + 1
+            if n > 1000000:
+                doc.fail(f"{vp}/step", f"{n} values: more than 10^6")
+            values = [lo + k * step for k in range(n)]
+        if all(isinstance(v.get(k), int) and not isinstance(v.get(k), bool) for k in ("from", "to", "step")) and scale == "linear":
+            values = [int(round(x)) for x in values]
+    else:
+        if samples is None:
+            doc.fail(vp, f"\"{kind}\" draws random values: give the sweep \"samples\" (how many) and \"seed\"")
+        if kind == "choice":
+            if not isinstance(v, list) or not v:
+                doc.fail(vp, "expected a non-empty array of values to choose from")
+            values = [v[int(i)] for i in rng.integers(0, len(v), samples)]
+        else:
+            if not isinstance(v, list) or len(v) != 2:
+                doc.fail(vp, "expected [low, high]")
+            lo = _number(doc, v[0], f"{vp}/0")
+            hi = _number(doc, v[1], f"{vp}/1")
+            if not lo < hi:
+                doc.fail(vp, f"expected low < high, got [{lo}, {hi}]")
+            if kind == "uniform":
+                values = [float(x) for x in rng.uniform(lo, hi, samples)]
+            elif kind == "logUniform":
+                if lo <= 0:
+                    doc.fail(vp, "logUniform needs low > 0")
+                values = [float(x) for x in np.exp(rng.uniform(math.log(lo), math.log(hi), samples))]
+            else:
+                if not all(isinstance(x, int) and not isinstance(x, bool) for x in v):
+                    doc.fail(vp, "integers needs integer bounds")
+                values = [int(x) for x in rng.integers(lo, hi + 1, samples)]
+    name = p.get("name", pointers[0])
+    if not isinstance(name, str) or not name:
+        doc.fail(f"{at}/name", "expected a non-empty string")
+    create = p.get("create", False)
+    if not isinstance(create, bool):
+        doc.fail(f"{at}/create", "expected true or false")
+    return Parameter(name, pointers, values, create), kind
+
+
+def _compile_condition(text):
+    """A condition "COLUMN OP EXPRESSION" (OP: < <= > >= == !=; the expression of numbers, + - * /
+    and the column's first, final, max, min, mean): (column, op, expression tree)."""
+    m = re.fullmatch(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(<=|>=|==|!=|<|>)\s*(.+?)\s*", text)
+    if not m:
+        raise ValueError("expected \"COLUMN OP VALUE\", OP one of < <= > >= == != (e.g. \"kinetic_energy < 1e-5\")")
+    try:
+        tree = ast.parse(m.group(3), mode="eval").body
+    except SyntaxError:
+        raise ValueError(f"\"{m.group(3)}\" is not an expression") from None
+    allowed = {"first", "final", "max", "min", "mean"}
+
+    def check(node):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div)):
+            check(node.left)
+            check(node.right)
+        elif isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            check(node.operand)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+            pass
+        elif isinstance(node, ast.Name) and node.id in allowed:
+            pass
+        else:
+            raise ValueError(f"\"{m.group(3)}\": only numbers, + - * / and the column's {', '.join(sorted(allowed))}")
+    check(tree)
+    return m.group(1), m.group(2), tree
+
+
+def _evaluate(node, names):
+    if isinstance(node, ast.BinOp):
+        a, b = _evaluate(node.left, names), _evaluate(node.right, names)
+        return {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}.get(type(node.op)) if not isinstance(node.op, ast.Div) else a / b
+    if isinstance(node, ast.UnaryOp):
+        v = _evaluate(node.operand, names)
+        return -v if isinstance(node.op, ast.USub) else v
+    if isinstance(node, ast.Constant):
+        return float(node.value)
+    return names[node.id]
+
+
+def _extractor(doc, e, at, sweep_dir):
+    if not isinstance(e, dict):
+        doc.fail(at, f"expected an object {{\"name\", and \"column\", \"first\", \"mesh\" or \"python\"}}, got {_type_name(e)}")
+    _check_keys(doc, e, at, {"name", "column", "at", "reduce", "first", "after", "mesh", "python", "description"})
+    name = e.get("name")
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.\-]*", name or ""):
+        doc.fail(f"{at}/name" if "name" in e else at, "give each quantity a \"name\" (letters, digits, _ . -): its CSV column")
+    kinds = [k for k in ("column", "first", "mesh", "python") if k in e]
+    if len(kinds) != 1:
+        doc.fail(at, f"give one of \"column\" (with \"at\" or \"reduce\"), \"first\", \"mesh\" or \"python\" (got {', '.join(kinds) or 'none'})")
+    kind = kinds[0]
+    spec = {"name": name, "kind": kind}
+    if kind == "column":
+        if not isinstance(e["column"], str):
+            doc.fail(f"{at}/column", "expected the name of a column of the run's steps.csv")
+        spec["column"] = e["column"]
+        if ("at" in e) == ("reduce" in e):
+            doc.fail(at, f"a column's quantity needs \"at\" (a time, s) or \"reduce\" (one of {', '.join(_REDUCE)})")
+        if "at" in e:
+            spec["at"] = float(_number(doc, e["at"], f"{at}/at", "a time (s)"))
+        else:
+            if e["reduce"] not in _REDUCE:
+                doc.fail(f"{at}/reduce", f"expected one of {', '.join(_REDUCE)}, got {json.dumps(e['reduce'])}")
+            spec["reduce"] = e["reduce"]
+    elif kind == "first":
+        if not isinstance(e["first"], str):
+            doc.fail(f"{at}/first", "expected a condition \"COLUMN OP VALUE\"")
+        try:
+            _compile_condition(e["first"])
+        except ValueError as err:
+            doc.fail(f"{at}/first", str(err))
+        spec["first"] = e["first"]
+        if "after" in e:
+            spec["after"] = float(_number(doc, e["after"], f"{at}/after", "a time (s)"))
+    elif kind == "mesh":
+        if e["mesh"] not in _MESH:
+            doc.fail(f"{at}/mesh", f"expected one of {', '.join(_MESH)}, got {json.dumps(e['mesh'])}")
+        spec["mesh"] = e["mesh"]
+    else:
+        ref = e["python"]
+        m = re.fullmatch(r"(.+\.py):([A-Za-z_][A-Za-z0-9_]*)", ref) if isinstance(ref, str) else None
+        if not m:
+            doc.fail(f"{at}/python", "expected \"FILE.py:FUNCTION\" (the file relative to the sweep file)")
+        path = os.path.abspath(os.path.join(sweep_dir, m.group(1)))
+        if not os.path.isfile(path):
+            doc.fail(f"{at}/python", f"no file {path}")
+        try:
+            fn = _load_function(path, m.group(2))
+        except Exception as err:  # the user's module: any error it raises on import
+            doc.fail(f"{at}/python", f"{path}: {type(err).__name__}: {err}")
+        if not callable(fn):
+            doc.fail(f"{at}/python", f"{m.group(2)} in {path} is not a function")
+        spec["python"] = path
+        spec["function"] = m.group(2)
+    for k in ("at", "reduce") if kind != "column" else ():
+        if k in e:
+            doc.fail(f"{at}/{k}", f"\"{k}\" goes with \"column\"")
+    if "after" in e and kind != "first":
+        doc.fail(f"{at}/after", "\"after\" goes with \"first\"")
+    return spec
+
+
+def _load_function(path, name):
+    key = (path, os.path.getmtime(path))
+    module = _EXTRACTOR_CACHE.get(key)
+    if module is None:
+        spec = importlib.util.spec_from_file_location(f"cutsim_sweep_extract_{len(_EXTRACTOR_CACHE)}", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        _EXTRACTOR_CACHE[key] = module
+    if not hasattr(module, name):
+        raise AttributeError(f"no function {name}")
+    return getattr(module, name)
+
+
+def _absolute_paths(scene, base_dir):
+    """The scene's relative file names (its mesh, obstacles' meshes: every "file" key, and "mesh"
+    given as a string) made absolute against base_dir, so that the run's scene file can live
+    elsewhere; returns the files named (for the run's hash)."""
+    files = []
+
+    def fix(container, key):
+        v = container[key]
+        if isinstance(v, str):
+            p = v if os.path.isabs(v) else os.path.normpath(os.path.join(base_dir, v))
+            container[key] = p
+            files.append(p)
+
+    def walk(node):
+        if isinstance(node, dict):
+            for k in list(node):
+                if k == "file" and isinstance(node[k], str):
+                    fix(node, k)
+                else:
+                    walk(node[k])
+        elif isinstance(node, list):
+            for v in node:
+                walk(v)
+    if isinstance(scene.get("mesh"), str):
+        fix(scene, "mesh")
+    walk(scene)
+    return files
+
+
+def _file_digest(path, cache):
+    if path not in cache:
+        h = hashlib.sha256()
+        try:
+            with open(path, "rb") as f:
+                for block in iter(lambda: f.read(1 << 20), b""):
+                    h.update(block)
+            cache[path] = h.hexdigest()
+        except OSError:
+            cache[path] = "missing"
+    return cache[path]
+
+
+def load_sweep(sweep, *, results=None, cutsim_executable=None, check=True):
+    """Reads and checks a sweep (a file path, or a dict whose relative paths are taken from the
+    current folder): the sweep file's keys, every pointer against the base scene, every run's
+    scene through the scene check (an error names the run's parameters), before anything runs.
+    Returns a Sweep. Bad input raises cutsim.InvalidInputError("FILE:LINE: /pointer: message")."""
+    from . import InvalidInputError
+    try:
+        return _load_sweep(sweep, results, cutsim_executable, check)
+    except _Input as e:
+        raise InvalidInputError(str(e)) from None
+
+
+def _load_sweep(sweep, results, exe, check):
+    from . import InvalidInputError, Simulation
+    from . import _cutsim
+    if isinstance(sweep, dict):
+        doc = _DictDoc(sweep, "<sweep dict>")
+        sweep_dir = os.getcwd()
+        default_name = "sweep"
+    else:
+        path = os.fspath(sweep)
+        try:
+            with open(path, encoding="utf-8-sig") as f:
+                text = f.read()
+        except OSError as e:
+            raise _Input(f"{path}:1: /: cannot read the sweep file: {e.strerror}") from None
+        doc = _Doc(text, path)
+        sweep_dir = os.path.dirname(os.path.abspath(path))
+        default_name = os.path.splitext(os.path.basename(path))[0]
+    s = doc.value
+    if not isinstance(s, dict):
+        doc.fail("", f"a sweep is an object {{\"scene\", \"parameters\", \"extract\", ...}}, got {_type_name(s)}")
+    _check_keys(doc, s, "", _SWEEP_KEYS)
+    out = Sweep()
+    out.source = doc.source
+    out.name = s.get("name", default_name)
+    if not isinstance(out.name, str) or not out.name:
+        doc.fail("/name", "expected a non-empty string")
+    # The base scene: JSON, or SOFA's .scn through its JSON translation.
+    if "scene" not in s or not isinstance(s["scene"], str):
+        doc.fail("/scene" if "scene" in s else "", "give \"scene\": the base scene file (.json or .scn), relative to the sweep file")
+    scene_path = os.path.normpath(os.path.join(sweep_dir, s["scene"]))
+    out.scene_path = scene_path
+    out.base_dir = os.path.dirname(scene_path)
+    if not os.path.isfile(scene_path):
+        doc.fail("/scene", f"no scene file {scene_path}")
+    try:
+        if scene_path.lower().endswith(".scn"):
+            base = json.loads(_cutsim._sofa_scene_json(scene_path))
+            if "steps" in s:
+                steps = s["steps"]
+                if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+                    doc.fail("/steps", "expected a number of steps >= 1")
+                base["duration"] = steps * base.get("timeStep", 0.01)
+        else:
+            if "steps" in s:
+                doc.fail("/steps", "\"steps\" is for a SOFA scene (.scn); a JSON scene has its \"duration\"")
+            with open(scene_path, encoding="utf-8-sig") as f:
+                base = json.load(f)
+    except InvalidInputError as e:
+        doc.fail("/scene", str(e))
+    except (OSError, ValueError) as e:
+        doc.fail("/scene", f"{scene_path}: {e}")
+    if not isinstance(base, dict):
+        doc.fail("/scene", f"{scene_path} is not a scene (a JSON object)")
+
+    samples = s.get("samples")
+    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 1000000):
+        doc.fail("/samples", f"expected an integer from 1 to 10^6, got {json.dumps(samples)}")
+    seed = s.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        doc.fail("/seed", f"expected an integer >= 0, got {json.dumps(seed)}")
+    if samples is not None and "seed" not in s:
+        doc.fail("/samples", "random samples need a \"seed\" (the same seed, the same runs)")
+    rng = np.random.default_rng(seed)
+
+    params = s.get("parameters")
+    if not isinstance(params, list) or not params:
+        doc.fail("/parameters" if "parameters" in s else "", "give \"parameters\": a non-empty array of {\"pointer\", \"values\" | \"range\" | ...}")
+    kinds = []
+    names = set()
+    for i, p in enumerate(params):
+        param, kind = _parameter(doc, p, f"/parameters/{i}", samples, rng)
+        if param.name in names:
+            doc.fail(f"/parameters/{i}", f"two parameters named \"{param.name}\" (give each a \"name\")")
+        names.add(param.name)
+        for j, q in enumerate(param.pointers):
+            try:
+                _resolve(base, q, param.create)
+            except ValueError as e:
+                qp = f"/parameters/{i}/pointer" if "pointer" in p else f"/parameters/{i}/pointers/{j}"
+                doc.fail(qp, f"{q} names no key of the scene {scene_path}: {e}"
+                         + ("" if param.create else " (\"create\": true adds a key the scene leaves to its default)"))
+        out.parameters.append(param)
+        kinds.append(kind)
+    combine = s.get("combine", "zip" if samples is not None else "grid")
+    if combine not in ("grid", "zip"):
+        doc.fail("/combine", f"expected \"grid\" (every combination) or \"zip\" (the i-th value of each together), got {json.dumps(combine)}")
+    if combine == "zip":
+        counts = {len(p.values) for p in out.parameters}
+        if len(counts) > 1:
+            doc.fail("/combine", "\"zip\" takes the parameters' values together: they must have as many values each (got "
+                     + ", ".join(f"{p.name}: {len(p.values)}" for p in out.parameters) + ")")
+        combos = list(zip(*[p.values for p in out.parameters]))
+    else:
+        combos = list(itertools.product(*[p.values for p in out.parameters]))
+    if len(combos) > 1000000:
+        doc.fail("/parameters", f"{len(combos)} runs: more than 10^6")
+
+    extract = s.get("extract", [])
+    if not isinstance(extract, list):
+        doc.fail("/extract", "expected an array of quantities")
+    seen = set(names) | {"run", "status", "error", "wall_time_s", "steps", "flagged_steps", "resumed", "folder"}
+    for i, e in enumerate(extract):
+        spec = _extractor(doc, e, f"/extract/{i}", sweep_dir)
+        if spec["name"] in seen:
+            doc.fail(f"/extract/{i}/name", f"\"{spec['name']}\" is already a column (a parameter's or the table's own)")
+        seen.add(spec["name"])
+        out.extract.append(spec)
+
+    every = s.get("checkpointEvery", 100)
+    if isinstance(every, bool) or not isinstance(every, int) or not 1 <= every <= 1000000000:
+        doc.fail("/checkpointEvery", f"expected a number of steps from 1 to 10^9, got {json.dumps(every)}")
+    out.checkpoint_every = every
+    timeout = s.get("timeout")
+    if timeout is not None:
+        out.timeout = float(_number(doc, timeout, "/timeout", "a number of seconds"))
+        if out.timeout <= 0:
+            doc.fail("/timeout", "expected a number of seconds > 0")
+    res = results if results is not None else s.get("results", os.path.join("out", "sweeps", out.name))
+    if not isinstance(res, str) or not res:
+        doc.fail("/results", "expected a folder name")
+    out.results = os.path.abspath(os.path.join(sweep_dir, res) if results is None and "results" in s else res)
+
+    # Every run's scene, checked as `cutsim run` would check it, before anything runs.
+    version = _cutsim_version(_find_cutsim(exe))
+    digests = {}
+    for index, combo in enumerate(combos):
+        scene = copy.deepcopy(base)
+        values = {}
+        for p, v in zip(out.parameters, combo):
+            for q in p.pointers:
+                _set(scene, q, v, p.create)
+            values[p.name] = v
+        # The run folder's name of the scene is the base scene's (not the run's scene file's).
+        if "name" not in scene:
+            scene["name"] = os.path.splitext(os.path.basename(scene_path))[0]
+        files = _absolute_paths(scene, out.base_dir)
+        label = ", ".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
+        if check:
+            try:
+                Simulation(scene, base_dir=out.base_dir, source=f"run {index}")
+            except InvalidInputError as e:
+                # "run I:LINE: /pointer: message": the pointer and message, at the parameter
+                # that sets that pointer (or the parameters).
+                m = re.match(r"^run \d+:\d+: (/\S*): (.*)$", str(e), re.S)
+                where, what = (m.group(1), m.group(2)) if m else ("", str(e))
+                at = "/parameters"
+                for i, p in enumerate(out.parameters):
+                    if any(where == q or where.startswith(q + "/") or q.startswith(where + "/") for q in p.pointers):
+                        at = f"/parameters/{i}"
+                        break
+                doc.fail(at, f"the scene check refuses run {index} ({label}): {where + ': ' if where else ''}{what}")
+        canonical = json.dumps(scene, sort_keys=True, separators=(",", ":"))
+        h = hashlib.sha256()
+        h.update(version.encode())
+        h.update(b"\0")
+        h.update(canonical.encode())
+        for f in sorted(set(files)):
+            h.update(b"\0" + f.encode() + b"\0" + _file_digest(f, digests).encode())
+        run_id = h.hexdigest()[:16]
+        out.runs.append({"index": index, "id": run_id, "values": values, "scene": scene, "label": label})
+    out.version = version
+    out.extract_key = hashlib.sha256(json.dumps(out.extract, sort_keys=True).encode()).hexdigest()[:16]
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Finding and running cutsim (on the worker)
+# ---------------------------------------------------------------------------------------------
+
+def _find_cutsim(hint=None):
+    """The cutsim program: hint, $CUTSIM_EXECUTABLE, next to this package (the build tree's
+    src/cutsim, or an install prefix's bin/cutsim), or the first on PATH."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    candidates = [hint, os.environ.get("CUTSIM_EXECUTABLE"),
+                  os.path.join(here, "..", "..", "src", "cutsim")]
+    # prefix/lib/python3.X/{dist,site}-packages/cutsim -> prefix/bin/cutsim
+    candidates.append(os.path.join(here, "..", "..", "..", "..", "bin", "cutsim"))
+    candidates.append(shutil.which("cutsim"))
+    for c in candidates:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return os.path.abspath(c)
+    raise FileNotFoundError("no cutsim program found (looked at $CUTSIM_EXECUTABLE, next to the Python package and on PATH): "
+                            "set CUTSIM_EXECUTABLE or give --cutsim")
+
+
+def _cutsim_version(exe):
+    if exe not in _VERSION_CACHE:
+        r = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=60)
+        _VERSION_CACHE[exe] = r.stdout.strip()
+    return _VERSION_CACHE[exe]
+
+
+def _paths(results, run_id):
+    runs = os.path.join(results, "runs")
+    return {"dir": os.path.join(runs, run_id), "scene": os.path.join(runs, run_id + ".scene.json"),
+            "result": os.path.join(runs, run_id + ".result.json"), "log": os.path.join(runs, run_id + ".log"),
+            "lock": os.path.join(runs, "." + run_id + ".lock")}
+
+
+def _write_atomic(path, text):
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _last_error(log_path):
+    try:
+        with open(log_path, encoding="utf-8", errors="replace") as f:
+            lines = [ln.strip() for ln in f if ln.strip()]
+    except OSError:
+        return ""
+    for ln in reversed(lines):
+        if "error" in ln.lower() or "cutsim:" in ln:
+            return ln
+    return lines[-1] if lines else ""
+
+
+def _run_task(task):
+    """One run, in a worker: waits for the run's lock (an earlier attempt's cutsim, orphaned when
+    its worker died, writes its checkpoint on the way out and frees it), resumes from the run's
+    checkpoint or runs from the start, then extracts the quantities. Returns the run's row; never
+    raises for a run that fails (the row says why)."""
+    import fcntl
+    p = _paths(task["results"], task["id"])
+    lock = open(p["lock"], "a+")
+    try:
+        fcntl.flock(lock.fileno(), fcntl.LOCK_EX)
+        done = _read_result(p["result"])
+        if done is not None and done.get("status") in ("done", "failed") and done.get("extract_key") == task["extract_key"]:
+            return done
+        row = {"index": task["index"], "id": task["id"], "values": task["values"], "resumed": False,
+               "wall_time_s": 0.0, "extract_key": task["extract_key"]}
+        if done is not None and done.get("status") == "done":
+            row.update(status="done", error="", wall_time_s=done.get("wall_time_s", 0.0),
+                       resumed=done.get("resumed", False))
+        else:
+            row.update(_execute(task, p, lock))
+        if row["status"] == "done":
+            row.update(_extract_all(task, p))
+        _write_atomic(p["result"], json.dumps(row, indent=1, sort_keys=True))
+        return row
+    finally:
+        lock.close()
+
+
+def _execute(task, p, lock):
+    try:
+        exe = _find_cutsim(task.get("cutsim"))
+        version = _cutsim_version(exe)
+    except (OSError, subprocess.SubprocessError) as e:
+        return {"status": "failed", "error": f"on {os.uname().nodename}: {e}"}
+    if version != task["version"]:
+        return {"status": "failed", "error": f"on {os.uname().nodename}: {exe} is \"{version}\", the sweep was made with \"{task['version']}\""}
+    ckpt = os.path.join(p["dir"], "checkpoint.ckpt")
+    resumed = os.path.isfile(ckpt)
+    if resumed:
+        cmd = [exe, "resume", ckpt, "--quiet"]
+    else:
+        cmd = [exe, "run", p["scene"], "--out", p["dir"], "--quiet", "--checkpoint-every", str(task["checkpoint_every"])]
+    status, error, seconds = _call(cmd, p, lock, task.get("timeout"))
+    if resumed and status == "bad-input":
+        # A checkpoint this build cannot read (damaged, another build): the run from its start.
+        cmd = [exe, "run", p["scene"], "--out", p["dir"], "--quiet", "--checkpoint-every", str(task["checkpoint_every"])]
+        resumed = False
+        status, error, more = _call(cmd, p, lock, task.get("timeout"))
+        seconds += more
+    if status == "done":
+        try:
+            os.remove(ckpt)  # the run folder is then the one `cutsim run` writes
+        except FileNotFoundError:
+            pass
+        if not os.path.isfile(os.path.join(p["dir"], "steps.csv")):
+            status, error = "failed", "cutsim ended without its steps.csv"
+    return {"status": "done" if status == "done" else "failed", "error": error,
+            "wall_time_s": round(seconds, 3), "resumed": resumed}
+
+
+def _call(cmd, p, lock, timeout):
+    # The run's process ends with its worker: SIGTERM when the thread that started it dies (the
+    # run then writes a checkpoint and stops, and the lock it holds frees the next attempt).
+    prefix = ["setpriv", "--pdeathsig", "TERM"] if shutil.which("setpriv") else []
+    start = time.monotonic()
+    with open(p["log"], "a", encoding="utf-8") as log:
+        log.write(f"$ {' '.join(cmd)}\n")
+        log.flush()
+        try:
+            r = subprocess.run(prefix + cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                               pass_fds=(lock.fileno(),), timeout=timeout)
+            code = r.returncode
+        except subprocess.TimeoutExpired:
+            return "failed", f"stopped after its timeout of {timeout:g} s (a checkpoint was written: run the sweep again to go on)", time.monotonic() - start
+    seconds = time.monotonic() - start
+    if code == 0:
+        return "done", "", seconds
+    reason = _last_error(p["log"])
+    if code == 2:
+        return "bad-input", reason, seconds
+    if code < 0 or code in (130, 143):
+        return "failed", f"stopped by signal {-code if code < 0 else code - 128} ({reason})", seconds
+    return "failed", reason or f"cutsim exited with code {code}", seconds
+
+
+def _read_result(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+
+# ---------------------------------------------------------------------------------------------
+# What a run gives
+# ---------------------------------------------------------------------------------------------
+
+def _read_steps(path):
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        return {}
+    header, body = rows[0], rows[1:]
+    out = {}
+    for j, name in enumerate(header):
+        col = [r[j] if j < len(r) else "" for r in body]
+        try:
+            out[name] = np.array([float(x) for x in col])
+        except ValueError:
+            out[name] = np.array(col, dtype=object)
+    return out
+
+
+def _read_final_surface(folder):
+    with open(os.path.join(folder, "surface.pvd"), encoding="utf-8") as f:
+        files = re.findall(r'file="([^"]+)"', f.read())
+    if not files:
+        raise ValueError("the run wrote no surface frame")
+    with open(os.path.join(folder, files[-1]), encoding="utf-8") as f:
+        text = f.read()
+    arrays = {}
+    for m in re.finditer(r'<DataArray([^>]*)>(.*?)</DataArray>', text, re.S):
+        name = re.search(r'Name="([^"]+)"', m.group(1)).group(1)
+        kind = re.search(r'type="([^"]+)"', m.group(1)).group(1)
+        comps = re.search(r'NumberOfComponents="(\d+)"', m.group(1))
+        a = np.array(m.group(2).split(), dtype=float if kind.startswith("Float") else np.int64)
+        arrays[name] = a.reshape(-1, int(comps.group(1))) if comps else a
+    offsets = arrays.pop("offsets")
+    conn = arrays.pop("connectivity")
+    if not np.all(np.diff(np.concatenate([[0], offsets])) == 3):
+        raise ValueError("the surface frame holds polygons that are not triangles")
+    out = {"triangles": conn.reshape(-1, 3), "position": arrays.pop("position")}
+    out["rest"] = arrays.pop("rest_position", out["position"])
+    out.update(arrays)
+    return out
+
+
+def _min_angle(x, tri):
+    if len(tri) == 0:
+        return float("nan")
+    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
+    worst = np.full(len(tri), np.inf)
+    for p, q, r in ((a, b, c), (b, c, a), (c, a, b)):
+        u, v = q - p, r - p
+        cosang = np.einsum("ij,ij->i", u, v) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
+        worst = np.minimum(worst, np.degrees(np.arccos(np.clip(cosang, -1, 1))))
+    return float(worst.min())
+
+
+def _pieces(tri):
+    parent = {}
+
+    def find(a):
+        root = a
+        while parent.setdefault(root, root) != root:
+            root = parent[root]
+        while parent[a] != root:
+            parent[a], a = root, parent[a]
+        return root
+    for a, b, c in tri.tolist():
+        ra, rb, rc = find(a), find(b), find(c)
+        parent[rb] = ra
+        parent[find(rc)] = ra
+    return len({find(p) for p in parent})
+
+
+def _mesh_measure(final, what):
+    tri, x, rest = final["triangles"], final["position"], final["rest"]
+    if what == "triangles":
+        return int(len(tri))
+    if what == "points":
+        return int(len(np.unique(tri)))
+    if what == "pieces":
+        return _pieces(tri)
+    if what == "minAngle":
+        return _min_angle(rest, tri)
+    if what == "minAngleWorld":
+        return _min_angle(x, tri)
+    if what == "area":
+        return float(0.5 * np.linalg.norm(np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]), axis=1).sum())
+    if what == "borderLength":
+        e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        unique, count = np.unique(e, axis=0, return_counts=True)
+        b = unique[count == 1]
+        return float(np.linalg.norm(rest[b[:, 0]] - rest[b[:, 1]], axis=1).sum())
+    if what == "maxStrain":
+        if "strain" not in final:
+            raise ValueError("the surface frame holds no strain")
+        return float(np.max(final["strain"]))
+    raise ValueError(what)
+
+
+def _column(steps, name):
+    if name not in steps:
+        raise ValueError(f"no column \"{name}\" in steps.csv (its columns: {', '.join(steps)})")
+    c = steps[name]
+    if c.dtype == object:
+        raise ValueError(f"the column \"{name}\" is not numeric")
+    return c
+
+
+def _extract_one(spec, run):
+    kind = spec["kind"]
+    if kind == "column":
+        c, t = _column(run.steps, spec["column"]), _column(run.steps, "time")
+        if "at" in spec:
+            if not t[0] - 1e-12 <= spec["at"] <= t[-1] + 1e-12:
+                raise ValueError(f"t = {spec['at']:g} s is outside the run ({t[0]:g} to {t[-1]:g} s)")
+            return float(np.interp(spec["at"], t, c))
+        r = spec["reduce"]
+        if r == "argmax":
+            return float(t[int(np.argmax(c))])
+        if r == "argmin":
+            return float(t[int(np.argmin(c))])
+        return float({"max": np.max, "min": np.min, "mean": np.mean, "final": lambda a: a[-1], "first": lambda a: a[0]}[r](c))
+    if kind == "first":
+        name, op, tree = _compile_condition(spec["first"])
+        c, t = _column(run.steps, name), _column(run.steps, "time")
+        bound = _evaluate(tree, {"first": c[0], "final": c[-1], "max": c.max(), "min": c.min(), "mean": c.mean()})
+        ok = {"<": c < bound, "<=": c <= bound, ">": c > bound, ">=": c >= bound, "==": c == bound, "!=": c != bound}[op]
+        ok &= t >= spec.get("after", -np.inf)
+        hits = np.nonzero(ok)[0]
+        return float(t[hits[0]]) if hits.size else None
+    if kind == "mesh":
+        return _mesh_measure(run.final(), spec["mesh"])
+    value = _load_function(spec["python"], spec["function"])(run)
+    if isinstance(value, (np.generic,)):
+        value = value.item()
+    if value is not None and not isinstance(value, (int, float, str, bool)):
+        raise ValueError(f"{spec['function']} returned {type(value).__name__}: a number, a string or None is expected")
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _extract_all(task, p):
+    with open(p["scene"], encoding="utf-8") as f:
+        scene = json.load(f)
+    run = Run(task["index"], task["id"], p["dir"], scene, task["values"])
+    out, errors = {}, []
+    try:
+        flags = run.steps.get("solver_flags")
+        out["steps"] = max(0, len(run.steps.get("time", [])) - 1)
+        out["flagged_steps"] = int(sum(1 for f in flags[1:] if f != "ok")) if flags is not None else 0
+    except OSError as e:
+        return {"quantities": {}, "error": f"steps.csv: {e}"}
+    for spec in task["extract"]:
+        try:
+            v = _extract_one(spec, run)
+            out[spec["name"]] = None if isinstance(v, float) and not math.isfinite(v) else v
+        except Exception as e:  # a quantity that cannot be had is named in the row, the others kept
+            out[spec["name"]] = None
+            errors.append(f"{spec['name']}: {type(e).__name__ if not isinstance(e, ValueError) else ''}{': ' if not isinstance(e, ValueError) else ''}{e}")
+    result = {"quantities": out}
+    if errors:
+        result["error"] = "; ".join(errors)
+    return result
+
+
+# ---------------------------------------------------------------------------------------------
+# The results folder, the table, the picture
+# ---------------------------------------------------------------------------------------------
+
+def _claim(sw, sweep_text):
+    """Makes sw.results this sweep's folder, or refuses one that holds anything else."""
+    marker = os.path.join(sw.results, "sweep.json")
+    if os.path.isdir(sw.results) and os.listdir(sw.results):
+        mine = _read_result(marker)
+        if mine is None:
+            raise _Input(f"{sw.source}:1: /results: {sw.results} holds files that are not a sweep's results: "
+                         "give another folder (--results)")
+        if mine.get("name") != sw.name:
+            raise _Input(f"{sw.source}:1: /results: {sw.results} holds the results of another sweep "
+                         f"(\"{mine.get('name')}\", from {mine.get('source')}): give another folder (--results)")
+    os.makedirs(os.path.join(sw.results, "runs"), exist_ok=True)
+    _write_atomic(marker, json.dumps({"name": sw.name, "source": os.path.abspath(sw.source) if os.path.exists(sw.source) else sw.source,
+                                      "scene": sw.scene_path, "cutsim": sw.version, "sweep": sweep_text}, indent=1))
+
+
+def _csv_value(v):
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, (dict, list)):
+        return json.dumps(v)
+    return str(v)
+
+
+def _columns(sw):
+    return (["run", "status", "error"] + [p.name for p in sw.parameters] + [e["name"] for e in sw.extract]
+            + ["wall_time_s", "steps", "flagged_steps", "resumed", "folder"])
+
+
+def _table_row(sw, row):
+    q = row.get("quantities", {})
+    r = {"run": row["index"], "status": row["status"], "error": row.get("error", ""),
+         "wall_time_s": row.get("wall_time_s"), "steps": q.get("steps"), "flagged_steps": q.get("flagged_steps"),
+         "resumed": "yes" if row.get("resumed") else "no",
+         "folder": os.path.join("runs", row["id"])}
+    for p in sw.parameters:
+        r[p.name] = row["values"].get(p.name)
+    for e in sw.extract:
+        r[e["name"]] = q.get(e["name"])
+    return r
+
+
+def _write_table(sw, rows):
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    cols = _columns(sw)
+    w.writerow(cols)
+    for index in sorted(rows):
+        r = _table_row(sw, rows[index])
+        w.writerow([_csv_value(r[c]) for c in cols])
+    _write_atomic(os.path.join(sw.results, "results.csv"), buf.getvalue())
+
+
+def _plot(sw, rows):
+    """summary.png: each quantity (and the wall time) against each varied parameter."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    quantities = [e["name"] for e in sw.extract] + ["wall_time_s"]
+    varied = [p for p in sw.parameters if len({json.dumps(v, sort_keys=True) for v in p.values}) > 1] or sw.parameters
+    table = [_table_row(sw, rows[i]) for i in sorted(rows)]
+    nq, npar = len(quantities), len(varied)
+    fig, axes = plt.subplots(nq, npar, figsize=(3.6 * npar + 0.6, 2.6 * nq + 0.8), squeeze=False)
+    failed = sum(1 for r in table if r["status"] != "done")
+    fig.suptitle(f"{sw.name}: {len(table)} runs ({failed} failed)", fontsize=11)
+    palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for j, p in enumerate(varied):
+        numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p.values)
+        labels = [] if numeric else sorted({json.dumps(v, sort_keys=True) for v in p.values})
+        others = [o for o in varied if o is not p]
+
+        def xof(r):
+            return r[p.name] if numeric else labels.index(json.dumps(r[p.name], sort_keys=True))
+
+        # One line per combination of the other varied parameters (a grid's slices), when few.
+        groups = {}
+        for r in table:
+            groups.setdefault(tuple(json.dumps(r[o.name]) for o in others), []).append(r)
+        lines = 1 < len(groups) <= 8
+        for i, q in enumerate(quantities):
+            ax = axes[i][j]
+            fx, lo = [], math.inf
+            for g, (key, members) in enumerate(sorted(groups.items())):
+                pts = sorted((xof(r), r[q]) for r in members if r["status"] == "done" and isinstance(r[q], (int, float))
+                             and not isinstance(r[q], bool) and math.isfinite(r[q]))
+                fx += [xof(r) for r in members if r["status"] != "done"]
+                if pts:
+                    lo = min(lo, min(y for _, y in pts))
+                    label = ", ".join(f"{o.name}={json.loads(k)}" for o, k in zip(others, key)) if lines else None
+                    ax.plot([x for x, _ in pts], [y for _, y in pts], "o-" if lines else "o", ms=4, lw=1,
+                            color=palette[g % len(palette)] if lines else "#1f77b4", alpha=0.85, label=label)
+            if fx:
+                ax.plot(fx, [lo if math.isfinite(lo) else 0.0] * len(fx), "x", color="#d62728", ms=7, label="failed")
+            if (lines or fx) and i == 0:
+                ax.legend(fontsize=6, loc="best")
+            if numeric and len(p.values) > 2 and min(p.values) > 0 and max(p.values) / min(p.values) > 50:
+                ax.set_xscale("log")
+            if not numeric:
+                ax.set_xticks(range(len(labels)))
+                ax.set_xticklabels([lb[:14] for lb in labels], fontsize=7, rotation=20)
+            if i == nq - 1:
+                ax.set_xlabel(p.name, fontsize=8)
+            if j == 0:
+                ax.set_ylabel(q, fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
+    path = os.path.join(sw.results, "summary.png")
+    fig.savefig(path + ".tmp.png", dpi=100)
+    plt.close(fig)
+    os.replace(path + ".tmp.png", path)
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep on Dask
+# ---------------------------------------------------------------------------------------------
+
+class _Progress:
+    def __init__(self, total, skipped, stream, enabled):
+        self.total, self.skipped, self.stream, self.enabled = total, skipped, stream, enabled
+        self.tty = enabled and hasattr(stream, "isatty") and stream.isatty()
+        self.start = time.monotonic()
+        self.last = 0.0
+
+    def show(self, done, failed, running, final=False):
+        if not self.enabled:
+            return
+        now = time.monotonic()
+        if not final and not self.tty and now - self.last < 10.0:
+            return
+        self.last = now
+        finished = done + failed
+        new = finished - self.skipped
+        elapsed = now - self.start
+        left = self.total - finished
+        if left == 0:
+            eta = "0 s"
+        elif new > 0:
+            eta = f"{elapsed / new * left:.0f} s"
+        else:
+            eta = "estimating"
+        width = 28
+        filled = int(width * finished / max(self.total, 1))
+        bar = "#" * filled + "-" * (width - filled)
+        text = (f"[{bar}] {finished}/{self.total} runs: {done} done, {failed} failed, {running} running"
+                f"{f', {self.skipped} done before' if self.skipped else ''}; {elapsed:.0f} s, left {eta}")
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if final else "\x1b[K"))
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+
+def _client(scheduler, workers, timeout):
+    import logging
+    from distributed import Client, LocalCluster
+    if scheduler:
+        try:
+            return Client(scheduler, timeout=timeout), None
+        except (OSError, TimeoutError) as e:
+            raise _Input(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s: {e}") from None
+        except ValueError as e:
+            raise _Input(f"--scheduler {scheduler}: {e}") from None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def sweep(sweep, *, results=None, scheduler=None, workers=None, progress=True, retry_failed=False,
+          cutsim_executable=None, connect_timeout=10.0, stream=None):
+    """Runs a sweep (a sweep file, or a dict: docs/sweeps.md) and returns its rows: one dict per
+    run (run, status, error, the parameters, the quantities, wall_time_s, steps, flagged_steps,
+    resumed, folder), also written to RESULTS/results.csv as runs finish, with RESULTS/summary.png
+    at the end. scheduler: a Dask scheduler's address (tcp://HOST:PORT); by default a local
+    cluster of `workers` processes (default: one per core). Runs finished before (same scene,
+    same cutsim) are not run again; failed ones only with retry_failed. Raises
+    InvalidInputError for a bad sweep, scene or results folder, or an unreachable scheduler."""
+    from . import InvalidInputError
+    stream = stream if stream is not None else sys.stderr
+    try:
+        return _sweep(sweep, results, scheduler, workers, progress, retry_failed, cutsim_executable,
+                      connect_timeout, stream)
+    except _Input as e:
+        raise InvalidInputError(str(e)) from None
+
+
+def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, connect_timeout, stream):
+    sw = _load_sweep(sweep_in, results, exe, True)
+    try:
+        from distributed import wait
+        from distributed.scheduler import KilledWorker
+    except ImportError as e:
+        raise _Input(f"sweeps run on Dask distributed, which this Python cannot import ({e}): "
+                     "install it (Debian: apt-get install python3-distributed; scripts/deps.sh does)") from None
+    if isinstance(sweep_in, dict):
+        text = json.dumps(sweep_in, indent=1)
+    else:
+        with open(sweep_in, encoding="utf-8-sig") as f:
+            text = f.read()
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise _Input(f"workers: expected a number >= 1, got {workers!r}")
+    client, cluster = _client(scheduler, workers, connect_timeout)
+    try:
+        _claim(sw, text)
+        by_id = {}
+        for run in sw.runs:  # the same scene twice is one run, its row shown for both
+            by_id.setdefault(run["id"], []).append(run)
+        rows = {}
+
+        def record(run_id, row):
+            for run in by_id[run_id]:
+                rows[run["index"]] = dict(row, index=run["index"], values=run["values"], id=run_id)
+
+        todo = []
+        for run_id, runs in by_id.items():
+            p = _paths(sw.results, run_id)
+            if not os.path.exists(p["scene"]):
+                _write_atomic(p["scene"], json.dumps(runs[0]["scene"], indent=1))
+            prior = _read_result(p["result"])
+            if prior is not None and (prior.get("status") == "done" or (prior.get("status") == "failed" and not retry_failed)):
+                if prior.get("extract_key") != sw.extract_key:
+                    prior = _run_task(_task(sw, runs[0], exe))  # the quantities again, from the run folder
+                record(run_id, prior)
+                continue
+            if prior is not None:
+                os.remove(p["result"])
+            todo.append(runs[0])
+        skipped = len(rows)
+        _write_table(sw, rows)
+        bar = _Progress(len(sw.runs), skipped, stream, progress)
+        futures = {client.submit(_run_task, _task(sw, run, exe), key=f"cutsim-run-{run['id']}", pure=False): run["id"]
+                   for run in todo}
+        pending = set(futures)
+
+        def counts():
+            ok = sum(1 for r in rows.values() if r["status"] == "done")
+            return ok, len(rows) - ok
+        bar.show(*counts(), 0)
+        while pending:
+            finished, pending = wait(pending, timeout=1.0, return_when="FIRST_COMPLETED")
+            for f in finished:
+                try:
+                    row = f.result()
+                except KilledWorker as e:
+                    row = {"status": "failed", "error": f"every worker that ran it died ({e})"}
+                except Exception as e:  # the task itself failed (not the run): its row says so
+                    row = {"status": "failed", "error": f"{type(e).__name__}: {e}"}
+                record(futures[f], row)
+            if finished:
+                _write_table(sw, rows)
+            bar.show(*counts(), _running(client, {f.key for f in pending}))
+        bar.show(*counts(), 0, final=True)
+        _write_table(sw, rows)
+        try:
+            _plot(sw, rows)
+        except Exception as e:  # the picture is a convenience: its failure is said, the table stays
+            stream.write(f"cutsim-sweep: no summary.png: {type(e).__name__}: {e}\n")
+        return Rows([_table_row(sw, rows[i]) for i in sorted(rows)], sw.results)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+class Rows(list):
+    """A sweep's rows (one dict per run), with `results` (its folder), `csv` and `picture`."""
+
+    def __init__(self, rows, results):
+        super().__init__(rows)
+        self.results = results
+        self.csv = os.path.join(results, "results.csv")
+        self.picture = os.path.join(results, "summary.png")
+
+
+def _running(client, keys):
+    try:
+        processing = client.processing()
+        info = client.scheduler_info()["workers"]
+    except Exception:
+        return 0
+    n = 0
+    for w, ks in processing.items():
+        mine = sum(1 for k in ks if k in keys)
+        n += min(mine, info.get(w, {}).get("nthreads", 1))
+    return n
+
+
+def _task(sw, run, exe):
+    return {"results": sw.results, "id": run["id"], "index": run["index"], "values": run["values"],
+            "version": sw.version, "cutsim": exe, "checkpoint_every": sw.checkpoint_every,
+            "extract": sw.extract, "extract_key": sw.extract_key, "timeout": sw.timeout}
+
+
+# ---------------------------------------------------------------------------------------------
+# The command line: cutsim-sweep
+# ---------------------------------------------------------------------------------------------
+
+def main(argv=None):
+    import argparse
+    ap = argparse.ArgumentParser(
+        prog="cutsim-sweep",
+        description="Run a parameter sweep of a cutsim scene on Dask (docs/sweeps.md): by default on a local "
+                    "cluster of one worker process per core; --scheduler sends it to a running Dask cluster.")
+    ap.add_argument("sweep", help="the sweep file (JSON)")
+    ap.add_argument("--scheduler", help="a Dask scheduler's address, tcp://HOST:PORT (default: a local cluster)")
+    ap.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
+    ap.add_argument("--results", help="the results folder (default: the sweep's \"results\", or out/sweeps/NAME)")
+    ap.add_argument("--retry-failed", action="store_true", help="run again the runs that failed before")
+    ap.add_argument("--check", action="store_true", help="check the sweep and every run's scene, list the runs, run nothing")
+    ap.add_argument("--cutsim", help="the cutsim program the workers run (default: found next to this package or on PATH)")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    ap.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the scheduler (default 10)")
+    a = ap.parse_args(argv)
+    from . import InvalidInputError
+    try:
+        if a.workers is not None and a.workers < 1:
+            raise InvalidInputError(f"--workers: expected a number >= 1, got {a.workers}")
+        if a.check:
+            sw = load_sweep(a.sweep, results=a.results, cutsim_executable=a.cutsim)
+            print(f"sweep       {sw.name} ({sw.source}): {len(sw.runs)} runs of {sw.scene_path}, results in {sw.results}")
+            for run in sw.runs:
+                print(f"  run {run['index']:>4}  {run['id']}  {run['label']}")
+            return 0
+        start = time.monotonic()
+        rows = sweep(a.sweep, results=a.results, scheduler=a.scheduler, workers=a.workers, progress=not a.quiet,
+                     retry_failed=a.retry_failed, cutsim_executable=a.cutsim, connect_timeout=a.timeout)
+    except InvalidInputError as e:
+        print(f"cutsim-sweep: {e}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as e:
+        print(f"cutsim-sweep: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("cutsim-sweep: stopped; run the same command again to go on (finished runs are kept)", file=sys.stderr)
+        return 130
+    failed = [r for r in rows if r["status"] != "done"]
+    print(f"runs        {len(rows)}: {len(rows) - len(failed)} done, {len(failed)} failed ({time.monotonic() - start:.1f} s)")
+    print(f"results     {rows.csv}")
+    print(f"picture     {rows.picture}")
+    print(f"run folders {os.path.join(rows.results, 'runs', 'ID')} (the folder column; cutsim view FOLDER plays one)")
+    for r in failed[:10]:
+        print(f"failed      run {r['run']}: {r['error']}", file=sys.stderr)
+    if len(failed) > 10:
+        print(f"failed      ... and {len(failed) - 10} more (results.csv)", file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
