@@ -13,6 +13,7 @@ another worker and resumes from its last checkpoint; a sweep stopped and started
 runs it finished (a run is named by a hash of its scene, so a changed scene runs again).
 """
 import ast
+import asyncio
 import bisect
 import copy
 import csv
@@ -24,14 +25,16 @@ import json
 import math
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 
-__all__ = ["sweep", "load_sweep", "main", "Sweep", "Run", "Rows"]
+__all__ = ["sweep", "load_sweep", "prepare", "main", "Sweep", "Run", "Rows"]
 
 _VERSION_CACHE = {}
 _EXTRACTOR_CACHE = {}
@@ -130,6 +133,9 @@ class _Doc:
                     return out, i + 1
                 else:
                     self._fail_at(i, pointer, "expected ',' or ']'")
+        bad = re.match(r"-?(NaN|Infinity)\b", t[i:i + 10])
+        if bad:
+            self._fail_at(i, pointer, f"{bad.group(0)} is not a finite number (JSON has no NaN or Infinity)")
         self._pos = i
         v, end = self._decoder.raw_decode(t, i)
         if isinstance(v, float) and not math.isfinite(v):
@@ -324,9 +330,9 @@ def _parameter(doc, p, at, samples, rng):
             if n == 1:
                 values = [lo]
             elif scale == "log":
-                values = [float(x) for x in np.geomspace(lo, hi, n)]
+                values = [float(f"{x:.12g}") for x in np.geomspace(lo, hi, n)]
             else:
-                values = [float(x) for x in np.linspace(lo, hi, n)]
+                values = [float(f"{x:.12g}") for x in np.linspace(lo, hi, n)]
         else:
             step = float(_number(doc, v["step"], f"{vp}/step"))
             if scale == "log":
@@ -336,7 +342,7 @@ def _parameter(doc, p, at, samples, rng):
             n = int(math.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)) + 1
             if n > 1000000:
                 doc.fail(f"{vp}/step", f"{n} values: more than 10^6")
-            values = [lo + k * step for k in range(n)]
+            values = [float(f"{lo + k * step:.12g}") for k in range(n)]
         if all(isinstance(v.get(k), int) and not isinstance(v.get(k), bool) for k in ("from", "to", "step")) and scale == "linear":
             values = [int(round(x)) for x in values]
     else:
@@ -381,7 +387,7 @@ def _compile_condition(text):
     try:
         tree = ast.parse(m.group(3), mode="eval").body
     except SyntaxError:
-        raise ValueError(f"\"{m.group(3)}\" is not an expression") from None
+        raise ValueError(f"\"{m.group(3)}\" is not an expression (expected \"COLUMN OP VALUE\", e.g. \"kinetic_energy < 1e-5\")") from None
     allowed = {"first", "final", "max", "min", "mean"}
 
     def check(node):
@@ -649,16 +655,16 @@ def _load_sweep(sweep, results, exe, check):
         seen.add(spec["name"])
         out.extract.append(spec)
 
-    every = s.get("checkpointEvery", 100)
-    if isinstance(every, bool) or not isinstance(every, int) or not 1 <= every <= 1000000000:
-        doc.fail("/checkpointEvery", f"expected a number of steps from 1 to 10^9, got {json.dumps(every)}")
+    every = s.get("checkpointEvery", 0)  # 0: a checkpoint only when the run is stopped (its worker dying)
+    if isinstance(every, bool) or not isinstance(every, int) or not 0 <= every <= 1000000000:
+        doc.fail("/checkpointEvery", f"expected a number of steps from 1 to 10^9 (0: none but the one written when a run is stopped), got {json.dumps(every)}")
     out.checkpoint_every = every
     timeout = s.get("timeout")
     if timeout is not None:
         out.timeout = float(_number(doc, timeout, "/timeout", "a number of seconds"))
         if out.timeout <= 0:
             doc.fail("/timeout", "expected a number of seconds > 0")
-    res = results if results is not None else s.get("results", os.path.join("out", "sweeps", out.name))
+    res = os.fspath(results) if results is not None else s.get("results", os.path.join("out", "sweeps", out.name))
     if not isinstance(res, str) or not res:
         doc.fail("/results", "expected a folder name")
     out.results = os.path.abspath(os.path.join(sweep_dir, res) if results is None and "results" in s else res)
@@ -737,7 +743,8 @@ def _paths(results, run_id):
     runs = os.path.join(results, "runs")
     return {"dir": os.path.join(runs, run_id), "scene": os.path.join(runs, run_id + ".scene.json"),
             "result": os.path.join(runs, run_id + ".result.json"), "log": os.path.join(runs, run_id + ".log"),
-            "lock": os.path.join(runs, "." + run_id + ".lock")}
+            "lock": os.path.join(runs, "." + run_id + ".lock"),
+            "seconds": os.path.join(runs, "." + run_id + ".seconds")}
 
 
 def _write_atomic(path, text):
@@ -779,14 +786,31 @@ def _run_task(task):
         if done is not None and done.get("status") == "done":
             row.update(status="done", error="", wall_time_s=done.get("wall_time_s", 0.0),
                        resumed=done.get("resumed", False))
+        elif _finished_folder(p["dir"]):
+            # Run to its end outside the sweep (a job array running the prepared commands): the
+            # folder is the run's (named by its scene's hash); only its quantities are wanted.
+            row.update(status="done", error="", wall_time_s=None)
         else:
             row.update(_execute(task, p, lock))
+        if row["status"] == "stopped":
+            return row  # no result: the next attempt or the next sweep goes on from its checkpoint
         if row["status"] == "done":
             row.update(_extract_all(task, p))
         _write_atomic(p["result"], json.dumps(row, indent=1, sort_keys=True))
         return row
     finally:
         lock.close()
+
+
+def _finished_folder(folder):
+    """A run folder that `cutsim run` finished: steps.csv written (at the end), nothing partial,
+    no checkpoint left to resume."""
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return False
+    return ("steps.csv" in names and "checkpoint.ckpt" not in names
+            and not any(".partial." in n or n.endswith(".tmp") for n in names))
 
 
 def _execute(task, p, lock):
@@ -802,14 +826,18 @@ def _execute(task, p, lock):
     if resumed:
         cmd = [exe, "resume", ckpt, "--quiet"]
     else:
-        cmd = [exe, "run", p["scene"], "--out", p["dir"], "--quiet", "--checkpoint-every", str(task["checkpoint_every"])]
+        cmd = _run_command(exe, p, task)
+    spent = _read_result(p["seconds"]) or 0.0  # earlier attempts stopped midway
     status, error, seconds = _call(cmd, p, lock, task.get("timeout"))
     if resumed and status == "bad-input":
         # A checkpoint this build cannot read (damaged, another build): the run from its start.
-        cmd = [exe, "run", p["scene"], "--out", p["dir"], "--quiet", "--checkpoint-every", str(task["checkpoint_every"])]
+        cmd = _run_command(exe, p, task)
         resumed = False
         status, error, more = _call(cmd, p, lock, task.get("timeout"))
         seconds += more
+    seconds += spent
+    if status == "stopped":
+        _write_atomic(p["seconds"], json.dumps(round(seconds, 3)))
     if status == "done":
         try:
             os.remove(ckpt)  # the run folder is then the one `cutsim run` writes
@@ -817,8 +845,15 @@ def _execute(task, p, lock):
             pass
         if not os.path.isfile(os.path.join(p["dir"], "steps.csv")):
             status, error = "failed", "cutsim ended without its steps.csv"
-    return {"status": "done" if status == "done" else "failed", "error": error,
+    return {"status": status if status in ("done", "stopped") else "failed", "error": error,
             "wall_time_s": round(seconds, 3), "resumed": resumed}
+
+
+def _run_command(exe, p, task):
+    cmd = [exe, "run", p["scene"], "--out", p["dir"], "--quiet"]
+    if task["checkpoint_every"]:
+        cmd += ["--checkpoint-every", str(task["checkpoint_every"])]
+    return cmd
 
 
 def _call(cmd, p, lock, timeout):
@@ -833,16 +868,18 @@ def _call(cmd, p, lock, timeout):
             r = subprocess.run(prefix + cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                pass_fds=(lock.fileno(),), timeout=timeout)
             code = r.returncode
-        except subprocess.TimeoutExpired:
-            return "failed", f"stopped after its timeout of {timeout:g} s (a checkpoint was written: run the sweep again to go on)", time.monotonic() - start
+        except subprocess.TimeoutExpired:  # subprocess.run has stopped it with SIGKILL
+            return "stopped", f"stopped after its timeout of {timeout:g} s (run the sweep again to go on from its last checkpoint)", time.monotonic() - start
     seconds = time.monotonic() - start
     if code == 0:
         return "done", "", seconds
     reason = _last_error(p["log"])
     if code == 2:
         return "bad-input", reason, seconds
-    if code < 0 or code in (130, 143):
-        return "failed", f"stopped by signal {-code if code < 0 else code - 128} ({reason})", seconds
+    if code < 0 or code in (130, 137, 143):
+        # Stopped from outside (its worker or the sweep stopping, a kill): not the run's failure;
+        # the next attempt resumes it from its checkpoint.
+        return "stopped", f"stopped by signal {-code if code < 0 else code - 128} (run the sweep again to go on)", seconds
     return "failed", reason or f"cutsim exited with code {code}", seconds
 
 
@@ -1095,6 +1132,10 @@ def _plot(sw, rows):
     for j, p in enumerate(varied):
         numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p.values)
         labels = [] if numeric else sorted({json.dumps(v, sort_keys=True) for v in p.values})
+
+        def short(v):
+            text = v if isinstance(v, str) else json.dumps(v, sort_keys=True) if not isinstance(v, float) else f"{v:g}"
+            return text if len(text) <= 24 else text[:23] + "~"
         others = [o for o in varied if o is not p]
 
         def xof(r):
@@ -1114,18 +1155,23 @@ def _plot(sw, rows):
                 fx += [xof(r) for r in members if r["status"] != "done"]
                 if pts:
                     lo = min(lo, min(y for _, y in pts))
-                    label = ", ".join(f"{o.name}={json.loads(k)}" for o, k in zip(others, key)) if lines else None
+                    label = ", ".join(f"{o.name}={short(json.loads(k))}" for o, k in zip(others, key)) if lines else None
                     ax.plot([x for x, _ in pts], [y for _, y in pts], "o-" if lines else "o", ms=4, lw=1,
                             color=palette[g % len(palette)] if lines else "#1f77b4", alpha=0.85, label=label)
             if fx:
                 ax.plot(fx, [lo if math.isfinite(lo) else 0.0] * len(fx), "x", color="#d62728", ms=7, label="failed")
             if (lines or fx) and i == 0:
                 ax.legend(fontsize=6, loc="best")
-            if numeric and len(p.values) > 2 and min(p.values) > 0 and max(p.values) / min(p.values) > 50:
+            if numeric and len(p.values) > 2 and min(p.values) > 0 and max(p.values) / min(p.values) >= 10:
                 ax.set_xscale("log")
+                ticks = sorted(set(p.values))
+                if len(ticks) <= 8:
+                    ax.set_xticks(ticks)
+                    ax.set_xticklabels([f"{v:g}" for v in ticks], fontsize=7)
+                    ax.minorticks_off()
             if not numeric:
                 ax.set_xticks(range(len(labels)))
-                ax.set_xticklabels([lb[:14] for lb in labels], fontsize=7, rotation=20)
+                ax.set_xticklabels([short(json.loads(lb)) for lb in labels], fontsize=7, rotation=15)
             if i == nq - 1:
                 ax.set_xlabel(p.name, fontsize=8)
             if j == 0:
@@ -1182,6 +1228,8 @@ class _Progress:
 
 def _client(scheduler, workers, timeout):
     import logging
+
+    import dask
     from distributed import Client, LocalCluster
     if scheduler:
         try:
@@ -1191,6 +1239,17 @@ def _client(scheduler, workers, timeout):
         except ValueError as e:
             raise _Input(f"--scheduler {scheduler}: {e}") from None
     n = workers or os.cpu_count() or 1
+    warnings.filterwarnings("ignore", message="make_current is deprecated", category=DeprecationWarning)
+    # The workers only start cutsim processes and wait for them: their own periodic work (the
+    # profiler's stack samples every 10 ms, the memory monitor, work stealing) is turned down so
+    # that it does not take the runs' cores; and their environment is the sweep's own (the nanny
+    # would set OMP/MKL/OPENBLAS_NUM_THREADS=1 for the runs, which `cutsim run` does not have).
+    dask.config.set({"distributed.worker.profile.enabled": False,
+                     "distributed.worker.profile.interval": "1s",
+                     "distributed.worker.memory.monitor-interval": "1s",
+                     "distributed.admin.tick.interval": "200ms",
+                     "distributed.scheduler.work-stealing": False,
+                     "distributed.nanny.pre-spawn-environ": {}})
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster
@@ -1222,11 +1281,7 @@ def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, c
     except ImportError as e:
         raise _Input(f"sweeps run on Dask distributed, which this Python cannot import ({e}): "
                      "install it (Debian: apt-get install python3-distributed; scripts/deps.sh does)") from None
-    if isinstance(sweep_in, dict):
-        text = json.dumps(sweep_in, indent=1)
-    else:
-        with open(sweep_in, encoding="utf-8-sig") as f:
-            text = f.read()
+    text = _sweep_text(sweep_in)
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise _Input(f"workers: expected a number >= 1, got {workers!r}")
     client, cluster = _client(scheduler, workers, connect_timeout)
@@ -1244,8 +1299,7 @@ def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, c
         todo = []
         for run_id, runs in by_id.items():
             p = _paths(sw.results, run_id)
-            if not os.path.exists(p["scene"]):
-                _write_atomic(p["scene"], json.dumps(runs[0]["scene"], indent=1))
+            _write_scene(p, runs[0])
             prior = _read_result(p["result"])
             if prior is not None and (prior.get("status") == "done" or (prior.get("status") == "failed" and not retry_failed)):
                 if prior.get("extract_key") != sw.extract_key:
@@ -1267,7 +1321,10 @@ def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, c
             return ok, len(rows) - ok
         bar.show(*counts(), 0)
         while pending:
-            finished, pending = wait(pending, timeout=1.0, return_when="FIRST_COMPLETED")
+            try:
+                finished, pending = wait(pending, timeout=1.0, return_when="FIRST_COMPLETED")
+            except (TimeoutError, asyncio.TimeoutError):  # nothing finished this second
+                finished = set()
             for f in finished:
                 try:
                     row = f.result()
@@ -1290,6 +1347,43 @@ def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, c
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def prepare(sweep, *, results=None, cutsim_executable=None):
+    """Checks a sweep, claims its results folder, writes every run's scene there and
+    RESULTS/commands.txt: one `cutsim run RESULTS/runs/ID.scene.json --out RESULTS/runs/ID` a
+    line, in the sweep's order, for a batch system's job array. Returns the commands file's path;
+    a later sweep() finds the folders those commands finished and only extracts their quantities."""
+    from . import InvalidInputError
+    try:
+        sw = _load_sweep(sweep, results, cutsim_executable, True)
+        _claim(sw, _sweep_text(sweep))
+    except _Input as e:
+        raise InvalidInputError(str(e)) from None
+    exe = _find_cutsim(cutsim_executable)
+    lines, seen = [], set()
+    for run in sw.runs:
+        if run["id"] in seen:
+            continue
+        seen.add(run["id"])
+        p = _paths(sw.results, run["id"])
+        _write_scene(p, run)
+        lines.append(" ".join(shlex.quote(x) for x in [exe, "run", p["scene"], "--out", p["dir"], "--quiet"]))
+    path = os.path.join(sw.results, "commands.txt")
+    _write_atomic(path, "\n".join(lines) + "\n")
+    return path
+
+
+def _write_scene(p, run):
+    if not os.path.exists(p["scene"]):
+        _write_atomic(p["scene"], json.dumps(run["scene"], indent=1))
+
+
+def _sweep_text(sweep_in):
+    if isinstance(sweep_in, dict):
+        return json.dumps(sweep_in, indent=1)
+    with open(sweep_in, encoding="utf-8-sig") as f:
+        return f.read()
 
 
 class Rows(list):
@@ -1336,7 +1430,11 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, help="the local cluster's worker processes (default: one per core)")
     ap.add_argument("--results", help="the results folder (default: the sweep's \"results\", or out/sweeps/NAME)")
     ap.add_argument("--retry-failed", action="store_true", help="run again the runs that failed before")
+    ap.add_argument("--scheduler-file", help="the scheduler's address from the JSON file dask-scheduler --scheduler-file writes")
     ap.add_argument("--check", action="store_true", help="check the sweep and every run's scene, list the runs, run nothing")
+    ap.add_argument("--prepare", action="store_true",
+                    help="check, write each run's scene in the results folder and RESULTS/commands.txt (one `cutsim run` a line, "
+                         "for a job array), run nothing; a later cutsim-sweep collects the finished folders")
     ap.add_argument("--cutsim", help="the cutsim program the workers run (default: found next to this package or on PATH)")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     ap.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the scheduler (default 10)")
@@ -1345,6 +1443,26 @@ def main(argv=None):
     try:
         if a.workers is not None and a.workers < 1:
             raise InvalidInputError(f"--workers: expected a number >= 1, got {a.workers}")
+        if a.scheduler_file:
+            if a.scheduler:
+                raise InvalidInputError("give --scheduler or --scheduler-file, not both")
+            # The scheduler may still be starting (a batch job starts both): wait for its file.
+            deadline = time.monotonic() + a.timeout
+            while True:
+                try:
+                    with open(a.scheduler_file, encoding="utf-8") as f:
+                        a.scheduler = json.load(f)["address"]
+                    break
+                except (OSError, ValueError, KeyError, TypeError) as e:
+                    if time.monotonic() > deadline:
+                        raise InvalidInputError(f"--scheduler-file {a.scheduler_file}: no scheduler address there "
+                                                f"within {a.timeout:g} s ({e})") from None
+                    time.sleep(0.2)
+        if a.prepare:
+            commands = prepare(a.sweep, results=a.results, cutsim_executable=a.cutsim)
+            print(f"commands    {commands} (one run a line: cutsim run SCENE --out FOLDER)")
+            print(f"then        cutsim-sweep {a.sweep}{' --results ' + a.results if a.results else ''} (collects the finished runs, runs the others)")
+            return 0
         if a.check:
             sw = load_sweep(a.sweep, results=a.results, cutsim_executable=a.cutsim)
             print(f"sweep       {sw.name} ({sw.source}): {len(sw.runs)} runs of {sw.scene_path}, results in {sw.results}")
@@ -1375,5 +1493,6 @@ def main(argv=None):
     return 1 if failed else 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # python3 -m cutsim.sweeps: the tasks must name cutsim.sweeps, not __main__
+    from cutsim.sweeps import main as _main
+    sys.exit(_main())
