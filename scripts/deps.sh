@@ -7,7 +7,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 packages=(build-essential cmake ninja-build ccache pkg-config clang-format-14
           libeigen3-dev libcgal-dev libsuitesparse-dev libmetis-dev libopenblas-dev
-          libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpugixml-dev zlib1g-dev
+          libgtest-dev libgmock-dev libbenchmark-dev libtbb-dev nlohmann-json3-dev libcli11-dev libpugixml-dev zlib1g-dev
           python3-matplotlib python3-numpy python3-dev pybind11-dev python3-pytest python3-distributed
           chromium)
 missing=()

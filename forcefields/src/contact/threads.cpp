@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 #include <string>
+#include <thread>
 
 #include "cutsim/base/errors.hpp"
 

@@ -1,19 +1,21 @@
 #pragma once
 // Private to the contact wing: its loops over many pairs or triangles in contiguous runs, each
-// on a thread of its own, with results appended in the runs' order (the same, bit for bit,
-// whatever the number of threads).
+// a task of oneTBB's scheduler (its pool of threads lives between calls), with results appended
+// in the runs' order (the same, bit for bit, whatever the number of threads).
+#include <oneapi/tbb/task_group.h>
+
 #include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <exception>
-#include <thread>
 #include <vector>
 
 namespace cutsim::forcefields::contact {
 
 /// Runs body(k, begin, end) for k in [0, parts) over contiguous runs that cover [0, n) in
-/// order: the first run on this thread, each other on a thread of its own. Every thread is
-/// joined before it returns; then the first exception a run threw is thrown again.
+/// order: the first run on this thread, each other a task of oneTBB's pool (a fixed partition:
+/// the runs depend on `parts`, not on how many threads the pool has). Every run has ended
+/// before it returns; then the first exception a run threw (in the runs' order) is thrown again.
 template <class Body>
 void inParts(std::size_t n, int parts, Body&& body) {
   if (parts <= 1) {
@@ -28,17 +30,10 @@ void inParts(std::size_t n, int parts, Body&& body) {
       failed[std::size_t(k)] = std::current_exception();
     }
   };
-  std::vector<std::thread> others;
-  others.reserve(std::size_t(parts - 1));
-  for (int k = 1; k < parts; ++k) {
-    try {
-      others.emplace_back(run, k);
-    } catch (...) {  // (no thread to be had: the run here instead)
-      run(k);
-    }
-  }
+  oneapi::tbb::task_group others;
+  for (int k = 1; k < parts; ++k) others.run([&run, k] { run(k); });
   run(0);
-  for (std::thread& t : others) t.join();
+  others.wait();
   for (const std::exception_ptr& e : failed)
     if (e) std::rethrow_exception(e);
 }
