@@ -15,6 +15,7 @@ runs it finished (a run is named by a hash of its scene, so a changed scene runs
 import ast
 import asyncio
 import bisect
+import contextlib
 import copy
 import csv
 import hashlib
@@ -26,9 +27,11 @@ import math
 import os
 import re
 import shlex
+import signal
 import shutil
 import subprocess
 import sys
+import threading
 import time
 import warnings
 
@@ -88,9 +91,11 @@ class _Doc:
     def _skip(self, i):
         return self._ws.match(self._text, i).end()
 
-    def _value(self, i, pointer):
+    def _value(self, i, pointer, depth=0):
         self.lines[pointer] = self._line(i)
         t = self._text
+        if depth > 256:
+            self._fail_at(i, pointer, "values nested deeper than 256 levels")
         if i >= len(t):
             self._fail_at(i, pointer, "the file ends where a value was expected")
         if t[i] == "{":
@@ -110,7 +115,7 @@ class _Doc:
                 if not t.startswith(":", i):
                     self._fail_at(i, pointer, "expected ':' after a key")
                 i = self._skip(i + 1)
-                out[key], i = self._value(i, f"{pointer}/{_escape(key)}")
+                out[key], i = self._value(i, f"{pointer}/{_escape(key)}", depth + 1)
                 i = self._skip(i)
                 if t.startswith(",", i):
                     i = self._skip(i + 1)
@@ -124,7 +129,7 @@ class _Doc:
             if t.startswith("]", i):
                 return out, i + 1
             while True:
-                v, i = self._value(i, f"{pointer}/{len(out)}")
+                v, i = self._value(i, f"{pointer}/{len(out)}", depth + 1)
                 out.append(v)
                 i = self._skip(i)
                 if t.startswith(",", i):
@@ -137,7 +142,12 @@ class _Doc:
         if bad:
             self._fail_at(i, pointer, f"{bad.group(0)} is not a finite number (JSON has no NaN or Infinity)")
         self._pos = i
-        v, end = self._decoder.raw_decode(t, i)
+        try:
+            v, end = self._decoder.raw_decode(t, i)
+        except ValueError as e:
+            if isinstance(e, json.JSONDecodeError):
+                raise
+            self._fail_at(i, pointer, f"not a number this reader takes ({e})")
         if isinstance(v, float) and not math.isfinite(v):
             self._fail_at(i, pointer, f"{t[i:end]} is not a finite number")
         return v, end
@@ -157,9 +167,13 @@ class _DictDoc(_Doc):
     """A sweep given as a dict (from Python): no lines (1 for all)."""
 
     def __init__(self, value, source):  # noqa: D107  (no parse)
+        from . import InvalidInputError, _json
         self.source = source
         self.lines = {}
-        self.value = json.loads(json.dumps(value))  # a copy, and only JSON values in it
+        try:
+            self.value = json.loads(_json(value, source))  # a copy, only JSON values (numpy's too)
+        except (TypeError, InvalidInputError) as e:
+            raise _Input(f"{source}:1: /: {e}") from None
 
 
 def _type_name(v):
@@ -176,7 +190,11 @@ def _tokens(pointer):
         return []
     if not pointer.startswith("/"):
         raise ValueError("a JSON pointer starts with '/'")
-    return [_unescape(t) for t in pointer[1:].split("/")]
+    tokens = pointer[1:].split("/")
+    for t in tokens:
+        if re.search(r"~(?![01])", t):
+            raise ValueError(f"\"{t}\": '~' is written ~0 and '/' ~1 in a JSON pointer (RFC 6901)")
+    return [_unescape(t) for t in tokens]
 
 
 def _resolve(scene, pointer, create):
@@ -328,7 +346,7 @@ def _parameter(doc, p, at, samples, rng):
             if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000000:
                 doc.fail(f"{vp}/count", f"expected an integer from 1 to 10^6, got {json.dumps(n)}")
             if n == 1:
-                values = [lo]
+                values = [v["from"]]
             elif scale == "log":
                 values = [float(f"{x:.12g}") for x in np.geomspace(lo, hi, n)]
             else:
@@ -343,7 +361,8 @@ def _parameter(doc, p, at, samples, rng):
             if n > 1000000:
                 doc.fail(f"{vp}/step", f"{n} values: more than 10^6")
             values = [float(f"{lo + k * step:.12g}") for k in range(n)]
-        if all(isinstance(v.get(k), int) and not isinstance(v.get(k), bool) for k in ("from", "to", "step")) and scale == "linear":
+        ints = all(isinstance(v.get(k, 1), int) and not isinstance(v.get(k, 1), bool) for k in ("from", "to", "step"))
+        if ints and scale == "linear" and all(float(x).is_integer() for x in values):
             values = [int(round(x)) for x in values]
     else:
         if samples is None:
@@ -408,8 +427,10 @@ def _compile_condition(text):
 
 def _evaluate(node, names):
     if isinstance(node, ast.BinOp):
-        a, b = _evaluate(node.left, names), _evaluate(node.right, names)
-        return {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}.get(type(node.op)) if not isinstance(node.op, ast.Div) else a / b
+        a, b = float(_evaluate(node.left, names)), float(_evaluate(node.right, names))
+        if isinstance(node.op, ast.Div):
+            return a / b if b != 0 else (math.nan if a == 0 else math.copysign(math.inf, a) * math.copysign(1.0, b))
+        return {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}[type(node.op)]
     if isinstance(node, ast.UnaryOp):
         v = _evaluate(node.operand, names)
         return -v if isinstance(node.op, ast.USub) else v
@@ -466,7 +487,7 @@ def _extractor(doc, e, at, sweep_dir):
             doc.fail(f"{at}/python", f"no file {path}")
         try:
             fn = _load_function(path, m.group(2))
-        except Exception as err:  # the user's module: any error it raises on import
+        except BaseException as err:  # the user's module: whatever it raises on import (sys.exit too)
             doc.fail(f"{at}/python", f"{path}: {type(err).__name__}: {err}")
         if not callable(fn):
             doc.fail(f"{at}/python", f"{m.group(2)} in {path} is not a function")
@@ -554,6 +575,8 @@ def _load_sweep(sweep, results, exe, check):
         doc = _DictDoc(sweep, "<sweep dict>")
         sweep_dir = os.getcwd()
         default_name = "sweep"
+    elif not isinstance(sweep, (str, os.PathLike)):
+        raise _Input(f"a sweep is a sweep file's path or a dict of its keys, not {type(sweep).__name__}")
     else:
         path = os.fspath(sweep)
         try:
@@ -561,6 +584,8 @@ def _load_sweep(sweep, results, exe, check):
                 text = f.read()
         except OSError as e:
             raise _Input(f"{path}:1: /: cannot read the sweep file: {e.strerror}") from None
+        except UnicodeDecodeError as e:
+            raise _Input(f"{path}:1: /: not UTF-8 text (byte {e.start}: {e.reason})") from None
         doc = _Doc(text, path)
         sweep_dir = os.path.dirname(os.path.abspath(path))
         default_name = os.path.splitext(os.path.basename(path))[0]
@@ -571,8 +596,8 @@ def _load_sweep(sweep, results, exe, check):
     out = Sweep()
     out.source = doc.source
     out.name = s.get("name", default_name)
-    if not isinstance(out.name, str) or not out.name:
-        doc.fail("/name", "expected a non-empty string")
+    if not isinstance(out.name, str) or not re.fullmatch(r"[^/\\\x00-\x1f]{1,200}", out.name) or out.name in (".", ".."):
+        doc.fail("/name", f"expected a name without '/' or '\\' (1 to 200 characters), got {json.dumps(out.name)}")
     # The base scene: JSON, or SOFA's .scn through its JSON translation.
     if "scene" not in s or not isinstance(s["scene"], str):
         doc.fail("/scene" if "scene" in s else "", "give \"scene\": the base scene file (.json or .scn), relative to the sweep file")
@@ -593,9 +618,13 @@ def _load_sweep(sweep, results, exe, check):
             if "steps" in s:
                 doc.fail("/steps", "\"steps\" is for a SOFA scene (.scn); a JSON scene has its \"duration\"")
             with open(scene_path, encoding="utf-8-sig") as f:
-                base = json.load(f)
+                base = _Doc(f.read(), scene_path).value  # duplicate keys, NaN: refused with their lines
+        if check:  # the base scene as it is, so that its own errors are named at its own lines
+            Simulation(scene_path)
+    except _Input as e:
+        doc.fail("/scene", f"the base scene: {e}")
     except InvalidInputError as e:
-        doc.fail("/scene", str(e))
+        doc.fail("/scene", f"the base scene: {e}")
     except (OSError, ValueError) as e:
         doc.fail("/scene", f"{scene_path}: {e}")
     if not isinstance(base, dict):
@@ -610,6 +639,7 @@ def _load_sweep(sweep, results, exe, check):
     if samples is not None and "seed" not in s:
         doc.fail("/samples", "random samples need a \"seed\" (the same seed, the same runs)")
     rng = np.random.default_rng(seed)
+    columns = {"run", "status", "error", "wall_time_s", "steps", "flagged_steps", "resumed", "folder"}
 
     params = s.get("parameters")
     if not isinstance(params, list) or not params:
@@ -620,6 +650,13 @@ def _load_sweep(sweep, results, exe, check):
         param, kind = _parameter(doc, p, f"/parameters/{i}", samples, rng)
         if param.name in names:
             doc.fail(f"/parameters/{i}", f"two parameters named \"{param.name}\" (give each a \"name\")")
+        if param.name in columns:
+            doc.fail(f"/parameters/{i}/name" if "name" in p else f"/parameters/{i}",
+                     f"\"{param.name}\" is a column of the results table already: give the parameter another \"name\"")
+        for q in param.pointers:
+            for o in out.parameters:
+                if any(q == r or q.startswith(r + "/") or r.startswith(q + "/") for r in o.pointers):
+                    doc.fail(f"/parameters/{i}", f"{q} is set by the parameter \"{o.name}\" too: one parameter a key")
         names.add(param.name)
         for j, q in enumerate(param.pointers):
             try:
@@ -630,6 +667,8 @@ def _load_sweep(sweep, results, exe, check):
                          + ("" if param.create else " (\"create\": true adds a key the scene leaves to its default)"))
         out.parameters.append(param)
         kinds.append(kind)
+    if samples is not None and not any(k in _RANDOM_KINDS for k in kinds):
+        doc.fail("/samples", f"no parameter draws random values ({', '.join(_RANDOM_KINDS)}): \"samples\" would do nothing")
     combine = s.get("combine", "zip" if samples is not None else "grid")
     if combine not in ("grid", "zip"):
         doc.fail("/combine", f"expected \"grid\" (every combination) or \"zip\" (the i-th value of each together), got {json.dumps(combine)}")
@@ -640,14 +679,15 @@ def _load_sweep(sweep, results, exe, check):
                      + ", ".join(f"{p.name}: {len(p.values)}" for p in out.parameters) + ")")
         combos = list(zip(*[p.values for p in out.parameters]))
     else:
+        total = math.prod(len(p.values) for p in out.parameters)
+        if total > 1000000:
+            doc.fail("/parameters", f"{total} runs: more than 10^6")
         combos = list(itertools.product(*[p.values for p in out.parameters]))
-    if len(combos) > 1000000:
-        doc.fail("/parameters", f"{len(combos)} runs: more than 10^6")
 
     extract = s.get("extract", [])
     if not isinstance(extract, list):
         doc.fail("/extract", "expected an array of quantities")
-    seen = set(names) | {"run", "status", "error", "wall_time_s", "steps", "flagged_steps", "resumed", "folder"}
+    seen = set(names) | columns
     for i, e in enumerate(extract):
         spec = _extractor(doc, e, f"/extract/{i}", sweep_dir)
         if spec["name"] in seen:
@@ -669,8 +709,23 @@ def _load_sweep(sweep, results, exe, check):
         doc.fail("/results", "expected a folder name")
     out.results = os.path.abspath(os.path.join(sweep_dir, res) if results is None and "results" in s else res)
 
-    # Every run's scene, checked as `cutsim run` would check it, before anything runs.
-    version = _cutsim_version(_find_cutsim(exe))
+    # Every run's scene, checked as `cutsim run` would check it, before anything runs (beyond
+    # 2,000 runs: each parameter's every value once and 1,000 runs drawn with a fixed seed, said).
+    exe_path = _find_cutsim(exe)
+    version = _cutsim_version(exe_path)
+    identity = version + "\0" + _file_digest(exe_path, {})  # a rebuilt cutsim makes new runs
+    to_check = set(range(len(combos)))
+    if check and len(combos) > 2000:
+        to_check = set(np.random.default_rng(0).choice(len(combos), 1000, replace=False).tolist())
+        for j, p in enumerate(out.parameters):  # every value of each parameter at least once
+            seen_values = set()
+            for index, combo in enumerate(combos):
+                key = json.dumps(combo[j], sort_keys=True)
+                if key not in seen_values:
+                    seen_values.add(key)
+                    to_check.add(index)
+        sys.stderr.write(f"cutsim-sweep: {len(combos)} runs: checking the scenes of {len(to_check)} of them "
+                         "(every value of each parameter, and 1,000 runs drawn at random)\n")
     digests = {}
     for index, combo in enumerate(combos):
         scene = copy.deepcopy(base)
@@ -684,23 +739,23 @@ def _load_sweep(sweep, results, exe, check):
             scene["name"] = os.path.splitext(os.path.basename(scene_path))[0]
         files = _absolute_paths(scene, out.base_dir)
         label = ", ".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
-        if check:
+        if check and index in to_check:
             try:
-                Simulation(scene, base_dir=out.base_dir, source=f"run {index}")
+                Simulation(scene, base_dir=out.base_dir, source="RUN")
             except InvalidInputError as e:
-                # "run I:LINE: /pointer: message": the pointer and message, at the parameter
-                # that sets that pointer (or the parameters).
-                m = re.match(r"^run \d+:\d+: (/\S*): (.*)$", str(e), re.S)
-                where, what = (m.group(1), m.group(2)) if m else ("", str(e))
+                # "RUN:LINE: /pointer: message" (or without a line): the pointer and the message,
+                # at the parameter that sets that pointer (or the parameters).
+                m = re.match(r"^RUN(?::\d+)?: (/\S*): (.*)$", str(e), re.S)
+                where, what = (m.group(1), m.group(2)) if m else ("", str(e).replace("RUN: ", "", 1))
                 at = "/parameters"
                 for i, p in enumerate(out.parameters):
-                    if any(where == q or where.startswith(q + "/") or q.startswith(where + "/") for q in p.pointers):
+                    if where and any(where == q or where.startswith(q + "/") or q.startswith(where + "/") for q in p.pointers):
                         at = f"/parameters/{i}"
                         break
                 doc.fail(at, f"the scene check refuses run {index} ({label}): {where + ': ' if where else ''}{what}")
         canonical = json.dumps(scene, sort_keys=True, separators=(",", ":"))
         h = hashlib.sha256()
-        h.update(version.encode())
+        h.update(identity.encode())
         h.update(b"\0")
         h.update(canonical.encode())
         for f in sorted(set(files)):
@@ -708,7 +763,10 @@ def _load_sweep(sweep, results, exe, check):
         run_id = h.hexdigest()[:16]
         out.runs.append({"index": index, "id": run_id, "values": values, "scene": scene, "label": label})
     out.version = version
-    out.extract_key = hashlib.sha256(json.dumps(out.extract, sort_keys=True).encode()).hexdigest()[:16]
+    # What the quantities depend on besides the run: their specs and the Python files' contents.
+    code = {e["python"]: _file_digest(e["python"], {}) for e in out.extract if e["kind"] == "python"}
+    out.extract_key = hashlib.sha256(json.dumps([out.extract, code], sort_keys=True).encode()).hexdigest()[:16]
+    out.results_line = doc.line("/results") if "results" in s and results is None else None
     return out
 
 
@@ -720,7 +778,11 @@ def _find_cutsim(hint=None):
     """The cutsim program: hint, $CUTSIM_EXECUTABLE, next to this package (the build tree's
     src/cutsim, or an install prefix's bin/cutsim), or the first on PATH."""
     here = os.path.dirname(os.path.abspath(__file__))
-    candidates = [hint, os.environ.get("CUTSIM_EXECUTABLE"),
+    if hint is not None:
+        if os.path.isfile(hint) and os.access(hint, os.X_OK):
+            return os.path.abspath(hint)
+        raise FileNotFoundError(f"--cutsim {hint}: not an executable file")
+    candidates = [os.environ.get("CUTSIM_EXECUTABLE"),
                   os.path.join(here, "..", "..", "src", "cutsim")]
     # prefix/lib/python3.X/{dist,site}-packages/cutsim -> prefix/bin/cutsim
     candidates.append(os.path.join(here, "..", "..", "..", "..", "bin", "cutsim"))
@@ -864,12 +926,22 @@ def _call(cmd, p, lock, timeout):
     with open(p["log"], "a", encoding="utf-8") as log:
         log.write(f"$ {' '.join(cmd)}\n")
         log.flush()
+        proc = subprocess.Popen(prefix + cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                pass_fds=(lock.fileno(),))
         try:
-            r = subprocess.run(prefix + cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                               pass_fds=(lock.fileno(),), timeout=timeout)
-            code = r.returncode
-        except subprocess.TimeoutExpired:  # subprocess.run has stopped it with SIGKILL
-            return "stopped", f"stopped after its timeout of {timeout:g} s (run the sweep again to go on from its last checkpoint)", time.monotonic() - start
+            code = proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            # Stopped as Ctrl-C would stop it: a checkpoint, from which the next attempt goes on.
+            proc.terminate()
+            try:
+                proc.wait(timeout=120)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+            return "stopped", f"stopped after its timeout of {timeout:g} s (run the sweep again to go on from its checkpoint)", time.monotonic() - start
+        except BaseException:
+            proc.terminate()  # (the worker going: the run writes its checkpoint)
+            raise
     seconds = time.monotonic() - start
     if code == 0:
         return "done", "", seconds
@@ -1017,6 +1089,8 @@ def _extract_one(spec, run):
         name, op, tree = _compile_condition(spec["first"])
         c, t = _column(run.steps, name), _column(run.steps, "time")
         bound = _evaluate(tree, {"first": c[0], "final": c[-1], "max": c.max(), "min": c.min(), "mean": c.mean()})
+        if not math.isfinite(bound):
+            raise ValueError(f"the condition's value \"{spec['first'].split(op, 1)[1].strip()}\" is {bound}, not a finite number")
         ok = {"<": c < bound, "<=": c <= bound, ">": c > bound, ">=": c >= bound, "==": c == bound, "!=": c != bound}[op]
         ok &= t >= spec.get("after", -np.inf)
         hits = np.nonzero(ok)[0]
@@ -1028,8 +1102,6 @@ def _extract_one(spec, run):
         value = value.item()
     if value is not None and not isinstance(value, (int, float, str, bool)):
         raise ValueError(f"{spec['function']} returned {type(value).__name__}: a number, a string or None is expected")
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
     return value
 
 
@@ -1046,11 +1118,14 @@ def _extract_all(task, p):
         return {"quantities": {}, "error": f"steps.csv: {e}"}
     for spec in task["extract"]:
         try:
-            v = _extract_one(spec, run)
-            out[spec["name"]] = None if isinstance(v, float) and not math.isfinite(v) else v
+            with np.errstate(all="ignore"):
+                v = _extract_one(spec, run)
+            if isinstance(v, float) and not math.isfinite(v):
+                raise ValueError(f"{v} is not a finite number")
+            out[spec["name"]] = v
         except Exception as e:  # a quantity that cannot be had is named in the row, the others kept
             out[spec["name"]] = None
-            errors.append(f"{spec['name']}: {type(e).__name__ if not isinstance(e, ValueError) else ''}{': ' if not isinstance(e, ValueError) else ''}{e}")
+            errors.append(f"{spec['name']}: {e}" if isinstance(e, ValueError) else f"{spec['name']}: {type(e).__name__}: {e}")
     result = {"quantities": out}
     if errors:
         result["error"] = "; ".join(errors)
@@ -1061,20 +1136,49 @@ def _extract_all(task, p):
 # The results folder, the table, the picture
 # ---------------------------------------------------------------------------------------------
 
-def _claim(sw, sweep_text):
-    """Makes sw.results this sweep's folder, or refuses one that holds anything else."""
-    marker = os.path.join(sw.results, "sweep.json")
-    if os.path.isdir(sw.results) and os.listdir(sw.results):
-        mine = _read_result(marker)
+_MARKER = ".cutsim-sweep.json"
+_OWN = {_MARKER, "results.csv", "summary.png", "runs", "commands.txt"}
+
+
+def _results_error(sw, message):
+    where = f"{sw.source}:{sw.results_line}: /results" if sw.results_line else f"the results folder {sw.results}"
+    return _Input(f"{where}: {message}")
+
+
+def _check_results(sw):
+    """Refuses a results folder that is a file, holds another sweep's results or files that are
+    not a sweep's (this one's sweep file among them); changes nothing."""
+    if os.path.exists(sw.results) and not os.path.isdir(sw.results):
+        raise _results_error(sw, f"{sw.results} is a file, not a folder")
+    try:
+        names = os.listdir(sw.results) if os.path.isdir(sw.results) else []
+    except OSError as e:
+        raise _results_error(sw, f"cannot read {sw.results}: {e.strerror}") from None
+    foreign = sorted(n for n in names if n not in _OWN and not n.endswith(".tmp") and not n.endswith(".tmp.png"))
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+        raise _results_error(sw, f"{sw.results} holds files that are not a sweep's results ({shown}): "
+                                 "give another folder (\"results\", or --results)")
+    if names:
+        mine = _read_result(os.path.join(sw.results, _MARKER))
         if mine is None:
-            raise _Input(f"{sw.source}:1: /results: {sw.results} holds files that are not a sweep's results: "
-                         "give another folder (--results)")
+            raise _results_error(sw, f"{sw.results} holds files of a sweep's results folder but not its mark "
+                                     f"({_MARKER}): give another folder")
         if mine.get("name") != sw.name:
-            raise _Input(f"{sw.source}:1: /results: {sw.results} holds the results of another sweep "
-                         f"(\"{mine.get('name')}\", from {mine.get('source')}): give another folder (--results)")
-    os.makedirs(os.path.join(sw.results, "runs"), exist_ok=True)
-    _write_atomic(marker, json.dumps({"name": sw.name, "source": os.path.abspath(sw.source) if os.path.exists(sw.source) else sw.source,
-                                      "scene": sw.scene_path, "cutsim": sw.version, "sweep": sweep_text}, indent=1))
+            raise _results_error(sw, f"{sw.results} holds the results of another sweep (\"{mine.get('name')}\", "
+                                     f"from {mine.get('source')}): give another folder (\"results\", or --results)")
+
+
+def _claim(sw, sweep_text):
+    """Makes sw.results this sweep's folder (after _check_results)."""
+    _check_results(sw)
+    try:
+        os.makedirs(os.path.join(sw.results, "runs"), exist_ok=True)
+        _write_atomic(os.path.join(sw.results, _MARKER),
+                      json.dumps({"name": sw.name, "source": os.path.abspath(sw.source) if os.path.exists(sw.source) else sw.source,
+                                  "scene": sw.scene_path, "cutsim": sw.version, "sweep": sweep_text}, indent=1))
+    except OSError as e:
+        raise _results_error(sw, f"cannot write there: {e.strerror or e}") from None
 
 
 def _csv_value(v):
@@ -1125,9 +1229,29 @@ def _plot(sw, rows):
     varied = [p for p in sw.parameters if len({json.dumps(v, sort_keys=True) for v in p.values}) > 1] or sw.parameters
     table = [_table_row(sw, rows[i]) for i in sorted(rows)]
     nq, npar = len(quantities), len(varied)
-    fig, axes = plt.subplots(nq, npar, figsize=(3.6 * npar + 0.6, 2.6 * nq + 0.8), squeeze=False)
-    failed = sum(1 for r in table if r["status"] != "done")
-    fig.suptitle(f"{sw.name}: {len(table)} runs ({failed} failed)", fontsize=11)
+    if npar == 1:  # one parameter: the quantities side by side, three a row
+        cols = min(3, nq)
+        grid_rows = -(-nq // cols)
+        fig, grid = plt.subplots(grid_rows, cols, figsize=(3.8 * cols + 0.4, 2.8 * grid_rows + 0.8), squeeze=False)
+        for k in range(nq, grid_rows * cols):
+            grid[k // cols][k % cols].set_visible(False)
+
+        def panel(i, j):
+            return grid[i // cols][i % cols]
+
+        def labelled(i, j):
+            return True, True
+    else:  # a row a quantity, a column a parameter
+        fig, grid = plt.subplots(nq, npar, figsize=(3.6 * npar + 0.6, 2.6 * nq + 0.8), squeeze=False)
+
+        def panel(i, j):
+            return grid[i][j]
+
+        def labelled(i, j):
+            return i == nq - 1, j == 0
+    failed = sum(1 for r in table if r["status"] == "failed")
+    stopped = sum(1 for r in table if r["status"] == "stopped")
+    fig.suptitle(f"{sw.name}: {len(table)} runs ({failed} failed{f', {stopped} stopped' if stopped else ''})", fontsize=11)
     palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for j, p in enumerate(varied):
         numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p.values)
@@ -1147,7 +1271,7 @@ def _plot(sw, rows):
             groups.setdefault(tuple(json.dumps(r[o.name]) for o in others), []).append(r)
         lines = 1 < len(groups) <= 8
         for i, q in enumerate(quantities):
-            ax = axes[i][j]
+            ax = panel(i, j)
             fx, lo = [], math.inf
             for g, (key, members) in enumerate(sorted(groups.items())):
                 pts = sorted((xof(r), r[q]) for r in members if r["status"] == "done" and isinstance(r[q], (int, float))
@@ -1156,10 +1280,12 @@ def _plot(sw, rows):
                 if pts:
                     lo = min(lo, min(y for _, y in pts))
                     label = ", ".join(f"{o.name}={short(json.loads(k))}" for o, k in zip(others, key)) if lines else None
-                    ax.plot([x for x, _ in pts], [y for _, y in pts], "o-" if lines else "o", ms=4, lw=1,
+                    ax.plot([x for x, _ in pts], [y for _, y in pts], "o-" if lines or len(groups) == 1 else "o", ms=4, lw=1,
                             color=palette[g % len(palette)] if lines else "#1f77b4", alpha=0.85, label=label)
-            if fx:
-                ax.plot(fx, [lo if math.isfinite(lo) else 0.0] * len(fx), "x", color="#d62728", ms=7, label="failed")
+            if fx:  # at the foot of the plot: a failed run has no value
+                from matplotlib.transforms import blended_transform_factory
+                ax.plot(fx, [0.03] * len(fx), "x", color="#d62728", ms=7, label="failed or stopped",
+                        transform=blended_transform_factory(ax.transData, ax.transAxes), clip_on=False)
             if (lines or fx) and i == 0:
                 ax.legend(fontsize=6, loc="best")
             if numeric and len(p.values) > 2 and min(p.values) > 0 and max(p.values) / min(p.values) >= 10:
@@ -1172,9 +1298,10 @@ def _plot(sw, rows):
             if not numeric:
                 ax.set_xticks(range(len(labels)))
                 ax.set_xticklabels([short(json.loads(lb)) for lb in labels], fontsize=7, rotation=15)
-            if i == nq - 1:
+            xl, yl = labelled(i, j)
+            if xl:
                 ax.set_xlabel(p.name, fontsize=8)
-            if j == 0:
+            if yl:
                 ax.set_ylabel(q, fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
@@ -1226,12 +1353,16 @@ class _Progress:
         self.stream.flush()
 
 
-def _client(scheduler, workers, timeout):
+def _client(scheduler, workers, timeout, stream):
     import logging
 
     import dask
     from distributed import Client, LocalCluster
-    if scheduler:
+    if scheduler is not None:
+        if not isinstance(scheduler, str) or not scheduler.strip():
+            raise _Input(f"--scheduler: expected a Dask scheduler's address (tcp://HOST:PORT), got {scheduler!r}")
+        if not timeout > 0:
+            raise _Input(f"--timeout: expected a number of seconds > 0, got {timeout}")
         try:
             return Client(scheduler, timeout=timeout), None
         except (OSError, TimeoutError) as e:
@@ -1250,8 +1381,16 @@ def _client(scheduler, workers, timeout):
                      "distributed.admin.tick.interval": "200ms",
                      "distributed.scheduler.work-stealing": False,
                      "distributed.nanny.pre-spawn-environ": {}})
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+    # Ctrl-C is the sweep's to handle: the worker processes start with SIGINT ignored (Python
+    # then installs no handler of its own, so they print no KeyboardInterrupt of their own); the
+    # runs' cutsim installs its own (a checkpoint, then it stops).
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if threading.current_thread() is threading.main_thread() else None
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
@@ -1282,44 +1421,76 @@ def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, c
         raise _Input(f"sweeps run on Dask distributed, which this Python cannot import ({e}): "
                      "install it (Debian: apt-get install python3-distributed; scripts/deps.sh does)") from None
     text = _sweep_text(sweep_in)
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise _Input(f"workers: expected a number >= 1, got {workers!r}")
-    client, cluster = _client(scheduler, workers, connect_timeout)
+    _check_results(sw)  # before a cluster starts
+    with _main_module_hidden():
+        client, cluster = _client(scheduler, workers, connect_timeout, stream)
+        try:
+            return _run_all(sw, text, client, wait, KilledWorker, progress, retry_failed, exe, stream)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+@contextlib.contextmanager
+def _main_module_hidden():
+    """While a local cluster starts and runs, its worker processes (started by spawning a fresh
+    interpreter) are not made to import the caller's main script again: a script that calls
+    cutsim.sweep() at its top level would otherwise start clusters in every worker. Only the
+    workers' start reads it (multiprocessing's preparation data); cutsim's tasks are in
+    cutsim.sweeps, which the workers import by name."""
+    main = sys.modules.get("__main__")
+    saved = {k: main.__dict__[k] for k in ("__file__", "__spec__") if main is not None and k in main.__dict__}
     try:
-        _claim(sw, text)
-        by_id = {}
-        for run in sw.runs:  # the same scene twice is one run, its row shown for both
-            by_id.setdefault(run["id"], []).append(run)
-        rows = {}
+        if main is not None:
+            main.__dict__.pop("__file__", None)
+            if "__spec__" in saved:
+                main.__spec__ = None
+        yield
+    finally:
+        if main is not None:
+            main.__dict__.update(saved)
 
-        def record(run_id, row):
-            for run in by_id[run_id]:
-                rows[run["index"]] = dict(row, index=run["index"], values=run["values"], id=run_id)
 
-        todo = []
-        for run_id, runs in by_id.items():
-            p = _paths(sw.results, run_id)
-            _write_scene(p, runs[0])
-            prior = _read_result(p["result"])
-            if prior is not None and (prior.get("status") == "done" or (prior.get("status") == "failed" and not retry_failed)):
-                if prior.get("extract_key") != sw.extract_key:
-                    prior = _run_task(_task(sw, runs[0], exe))  # the quantities again, from the run folder
-                record(run_id, prior)
-                continue
-            if prior is not None:
-                os.remove(p["result"])
-            todo.append(runs[0])
-        skipped = len(rows)
-        _write_table(sw, rows)
-        bar = _Progress(len(sw.runs), skipped, stream, progress)
-        futures = {client.submit(_run_task, _task(sw, run, exe), key=f"cutsim-run-{run['id']}", pure=False): run["id"]
-                   for run in todo}
-        pending = set(futures)
+def _run_all(sw, text, client, wait, KilledWorker, progress, retry_failed, exe, stream):
+    _claim(sw, text)
+    by_id = {}
+    for run in sw.runs:  # the same scene twice is one run, its row shown for both
+        by_id.setdefault(run["id"], []).append(run)
+    rows = {}
 
-        def counts():
-            ok = sum(1 for r in rows.values() if r["status"] == "done")
-            return ok, len(rows) - ok
-        bar.show(*counts(), 0)
+    def record(run_id, row):
+        for run in by_id[run_id]:
+            rows[run["index"]] = dict(row, index=run["index"], values=run["values"], id=run_id)
+
+    todo = []
+    for run_id, runs in by_id.items():
+        p = _paths(sw.results, run_id)
+        _write_scene(p, runs[0])
+        prior = _read_result(p["result"])
+        if prior is not None and (prior.get("status") == "done" or (prior.get("status") == "failed" and not retry_failed)):
+            if prior.get("extract_key") != sw.extract_key:
+                prior = _run_task(_task(sw, runs[0], exe))  # the quantities again, from the run folder
+            record(run_id, prior)
+            continue
+        if prior is not None:
+            os.remove(p["result"])
+        todo.append(runs[0])
+    skipped = len(rows)
+    _write_table(sw, rows)
+    bar = _Progress(len(sw.runs), skipped, stream, progress)
+    futures = {client.submit(_run_task, _task(sw, run, exe), key=f"cutsim-run-{run['id']}", pure=False): run["id"]
+               for run in todo}
+    pending = set(futures)
+
+    def counts():
+        ok = sum(1 for r in rows.values() if r["status"] == "done")
+        return ok, len(rows) - ok
+    bar.show(*counts(), 0)
+    waited_alone = time.monotonic()
+    try:
         while pending:
             try:
                 finished, pending = wait(pending, timeout=1.0, return_when="FIRST_COMPLETED")
@@ -1335,18 +1506,39 @@ def _sweep(sweep_in, results, scheduler, workers, progress, retry_failed, exe, c
                 record(futures[f], row)
             if finished:
                 _write_table(sw, rows)
-            bar.show(*counts(), _running(client, {f.key for f in pending}))
-        bar.show(*counts(), 0, final=True)
+            running = _running(client, {f.key for f in pending})
+            if running or finished:
+                waited_alone = time.monotonic()
+            elif waited_alone is not None and time.monotonic() - waited_alone > 30 and not _workers(client):
+                stream.write("cutsim-sweep: the scheduler has no workers: nothing runs until one joins "
+                             "(dask-worker SCHEDULER_ADDRESS --nthreads 1)\n")
+                waited_alone = None
+            bar.show(*counts(), running)
+    except KeyboardInterrupt:
+        # Stopped: the runs not finished are "stopped" rows (their cutsim writes a checkpoint
+        # as its worker goes: the same command goes on from there).
+        for run in sw.runs:
+            if run["index"] not in rows:
+                rows[run["index"]] = {"status": "stopped", "index": run["index"], "values": run["values"],
+                                      "id": run["id"], "error": "the sweep was stopped before this run ended"}
         _write_table(sw, rows)
-        try:
+        raise
+    bar.show(*counts(), 0, final=True)
+    _write_table(sw, rows)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # (matplotlib's missing glyphs and the like)
             _plot(sw, rows)
-        except Exception as e:  # the picture is a convenience: its failure is said, the table stays
-            stream.write(f"cutsim-sweep: no summary.png: {type(e).__name__}: {e}\n")
-        return Rows([_table_row(sw, rows[i]) for i in sorted(rows)], sw.results)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    except Exception as e:  # the picture is a convenience: its failure is said, the table stays
+        stream.write(f"cutsim-sweep: no summary.png: {type(e).__name__}: {e}\n")
+    return Rows([_table_row(sw, rows[i]) for i in sorted(rows)], sw.results)
+
+
+def _workers(client):
+    try:
+        return len(client.scheduler_info()["workers"])
+    except Exception:
+        return 1
 
 
 def prepare(sweep, *, results=None, cutsim_executable=None):
@@ -1361,6 +1553,7 @@ def prepare(sweep, *, results=None, cutsim_executable=None):
     except _Input as e:
         raise InvalidInputError(str(e)) from None
     exe = _find_cutsim(cutsim_executable)
+    task = {"checkpoint_every": sw.checkpoint_every}
     lines, seen = [], set()
     for run in sw.runs:
         if run["id"] in seen:
@@ -1368,7 +1561,7 @@ def prepare(sweep, *, results=None, cutsim_executable=None):
         seen.add(run["id"])
         p = _paths(sw.results, run["id"])
         _write_scene(p, run)
-        lines.append(" ".join(shlex.quote(x) for x in [exe, "run", p["scene"], "--out", p["dir"], "--quiet"]))
+        lines.append(" ".join(shlex.quote(x) for x in _run_command(exe, p, task)))
     path = os.path.join(sw.results, "commands.txt")
     _write_atomic(path, "\n".join(lines) + "\n")
     return path
@@ -1381,7 +1574,8 @@ def _write_scene(p, run):
 
 def _sweep_text(sweep_in):
     if isinstance(sweep_in, dict):
-        return json.dumps(sweep_in, indent=1)
+        from . import _json
+        return _json(sweep_in, "<sweep dict>")
     with open(sweep_in, encoding="utf-8-sig") as f:
         return f.read()
 
@@ -1441,6 +1635,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     from . import InvalidInputError
     try:
+        if not a.timeout > 0:
+            raise InvalidInputError(f"--timeout: expected a number of seconds > 0, got {a.timeout}")
         if a.workers is not None and a.workers < 1:
             raise InvalidInputError(f"--workers: expected a number >= 1, got {a.workers}")
         if a.scheduler_file:
@@ -1452,6 +1648,8 @@ def main(argv=None):
                 try:
                     with open(a.scheduler_file, encoding="utf-8") as f:
                         a.scheduler = json.load(f)["address"]
+                    if not isinstance(a.scheduler, str):
+                        raise TypeError(f"its address is {a.scheduler!r}, not a string")
                     break
                 except (OSError, ValueError, KeyError, TypeError) as e:
                     if time.monotonic() > deadline:
@@ -1465,6 +1663,10 @@ def main(argv=None):
             return 0
         if a.check:
             sw = load_sweep(a.sweep, results=a.results, cutsim_executable=a.cutsim)
+            try:
+                _check_results(sw)
+            except _Input as e:
+                raise InvalidInputError(str(e)) from None
             print(f"sweep       {sw.name} ({sw.source}): {len(sw.runs)} runs of {sw.scene_path}, results in {sw.results}")
             for run in sw.runs:
                 print(f"  run {run['index']:>4}  {run['id']}  {run['label']}")
@@ -1481,8 +1683,10 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("cutsim-sweep: stopped; run the same command again to go on (finished runs are kept)", file=sys.stderr)
         return 130
-    failed = [r for r in rows if r["status"] != "done"]
-    print(f"runs        {len(rows)}: {len(rows) - len(failed)} done, {len(failed)} failed ({time.monotonic() - start:.1f} s)")
+    failed = [r for r in rows if r["status"] == "failed"]
+    stopped = [r for r in rows if r["status"] == "stopped"]
+    print(f"runs        {len(rows)}: {len(rows) - len(failed) - len(stopped)} done, {len(failed)} failed"
+          f"{f', {len(stopped)} stopped (the same command goes on with them)' if stopped else ''} ({time.monotonic() - start:.1f} s)")
     print(f"results     {rows.csv}")
     print(f"picture     {rows.picture}")
     print(f"run folders {os.path.join(rows.results, 'runs', 'ID')} (the folder column; cutsim view FOLDER plays one)")
@@ -1490,7 +1694,7 @@ def main(argv=None):
         print(f"failed      run {r['run']}: {r['error']}", file=sys.stderr)
     if len(failed) > 10:
         print(f"failed      ... and {len(failed) - 10} more (results.csv)", file=sys.stderr)
-    return 1 if failed else 0
+    return 1 if failed or stopped else 0
 
 
 if __name__ == "__main__":  # python3 -m cutsim.sweeps: the tasks must name cutsim.sweeps, not __main__

@@ -437,6 +437,82 @@ def test_prepared_commands_run_by_hand_are_collected_without_running_again(tmp_p
 
 
 @pytest.mark.parametrize("name, runs", [("tearing.json", 5), ("speed_accuracy.json", 10)])
-def test_the_example_sweeps_are_well_formed(name, runs):
-    r = sweep_cli(SOURCE / "examples" / "sweeps" / name, "--check", timeout=120)
+def test_the_example_sweeps_are_well_formed(tmp_path, name, runs):
+    r = sweep_cli(SOURCE / "examples" / "sweeps" / name, "--check", "--results", tmp_path / "r", timeout=120)
     assert r.returncode == 0 and f"{runs} runs of" in r.stdout, r.stdout + r.stderr
+
+
+def test_the_sweep_file_and_other_files_in_the_results_folder_are_never_written_over(tmp_path):
+    sweep = dict(GOOD, name="sweep", results=".")
+    path = write(tmp_path / "sweep.json", sweep)
+    before = path.read_bytes()
+    r = sweep_cli(path, "--workers", "1")
+    assert r.returncode == 2 and "holds files that are not a sweep's results (sweep.json)" in r.stderr, r.stderr
+    assert path.read_bytes() == before and sorted(os.listdir(tmp_path)) == ["sweep.json"]
+
+
+def test_a_parameter_named_as_a_column_of_the_table_is_refused(tmp_path):
+    s = copy.deepcopy(GOOD)
+    s["parameters"][0]["name"] = "status"
+    r, _, path = bad(tmp_path, s)
+    assert r.returncode == 2 and "/parameters/0/name: \"status\" is a column of the results table" in r.stderr, r.stderr
+    s["parameters"][0]["name"] = "k"
+    s["parameters"].append({"name": "k2", "pointer": "/forceFields/0", "values": [{"type": "StretchSprings"}]})
+    r, _, path = bad(tmp_path, s)
+    assert r.returncode == 2 and "/parameters/1: /forceFields/0 is set by the parameter \"k\" too" in r.stderr, r.stderr
+
+
+def test_a_run_past_its_timeout_is_stopped_with_a_checkpoint_and_goes_on_the_next_time(tmp_path):
+    scene = long_scene(tmp_path, 30.0)
+    sweep = {"name": "timeout", "scene": str(scene), "timeout": 0.5, "results": "results",
+             "parameters": [{"name": "k", "pointer": "/forceFields/0/stiffness", "values": [200]}]}
+    path = write(tmp_path / "timeout.json", sweep)
+    r = sweep_cli(path, "--workers", "1")
+    assert r.returncode == 1 and "1 stopped" in r.stdout, r.stdout + r.stderr
+    assert rows_of(tmp_path / "results")[0]["status"] == "stopped"
+    run_dir = next(p for p in (tmp_path / "results" / "runs").iterdir() if p.is_dir())
+    assert (run_dir / "checkpoint.ckpt").exists()
+    sweep["timeout"] = 600  # (the run's id does not depend on it)
+    write(path, sweep)
+    r = sweep_cli(path, "--workers", "1")
+    assert r.returncode == 0, r.stdout + r.stderr
+    row = rows_of(tmp_path / "results")[0]
+    assert row["status"] == "done" and row["resumed"] == "yes"
+    mine = reference_run(tmp_path, json.loads(scene.read_text()), {"/forceFields/0/stiffness": 200}, "0")
+    assert tree_digest(run_dir) == tree_digest(mine)
+
+
+def test_quantities_that_are_not_finite_are_named_in_the_row(tmp_path):
+    (tmp_path / "q.py").write_text("import math\ndef nan(run):\n    return math.nan\ndef two(run):\n    return 2\n")
+    s = dict(GOOD, results="results", extract=[
+        {"name": "a", "python": "q.py:nan"}, {"name": "b", "python": "q.py:two"},
+        {"name": "c", "first": "kinetic_energy > max / 0"}])
+    s["parameters"] = [{"pointer": "/timeStep", "values": [0.01]}]
+    path = write(tmp_path / "q.json", s)
+    r = sweep_cli(path, "--workers", "1", "--quiet")
+    row = rows_of(tmp_path / "results")[0]
+    assert row["status"] == "done" and row["a"] == "" and row["b"] == "2" and row["c"] == ""
+    assert "a: nan is not a finite number" in row["error"] and "c: the condition's value" in row["error"], row
+    assert "RuntimeWarning" not in r.stderr
+    # A changed extraction function: the quantity again, from the run folder, nothing run again.
+    (tmp_path / "q.py").write_text("import math\ndef nan(run):\n    return 1.5\ndef two(run):\n    return 2\n")
+    log = next((tmp_path / "results" / "runs").glob("*.log")).read_bytes()
+    r = sweep_cli(path, "--workers", "1", "--quiet")
+    assert rows_of(tmp_path / "results")[0]["a"] == "1.5"
+    assert next((tmp_path / "results" / "runs").glob("*.log")).read_bytes() == log
+
+
+def test_a_script_that_calls_sweep_at_its_top_level_runs_once(tmp_path):
+    """Dask's worker processes start by importing the main script: one without a
+    `if __name__ == "__main__":` guard must not start a cluster in every worker."""
+    script = tmp_path / "top.py"
+    script.write_text(f"""import cutsim
+rows = cutsim.sweep({{"scene": {str(SMALL)!r}, "name": "top",
+                     "parameters": [{{"pointer": "/timeStep", "values": [0.01, 0.005]}}]}},
+                    results={str(tmp_path / 'r')!r}, workers=2, progress=False)
+print("statuses", [r["status"] for r in rows])
+""")
+    env = dict(os.environ, CUTSIM_EXECUTABLE=program(), MPLBACKEND="Agg")
+    r = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.count("statuses ['done', 'done']") == 1, r.stdout + r.stderr
+    assert "Traceback" not in r.stderr, r.stderr
