@@ -19,6 +19,7 @@
 #include "commands.hpp"
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/threads.hpp"
 #include "cutsim/core/output.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/sofa_scene.hpp"
@@ -40,6 +41,7 @@ struct RunOptions {
   long checkpointEvery = 0;  ///< a checkpoint every N steps (0: only when stopped by a signal)
   long stopAfter = 0;        ///< stop after this step as a signal would (0: run to the end)
   bool force = false;        ///< --html may replace a file that is not a player page
+  int threads = 0;           ///< --threads: the threads parallel loops may use (0: the scene's)
 };
 
 bool isSofaScene(const std::string& file) {
@@ -359,6 +361,7 @@ std::vector<std::string> obstacleNamesOf(const core::Scene& scene) {
 }
 
 void runScene(const RunOptions& options) {
+  if (options.threads > 0) overrideThreads(options.threads);
   if (options.steps != 0 && !isSofaScene(options.scene))
     throw InvalidInput("--steps", "is for SOFA scenes (.scn); a JSON scene gives its duration");
   RunSource source;
@@ -432,6 +435,7 @@ struct ResumeOptions {
 };
 
 void resumeRun(const ResumeOptions& options) {
+  if (options.run.threads > 0) overrideThreads(options.run.threads);
   const std::filesystem::path file(options.checkpoint);
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec))
@@ -525,6 +529,10 @@ void registerRunCommand(CLI::App& app) {
                   "partial), exit code 0: "
                   "a run made in parts")
       ->check(CLI::Range(1L, 1000000000L));
+  cmd->add_option("--threads", options->threads,
+                  "the threads parallel loops may use (default: the scene's \"threads\", else "
+                  "CUTSIM_THREADS, else the machine's cores); the outputs do not depend on it")
+      ->check(CLI::Range(1, 256));
   CLI::Option* html = cmd->get_option("--html");
   cmd->callback([options, html] {
     options->htmlAuto = html->count() > 0;
@@ -564,6 +572,10 @@ void registerResumeCommand(CLI::App& app) {
                   "partial), exit code 0: "
                   "a run made in parts")
       ->check(CLI::Range(1L, 1000000000L));
+  cmd->add_option("--threads", options->run.threads,
+                  "the threads parallel loops may use (default: the scene's \"threads\", else "
+                  "CUTSIM_THREADS, else the machine's cores); the outputs do not depend on it")
+      ->check(CLI::Range(1, 256));
   CLI::Option* dump = cmd->get_option("--dump-final");
   cmd->add_flag("--other-build", options->otherBuild,
                 "resume a checkpoint written by another build of cutsim (the outputs may then "

@@ -14,6 +14,7 @@
 
 #include "../../src/core/timeline/tearing.hpp"
 #include "cutsim/base/errors.hpp"
+#include "cutsim/base/threads.hpp"
 #include "cutsim/core/scene.hpp"
 #include "cutsim/forcefields/stretch_springs.hpp"
 #include "cutsim/forcefields/triangular_fem.hpp"
@@ -227,7 +228,7 @@ TEST(Scene, InlineProblemsNameTheirPlace) {
        "6: /obstacle: unknown key \"obstacle\" (expected one of: name, "
        "description, mesh, mass, gravity, forceFields, constraints, solver, "
        "integrator, linearSolver, timeStep, duration, output, timeline, ignored, "
-       "contact, obstacles)"},
+       "threads, contact, obstacles)"},
       {"\"gravity\": [0, 0, \"down\"]", "6: /gravity/2: expected a number, got a string"},
       {"\"solver\": {\"type\": \"magic\"}", "6: /solver/type: unknown solver type \"magic\""},
       {"\"solver\": {\"iterations\": 2.5}", "6: /solver/iterations: expected an integer"},
@@ -315,6 +316,31 @@ TEST(Scene, ValuesThatWouldMakeARunDoNothingAreRefused) {
               StartsWith("inline.json:6: /solver/tolerance: must be < 1, got 1"));
   EXPECT_THAT(parseError(scene("\"integrator\": {\"type\": \"newton\", \"tolerance\": 2}")),
               StartsWith("inline.json:6: /integrator/tolerance: must be < 1, got 2"));
+}
+
+// "threads" sets the process's thread setting when the run is built; `--threads` (an override)
+// beats scenes; bad values are refused at their key.
+TEST(Scene, ThreadsSetTheProcesssSettingUnlessOverridden) {
+  const Scene s = parseScene(scene("\"threads\": 3"), "inline.json", kScenes);
+  EXPECT_EQ(s.threads, 3);
+  setThreads(0);
+  EXPECT_EQ(parseScene(scene(), "inline.json", kScenes).threads, 0);
+  {
+    SceneRunner runner(s);
+    EXPECT_EQ(threads(), 3);
+  }
+  overrideThreads(2);
+  {
+    SceneRunner runner(s);
+    EXPECT_EQ(threads(), 2) << "the command line's setting holds against the scene's";
+  }
+  overrideThreads(0);
+  setThreads(0);
+  EXPECT_GE(threads(), 1);
+  EXPECT_THAT(parseError(scene("\"threads\": 0")),
+              StartsWith("inline.json:6: /threads: must be between 1 and 256"));
+  EXPECT_THAT(parseError(scene("\"threads\": 2.5")), StartsWith("inline.json:6: /threads:"));
+  EXPECT_THROW(setThreads(257), InvalidInput);
 }
 
 // A bending stiffness whose springs a hinge cannot hold (1e308: every spring would be dropped as

@@ -6,6 +6,7 @@
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
+#include "cutsim/base/threads.hpp"
 #include "cutsim/core/contact_step.hpp"
 #include "cutsim/core/registries.hpp"
 #include "cutsim/core/scene.hpp"
@@ -101,6 +102,7 @@ void SceneRunner::rehearseTimeline(const Scene& scene) {
 }
 
 void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) {
+  if (physics && scene_.threads > 0) setThreads(scene_.threads);  // (outputs do not depend on it)
   if (!topo) topo = std::make_unique<topology::Topology>(scene_.mesh());
   const MassLaw mass = scene_.massLaw(*topo);
   // Mean rest edge length: the smallest piece a progressive cut makes is half of it.

@@ -608,7 +608,7 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
   std::vector<std::string> keys{"name",       "description",  "mesh",        "mass",
                                 "gravity",    "forceFields",  "constraints", "solver",
                                 "integrator", "linearSolver", "timeStep",    "duration",
-                                "output",     "timeline",     "ignored"};
+                                "output",     "timeline",     "ignored",     "threads"};
   for (const SceneSection* section : SceneSections::instance().inOrder())
     keys.push_back(section->name);
   r.checkKeys(root, "", keys);
@@ -649,6 +649,7 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
                             " s): the run would take no step (a duration of 0 writes the first "
                             "state only, on purpose)");
   if (const json* v = r.find(root, "output")) parseOutput(r, *v, "/output", s.output);
+  if (const json* v = r.find(root, "threads")) s.threads = int(r.integer(*v, "/threads", 1, 256));
 
   // The mesh is needed for point ids and for the dry run.
   const topology::MeshData meshData = s.mesh();

@@ -130,6 +130,9 @@ struct Scene {
   ComponentSpec integrator;                   ///< by default implicit-euler
   std::optional<ComponentSpec> linearSolver;  ///< for integrators that use one (default cg)
   double timeStep = 0.0, duration = 0.0;
+  /// "threads": the threads parallel loops may use (cutsim::setThreads when the run is built);
+  /// 0 when the scene leaves it to the process (CUTSIM_THREADS, the machine's cores).
+  int threads = 0;
   OutputSettings output;
   std::vector<ActionSpec> timeline;  ///< sorted by start time (stable: file order at ties)
 
