@@ -16,9 +16,10 @@ std::atomic<bool> overridden{false};
 
 void check(int n) {
   if (n < 0 || n > 256)
-    throw InvalidInput("threads", "must be a whole number in [1, 256] (the threads parallel loops "
-                                  "may use), got " +
-                                      std::to_string(n));
+    throw InvalidInput("threads",
+                       "must be a whole number in [1, 256] (the threads parallel loops "
+                       "may use), got " +
+                           std::to_string(n));
 }
 }  // namespace
 
