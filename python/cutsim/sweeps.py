@@ -15,6 +15,7 @@ runs it finished (a run is named by a hash of its scene, so a changed scene runs
 import ast
 import asyncio
 import bisect
+import concurrent.futures
 import contextlib
 import copy
 import csv
@@ -33,6 +34,7 @@ import subprocess
 import sys
 import threading
 import time
+import uuid
 import warnings
 
 import numpy as np
@@ -502,7 +504,7 @@ def _extractor(doc, e, at, sweep_dir):
 
 
 def _load_function(path, name):
-    key = (path, os.path.getmtime(path))
+    key = (path, _file_digest(path, {}))  # by content: an edited file is loaded again
     module = _EXTRACTOR_CACHE.get(key)
     if module is None:
         spec = importlib.util.spec_from_file_location(f"cutsim_sweep_extract_{len(_EXTRACTOR_CACHE)}", path)
@@ -840,18 +842,24 @@ def _run_task(task):
     lock = open(p["lock"], "a+")
     try:
         fcntl.flock(lock.fileno(), fcntl.LOCK_EX)
-        done = _read_result(p["result"])
-        if done is not None and done.get("status") in ("done", "failed") and done.get("extract_key") == task["extract_key"]:
-            return done
+        prior = _read_result(p["result"])
+        if prior is not None and prior.get("status") == "failed":
+            return prior  # (--retry-failed: the sweep removes it before asking again)
+        if prior is not None and prior.get("status") == "done" and prior.get("extract_key") == task["extract_key"]:
+            return prior
         row = {"index": task["index"], "id": task["id"], "values": task["values"], "resumed": False,
                "wall_time_s": 0.0, "extract_key": task["extract_key"]}
-        if done is not None and done.get("status") == "done":
-            row.update(status="done", error="", wall_time_s=done.get("wall_time_s", 0.0),
-                       resumed=done.get("resumed", False))
+        if prior is not None and prior.get("status") == "done":  # its quantities again
+            row.update(status="done", error="", wall_time_s=prior.get("wall_time_s"),
+                       resumed=prior.get("resumed", False))
         elif _finished_folder(p["dir"]):
-            # Run to its end outside the sweep (a job array running the prepared commands): the
-            # folder is the run's (named by its scene's hash); only its quantities are wanted.
+            # Run to its end but not recorded (a job array running the prepared commands, or a
+            # worker gone right after its run ended): the folder is the run's (named by its
+            # scene's hash); only its quantities are wanted.
+            _remove(os.path.join(p["dir"], "checkpoint.ckpt"))
             row.update(status="done", error="", wall_time_s=None)
+        elif task.get("extract_only"):
+            return dict(row, status="stopped", error="its run folder is not finished")
         else:
             row.update(_execute(task, p, lock))
         if row["status"] == "stopped":
@@ -859,30 +867,37 @@ def _run_task(task):
         if row["status"] == "done":
             row.update(_extract_all(task, p))
         _write_atomic(p["result"], json.dumps(row, indent=1, sort_keys=True))
+        _remove(p["seconds"])
         return row
     finally:
         lock.close()
 
 
+def _remove(path):
+    try:
+        os.remove(path)
+    except FileNotFoundError:
+        pass
+
+
 def _finished_folder(folder):
-    """A run folder that `cutsim run` finished: steps.csv written (at the end), nothing partial,
-    no checkpoint left to resume."""
+    """A run folder that `cutsim run` finished: steps.csv written (at its end) and nothing partial
+    (a checkpoint may be left: `--checkpoint-every` keeps the last one)."""
     try:
         names = os.listdir(folder)
     except OSError:
         return False
-    return ("steps.csv" in names and "checkpoint.ckpt" not in names
-            and not any(".partial." in n or n.endswith(".tmp") for n in names))
+    return "steps.csv" in names and not any(".partial." in n or n.endswith(".tmp") for n in names)
 
 
 def _execute(task, p, lock):
     try:
         exe = _find_cutsim(task.get("cutsim"))
         version = _cutsim_version(exe)
-    except (OSError, subprocess.SubprocessError) as e:
-        return {"status": "failed", "error": f"on {os.uname().nodename}: {e}"}
+    except (OSError, subprocess.SubprocessError) as e:  # this worker's set-up, not the run's failure
+        return {"status": "stopped", "error": f"on {os.uname().nodename}: {e}"}
     if version != task["version"]:
-        return {"status": "failed", "error": f"on {os.uname().nodename}: {exe} is \"{version}\", the sweep was made with \"{task['version']}\""}
+        return {"status": "stopped", "error": f"on {os.uname().nodename}: {exe} is \"{version}\", the sweep was made with \"{task['version']}\""}
     ckpt = os.path.join(p["dir"], "checkpoint.ckpt")
     resumed = os.path.isfile(ckpt)
     if resumed:
@@ -901,13 +916,11 @@ def _execute(task, p, lock):
     if status == "stopped":
         _write_atomic(p["seconds"], json.dumps(round(seconds, 3)))
     if status == "done":
-        try:
-            os.remove(ckpt)  # the run folder is then the one `cutsim run` writes
-        except FileNotFoundError:
-            pass
+        _remove(ckpt)  # the run folder is then the one `cutsim run` writes
         if not os.path.isfile(os.path.join(p["dir"], "steps.csv")):
             status, error = "failed", "cutsim ended without its steps.csv"
-    return {"status": status if status in ("done", "stopped") else "failed", "error": error,
+    return {"status": status if status in ("done", "stopped") else "stopped" if status == "timeout" else "failed",
+            "timeout": status == "timeout", "error": error,
             "wall_time_s": round(seconds, 3), "resumed": resumed}
 
 
@@ -938,7 +951,7 @@ def _call(cmd, p, lock, timeout):
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
-            return "stopped", f"stopped after its timeout of {timeout:g} s (run the sweep again to go on from its checkpoint)", time.monotonic() - start
+            return "timeout", f"stopped after its timeout of {timeout:g} s (run the sweep again to go on from its checkpoint)", time.monotonic() - start
         except BaseException:
             proc.terminate()  # (the worker going: the run writes its checkpoint)
             raise
@@ -948,10 +961,16 @@ def _call(cmd, p, lock, timeout):
     reason = _last_error(p["log"])
     if code == 2:
         return "bad-input", reason, seconds
-    if code < 0 or code in (130, 137, 143):
-        # Stopped from outside (its worker or the sweep stopping, a kill): not the run's failure;
-        # the next attempt resumes it from its checkpoint.
-        return "stopped", f"stopped by signal {-code if code < 0 else code - 128} (run the sweep again to go on)", seconds
+    if "another run is writing" in reason:  # (a prepared command running it now)
+        return "stopped", reason, seconds
+    sig = -code if code < 0 else code - 128 if code > 128 else 0
+    if sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        # Stopped from outside (its worker or the sweep stopping): it wrote a checkpoint, from
+        # which the next attempt goes on.
+        return "stopped", f"stopped by {signal.Signals(sig).name} (run the sweep again to go on)", seconds
+    if sig:
+        name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else f"signal {sig}"
+        return "failed", f"cutsim ended by {name}{' (out of memory?)' if sig == signal.SIGKILL else ''}: {reason}", seconds
     return "failed", reason or f"cutsim exited with code {code}", seconds
 
 
@@ -1164,9 +1183,14 @@ def _check_results(sw):
         if mine is None:
             raise _results_error(sw, f"{sw.results} holds files of a sweep's results folder but not its mark "
                                      f"({_MARKER}): give another folder")
-        if mine.get("name") != sw.name:
-            raise _results_error(sw, f"{sw.results} holds the results of another sweep (\"{mine.get('name')}\", "
-                                     f"from {mine.get('source')}): give another folder (\"results\", or --results)")
+        if (mine.get("name"), mine.get("scene"), mine.get("source")) != (sw.name, sw.scene_path, _source_of(sw)):
+            raise _results_error(sw, f"{sw.results} holds the results of another sweep (\"{mine.get('name')}\" of "
+                                     f"{mine.get('scene')}, from {mine.get('source')}): give another folder "
+                                     "(\"results\", or --results)")
+
+
+def _source_of(sw):
+    return os.path.abspath(sw.source) if os.path.exists(sw.source) else sw.source
 
 
 def _claim(sw, sweep_text):
@@ -1175,7 +1199,7 @@ def _claim(sw, sweep_text):
     try:
         os.makedirs(os.path.join(sw.results, "runs"), exist_ok=True)
         _write_atomic(os.path.join(sw.results, _MARKER),
-                      json.dumps({"name": sw.name, "source": os.path.abspath(sw.source) if os.path.exists(sw.source) else sw.source,
+                      json.dumps({"name": sw.name, "source": _source_of(sw),
                                   "scene": sw.scene_path, "cutsim": sw.version, "sweep": sweep_text}, indent=1))
     except OSError as e:
         raise _results_error(sw, f"cannot write there: {e.strerror or e}") from None
@@ -1382,8 +1406,9 @@ def _client(scheduler, workers, timeout, stream):
                      "distributed.scheduler.work-stealing": False,
                      "distributed.nanny.pre-spawn-environ": {}})
     # Ctrl-C is the sweep's to handle: the worker processes start with SIGINT ignored (Python
-    # then installs no handler of its own, so they print no KeyboardInterrupt of their own); the
-    # runs' cutsim installs its own (a checkpoint, then it stops).
+    # then installs no handler of its own, so they print no KeyboardInterrupt of their own, and
+    # their runs keep it ignored too); the sweep then closes the cluster, and each run, sent
+    # SIGTERM as its worker goes, writes its checkpoint and stops.
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if threading.current_thread() is threading.main_thread() else None
     try:
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
@@ -1470,9 +1495,12 @@ def _run_all(sw, text, client, wait, KilledWorker, progress, retry_failed, exe, 
         p = _paths(sw.results, run_id)
         _write_scene(p, runs[0])
         prior = _read_result(p["result"])
-        if prior is not None and (prior.get("status") == "done" or (prior.get("status") == "failed" and not retry_failed)):
-            if prior.get("extract_key") != sw.extract_key:
-                prior = _run_task(_task(sw, runs[0], exe))  # the quantities again, from the run folder
+        if prior is not None and prior.get("status") == "failed" and not retry_failed:
+            record(run_id, prior)  # (it would fail the same way)
+            continue
+        if prior is not None and prior.get("status") == "done":
+            if prior.get("extract_key") != sw.extract_key:  # its quantities again, nothing run
+                prior = _run_task(dict(_task(sw, runs[0], exe), extract_only=True))
             record(run_id, prior)
             continue
         if prior is not None:
@@ -1481,9 +1509,20 @@ def _run_all(sw, text, client, wait, KilledWorker, progress, retry_failed, exe, 
     skipped = len(rows)
     _write_table(sw, rows)
     bar = _Progress(len(sw.runs), skipped, stream, progress)
-    futures = {client.submit(_run_task, _task(sw, run, exe), key=f"cutsim-run-{run['id']}", pure=False): run["id"]
-               for run in todo}
-    pending = set(futures)
+    attempts = {}
+    by_run = {run["id"]: run for run in todo}
+
+    def submit(run_id):
+        # A key of its own (not the run's id alone): another sweep on the same scheduler, or this
+        # one's earlier attempt, is never taken for it; the run's lock keeps them apart on disk.
+        attempts[run_id] = attempts.get(run_id, 0) + 1
+        f = client.submit(_run_task, _task(sw, by_run[run_id], exe), pure=False,
+                          key=f"cutsim-run-{run_id}-{uuid.uuid4().hex[:12]}")
+        futures[f] = run_id
+        return f
+
+    futures = {}
+    pending = {submit(run["id"]) for run in todo}
 
     def counts():
         ok = sum(1 for r in rows.values() if r["status"] == "done")
@@ -1496,14 +1535,26 @@ def _run_all(sw, text, client, wait, KilledWorker, progress, retry_failed, exe, 
                 finished, pending = wait(pending, timeout=1.0, return_when="FIRST_COMPLETED")
             except (TimeoutError, asyncio.TimeoutError):  # nothing finished this second
                 finished = set()
+            except (concurrent.futures.CancelledError, asyncio.CancelledError):
+                # Cancelled by the scheduler (a reconnection, a restart): asked again.
+                finished = set()
+                pending = {submit(futures[f]) if f.cancelled() else f for f in pending}
             for f in finished:
+                run_id = futures[f]
                 try:
                     row = f.result()
                 except KilledWorker as e:
                     row = {"status": "failed", "error": f"every worker that ran it died ({e})"}
+                except concurrent.futures.CancelledError:
+                    row = {"status": "stopped", "error": "cancelled by the scheduler"}
                 except Exception as e:  # the task itself failed (not the run): its row says so
                     row = {"status": "failed", "error": f"{type(e).__name__}: {e}"}
-                record(futures[f], row)
+                if row["status"] == "stopped" and not row.get("timeout") and attempts[run_id] < 3:
+                    # Stopped from outside while the sweep goes on (its worker's job ended, a
+                    # worker's set-up): asked again, on whichever worker takes it.
+                    pending.add(submit(run_id))
+                    continue
+                record(run_id, row)
             if finished:
                 _write_table(sw, rows)
             running = _running(client, {f.key for f in pending})
@@ -1561,7 +1612,10 @@ def prepare(sweep, *, results=None, cutsim_executable=None):
         seen.add(run["id"])
         p = _paths(sw.results, run["id"])
         _write_scene(p, run)
-        lines.append(" ".join(shlex.quote(x) for x in _run_command(exe, p, task)))
+        # Under the run's lock (as the sweep's own tasks), and nothing done for a finished folder.
+        inner = f"test -e {shlex.quote(os.path.join(p['dir'], 'steps.csv'))} || exec " + " ".join(
+            shlex.quote(x) for x in _run_command(exe, p, task))
+        lines.append(f"flock {shlex.quote(p['lock'])} sh -c {shlex.quote(inner)}")
     path = os.path.join(sw.results, "commands.txt")
     _write_atomic(path, "\n".join(lines) + "\n")
     return path
@@ -1605,7 +1659,8 @@ def _running(client, keys):
 
 def _task(sw, run, exe):
     return {"results": sw.results, "id": run["id"], "index": run["index"], "values": run["values"],
-            "version": sw.version, "cutsim": exe, "checkpoint_every": sw.checkpoint_every,
+            "version": sw.version, "cutsim": os.path.abspath(exe) if exe else None,
+            "checkpoint_every": sw.checkpoint_every,
             "extract": sw.extract, "extract_key": sw.extract_key, "timeout": sw.timeout}
 
 

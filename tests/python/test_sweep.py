@@ -309,6 +309,14 @@ def test_a_run_that_diverges_is_a_row_with_its_error_and_the_others_complete(tmp
     assert r.returncode == 1 and log.exists()
     changed = [f for f, b in before.items() if f.read_bytes() != b]
     assert len(changed) == 1, changed
+    # Another quantity: computed from the finished runs' folders; the failed run is not run again.
+    before = {f: f.read_bytes() for f in (tmp_path / "results" / "runs").glob("*.log")}
+    sweep["extract"].append({"name": "ke_end", "column": "kinetic_energy", "reduce": "final"})
+    write(tmp_path / "diverging.json", sweep)
+    r = sweep_cli(tmp_path / "diverging.json", "--workers", "1", "--quiet")
+    assert r.returncode == 1 and {f: f.read_bytes() for f in before} == before
+    rows = rows_of(tmp_path / "results")
+    assert rows[0]["ke_end"] != "" and rows[1]["status"] == "failed" and rows[1]["ke_end"] == ""
 
 
 def test_the_python_api_runs_a_sweep_dict(tmp_path):
@@ -516,3 +524,18 @@ print("statuses", [r["status"] for r in rows])
     r = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and r.stdout.count("statuses ['done', 'done']") == 1, r.stdout + r.stderr
     assert "Traceback" not in r.stderr, r.stderr
+
+
+def test_a_cutsim_that_crashes_is_a_failed_run_not_a_stopped_one(tmp_path):
+    """A run whose cutsim dies of a signal other than a stop (here SIGSEGV, from a stand-in
+    program) is failed, with the signal named, and not asked again as a stopped run would be."""
+    fake = tmp_path / "cutsim"
+    fake.write_text('#!/bin/sh\nif [ "$1" = --version ]; then echo "cutsim 0.0 (stand-in)"; exit 0; fi\n'
+                    'echo "$@" >> "$0.calls"\nkill -SEGV $$\n')
+    fake.chmod(0o755)
+    path = write(tmp_path / "crash.json", dict(GOOD, name="crash"))
+    r = sweep_cli(path, "--workers", "1", "--quiet", "--cutsim", fake)
+    assert r.returncode == 1, r.stdout + r.stderr
+    rows = rows_of(tmp_path / "results")
+    assert [x["status"] for x in rows] == ["failed", "failed"] and all("SIGSEGV" in x["error"] for x in rows), rows
+    assert len((tmp_path / "cutsim.calls").read_text().splitlines()) == 2, "a crashed run was asked again"
