@@ -131,9 +131,13 @@ std::size_t Attachment::numAttached() const {
 }
 
 std::size_t Attachment::release(const std::function<bool(const Vec3&)>& inside) {
+  return releasePoints([&](PointId p) { return inside(topology_->restPosition(p)); });
+}
+
+std::size_t Attachment::releasePoints(const std::function<bool(PointId)>& inside) {
   std::size_t released = 0;
   for (PointId p : topology_->points()) {
-    if (!inside(topology_->restPosition(p))) continue;
+    if (!inside(p)) continue;
     released += weight_[p] > 0.0 ? 1 : 0;
     weight_[p] = 0.0;
   }

@@ -2,7 +2,10 @@
 // mesh is. On a flat sheet at rest it cuts as the polyline cut along the same path; on a sheet
 // rolled onto a cylinder a blade moving along the axis cuts a straight line of the rest sheet; on a
 // folded sheet a deep blade cuts both layers and a shallow one the one it reaches; a blade above
-// the surface cuts nothing. Every step keeps the topology and every observer valid.
+// the surface cuts nothing. The cautery carves the surface where it is: held still on a sheet at
+// rest it carves the removal of its sphere; on a moved sheet the hole is the region it swept, in
+// the world; on a fold it carves the layer it reaches; dissecting, it releases exactly the points
+// it passed over. Every step keeps the topology and every observer valid.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -16,6 +19,7 @@
 
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/simulation.hpp"
+#include "cutsim/forcefields/attachment.hpp"
 #include "support/scene_text.hpp"
 
 namespace cutsim::core {
@@ -29,13 +33,14 @@ constexpr double kPi = 3.14159265358979323846;
 /// A 1 m sheet of 21 x 21 points that hardly moves in a step (no gravity, soft springs), so that
 /// the positions a test gives it are where the blade finds it.
 std::string sheet(const std::string& timeline, double duration = 0.01,
-                  const std::string& gravity = "[0, 0, 0]") {
+                  const std::string& gravity = "[0, 0, 0]", const std::string& moreFields = "") {
   return R"({
   "mesh": {"grid": {"nx": 21, "ny": 21, "size": [1, 1], "plane": "xy"}},
   "mass": {"total": 0.2},
   "gravity": )" +
          gravity + R"(,
-  "forceFields": [{"type": "StretchSprings", "stiffness": 1e-9}],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 1e-9})" +
+         moreFields + R"(],
   "integrator": {"type": "implicit-euler"},
   "linearSolver": {"type": "cg", "iterations": 100, "tolerance": 1e-8},
   "timeStep": 0.01, "duration": )" +
@@ -370,6 +375,207 @@ TEST(Scalpel, BadInputIsRefusedBeforeTheRunNamingThePlace) {
               HasSubstr("/timeline/0/at: unknown key \"at\" for scalpel"));
   EXPECT_THAT(parseError(sheet(head + R"("path": [[0, 0, 0, 0, 0, 0, 1]]})")),
               HasSubstr("/timeline/0: missing key \"depth\""));
+}
+
+// ---- the cautery ----
+
+/// A cautery entry over [from, from + length]: its path's rows (times from `from`), its radius,
+/// more keys. (A test that puts the sheet somewhere starts it after the first step: the actions
+/// due at 0 act when the run starts, before the sheet is put there.)
+std::string cautery(const std::string& path, double length, double radius,
+                    const std::string& extra = "", double from = 0.0) {
+  return R"({"action": "cautery", "from": )" + text(from) + R"(, "to": )" + text(from + length) +
+         R"(, "radius": )" + text(radius) + R"(, "path": )" + path + extra + "}";
+}
+
+/// The distance from p to the segment a-b less r: what the swept sphere's region is.
+double capsuleLevel(const Vec3& p, const Vec3& a, const Vec3& b, double r) {
+  const Vec3 ab{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+  double t =
+      l2 > 0 ? ((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1] + (p[2] - a[2]) * ab[2]) / l2 : 0.0;
+  t = std::clamp(t, 0.0, 1.0);
+  return std::hypot(p[0] - a[0] - t * ab[0], p[1] - a[1] - t * ab[1], p[2] - a[2] - t * ab[2]) - r;
+}
+
+Vec3 worldOf(const Simulation& sim, PointId p) {
+  const auto x = sim.state().x();
+  return {x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
+}
+
+/// The rest area of the live triangles.
+double restArea(const topology::Topology& t) {
+  double area = 0.0;
+  for (topology::TriangleId tri : t.triangles()) {
+    const auto v = t.triangleVertices(tri);
+    const Vec3 a = t.restPosition(v[0]), b = t.restPosition(v[1]), c = t.restPosition(v[2]);
+    const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    area += 0.5 * std::hypot(u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                             u[0] * w[1] - u[1] * w[0]);
+  }
+  return area;
+}
+
+/// Whether a rest position is on the sheet's outer border (the unit square's sides).
+bool onOuterBorder(const Vec3& r) {
+  return std::min({r[0], r[1], 1 - r[0], 1 - r[1]}) < 1e-12;
+}
+
+TEST(Cautery, HeldStillOnASheetAtRestCarvesAsTheRemovalOfItsSphere) {
+  for (const char* minAngle : {"0", "20"}) {
+    SCOPED_TRACE(std::string("minAngle ") + minAngle);
+    const std::string extra = std::string(", \"minAngle\": ") + minAngle;
+    SceneRunner removal(parseScene(
+        sheet(R"({"action": "remove", "at": 0, "sphere": {"center": [0.43, 0.52, 0], "radius": )"
+              R"(0.17})" +
+                  extra + "}",
+              0.02),
+        "a.json", test::kSceneDir));
+    SceneRunner burn(parseScene(sheet(cautery("[[0, 0.43, 0.52, 0]]", 0.02, 0.17, extra), 0.02),
+                                "b.json", test::kSceneDir));
+    run(removal);
+    run(burn);
+    const Shape x = shapeOf(removal.simulation().topology()),
+                y = shapeOf(burn.simulation().topology());
+    ASSERT_EQ(x.points.size(), y.points.size());
+    ASSERT_LT(x.triangles.size(), 800u - 30u);  // (a hole was carved)
+    for (std::size_t i = 0; i < x.points.size(); ++i)
+      for (int d = 0; d < 3; ++d)
+        EXPECT_NEAR(x.points[i][d], y.points[i][d], 1e-9) << "point " << i;
+    EXPECT_EQ(x.triangles, y.triangles);
+  }
+}
+
+TEST(Cautery, OnAMovedSheetCarvesTheRegionItSweptInTheWorld) {
+  // The sheet stood up in the plane x = 0.3 (rest y -> world y, rest x -> world z, shifted), a
+  // sphere running down it along a slanted segment; over one step and over 30.
+  const auto stand = [](const Vec3& r) { return Vec3{0.3, r[1] + 0.1, 0.5 - r[0]}; };
+  const Vec3 a{0.32, 0.3, 0.3}, b{0.32, 0.8, -0.2};
+  const double r = 0.08;
+  for (const double to : {0.01, 0.3}) {
+    SCOPED_TRACE("over " + std::to_string(to) + " s");
+    const std::string path = "[[0, " + text(a[0]) + ", " + text(a[1]) + ", " + text(a[2]) + "], [" +
+                             text(to) + ", " + text(b[0]) + ", " + text(b[1]) + ", " + text(b[2]) +
+                             "]]";
+    SceneRunner runner(
+        parseScene(sheet(cautery(path, to, r, "", 0.01), to + 0.01), "a.json", test::kSceneDir));
+    run(runner, stand);
+    const Simulation& sim = runner.simulation();
+    const topology::Topology& t = sim.topology();
+    const double trace = std::sqrt(r * r - 0.02 * 0.02);  // the region's radius on the sheet
+    // The rim is a polygon on the region's boundary: a point the repair adds on one of its edges
+    // lies inside by at most the edge's sagitta, l^2 / (8 r').
+    double sagitta = 0.0;
+    for (topology::EdgeId e : t.edges()) {
+      const auto v = t.edgeVertices(e);
+      if (!t.isBoundaryEdge(e) || onOuterBorder(t.restPosition(v[0]))) continue;
+      const Vec3 p = worldOf(sim, v[0]), q = worldOf(sim, v[1]);
+      sagitta = std::max(sagitta, (std::pow(p[0] - q[0], 2) + std::pow(p[1] - q[1], 2) +
+                                   std::pow(p[2] - q[2], 2)) /
+                                      (8 * trace));
+    }
+    std::size_t rim = 0, onIt = 0;
+    for (PointId p : t.points()) {
+      const double level = capsuleLevel(worldOf(sim, p), a, b, r);
+      // Nothing of the surface is left inside the region it swept, but for the rim's sagitta.
+      EXPECT_GT(level, -sagitta - 1e-9) << "point " << p.idx();
+      // The hole's rim lies on the region's boundary, in the world (its points were carried there
+      // through their weights): most of it exactly (the carve's crossings), the points the
+      // repair added on its edges within the sagitta.
+      if (t.isBoundaryPoint(p) && !onOuterBorder(t.restPosition(p))) {
+        ++rim;
+        EXPECT_LT(std::abs(level), sagitta + 1e-9) << "rim point " << p.idx();
+        onIt += std::abs(level) < 1e-6 ? 1 : 0;
+      }
+    }
+    EXPECT_GT(rim, 20u);
+    EXPECT_GT(onIt, rim / 2);
+    // The area gone is the region's trace on the sheet, 2 cm from the segment (a stadium of
+    // radius sqrt(r^2 - 0.02^2): 2 r' L + pi r'^2, from which its rim's chords cut a little).
+    const double sx = a[1] - b[1], sz = a[2] - b[2], length = std::hypot(sx, sz);
+    const double stadium = 2 * trace * length + kPi * trace * trace;
+    const double gone = 1.0 - restArea(t);
+    EXPECT_GT(gone, 0.95 * stadium);
+    EXPECT_LE(gone, stadium * (1 + 1e-9));
+  }
+}
+
+TEST(Cautery, OnAFoldCarvesTheLayerItReaches) {
+  // The sheet folded over itself at x = 0.5: its right half lies 4 cm above its left half; a
+  // sphere centred on the top layer, moving along y, of 3 cm carves the top layer only, of 5 cm
+  // both.
+  const auto fold = [](const Vec3& r) {
+    return r[0] <= 0.5 ? Vec3{r[0], r[1], 0} : Vec3{1 - r[0], r[1], 0.04};
+  };
+  for (const double radius : {0.03, 0.05}) {
+    SCOPED_TRACE("radius " + std::to_string(radius));
+    SceneRunner runner(parseScene(
+        sheet(cautery("[[0, 0.23, 0.2, 0.04], [0.2, 0.23, 0.8, 0.04]]", 0.2, radius, "", 0.01),
+              0.22),
+        "a.json", test::kSceneDir));
+    run(runner, fold);
+    const topology::Topology& t = runner.simulation().topology();
+    bool bottom = false, top = false;
+    for (PointId p : t.points()) {
+      const Vec3 rest = t.restPosition(p);
+      if (!t.isBoundaryPoint(p) || onOuterBorder(rest)) continue;
+      (rest[0] < 0.5 ? bottom : top) = true;
+      // Around x = 0.23 of the bottom layer, or x = 0.77 of the top one.
+      EXPECT_LE(std::abs(rest[0] - (rest[0] < 0.5 ? 0.23 : 0.77)), radius + 1e-9) << rest[0];
+    }
+    EXPECT_TRUE(top);
+    EXPECT_EQ(bottom, radius > 0.04);
+  }
+}
+
+TEST(Cautery, DissectingReleasesExactlyThePointsItPassedOver) {
+  // A sheet attached to the tissue beneath, moved 10 cm along x and lifted 5 cm in the world (its
+  // attachment too soft to pull it back within the run): the points released are those within
+  // the radius of the segment the sphere ran along, where the sheet is.
+  const auto moved = [](const Vec3& r) { return Vec3{r[0] + 0.1, r[1], r[2] + 0.05}; };
+  const Vec3 a{0.2, 0.25, 0.05}, b{0.9, 0.6, 0.05};
+  const double r = 0.12;
+  const std::string path = "[[0, 0.2, 0.25, 0.05], [0.1, 0.9, 0.6, 0.05]]";
+  SceneRunner runner(
+      parseScene(sheet(cautery(path, 0.1, r, R"(, "mode": "dissect")", 0.01), 0.11, "[0, 0, 0]",
+                       R"(, {"type": "Attachment", "label": "tissue", "stiffness": 1e-9})"),
+                 "a.json", test::kSceneDir));
+  run(runner, moved);
+  const Simulation& sim = runner.simulation();
+  const forcefields::Attachment* attachment = nullptr;
+  for (std::size_t i = 0; i < sim.model().numForceFields(); ++i)
+    if (auto* f = dynamic_cast<const forcefields::Attachment*>(&sim.model().forceField(i)))
+      attachment = f;
+  ASSERT_NE(attachment, nullptr);
+  EXPECT_EQ(sim.topology().triangles().size(), 800u);  // nothing carved
+  std::size_t released = 0;
+  for (PointId p : sim.topology().points()) {
+    const double level = capsuleLevel(moved(sim.topology().restPosition(p)), a, b, r);
+    if (std::abs(level) < 1e-6) continue;  // (on the boundary: either)
+    EXPECT_EQ(attachment->attached(p), level < 0 ? 0.0 : 1.0) << "point " << p.idx();
+    released += level < 0 ? 1 : 0;
+  }
+  EXPECT_GT(released, 40u);
+}
+
+TEST(Cautery, BadInputIsRefusedBeforeTheRunNamingThePlace) {
+  const std::string head = R"({"action": "cautery", "from": 0, "to": 0.01, )";
+  EXPECT_THAT(parseError(sheet(head + R"("radius": 0, "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/0/radius: must be a positive number"));
+  EXPECT_THAT(parseError(sheet(head + R"("radius": 0.1, "path": [[0, 0, 0, 0], [0, 1, 0, 0]]})")),
+              HasSubstr("/timeline/0/path/1/0: path times must increase strictly"));
+  EXPECT_THAT(parseError(sheet(head + R"("radius": 0.1, "length": 0.1,
+      "path": [[0, 0, 0, 0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/0/path/0/4: the cautery's axis"));
+  EXPECT_THAT(parseError(sheet(head + R"("radius": 0.1, "field": "tissue",
+      "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/0/field: is for a dissecting cautery"));
+  EXPECT_THAT(parseError(sheet(head + R"("radius": 0.1, "mode": "dissect",
+      "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("needs an Attachment force field: the scene has none"));
+  EXPECT_THAT(parseError(sheet(R"({"action": "cautery", "at": 0, "radius": 0.1,
+      "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/0/at: unknown key \"at\" for cautery"));
 }
 
 }  // namespace

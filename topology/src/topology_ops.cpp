@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <numeric>
 #include <set>
 #include <unordered_set>
@@ -279,15 +280,25 @@ namespace cutsim::topology {
 
 RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
                              const RepairOptions& repair, std::size_t* removed) {
+  if (!phi) throw TopologyError("carve: no region function given");
+  return carve([&phi](const Vec3& rest, PointWeights) { return phi(rest); }, repair, removed);
+}
+
+RepairReport Topology::carve(const std::function<double(const Vec3&, PointWeights)>& phi,
+                             const RepairOptions& repair, std::size_t* removed, bool moveBorder) {
   checkRepairOptions(repair, "carve");
   if (!phi) throw TopologyError("carve: no region function given");
+  using Weight = std::pair<PointId, double>;
+  const auto at = [&phi](const Vec3& rest, std::initializer_list<Weight> weights) {
+    return phi(rest, PointWeights(weights.begin(), weights.size()));
+  };
   Impl& I = *impl_;
   Mesh& m = I.mesh;
   if (removed) *removed = 0;
   // phi at every live point (a removal looks at the whole surface, as selecting by centroid does).
   std::unordered_map<Index, double> value;
   for (VI v : m.vertices()) {
-    const double x = phi(toVec(m.point(v)));
+    const double x = at(toVec(m.point(v)), {{PointId(v.idx()), 1.0}});
     if (!std::isfinite(x))
       throw TopologyError("carve: the region's function is not finite at point " + pt(v.idx()));
     value[v.idx()] = x;
@@ -320,7 +331,7 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
         const double mid = 0.5 * (lo + hi);
         const Vec3 q{pa[0] + mid * (pb[0] - pa[0]), pa[1] + mid * (pb[1] - pa[1]),
                      pa[2] + mid * (pb[2] - pa[2])};
-        (phi(q) <= 0 ? lo : hi) = mid;
+        (at(q, {{PointId(a.idx()), 1.0 - mid}, {PointId(b.idx()), mid}}) <= 0 ? lo : hi) = mid;
       }
       // Never exactly on an end (the split needs 0 < t < 1); slivers are the repair's to fix.
       out.push_back({a, b, std::clamp(0.5 * (lo + hi), 1e-6, 1.0 - 1e-6)});
@@ -355,10 +366,11 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
     std::sort(snaps.begin(), snaps.end(),
               [](const Snap& x, const Snap& y) { return x.dist < y.dist; });
     std::unordered_set<Index> moved;
+    std::unordered_map<Index, std::array<Weight, 2>> made;  // new points: what they are made of
     for (const Snap& sn : snaps) {
       if (moved.count(sn.v.idx()) || moved.count(sn.w.idx()) || onBoundary.count(sn.w.idx()))
         continue;
-      if (locked.count(sn.v.idx()) || m.is_border(sn.v, true) ||
+      if (locked.count(sn.v.idx()) || (!moveBorder && m.is_border(sn.v, true)) ||
           !I.findHalfedge(sn.v, sn.w).is_valid())
         continue;
       if (value[sn.v.idx()] <= 0) {
@@ -400,6 +412,7 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
       }
       if (!ok || star.empty()) continue;
       VI nv = I.newPoint({{PointId(sn.v.idx()), 1.0 - sn.s}, {PointId(sn.w.idx()), sn.s}});
+      made[nv.idx()] = {Weight{PointId(sn.v.idx()), 1.0 - sn.s}, Weight{PointId(sn.w.idx()), sn.s}};
       std::unordered_map<std::uint64_t, VI> subst;
       for (FI f : star) subst[Impl::faceVertexKey(f, sn.v)] = nv;
       I.reattach(star, subst);
@@ -411,7 +424,8 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
     for (const Crossing& c : crossings) {
       HI h = I.findHalfedge(c.a, c.b);
       if (!h.is_valid()) throw TopologyError("internal error: carve lost a crossed edge");
-      I.splitEdgeNoTxn(m.edge(h), c.a, c.t);
+      const VI nv = I.splitEdgeNoTxn(m.edge(h), c.a, c.t);
+      made[nv.idx()] = {Weight{PointId(c.a.idx()), 1.0 - c.t}, Weight{PointId(c.b.idx()), c.t}};
     }
     // Every triangle now lies on one side: inside when its earlier points are (the new points are
     // on the boundary); a triangle of new points only, by its centroid.
@@ -421,12 +435,17 @@ RepairReport Topology::carve(const std::function<double(const Vec3&)>& phi,
       int in = -1;
       for (PointId p : tv)
         if (auto it = inside.find(p.idx()); it != inside.end()) in = std::max(in, int(it->second));
-      if (in < 0) {
+      if (in < 0) {  // (its points are all new: each is made of two that existed)
         Vec3 c{0, 0, 0};
-        for (PointId p : tv)
+        std::vector<Weight> weights;
+        for (PointId p : tv) {
           for (int k = 0; k < 3; ++k)
             c[std::size_t(k)] += toVec(m.point(VI(p.idx())))[std::size_t(k)] / 3;
-        in = phi(c) <= 0 ? 1 : 0;
+          const auto it = made.find(p.idx());
+          if (it == made.end()) throw TopologyError("internal error: carve lost a new point");
+          for (const Weight& w : it->second) weights.push_back({w.first, w.second / 3});
+        }
+        in = phi(c, weights) <= 0 ? 1 : 0;
       }
       if (in == 1) gone.push_back(f);
     }

@@ -7,53 +7,32 @@
 // goes on from its tip at the next cut. docs/instruments.md.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
-#include "cutsim/base/numbers.hpp"
 #include "cutsim/core/timeline.hpp"
 #include "cutsim/forcefields/surface_query.hpp"
 #include "cutsim/topology/geometry.hpp"
+#include "tool_path.hpp"
 
 namespace cutsim::core {
 namespace {
 
 using topology::geometry::dist2;
-using topology::geometry::dot;
 using topology::geometry::lerp;
-using topology::geometry::unit;
 
-constexpr double kPi = 3.14159265358979323846;
-/// The largest turn of the blade's axis between two keyframes (degrees): beyond it the axis's
-/// interpolation would pass near zero.
-constexpr double kMaxTurn = 170.0;
 /// The swept surface between two poses is bilinear: a turning blade is sampled every few degrees.
 constexpr double kSampleTurn = 5.0;
 
 struct ScalpelParameters {
-  std::vector<double> times;  ///< from the action's start, increasing
-  std::vector<Vec3> tips;     ///< world coordinates
-  std::vector<Vec3> axes;     ///< unit: from the tip along the blade
-  double depth = 0.0;         ///< the blade's length from its tip
+  ToolPath path;       ///< the tip in world coordinates, the axis from the tip along the blade
+  double depth = 0.0;  ///< the blade's length from its tip
   double snapTolerance = 0.1;
   double minAngle = kDefaultMinAngle;
 };
-
-double angleDegrees(const Vec3& a, const Vec3& b) {
-  return std::acos(std::clamp(dot(a, b), -1.0, 1.0)) * 180.0 / kPi;
-}
-
-/// The unit vector a fraction f of the way from unit a to unit b along the great circle (the
-/// axis turns at a constant rate; at most 170 degrees apart, so sin of the angle is not small).
-Vec3 slerp(const Vec3& a, const Vec3& b, double f) {
-  const double theta = std::acos(std::clamp(dot(a, b), -1.0, 1.0));
-  if (!(theta > 1e-9)) return a;
-  const double wa = std::sin((1 - f) * theta) / std::sin(theta),
-               wb = std::sin(f * theta) / std::sin(theta);
-  return unit({wa * a[0] + wb * b[0], wa * a[1] + wb * b[1], wa * a[2] + wb * b[2]});
-}
 
 /// Whether a point of an incision curve is on the path of the blade's tip or of the end of its
 /// edge (where the blade enters or leaves the tissue through its own movement), not a border.
@@ -274,43 +253,22 @@ class ScalpelAction final : public TimelineAction {
 
   /// The blade at time t from the action's start: its tip and the end of its cutting edge.
   std::array<Vec3, 2> pose(double t) const {
-    const auto& T = p_.times;
-    Vec3 tip = p_.tips.front(), axis = p_.axes.front();
-    if (t >= T.back()) {
-      tip = p_.tips.back();
-      axis = p_.axes.back();
-    } else if (t > T.front()) {
-      const std::size_t i = std::size_t(std::upper_bound(T.begin(), T.end(), t) - T.begin());
-      const double f = (t - T[i - 1]) / (T[i] - T[i - 1]);
-      tip = lerp(p_.tips[i - 1], p_.tips[i], f);
-      axis = slerp(p_.axes[i - 1], p_.axes[i], f);
-    }
+    const auto [tip, axis] = p_.path.at(t);
     return {tip, lerp(tip, {tip[0] + axis[0], tip[1] + axis[1], tip[2] + axis[2]}, p_.depth)};
   }
 
   /// The blade's positions from time t0 to t1: both, every keyframe between, and enough between
-  /// those that the axis turns by at most a few degrees from one to the next.
+  /// those that the axis turns by at most a few degrees from one to the next; a position the same
+  /// as the one before is dropped (a blade that holds still sweeps nothing).
   std::vector<std::array<Vec3, 2>> posesBetween(double t0, double t1) const {
-    // (not a keyframe within rounding of either end: a sliver of sweep there would end a curve
-    // on the pose before the last, where the blade is not)
-    const double eps = 1e-9 * std::max(1.0, std::abs(t1));
-    std::vector<double> times{t0};
-    for (double k : p_.times)
-      if (k > t0 + eps && k < t1 - eps) times.push_back(k);
-    times.push_back(t1);
+    const std::vector<double> times =
+        p_.path.samples(t0, t1, kSampleTurn, std::numeric_limits<double>::infinity());
     std::vector<std::array<Vec3, 2>> out{pose(t0)};
+    const double same = 1e-24 * p_.depth * p_.depth;
     for (std::size_t i = 1; i < times.size(); ++i) {
-      const auto a = pose(times[i - 1]), b = pose(times[i]);
-      const double turn = angleDegrees(unit(topology::geometry::sub(a[1], a[0])),
-                                       unit(topology::geometry::sub(b[1], b[0])));
-      const int n = std::clamp(int(std::ceil(turn / kSampleTurn)), 1, 64);
-      for (int k = 1; k <= n; ++k) {
-        // (a blade that holds still adds nothing: no sweep of zero area)
-        const auto next = pose(times[i - 1] + (times[i] - times[i - 1]) * k / n);
-        const double same = 1e-24 * p_.depth * p_.depth;
-        if (dist2(next[0], out.back()[0]) > same || dist2(next[1], out.back()[1]) > same)
-          out.push_back(next);
-      }
+      const auto next = pose(times[i]);
+      if (dist2(next[0], out.back()[0]) > same || dist2(next[1], out.back()[1]) > same)
+        out.push_back(next);
     }
     return out;
   }
@@ -329,29 +287,7 @@ ScalpelParameters readScalpel(const ParameterSource& s) {
   if (!s.has("from") || !s.has("to"))
     s.fail(s.has("from") ? "to" : "from",
            "a scalpel moves over an interval: give \"from\" and \"to\" (not \"at\")");
-  s.require("path");
-  const auto rows = s.rows("path", 7, 1);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const auto& r = rows[i];
-    const std::string key = "path/" + std::to_string(i);
-    for (std::size_t k = 0; k < 7; ++k)
-      if (!std::isfinite(r[k])) s.fail(key + "/" + std::to_string(k), "must be a finite number");
-    if (r[0] < 0) s.fail(key + "/0", "path times are from the scalpel's start: must be >= 0");
-    if (!p.times.empty() && !(r[0] > p.times.back()))
-      s.fail(key + "/0", "path times must increase strictly");
-    const Vec3 axis{r[4], r[5], r[6]};
-    if (!(dot(axis, axis) > 0))
-      s.fail(key + "/4", "the blade's axis (the last three numbers) must not be zero");
-    const Vec3 a = unit(axis);
-    if (!p.axes.empty() && angleDegrees(p.axes.back(), a) > kMaxTurn)
-      s.fail(key + "/4", "the blade's axis turns by " +
-                             describeNumber(angleDegrees(p.axes.back(), a)) +
-                             " degrees from the keyframe before (at most " +
-                             describeNumber(kMaxTurn) + "): add a keyframe between");
-    p.times.push_back(r[0]);
-    p.tips.push_back({r[1], r[2], r[3]});
-    p.axes.push_back(a);
-  }
+  p.path = ToolPath::read(s, true, "the blade");
   s.require("depth");
   p.depth = s.number("depth");
   if (!(p.depth > 0) || !std::isfinite(p.depth))

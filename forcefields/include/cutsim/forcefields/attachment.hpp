@@ -100,6 +100,9 @@ class Attachment final : public ForceField, public topology::TopologyObserver {
   /// Releases (w_p = 0) the live points whose rest position `inside` accepts; returns how many
   /// were attached before.
   std::size_t release(const std::function<bool(const Vec3&)>& inside);
+  /// Releases the live points `inside` accepts (by id: where they are now is the caller's to
+  /// look up, as a cautery dissecting in the world does); returns how many were attached before.
+  std::size_t releasePoints(const std::function<bool(PointId)>& inside);
 
  private:
   void recomputePoint(PointId p);

@@ -6,6 +6,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cutsim/base/errors.hpp"
@@ -175,6 +176,20 @@ class Topology {
   /// changes).
   RepairReport carve(const std::function<double(const Vec3&)>& phi, const RepairOptions& repair,
                      std::size_t* removed = nullptr);
+  /// A point of the surface as weights of points that were live when an operation began.
+  using PointWeights = std::span<const std::pair<PointId, double>>;
+  /// The same carving, phi also given each point it is asked about as weights of the points live
+  /// when the carve began (a vertex: itself; a point along an edge: its two ends; a centroid: up to
+  /// six): what a region given in the world needs, since the same weights of the points' current
+  /// positions give where that point is now (a cautery carving the surface as it is; a function
+  /// of the rest position alone cannot tell the two lips of a cut apart). With `moveBorder`,
+  /// border points too move onto a crossing within a quarter of an edge (a hole carved again
+  /// where it is: its border points are at the region's boundary, and a crossing a hair's
+  /// breadth from each would leave edges a tiny fraction of the mesh's, which the repair can
+  /// only refine around).
+  RepairReport carve(const std::function<double(const Vec3&, PointWeights)>& phi,
+                     const RepairOptions& repair, std::size_t* removed = nullptr,
+                     bool moveBorder = false);
   /// Inserts a point on e at v0 + t (v1 - v0), t in (0, 1); the one or two triangles split too.
   PointId splitEdge(EdgeId e, double t);
   /// Inserts a point inside t with barycentric weights (sum 1, each > 0); t splits into three.
