@@ -243,6 +243,40 @@ TEST(Checkpoint, AScalpelGoesOnBitForBitFromAnyStepOfItsIncision) {
   std::filesystem::remove(file);
 }
 
+TEST(Checkpoint, ACauteryGoesOnBitForBitFromAnyStepOfItsPath) {
+  // A sheet hanging from its top border, swaying, through which a cautery's ball runs in world
+  // space (carving every half mean edge it travels: its time at its last pass is saved), and a
+  // second, dissecting, on an Attachment.
+  const std::string text = R"({
+  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+  "mass": {"total": 0.1},
+  "gravity": [0, -9.81, -2],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
+                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01},
+                  {"type": "Attachment", "stiffness": 5, "damping": 0.1}],
+  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
+  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
+  "timeStep": 0.01, "duration": 0.3,
+  "timeline": [{"action": "cautery", "from": 0.02, "to": 0.22, "radius": 0.12,
+                "path": [[0, 0.1, 0.5, 0], [0.2, 0.8, 0.4, -0.03]]},
+               {"action": "cautery", "from": 0.05, "to": 0.25, "radius": 0.1, "mode": "dissect",
+                "path": [[0, 0.2, 0.2, 0], [0.2, 0.8, 0.25, 0]]}]
+})";
+  const Scene scene = parseScene(text, "cautery.json", test::kSceneDir);
+  {
+    SceneRunner probe(scene);
+    probe.start();
+    while (!probe.finished()) probe.advance();
+    ASSERT_LT(probe.simulation().topology().triangles().size(), 200u - 10u);  // it carved
+  }
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_cautery.ckpt";
+  std::mt19937 rng(7);
+  for (long stop : {3L, 9L, 14L, 23L}) resumeAndCompare(scene, stop, file);
+  resumeAndCompare(scene, std::uniform_int_distribution<long>(2, 24)(rng), file);
+  std::filesystem::remove(file);
+}
+
 TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   // A run changed while running (an action given, a field replaced) is not the scene's run any
   // more: its checkpoint could not be resumed from the scene.

@@ -129,10 +129,15 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
                         joined(core::ActionRegistry::instance().names()) + ")"));
   EXPECT_THAT(
       parseError(
-          timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
+          timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"girth\": 1}")),
       HasSubstr(
-          "/timeline/0/radius: unknown key \"radius\" for tearing; expected one of: action, at, "
+          "/timeline/0/girth: unknown key \"girth\" for tearing; expected one of: action, at, "
           "threshold, maxPerStep"));
+  // A key of another action says whose it is.
+  EXPECT_THAT(
+      parseError(
+          timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
+      HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing (it belongs to cautery)"));
   EXPECT_THAT(parseError(timeline(
                   "{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
               HasSubstr("(it belongs to cut, dissect)"));

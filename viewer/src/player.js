@@ -197,7 +197,7 @@ class Player {
     if (this.hasSprings) toggle('springs', 'bending springs', 'one line between the two wing points of each bending spring');
     if (this.frameList.some((f) => f.held)) toggle('held', 'fixed and grasped points', 'fixed points white, grasped points orange');
     if (this.frameList.some((f) => f.obstacleX)) toggle('obstacles', 'obstacles', 'the contact obstacles');
-    if (this.frameList.some((f) => f.instrumentX)) toggle('instruments', 'instruments', 'a scalpel\'s blade (yellow, its tip marked) where it is');
+    if (this.frameList.some((f) => f.instrumentX)) toggle('instruments', 'instruments', 'a scalpel\'s blade, a cautery\'s tip (yellow, tips marked) where they are');
     toggle('wireframe', 'triangle edges', 'the mesh edges over the colours');
     const litBox = el('input', { type: 'checkbox', id: 'lit' });
     litBox.checked = true;
@@ -541,12 +541,17 @@ class Player {
       this.obstacleGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
       this.obstacleGeometry.setIndex(null);
     }
-    // Instruments: segments from their tips (two points each), drawn over the surface.
+    // Instruments: segments from their tips (two points each), drawn over the surface; a tip is
+    // marked where a chain of segments starts (a blade's; a cautery's wire sphere is chains).
     const ix = this.array(Float32Array, f.instrumentX) || new Float32Array(0);
     this.instrumentGeometry.setAttribute('position', new THREE.BufferAttribute(ix, 3));
-    const tips = new Float32Array(ix.length / 2);
-    for (let k = 0; 6 * k < ix.length; k++) tips.set(ix.subarray(6 * k, 6 * k + 3), 3 * k);
-    this.tipGeometry.setAttribute('position', new THREE.BufferAttribute(tips, 3));
+    const marked = [];
+    for (let k = 0; 6 * k < ix.length; k++) {
+      const continues = k > 0 && ix[6 * k] === ix[6 * k - 3] && ix[6 * k + 1] === ix[6 * k - 2] &&
+        ix[6 * k + 2] === ix[6 * k - 1];
+      if (!continues) marked.push(ix[6 * k], ix[6 * k + 1], ix[6 * k + 2]);
+    }
+    this.tipGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(marked), 3));
     this.applyVisibility();
   }
 
