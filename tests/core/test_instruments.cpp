@@ -578,5 +578,141 @@ TEST(Cautery, BadInputIsRefusedBeforeTheRunNamingThePlace) {
               HasSubstr("/timeline/0/at: unknown key \"at\" for cautery"));
 }
 
+// ---- the forceps ----
+
+/// A forceps entry over [0.01, 0.01 + length] named "jaws": the jaws' axis along +z, closing
+/// along x, radius r, 4 cm long; the path's rows [t, x, y, z, opening].
+std::string forceps(const std::string& path, double length, double r,
+                    const std::string& extra = "") {
+  return R"({"action": "forceps", "name": "jaws", "from": 0.01, "to": )" + text(0.01 + length) +
+         R"(, "axis": [0, 0, 1], "across": [1, 0, 0], "radius": )" + text(r) +
+         R"(, "length": 0.04, "path": )" + path + extra + "}";
+}
+
+TEST(Forceps, ClosingOnAPointInsideATriangleCarriesItWithTheJaws) {
+  // The sheet moved in the world (x + 0.2, z + 0.1); the jaws come down around the material
+  // point (0.437, 0.521) of the rest sheet, far from every vertex (the nearest is 2.5 cm away,
+  // the jaws 4 mm thick), close, lift it 10 cm while moving 5 cm along y, and open.
+  const auto moved = [](const Vec3& r) { return Vec3{r[0] + 0.2, r[1], r[2] + 0.1}; };
+  const Vec3 material{0.437, 0.521, 0}, world = moved(material);
+  const auto row = [&](double t, const Vec3& d, double opening) {
+    return "[" + text(t) + ", " + text(world[0] + d[0]) + ", " + text(world[1] + d[1]) + ", " +
+           text(world[2] - 0.01 + d[2]) + ", " + text(opening) + "]";
+  };
+  const Vec3 lift{0, 0.05, 0.1};
+  const std::string path = "[" + row(0, {0, 0, 0}, 0.03) + ", " + row(0.02, {0, 0, 0}, 0.008) +
+                           ", " + row(0.12, lift, 0.008) + ", " + row(0.14, lift, 0.03) + "]";
+  SceneRunner runner(parseScene(sheet(forceps(path, 0.14, 0.004), 0.2), "a.json", test::kSceneDir));
+  runner.start();
+  Simulation& sim = runner.simulation();
+  for (PointId p : sim.topology().points()) {
+    const Vec3 w = moved(sim.topology().restPosition(p));
+    for (int d = 0; d < 3; ++d) sim.state().x()[3 * p.idx() + std::size_t(d)] = w[d];
+  }
+  PointId taken = PointId::invalid();
+  bool held = false, released = false;
+  while (!runner.finished()) {
+    runner.advance();
+    ASSERT_TRUE(sim.topology().validate().ok()) << "step " << runner.currentStep();
+    const Grasp* g = sim.findGrasp("jaws");
+    if (g && !held) {
+      held = true;
+      // The material point is a point of the mesh now, the only one the jaws hold.
+      const auto points = g->points().points();
+      ASSERT_EQ(points.size(), 1u);
+      taken = points.front();
+      const Vec3 rest = sim.topology().restPosition(taken);
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(rest[d], material[d], 1e-12);
+    }
+    if (held && g) {
+      // Where the jaws are: the tip's displacement since they closed (at t = 0.03).
+      const double t = runner.time() - 0.01;
+      const double f = std::clamp((t - 0.02) / 0.1, 0.0, 1.0);
+      const Vec3 x = worldOf(sim, taken);
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[d], world[d] + f * lift[d], 1e-9) << "t " << t;
+    }
+    if (held && !g) released = true;
+  }
+  EXPECT_TRUE(held);
+  EXPECT_TRUE(released);  // the jaws opened
+}
+
+TEST(Forceps, ClosingAcrossAFoldTakesBothLayers) {
+  // The sheet folded over itself at x = 0.5 (its right half 2 cm above its left half): jaws 4 cm
+  // long closing around a vertical line through both layers take a point of each, inserted where
+  // the line crosses them.
+  const auto fold = [](const Vec3& r) {
+    return r[0] <= 0.5 ? Vec3{r[0], r[1], 0} : Vec3{1 - r[0], r[1], 0.02};
+  };
+  SceneRunner runner(parseScene(
+      sheet(forceps("[[0, 0.313, 0.427, -0.01, 0.03], [0.01, 0.313, 0.427, -0.01, 0.002]]", 0.02,
+                    0.001),
+            0.05),
+      "a.json", test::kSceneDir));
+  run(runner, fold);
+  const Grasp* g = runner.simulation().findGrasp("jaws");
+  ASSERT_NE(g, nullptr);
+  std::vector<Vec3> rest;
+  for (PointId p : g->points().points())
+    rest.push_back(runner.simulation().topology().restPosition(p));
+  ASSERT_EQ(rest.size(), 2u);
+  std::sort(rest.begin(), rest.end());
+  EXPECT_NEAR(rest[0][0], 0.313, 1e-12);      // the bottom layer
+  EXPECT_NEAR(rest[1][0], 1 - 0.313, 1e-12);  // the top layer
+  for (const Vec3& r : rest) EXPECT_NEAR(r[1], 0.427, 1e-12);
+}
+
+TEST(Forceps, ACutThroughTheHeldRegionKeepsBothSidesHeld) {
+  // Jaws 18 cm thick closed on the sheet at rest hold the points within 9 cm of their middle
+  // line (3 x 3 of the grid); a cut across that region (rest coordinates) while they lift: the
+  // points of both lips stay held, each where the jaws carry it.
+  const std::string path =
+      "[[0, 0.5, 0.5, -0.01, 0.3], [0.01, 0.5, 0.5, -0.01, 0.18], [0.1, 0.5, 0.5, 0.05, 0.18]]";
+  SceneRunner runner(parseScene(sheet(forceps(path, 0.1, 0.09) + R"(, {"action": "cut", "at": 0.05,
+             "polyline": [[0.3, 0.5, 0], [0.7, 0.5, 0]], "minAngle": 0})",
+                                      0.12),
+                                "a.json", test::kSceneDir));
+  run(runner);
+  Simulation& sim = runner.simulation();
+  const Grasp* g = sim.findGrasp("jaws");
+  ASSERT_NE(g, nullptr);
+  EXPECT_EQ(runner.cutsDone(), 1);
+  std::size_t below = 0, above = 0, onCut = 0;
+  for (PointId p : g->points().points()) {
+    const Vec3 r = sim.topology().restPosition(p);
+    if (std::abs(r[1] - 0.5) < 1e-12)
+      ++onCut;
+    else
+      (r[1] < 0.5 ? below : above) += 1;
+    const Vec3 x = worldOf(sim, p), target = g->target(p, runner.time());
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[d], target[d], 1e-9);
+  }
+  EXPECT_EQ(below, 3u);
+  EXPECT_EQ(above, 3u);
+  // Both copies of each held point on the cut are held (one per lip).
+  EXPECT_EQ(onCut, 6u);
+  EXPECT_EQ(onCut % 2, 0u);
+}
+
+TEST(Forceps, BadInputIsRefusedBeforeTheRunNamingThePlace) {
+  const std::string head = R"({"action": "forceps", "name": "f", "from": 0, "to": 0.01, )";
+  EXPECT_THAT(parseError(sheet(head + R"("axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0.01]]})")),
+              HasSubstr("/timeline/0/path/0/4: the jaws' opening"));
+  EXPECT_THAT(parseError(sheet(head + R"("axis": [0, 0, 1], "across": [0, 0, 2], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0.03]]})")),
+              HasSubstr("/timeline/0/across: must not be parallel to the axis"));
+  EXPECT_THAT(parseError(sheet(head + R"("axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0.03]]})")),
+              HasSubstr("/timeline/0/radius: must be a positive number"));
+  EXPECT_THAT(parseError(sheet(head + R"("axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0.03], [0, 0, 0, 0, 0.03]]})")),
+              HasSubstr("/timeline/0/path/1/0: path times must increase strictly"));
+  EXPECT_THAT(parseError(sheet(head + R"("axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0.03]]}, {"at": 0, "action": "grasp", "name": "f",
+      "points": [0], "path": [[0, 0, 0, 0]]})")),
+              HasSubstr("/timeline/1/name: a grasp named \"f\" is already active"));
+}
+
 }  // namespace
 }  // namespace cutsim::core

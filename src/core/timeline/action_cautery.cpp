@@ -29,7 +29,6 @@ using topology::geometry::dot;
 using topology::geometry::lerp;
 using topology::geometry::sub;
 
-constexpr double kPi = 3.14159265358979323846;
 /// A turning capsule sweeps a bilinear surface between two samples: sampled every few degrees.
 constexpr double kSampleTurn = 5.0;
 
@@ -168,7 +167,7 @@ class CauteryAction final : public TimelineAction {
     const double eps = 1e-9 * std::max(1.0, std::abs(timing_.to));
     if (time < timing_.from - eps || time > timing_.to + eps) return;
     const auto [a, b] = pose(std::clamp(time, timing_.from, timing_.to) - timing_.from);
-    drawCapsule(a, b, out);
+    wireCapsule(a, b, p_.radius, out);
   }
 
   bool checkpointable() const override { return true; }
@@ -281,41 +280,6 @@ class CauteryAction final : public TimelineAction {
       c.fail(p_.field.empty()
                  ? "the dissecting cautery finds no Attachment force field to release"
                  : "the dissecting cautery finds no Attachment labelled \"" + p_.field + "\"");
-  }
-
-  /// A wire capsule (a sphere: three great circles; a capsule: its axis, circles around both ends
-  /// and four lines along it), as segments; the tip's circles start on the same point.
-  void drawCapsule(const Vec3& a, const Vec3& b, std::vector<std::array<Vec3, 2>>& out) const {
-    Vec3 u{1, 0, 0}, v{0, 1, 0}, w{0, 0, 1};
-    if (p_.length > 0) {
-      w = topology::geometry::unit(sub(b, a));
-      const Vec3 seed = std::abs(w[0]) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-      u = topology::geometry::unit(cross(w, seed));
-      v = cross(w, u);
-    }
-    const double r = p_.radius;
-    const auto circle = [&](const Vec3& centre, const Vec3& e1, const Vec3& e2) {
-      constexpr int n = 24;
-      Vec3 prev{centre[0] + r * e1[0], centre[1] + r * e1[1], centre[2] + r * e1[2]};
-      for (int k = 1; k <= n; ++k) {
-        const double t = 2 * kPi * k / n, cs = std::cos(t), sn = std::sin(t);
-        const Vec3 next{centre[0] + r * (cs * e1[0] + sn * e2[0]),
-                        centre[1] + r * (cs * e1[1] + sn * e2[1]),
-                        centre[2] + r * (cs * e1[2] + sn * e2[2])};
-        out.push_back({prev, next});
-        prev = next;
-      }
-    };
-    if (p_.length > 0) {
-      out.push_back({a, b});
-      for (const Vec3& e : {u, v, Vec3{-u[0], -u[1], -u[2]}, Vec3{-v[0], -v[1], -v[2]}})
-        out.push_back({Vec3{a[0] + r * e[0], a[1] + r * e[1], a[2] + r * e[2]},
-                       Vec3{b[0] + r * e[0], b[1] + r * e[1], b[2] + r * e[2]}});
-      circle(b, u, v);
-    }
-    circle(a, u, v);
-    circle(a, u, w);
-    circle(a, v, w);
   }
 
   CauteryParameters p_;

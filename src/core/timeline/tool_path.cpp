@@ -32,10 +32,29 @@ Vec3 slerp(const Vec3& a, const Vec3& b, double f) {
 }
 
 ToolPath ToolPath::read(const ParameterSource& s, bool withAxis, const std::string& what) {
+  std::vector<std::vector<double>> none;
+  return read(s, withAxis, what, none);
+}
+
+double ToolPath::valueAt(const std::vector<double>& values, double t) const {
+  const auto& T = times_;
+  if (t >= T.back()) return values.back();
+  if (!(t > T.front())) return values.front();
+  const std::size_t i = std::size_t(std::upper_bound(T.begin(), T.end(), t) - T.begin());
+  const double f = (t - T[i - 1]) / (T[i] - T[i - 1]);
+  return values[i - 1] + f * (values[i] - values[i - 1]);
+}
+
+ToolPath ToolPath::read(const ParameterSource& s, bool withAxis, const std::string& what,
+                        std::vector<std::vector<double>>& extras) {
   ToolPath p;
   s.require("path");
-  const std::size_t width = withAxis ? 7 : 4;
+  const std::size_t base = withAxis ? 7 : 4;
+  const std::size_t width = base + extras.size();
   const auto rows = s.rows("path", width, 1);
+  for (auto& column : extras) column.clear();
+  for (const auto& r : rows)
+    for (std::size_t k = 0; k < extras.size(); ++k) extras[k].push_back(r[base + k]);
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const auto& r = rows[i];
     const std::string key = "path/" + std::to_string(i);
@@ -91,6 +110,43 @@ std::vector<double> ToolPath::samples(double t0, double t1, double maxTurn, doub
     for (int k = 1; k <= n; ++k) out.push_back(keys[i - 1] + (keys[i] - keys[i - 1]) * k / n);
   }
   return out;
+}
+
+void wireCapsule(const Vec3& a, const Vec3& b, double r, std::vector<std::array<Vec3, 2>>& out) {
+  using topology::geometry::sub;
+  const auto cross = [](const Vec3& x, const Vec3& y) {
+    return Vec3{x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]};
+  };
+  Vec3 u{1, 0, 0}, v{0, 1, 0}, w{0, 0, 1};
+  const bool capsule = topology::geometry::dist2(a, b) > 0;
+  if (capsule) {
+    w = unit(sub(b, a));
+    const Vec3 seed = std::abs(w[0]) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    u = unit(cross(w, seed));
+    v = cross(w, u);
+  }
+  const auto circle = [&](const Vec3& centre, const Vec3& e1, const Vec3& e2) {
+    constexpr int n = 24;
+    Vec3 prev{centre[0] + r * e1[0], centre[1] + r * e1[1], centre[2] + r * e1[2]};
+    for (int k = 1; k <= n; ++k) {
+      const double t = 2 * kPi * k / n, cs = std::cos(t), sn = std::sin(t);
+      const Vec3 next{centre[0] + r * (cs * e1[0] + sn * e2[0]),
+                      centre[1] + r * (cs * e1[1] + sn * e2[1]),
+                      centre[2] + r * (cs * e1[2] + sn * e2[2])};
+      out.push_back({prev, next});
+      prev = next;
+    }
+  };
+  if (capsule) {
+    out.push_back({a, b});
+    for (const Vec3& e : {u, v, Vec3{-u[0], -u[1], -u[2]}, Vec3{-v[0], -v[1], -v[2]}})
+      out.push_back({Vec3{a[0] + r * e[0], a[1] + r * e[1], a[2] + r * e[2]},
+                     Vec3{b[0] + r * e[0], b[1] + r * e[1], b[2] + r * e[2]}});
+    circle(b, u, v);
+  }
+  circle(a, u, v);
+  circle(a, u, w);
+  circle(a, v, w);
 }
 
 }  // namespace cutsim::core

@@ -4,6 +4,7 @@
 // the action's start. Between keyframes the tip moves linearly and the axis turns along the great
 // circle at a constant rate; before the first keyframe and after the last the instrument holds.
 // docs/instruments.md.
+#include <array>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,6 +25,16 @@ class ToolPath {
   /// action's start, >= 0 and strictly increasing; every number finite. `what` names the
   /// instrument in messages ("the blade").
   static ToolPath read(const ParameterSource& s, bool withAxis, const std::string& what);
+  /// As above, each row followed by `extras.size()` more numbers (finite; checked by the caller),
+  /// returned in `extras` (one vector per extra column, a value per keyframe), each named in
+  /// messages by its entry in `names`.
+  static ToolPath read(const ParameterSource& s, bool withAxis, const std::string& what,
+                       std::vector<std::vector<double>>& extras);
+
+  const std::vector<double>& times() const { return times_; }
+  const std::vector<Vec3>& tips() const { return tips_; }
+  /// A per-keyframe value (an extra column) at time t, interpolated as the tip is.
+  double valueAt(const std::vector<double>& values, double t) const;
 
   bool hasAxis() const { return !axes_.empty(); }
   /// The tip and the unit axis (zero without an axis) at time t from the action's start.
@@ -39,6 +50,11 @@ class ToolPath {
   std::vector<Vec3> tips_;
   std::vector<Vec3> axes_;
 };
+
+/// A wire capsule around the segment a-b of radius r (a ball when a = b: three great circles;
+/// else the axis, four lines along it and circles around both ends), as segments, each circle a
+/// chain (the player marks a chain's start).
+void wireCapsule(const Vec3& a, const Vec3& b, double r, std::vector<std::array<Vec3, 2>>& out);
 
 /// The angle between unit vectors, in degrees.
 double angleDegrees(const Vec3& a, const Vec3& b);

@@ -1,0 +1,310 @@
+// The "forceps" action: two jaws (capsules) moving in the world along a path of keyframes, opening
+// and closing. When they close (their axes 2 radii apart: touching), they take the surface between
+// them where it is then: each point where their middle line crosses the surface becomes a point of
+// the mesh (a material point inside a triangle is inserted there, exactly: its weights of the
+// triangle's corners give its rest position and where it is now), with the points within a radius
+// of that line connected to it; a grasp named after the forceps carries them with the jaws (the
+// reaction force in the CSV as for every grasp) until the jaws open again. The jaws keep the
+// orientation the scene gives them (`axis`, `across`): they translate. docs/instruments.md.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "cutsim/base/archive.hpp"
+#include "cutsim/base/errors.hpp"
+#include "cutsim/base/numbers.hpp"
+#include "cutsim/core/timeline.hpp"
+#include "cutsim/forcefields/surface_query.hpp"
+#include "cutsim/topology/geometry.hpp"
+#include "tool_path.hpp"
+
+namespace cutsim::core {
+namespace {
+
+using topology::geometry::dist2;
+using topology::geometry::distanceToSegment;
+using topology::geometry::dot;
+using topology::geometry::unit;
+
+struct ForcepsParameters {
+  std::string name;
+  ToolPath path;                 ///< the jaws' tip (the middle of their two tips), world
+  std::vector<double> openings;  ///< per keyframe: the distance between the jaws' axes (m)
+  Vec3 axis{0, 0, 1};            ///< unit: from the tips along the jaws
+  Vec3 across{1, 0, 0};          ///< unit, normal to the axis: from one jaw to the other
+  double radius = 0.0;           ///< of each jaw
+  double length = 0.0;           ///< of each jaw, from its tip
+  double minAngle = kDefaultMinAngle;
+};
+
+/// The weights of a hit, a corner's within rounding of 1 or an edge's within rounding of 0 taken
+/// as exactly so (the point is then that corner, or on that edge).
+std::array<double, 3> cleaned(std::array<double, 3> w) {
+  for (double& x : w) x = std::clamp(x, 0.0, 1.0);
+  for (double& x : w)
+    if (x < 1e-9) x = 0.0;
+  const double sum = w[0] + w[1] + w[2];
+  for (double& x : w) x /= sum;
+  return w;
+}
+
+class ForcepsAction final : public TimelineAction {
+ public:
+  ForcepsAction(ForcepsParameters p, const ActionTiming& timing)
+      : p_(std::move(p)), timing_(timing) {}
+
+  void dryRun(DryRunContext& c) const override {
+    if (c.activeGrasps().count(p_.name))
+      c.fail("name", "a grasp named \"" + p_.name + "\" is already active");
+    // (its grasp holds from when the jaws close until they open: its name is taken from here on)
+    c.activeGrasps().insert(p_.name);
+  }
+  bool rehearsed() const override { return false; }
+  std::string graspName() const override { return p_.name; }
+
+  void start(ActionContext& c) override {
+    started_ = true;
+    afterStep(c);
+  }
+
+  void afterStep(ActionContext& c) override {
+    if (!started_ || finished_) return;
+    const double now = std::min(c.time(), timing_.to) - timing_.from;
+    const bool closed = opening(now) <= 2 * p_.radius * (1 + 1e-12);
+    Simulation& sim = c.simulation();
+    if (holding_ && !closed) {
+      if (sim.findGrasp(p_.name)) sim.releaseGrasp(p_.name);
+      holding_ = false;
+    } else if (!holding_ && closed) {
+      take(c, now);
+      holding_ = true;  // (closed on nothing: holds nothing until it opens and closes again)
+    }
+    // After `to` the jaws stay where they are: closed, they hold on.
+    if (c.time() >= timing_.to - 1e-9 * c.timeStep()) finished_ = true;
+  }
+
+  void instruments(double time, std::vector<std::array<Vec3, 2>>& out) const override {
+    const double eps = 1e-9 * std::max(1.0, std::abs(timing_.to));
+    if (time < timing_.from - eps || (time > timing_.to + eps && !holding_)) return;
+    const double t = std::clamp(time, timing_.from, timing_.to) - timing_.from;
+    for (const double side : {-0.5, 0.5}) {
+      const auto [a, b] = jaw(t, side);
+      wireCapsule(a, b, p_.radius, out);
+    }
+  }
+
+  bool checkpointable() const override { return true; }
+  void saveState(ArchiveWriter& out) const override { fields(out, started_, finished_, holding_); }
+  void loadState(ArchiveReader& in, const Simulation&) override {
+    fields(in, started_, finished_, holding_);
+  }
+
+ private:
+  double opening(double t) const { return p_.path.valueAt(p_.openings, t); }
+  /// The middle line between the jaws at time t: from the tip along the axis, `length` long.
+  std::array<Vec3, 2> middle(double t) const {
+    const Vec3 tip = p_.path.at(t).first;
+    return {tip,
+            {tip[0] + p_.length * p_.axis[0], tip[1] + p_.length * p_.axis[1],
+             tip[2] + p_.length * p_.axis[2]}};
+  }
+  /// A jaw's axis at time t (side -1/2 or +1/2 of the opening along `across`).
+  std::array<Vec3, 2> jaw(double t, double side) const {
+    auto m = middle(t);
+    const double d = side * opening(t);
+    for (Vec3& q : m)
+      for (int k = 0; k < 3; ++k) q[k] += d * p_.across[k];
+    return m;
+  }
+
+  /// Takes the surface between the closed jaws: the points where the middle line crosses it
+  /// (inserted where they fall inside a triangle or on an edge), and the points within a radius of
+  /// the line connected to one of those by edges within it; grasps them, carried by the tip's
+  /// displacement from now on.
+  void take(ActionContext& c, double now) {
+    Simulation& sim = c.simulation();
+    topology::Topology& topo = sim.topology();
+    const auto line = middle(now);
+    const auto current = [&sim](PointId p) {
+      const auto x = sim.state().x();
+      return Vec3{x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
+    };
+    std::vector<PointId> seeds;
+    {
+      forcefields::SurfaceQuery query(topo, sim.state().x());
+      std::vector<forcefields::SurfaceHit> hits = query.segmentHits(line[0], line[1]);
+      // (a hit on an edge shared by two triangles may come twice: one point each place)
+      std::vector<Vec3> seen;
+      const double same = 1e-18 * c.meanRestEdge() * c.meanRestEdge();
+      for (const forcefields::SurfaceHit& h : hits) {
+        if (std::any_of(seen.begin(), seen.end(),
+                        [&](const Vec3& q) { return dist2(q, h.point) <= same; }))
+          continue;
+        seen.push_back(h.point);
+        try {
+          seeds.push_back(insertAt(topo, h.triangle, cleaned(h.weights)));
+        } catch (const TopologyError& e) {
+          c.failTopology("the forceps \"" + p_.name + "\" cannot take the surface: " + e.what());
+        }
+      }
+    }
+    if (seeds.empty()) return;  // closed beside the surface: nothing between the jaws
+    // The quality repair around the inserted points, which stay where they are.
+    topology::RepairOptions repair = repairOptions(sim, p_.minAngle);
+    repair.locked.insert(repair.locked.end(), seeds.begin(), seeds.end());
+    if (p_.minAngle > 0) {
+      try {
+        topo.repair(seeds, repair);
+      } catch (const TopologyError& e) {
+        c.failTopology("the forceps \"" + p_.name + "\": the repair failed: " + e.what());
+      }
+    }
+    std::vector<PointId> inside;
+    for (PointId p : topo.points())
+      if (distanceToSegment(current(p), line[0], line[1]) <= p_.radius) inside.push_back(p);
+    std::vector<PointId> held(seeds);
+    for (PointId s : seeds) {
+      if (!std::binary_search(inside.begin(), inside.end(), s)) continue;
+      const auto piece = connectedWithin(topo, inside, s);
+      held.insert(held.end(), piece.begin(), piece.end());
+    }
+    std::sort(held.begin(), held.end());
+    held.erase(std::unique(held.begin(), held.end()), held.end());
+    for (PointId p : held) {
+      if (sim.fixed().contains(p))
+        c.fail("the forceps \"" + p_.name + "\" close on point " + std::to_string(p.idx()) +
+               ", which is fixed: a point is held by one constraint");
+      for (std::size_t g = 0; g < sim.numGrasps(); ++g)
+        if (sim.grasp(g).points().contains(p))
+          c.fail("the forceps \"" + p_.name + "\" close on point " + std::to_string(p.idx()) +
+                 ", which the grasp \"" + sim.grasp(g).name() +
+                 "\" holds: a point is held by one constraint");
+    }
+    // The tip's displacement from now on (linear between keyframes: exact at the keys).
+    DisplacementPath path;
+    const Vec3 tip0 = p_.path.at(now).first;
+    path.times.push_back(0.0);
+    path.displacements.push_back({0, 0, 0});
+    const double horizon = timing_.to - timing_.from;
+    for (std::size_t k = 0; k < p_.path.times().size(); ++k) {
+      const double t = std::min(p_.path.times()[k], horizon);
+      if (!(t > now + 1e-12 * std::max(1.0, horizon))) continue;
+      if (t - now <= path.times.back()) continue;
+      const Vec3 tip = p_.path.at(t).first;
+      path.times.push_back(t - now);
+      path.displacements.push_back({tip[0] - tip0[0], tip[1] - tip0[1], tip[2] - tip0[2]});
+    }
+    if (horizon > now && !(horizon - now <= path.times.back())) {
+      const Vec3 tip = p_.path.at(horizon).first;
+      path.times.push_back(horizon - now);
+      path.displacements.push_back({tip[0] - tip0[0], tip[1] - tip0[1], tip[2] - tip0[2]});
+    }
+    sim.addGrasp(p_.name, held, path);
+  }
+
+  /// The point of triangle t with the given weights as a point of the mesh: the corner it is, a
+  /// point inserted on the edge it is on, or one inserted inside the triangle.
+  static PointId insertAt(topology::Topology& topo, topology::TriangleId t,
+                          const std::array<double, 3>& w) {
+    const auto v = topo.triangleVertices(t);
+    for (int k = 0; k < 3; ++k)
+      if (w[k] >= 1.0) return v[k];
+    for (int k = 0; k < 3; ++k)
+      if (w[k] == 0.0) {
+        // On the edge opposite corner k: from v[k+1] to v[k+2].
+        const PointId a = v[(k + 1) % 3], b = v[(k + 2) % 3];
+        const topology::EdgeId e = topo.findEdge(a, b);
+        const auto ends = topo.edgeVertices(e);
+        const double along = ends[0] == a ? w[(k + 2) % 3] : w[(k + 1) % 3];
+        return topo.splitEdge(e, along);
+      }
+    return topo.splitTriangle(t, w);
+  }
+
+  ForcepsParameters p_;
+  ActionTiming timing_;
+  bool started_ = false, finished_ = false, holding_ = false;
+};
+
+ForcepsParameters readForceps(const ParameterSource& s) {
+  ForcepsParameters p;
+  if (!s.has("from") || !s.has("to"))
+    s.fail(s.has("from") ? "to" : "from",
+           "forceps move over an interval: give \"from\" and \"to\" (not \"at\")");
+  s.require("name");
+  p.name = s.string("name");
+  if (p.name.empty()) s.fail("name", "must not be empty");
+  if (p.name.find_first_of(",\"\n\r") != std::string::npos ||
+      p.name.find('\0') != std::string::npos)
+    s.fail("name", "must not contain a comma, a quote or a line break (it names CSV columns)");
+  for (const char* key : {"radius", "length"}) {
+    s.require(key);
+    const double v = s.number(key);
+    if (!(v > 0)) s.fail(key, "must be a positive number (m)");
+    (std::string(key) == "radius" ? p.radius : p.length) = v;
+  }
+  std::vector<std::vector<double>> extras(1);
+  p.path = ToolPath::read(s, false, "the forceps", extras);
+  p.openings = extras[0];
+  for (std::size_t i = 0; i < p.openings.size(); ++i)
+    if (!(p.openings[i] >= 2 * p.radius))
+      s.fail("path/" + std::to_string(i) + "/4",
+             "the jaws' opening (the distance between their axes) must be at least 2 radii = " +
+                 describeNumber(2 * p.radius) + " (closed: touching); got " +
+                 describeNumber(p.openings[i]));
+  s.require("axis");
+  s.require("across");
+  const Vec3 axis = s.vec3("axis"), across = s.vec3("across");
+  if (!(dot(axis, axis) > 0)) s.fail("axis", "must not be zero");
+  p.axis = unit(axis);
+  // `across` made normal to the axis.
+  const double along = dot(across, p.axis);
+  const Vec3 normal{across[0] - along * p.axis[0], across[1] - along * p.axis[1],
+                    across[2] - along * p.axis[2]};
+  if (!(dot(normal, normal) > 1e-12 * std::max(dot(across, across), 1e-300)))
+    s.fail("across", "must not be parallel to the axis (it is the direction the jaws close along)");
+  p.across = unit(normal);
+  p.minAngle = readMinAngle(s);
+  return p;
+}
+
+const bool registered = ActionRegistry::instance().add(
+    {"forceps",
+     "two jaws moving in world coordinates along a path of keyframes over an interval (\"from\", "
+     "\"to\"), opening and closing: closed, they take the surface between them where it is then "
+     "(material points inside triangles included) and carry it until they open",
+     {{"from", KeyType::Number, "when they start moving", {}, true},
+      {"to", KeyType::Number, "when they stop (closed then, they hold on)", {}, true},
+      {"name",
+       KeyType::String,
+       "their grasp's name (unique among the active grasps): the CSV's reaction-force columns",
+       {"forceps"},
+       true},
+      {"path",
+       KeyType::Rows,
+       "[[t, x, y, z, opening], ...]: times from \"from\", strictly increasing; the middle of the "
+       "jaws' tips (x, y, z) in world coordinates and the distance between their axes (m, at "
+       "least 2 radii: closed, the jaws touch); linear between keyframes, held outside",
+       {},
+       true},
+      {"axis", KeyType::Point, "[x, y, z]: from the tips along the jaws (world)", {}, true},
+      {"across",
+       KeyType::Point,
+       "[x, y, z]: from one jaw to the other, the direction they close along (made normal to the "
+       "axis)",
+       {},
+       true},
+      {"radius", KeyType::Number, "of each jaw (m), > 0", {}, true},
+      {"length", KeyType::Number, "of each jaw from its tip (m), > 0", {}, true},
+      {"minAngle", KeyType::Number,
+       "smallest-angle target (degrees) of the quality repair around the points the jaws insert "
+       "where they take the surface, in [0, 60) (default 20; 0 turns it off)"}},
+     {},
+     [](const ParameterSource& s) -> std::any { return readForceps(s); },
+     [](const std::any& p, const ActionTiming& timing) -> std::unique_ptr<TimelineAction> {
+       return std::make_unique<ForcepsAction>(std::any_cast<const ForcepsParameters&>(p), timing);
+     }});
+
+}  // namespace
+}  // namespace cutsim::core
