@@ -277,6 +277,44 @@ TEST(Checkpoint, ACauteryGoesOnBitForBitFromAnyStepOfItsPath) {
   std::filesystem::remove(file);
 }
 
+TEST(Checkpoint, ForcepsGoOnBitForBitOpenClosedAndHolding) {
+  // Jaws that come down on a hanging, swaying sheet, close on it (a point inserted where their
+  // middle line crosses it), carry it aside and open: checkpoints before, while and after they
+  // hold (the grasp they made is the simulation's; the jaws keep whether they hold).
+  const std::string text = R"({
+  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+  "mass": {"total": 0.1},
+  "gravity": [0, -9.81, -2],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
+                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01}],
+  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
+  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
+  "timeStep": 0.01, "duration": 0.3,
+  "timeline": [{"action": "forceps", "name": "jaws", "from": 0.02, "to": 0.25,
+                "axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0.01, "length": 0.3,
+                "path": [[0, 0.43, 0.47, -0.15, 0.1], [0.03, 0.43, 0.47, -0.15, 0.02],
+                         [0.15, 0.6, 0.5, 0.0, 0.02], [0.2, 0.6, 0.5, 0.0, 0.1]]}]
+})";
+  const Scene scene = parseScene(text, "forceps.json", test::kSceneDir);
+  {
+    SceneRunner probe(scene);
+    probe.start();
+    bool held = false;
+    while (!probe.finished()) {
+      probe.advance();
+      held = held || probe.simulation().findGrasp("jaws");
+    }
+    ASSERT_TRUE(held);
+    ASSERT_EQ(probe.simulation().findGrasp("jaws"), nullptr);  // opened
+  }
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_forceps.ckpt";
+  std::mt19937 rng(11);
+  for (long stop : {2L, 5L, 6L, 12L, 21L, 25L}) resumeAndCompare(scene, stop, file);
+  resumeAndCompare(scene, std::uniform_int_distribution<long>(2, 28)(rng), file);
+  std::filesystem::remove(file);
+}
+
 TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   // A run changed while running (an action given, a field replaced) is not the scene's run any
   // more: its checkpoint could not be resumed from the scene.

@@ -1,6 +1,7 @@
 """World and material from Python: locate, rays and segments against a brute force over every
 triangle (numpy), material points carried back to the world and to rest; a scalpel played from a
-dict cuts the surface where it hangs; a cautery from a dict carves it where it hangs."""
+dict cuts the surface where it hangs; a cautery from a dict carves it where it hangs; forceps
+from a dict take it where it hangs and carry it."""
 import pathlib
 
 import numpy as np
@@ -158,6 +159,39 @@ def test_a_cautery_from_a_dict_carves_where_the_cloth_hangs(small_scene):
     t = np.clip(((x - a) @ ab) / (ab @ ab), 0, 1)
     depth = r - np.linalg.norm(x - (a + t[:, None] * ab), axis=1)
     assert depth.max() < 0.02
+
+
+def test_forceps_from_a_dict_take_the_cloth_where_it_hangs_and_carry_it(small_scene):
+    # Jaws closing around a point of the hanging cloth found with locate take that material
+    # point (inserted into the mesh) and carry it 10 cm up; their force is a grasp's.
+    small_scene["duration"] = 1.0
+    sim = cutsim.Simulation(small_scene)
+    sim.step(60)
+    hit = sim.locate([[0.43, 0.61, -1.0]])
+    p = hit["point"][0]
+    t0 = sim.time
+    sim.act({"action": "forceps", "name": "jaws", "from": t0, "to": t0 + 0.2,
+             "axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0.01, "length": 0.2,
+             "path": [[0, p[0], p[1], p[2] - 0.1, 0.05], [0.01, p[0], p[1], p[2] - 0.1, 0.02],
+                      [0.2, p[0], p[1], p[2] + 0.0, 0.02]]})
+    n = sim.alive.size
+    sim.step(3)
+    assert "jaws" in sim.grasp_forces()
+    assert sim.alive.size > n  # the material point was inserted
+    # The point taken is on the jaws' middle line (they move along z only).
+    new = [i for i in range(n, sim.alive.size) if sim.alive[i]]
+    taken = [i for i in new if np.linalg.norm(sim.x[i][:2] - p[:2]) < 1e-9]
+    assert len(taken) == 1
+
+    def z_of_jaws(t):
+        return p[2] - 0.1 + 0.1 * np.clip((t - t0 - 0.01) / 0.19, 0, 1)
+
+    start, t1 = sim.x[taken[0]].copy(), sim.time
+    sim.step(40)  # to t0 + 0.2 and on: the jaws hold where they stopped
+    moved = sim.x[taken[0]] - start
+    np.testing.assert_allclose(moved, [0, 0, z_of_jaws(sim.time) - z_of_jaws(t1)], atol=1e-9)
+    assert moved[2] > 0.05
+    assert not sim.validate()
 
 
 def test_bad_scalpel_paths_are_refused(small_scene):
