@@ -137,7 +137,8 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
   EXPECT_THAT(
       parseError(
           timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
-      HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing (it belongs to cautery)"));
+      HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing (it belongs to cautery, "
+                "forceps)"));
   EXPECT_THAT(parseError(timeline(
                   "{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
               HasSubstr("(it belongs to cut, dissect)"));
