@@ -315,6 +315,32 @@ TEST(Checkpoint, ForcepsGoOnBitForBitOpenClosedAndHolding) {
   std::filesystem::remove(file);
 }
 
+TEST(Checkpoint, SuturesGoOnBitForBitWhileTheyTighten) {
+  // Two stitches placed across a hanging, swaying sheet (points inserted where the needles
+  // pierce it) and tightened over 0.15 s: checkpoints before, while and after (the threads are
+  // the Sutures field's, their schedule the action's).
+  const std::string text = R"({
+  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+  "mass": {"total": 0.1},
+  "gravity": [0, -9.81, -2],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
+                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01},
+                  {"type": "Sutures", "stiffness": 50, "damping": 0.2}],
+  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
+  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
+  "timeStep": 0.01, "duration": 0.3,
+  "timeline": [{"at": 0.05, "action": "suture", "bite": 0.3, "tighten": 0.15, "length": 0.05,
+                "stitches": [[0.23, 0.47, 0, 0.61, 0.52, 0], [0.37, 0.33, 0, 0.52, 0.71, 0]]}]
+})";
+  const Scene scene = parseScene(text, "sutures.json", test::kSceneDir);
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_sutures.ckpt";
+  std::mt19937 rng(13);
+  for (long stop : {3L, 6L, 7L, 12L, 22L}) resumeAndCompare(scene, stop, file);
+  resumeAndCompare(scene, std::uniform_int_distribution<long>(2, 28)(rng), file);
+  std::filesystem::remove(file);
+}
+
 TEST(Checkpoint, WhatCannotBeSavedIsNamedAndWhatDoesNotFitIsRefused) {
   // A run changed while running (an action given, a field replaced) is not the scene's run any
   // more: its checkpoint could not be resumed from the scene.

@@ -14,12 +14,14 @@
 #include <cstdio>
 #include <functional>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "cutsim/core/scene.hpp"
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/attachment.hpp"
+#include "cutsim/forcefields/sutures.hpp"
 #include "support/scene_text.hpp"
 
 namespace cutsim::core {
@@ -712,6 +714,133 @@ TEST(Forceps, BadInputIsRefusedBeforeTheRunNamingThePlace) {
       "length": 0.04, "path": [[0, 0, 0, 0, 0.03]]}, {"at": 0, "action": "grasp", "name": "f",
       "points": [0], "path": [[0, 0, 0, 0]]})")),
               HasSubstr("/timeline/1/name: a grasp named \"f\" is already active"));
+}
+
+// ---- sutures ----
+
+const forcefields::Sutures& suturesOf(const Simulation& sim) {
+  for (std::size_t i = 0; i < sim.model().numForceFields(); ++i)
+    if (auto* f = dynamic_cast<const forcefields::Sutures*>(&sim.model().forceField(i))) return *f;
+  throw std::runtime_error("no Sutures field");
+}
+
+TEST(Suture, ANeedleThroughTwoPlacesTiesTheirMaterialPointsAndTightens) {
+  // The needle goes down through the sheet at A and up through it at B: the two material points
+  // become points of the mesh (neither is near a vertex) tied by a thread shortened to 0 over
+  // 0.1 s, which pulls them together.
+  const std::string needle = R"("needle": [[0.31, 0.42, 0.05], [0.31, 0.42, -0.05],
+      [0.63, 0.57, -0.05], [0.63, 0.57, 0.05]])";
+  SceneRunner runner(
+      parseScene(sheet(R"({"at": 0.02, "action": "suture", "tighten": 0.1, )" + needle + "}", 0.2,
+                       "[0, 0, 0]", R"(, {"type": "Sutures", "stiffness": 0.5})"),
+                 "a.json", test::kSceneDir));
+  runner.start();
+  Simulation& sim = runner.simulation();
+  double placed = -1.0;
+  while (!runner.finished()) {
+    runner.advance();
+    ASSERT_TRUE(sim.topology().validate().ok()) << "step " << runner.currentStep();
+    const auto& stitches = suturesOf(sim).stitches();
+    if (stitches.empty()) continue;
+    ASSERT_EQ(stitches.size(), 1u);
+    const auto& st = stitches.front();
+    if (placed < 0) {
+      const Vec3 a = sim.topology().restPosition(st.a), b = sim.topology().restPosition(st.b);
+      EXPECT_NEAR(a[0], 0.31, 1e-12);
+      EXPECT_NEAR(a[1], 0.42, 1e-12);
+      EXPECT_NEAR(b[0], 0.63, 1e-12);
+      EXPECT_NEAR(b[1], 0.57, 1e-12);
+      placed = std::hypot(0.32, 0.15);
+    }
+    // The schedule: from its length when placed (t = 0.02) to 0 at t = 0.12.
+    const double f = std::clamp((runner.time() - 0.02) / 0.1, 0.0, 1.0);
+    EXPECT_NEAR(st.length, (1 - f) * placed, 1e-9) << "t " << runner.time();
+  }
+  const auto& st = suturesOf(sim).stitches().front();
+  const Vec3 a = worldOf(sim, st.a), b = worldOf(sim, st.b);
+  EXPECT_LT(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]), 0.5 * placed);
+}
+
+TEST(Suture, ARunningSutureClosesAGapingWound) {
+  // Skin under 5 % resting tension, its border held, slit across the middle: the wound gapes;
+  // three stitches across it tightened to 0 over 0.2 s bring each pair of lips together.
+  const std::string text = R"({
+  "mesh": {"grid": {"nx": 15, "ny": 15, "size": [0.1, 0.1], "plane": "xy"}},
+  "mass": {"total": 0.02},
+  "gravity": [0, 0, 0],
+  "forceFields": [{"type": "TriangularFEM", "youngModulus": 1e6, "poissonRatio": 0.45,
+                   "thickness": 0.002, "restScale": 0.95},
+                  {"type": "Sutures", "stiffness": 300, "damping": 0.5}],
+  "constraints": [{"type": "fixed", "box": [[0, 0, -1], [0, 0.1, 1]]},
+                  {"type": "fixed", "box": [[0.1, 0, -1], [0.1, 0.1, 1]]},
+                  {"type": "fixed", "box": [[0, 0, -1], [0.1, 0, 1]]},
+                  {"type": "fixed", "box": [[0, 0.1, -1], [0.1, 0.1, 1]]}],
+  "integrator": {"type": "implicit-euler", "rayleighMass": 2.0},
+  "linearSolver": {"type": "cholmod"},
+  "timeStep": 0.005, "duration": 0.5,
+  "timeline": [{"at": 0.02, "action": "cut", "polyline": [[0.025, 0.0517, 0], [0.075, 0.0517, 0]]},
+               {"at": 0.15, "action": "suture", "bite": 0.002, "tighten": 0.2,
+                "stitches": [[0.04, 0.045, 0, 0.04, 0.058, 0], [0.05, 0.045, 0, 0.05, 0.058, 0],
+                             [0.06, 0.045, 0, 0.06, 0.058, 0]]}]
+})";
+  SceneRunner runner(parseScene(text, "wound.json", test::kSceneDir));
+  runner.start();
+  Simulation& sim = runner.simulation();
+  // The wound's gape around x = 0.05: how far apart in y its lips' points there are (the two
+  // copies of each point of the cut: the points of its border away from the patch's).
+  const auto gape = [&sim] {
+    double lo = 1.0, hi = -1.0;
+    for (PointId p : sim.topology().points()) {
+      const Vec3 r = sim.topology().restPosition(p);
+      if (!sim.topology().isBoundaryPoint(p) || std::abs(r[0] - 0.05) > 0.005 ||
+          std::abs(r[1] - 0.05) > 0.01)
+        continue;
+      lo = std::min(lo, worldOf(sim, p)[1]);
+      hi = std::max(hi, worldOf(sim, p)[1]);
+    }
+    return hi - lo;
+  };
+  double before = -1.0;
+  while (!runner.finished()) {
+    runner.advance();
+    ASSERT_TRUE(sim.topology().validate().ok()) << "step " << runner.currentStep();
+    if (before < 0 && !suturesOf(sim).stitches().empty()) before = gape();
+  }
+  ASSERT_EQ(suturesOf(sim).stitches().size(), 3u);
+  EXPECT_GT(before, 0.001);  // the wound gaped by more than a millimetre
+  EXPECT_LT(gape(), 0.2 * before);
+}
+
+TEST(Suture, ANeedleThatMissesALipOrASceneWithoutThreadsIsRefusedNamingIt) {
+  const std::string fields = R"(, {"type": "Sutures", "stiffness": 1})";
+  auto runError = [&](const std::string& action) -> std::string {
+    try {
+      SceneRunner runner(
+          parseScene(sheet(action, 0.05, "[0, 0, 0]", fields), "a.json", test::kSceneDir));
+      runner.start();
+      while (!runner.finished()) runner.advance();
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_THAT(runError(R"({"at": 0.01, "action": "suture",
+      "needle": [[0.3, 0.4, 0.05], [0.3, 0.4, -0.05], [0.3, 0.5, -0.05]]})"),
+              HasSubstr("pierces the surface once only, at (0.3, 0.4, 0)"));
+  EXPECT_THAT(runError(R"({"at": 0.01, "action": "suture",
+      "needle": [[0.3, 0.4, 0.05], [0.3, 0.5, 0.05]]})"),
+              HasSubstr("the needle misses the surface"));
+  EXPECT_THAT(parseError(sheet(R"({"at": 0.01, "action": "suture",
+      "needle": [[0.3, 0.4, 0.05], [0.3, 0.4, -0.05]]})")),
+              HasSubstr("stitches need a Sutures force field"));
+  EXPECT_THAT(parseError(sheet(R"({"at": 0.01, "action": "suture",
+      "stitches": [[0.3, 0.4, 0, 0.3, 0.5, 0]]})",
+                               0.05, "[0, 0, 0]", fields)),
+              HasSubstr("/timeline/0: missing key \"bite\""));
+  EXPECT_THAT(parseError(sheet(R"({"at": 0.01, "action": "suture", "bite": 0.01,
+      "needle": [[0.3, 0.4, 0.05], [0.3, 0.4, -0.05]]})",
+                               0.05, "[0, 0, 0]", fields)),
+              HasSubstr("/timeline/0/bite: is for a running suture"));
 }
 
 }  // namespace

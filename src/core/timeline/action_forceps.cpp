@@ -38,17 +38,6 @@ struct ForcepsParameters {
   double minAngle = kDefaultMinAngle;
 };
 
-/// The weights of a hit, a corner's within rounding of 1 or an edge's within rounding of 0 taken
-/// as exactly so (the point is then that corner, or on that edge).
-std::array<double, 3> cleaned(std::array<double, 3> w) {
-  for (double& x : w) x = std::clamp(x, 0.0, 1.0);
-  for (double& x : w)
-    if (x < 1e-9) x = 0.0;
-  const double sum = w[0] + w[1] + w[2];
-  for (double& x : w) x /= sum;
-  return w;
-}
-
 class ForcepsAction final : public TimelineAction {
  public:
   ForcepsAction(ForcepsParameters p, const ActionTiming& timing)
@@ -143,7 +132,7 @@ class ForcepsAction final : public TimelineAction {
           continue;
         seen.push_back(h.point);
         try {
-          seeds.push_back(insertAt(topo, h.triangle, cleaned(h.weights)));
+          seeds.push_back(pointAt(topo, h.triangle, h.weights));
         } catch (const TopologyError& e) {
           c.failTopology("the forceps \"" + p_.name + "\" cannot take the surface: " + e.what());
         }
@@ -201,25 +190,6 @@ class ForcepsAction final : public TimelineAction {
       path.displacements.push_back({tip[0] - tip0[0], tip[1] - tip0[1], tip[2] - tip0[2]});
     }
     sim.addGrasp(p_.name, held, path);
-  }
-
-  /// The point of triangle t with the given weights as a point of the mesh: the corner it is, a
-  /// point inserted on the edge it is on, or one inserted inside the triangle.
-  static PointId insertAt(topology::Topology& topo, topology::TriangleId t,
-                          const std::array<double, 3>& w) {
-    const auto v = topo.triangleVertices(t);
-    for (int k = 0; k < 3; ++k)
-      if (w[k] >= 1.0) return v[k];
-    for (int k = 0; k < 3; ++k)
-      if (w[k] == 0.0) {
-        // On the edge opposite corner k: from v[k+1] to v[k+2].
-        const PointId a = v[(k + 1) % 3], b = v[(k + 2) % 3];
-        const topology::EdgeId e = topo.findEdge(a, b);
-        const auto ends = topo.edgeVertices(e);
-        const double along = ends[0] == a ? w[(k + 2) % 3] : w[(k + 1) % 3];
-        return topo.splitEdge(e, along);
-      }
-    return topo.splitTriangle(t, w);
   }
 
   ForcepsParameters p_;

@@ -171,6 +171,27 @@ std::vector<topology::TriangleId> trianglesInRegion(const topology::Topology& to
   return out;
 }
 
+PointId pointAt(topology::Topology& topo, topology::TriangleId t, std::array<double, 3> w) {
+  for (double& x : w) x = std::clamp(x, 0.0, 1.0);
+  for (double& x : w)
+    if (x < 1e-9) x = 0.0;
+  const double sum = w[0] + w[1] + w[2];
+  for (double& x : w) x /= sum;
+  const auto v = topo.triangleVertices(t);
+  for (int k = 0; k < 3; ++k)
+    if (w[k] >= 1.0 - 1e-9) return v[k];
+  for (int k = 0; k < 3; ++k)
+    if (w[k] == 0.0) {
+      // On the edge opposite corner k: from v[k+1] to v[k+2].
+      const PointId a = v[(k + 1) % 3], b = v[(k + 2) % 3];
+      const topology::EdgeId e = topo.findEdge(a, b);
+      const auto ends = topo.edgeVertices(e);
+      const double along = ends[0] == a ? w[(k + 2) % 3] : w[(k + 1) % 3];
+      return topo.splitEdge(e, along);
+    }
+  return topo.splitTriangle(t, w);
+}
+
 topology::RepairOptions repairOptions(const Simulation& simulation, double minAngle) {
   topology::RepairOptions o;
   o.minAngle = minAngle;

@@ -8,6 +8,7 @@
 // anything runs, dryRun() checks it on a copy of the rest mesh that the timeline's earlier actions
 // have already changed; during the run, start() runs it when it is due and afterStep() after each
 // later step (the actions that go on: a progressive cut, tearing), in timeline order.
+#include <array>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -55,6 +56,14 @@ PointId nearestPoint(std::span<const PointId> points, const Vec3& position,
 /// of a region: the side of a cut that crosses it), ascending.
 std::vector<PointId> connectedWithin(const topology::Topology& topology,
                                      const std::vector<PointId>& inside, PointId start);
+
+/// The point of triangle t with the given barycentric weights (in the order of its vertices) as a
+/// point of the mesh: the corner it is (a weight within rounding of 1), a point inserted on the
+/// edge it is on (one within rounding of 0), or one inserted inside the triangle; an inserted
+/// point is exactly that material point (its rest position and its current position are the
+/// weights' of the corners'). One topology transaction when it inserts; throws TopologyError.
+PointId pointAt(topology::Topology& topology, topology::TriangleId t,
+                std::array<double, 3> weights);
 
 /// A region of rest space: a sphere or a box.
 struct Region {
