@@ -87,6 +87,7 @@ void FramePacker::add(const Frame& f) {
   }
   j["springs"] = f.springs.size() / 2;
   if (!f.springs.empty()) j["spring"] = put("spring", f.springs);
+  if (!f.stitches.empty()) j["stitch"] = put("stitch", f.stitches);
   if (!f.obstacleX.empty()) {
     j["obstacleX"] = put("obstacleX", f.obstacleX);
     j["obstacleTri"] = put("obstacleTri", f.obstacleTriangles);

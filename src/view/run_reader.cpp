@@ -216,6 +216,7 @@ RunFolder scanRun(const fs::path& dir) {
   };
   optional("borders", run.borders);
   optional("springs", run.springs);
+  optional("stitches", run.stitches);
   optional("obstacles", run.obstacles);
   optional("instruments", run.instruments);
   if (fs::exists(dir / "steps.csv"))
@@ -264,6 +265,7 @@ Frame readFrame(const RunFolder& run, std::size_t index) {
     f.hasBorders = true;
   }
   if (auto s = companion(run, run.springs, index)) lines(*s, f.springs, nullptr);
+  if (auto s = companion(run, run.stitches, index)) lines(*s, f.stitches, nullptr);
   if (auto o = companion(run, run.obstacles, index)) {
     const Piece p = openPiece(*o);
     f.obstacleX = required<float>(p, p.node.child("Points"), "position", 3 * p.points);

@@ -143,7 +143,7 @@ class Player {
     this.lit = true;
     this.playing = false;
     this.speed = 1;
-    this.show = { borders: true, springs: false, held: true, obstacles: true, instruments: true, wireframe: false };
+    this.show = { borders: true, springs: false, stitches: true, held: true, obstacles: true, instruments: true, wireframe: false };
     this.ranges = {};
     this.hasSprings = this.frameList.some((f) => f.spring);
     this.buildDom();
@@ -195,6 +195,7 @@ class Player {
     };
     toggle('borders', 'borders and cut lips', 'the border the surface started with in grey, borders opened by cuts, tears and removals in magenta');
     if (this.hasSprings) toggle('springs', 'bending springs', 'one line between the two wing points of each bending spring');
+    if (this.frameList.some((f) => f.stitch)) toggle('stitches', 'stitches', 'each suture\'s thread (green), between the two points it ties');
     if (this.frameList.some((f) => f.held)) toggle('held', 'fixed and grasped points', 'fixed points white, grasped points orange');
     if (this.frameList.some((f) => f.obstacleX)) toggle('obstacles', 'obstacles', 'the contact obstacles');
     if (this.frameList.some((f) => f.instrumentX)) toggle('instruments', 'instruments', 'a scalpel\'s blade, a cautery\'s tip (yellow, tips marked) where they are');
@@ -271,6 +272,11 @@ class Player {
     this.springs = new THREE.LineSegments(this.springGeometry,
       new THREE.LineBasicMaterial({ color: 0xd8dde5, transparent: true, opacity: 0.35 }));
     scene.add(this.springs);
+    this.stitchGeometry = new THREE.BufferGeometry();
+    this.stitches = new THREE.LineSegments(this.stitchGeometry,
+      new THREE.LineBasicMaterial({ color: 0x3ddc84, depthTest: false }));
+    this.stitches.renderOrder = 2;
+    scene.add(this.stitches);
     this.wireGeometry = new THREE.BufferGeometry();
     this.wire = new THREE.LineSegments(this.wireGeometry,
       new THREE.LineBasicMaterial({ color: 0x000000, transparent: true, opacity: 0.35 }));
@@ -294,7 +300,7 @@ class Player {
     scene.add(this.tips);
 
     // Their geometries change with every frame: never culled by a bounding sphere of another frame.
-    for (const o of [this.borders, this.springs, this.wire, this.held, this.obstacles, this.instruments, this.tips]) o.frustumCulled = false;
+    for (const o of [this.borders, this.springs, this.stitches, this.wire, this.held, this.obstacles, this.instruments, this.tips]) o.frustumCulled = false;
     this.raycaster = new THREE.Raycaster();
     const resize = () => {
       const w = this.viewEl.clientWidth, h = Math.max(1, this.viewEl.clientHeight);
@@ -521,6 +527,7 @@ class Player {
       this.borders.geometry.setColors(c);
     }
     this.springGeometry.setAttribute('position', new THREE.BufferAttribute(this.segments(f.spring) || new Float32Array(0), 3));
+    this.stitchGeometry.setAttribute('position', new THREE.BufferAttribute(this.segments(f.stitch) || new Float32Array(0), 3));
     const held = this.array(Uint8Array, f.held);
     const hp = [], hc = [];
     if (held) {
@@ -558,6 +565,7 @@ class Player {
   applyVisibility() {
     this.borders.visible = this.show.borders;
     this.springs.visible = this.show.springs;
+    this.stitches.visible = this.show.stitches;
     this.held.visible = this.show.held;
     this.obstacles.visible = this.show.obstacles;
     this.instruments.visible = this.tips.visible = this.show.instruments;

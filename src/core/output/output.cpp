@@ -655,7 +655,7 @@ bool OutputWriter::isRunOutput(const std::string& name) {
   if (starts(".") && ends(".tmp")) return true;  // a frame being written when a run was killed
   if (ends(".vtp"))
     return starts("surface_") || starts("borders_") || starts("springs_") || starts("network_") ||
-           starts("obstacles_") || starts("instruments_");
+           starts("stitches_") || starts("obstacles_") || starts("instruments_");
   return starts("frame_") && ends(".obj");
 }
 
@@ -778,15 +778,19 @@ void OutputWriter::writeFrame(Simulation& sim, const StepRecord& r) {
                           [&](std::ostream& o) { writePvd(o, borderFrames_); });
     }
     if (settings_.springs) {
-      // Every field that draws: the first FastTriangularBendingSprings as "springs", the others
-      // as "network_<label>".
+      // Every field that draws: the first FastTriangularBendingSprings as "springs", the first
+      // Sutures as "stitches" (their threads), the others as "network_<label>".
       const auto* bending = firstBending(sim);
+      const forcefields::ForceField* sutures = nullptr;
+      for (std::size_t i = 0; i < sim.numForceFields() && !sutures; ++i)
+        if (sim.forceField(i).typeName() == "Sutures") sutures = &sim.forceField(i);
       for (std::size_t i = 0; i < sim.numForceFields(); ++i) {
         const forcefields::ForceField& field = sim.forceField(i);
         std::vector<std::array<PointId, 2>> segments;
         field.draw(segments);
-        const std::string series =
-            &field == bending ? "springs" : networkSeriesName(sim.forceFieldLabel(i));
+        const std::string series = &field == bending   ? "springs"
+                                   : &field == sutures ? "stitches"
+                                                       : networkSeriesName(sim.forceFieldLabel(i));
         // A field that has never drawn anything has no series; one that has keeps a frame for
         // every frame of the run, empty or not, so that its collection has no gap.
         if (segments.empty() && &field != bending && !networkFrames_.count(series)) continue;

@@ -34,6 +34,7 @@ struct Frame {
   std::vector<std::uint32_t> borders;    ///< 2 per border edge
   std::vector<std::uint8_t> lips;        ///< per border edge: 1 a side of a cut or a tear
   std::vector<std::uint32_t> springs;    ///< 2 per bending spring
+  std::vector<std::uint32_t> stitches;   ///< 2 per suture's thread
   std::vector<float> obstacleX;          ///< 3 per obstacle point
   std::vector<std::uint32_t> obstacleTriangles;
   std::vector<float> instrumentX;  ///< 6 per instrument segment (a scalpel's blade: tip, end)
@@ -51,7 +52,7 @@ struct RunFolder {
   std::filesystem::path dir;
   bool partial = false;  ///< only surface.partial.pvd: the run stopped or is still going
   std::vector<std::pair<double, std::string>> surface;  ///< (time, file) per frame
-  std::vector<std::pair<double, std::string>> borders, springs, obstacles,
+  std::vector<std::pair<double, std::string>> borders, springs, stitches, obstacles,
       instruments;  ///< may be empty
   std::optional<std::filesystem::path> csv;
   nlohmann::json info = nlohmann::json::object();  ///< run.json when the run wrote one (scene name,
