@@ -160,16 +160,7 @@ class ForcepsAction final : public TimelineAction {
     }
     std::sort(held.begin(), held.end());
     held.erase(std::unique(held.begin(), held.end()), held.end());
-    for (PointId p : held) {
-      if (sim.fixed().contains(p))
-        c.fail("the forceps \"" + p_.name + "\" close on point " + std::to_string(p.idx()) +
-               ", which is fixed: a point is held by one constraint");
-      for (std::size_t g = 0; g < sim.numGrasps(); ++g)
-        if (sim.grasp(g).points().contains(p))
-          c.fail("the forceps \"" + p_.name + "\" close on point " + std::to_string(p.idx()) +
-                 ", which the grasp \"" + sim.grasp(g).name() +
-                 "\" holds: a point is held by one constraint");
-    }
+    requireFree(c, held, "the forceps \"" + p_.name + "\"");
     // The tip's displacement from now on (linear between keyframes: exact at the keys).
     DisplacementPath path;
     const Vec3 tip0 = p_.path.at(now).first;
@@ -202,12 +193,7 @@ ForcepsParameters readForceps(const ParameterSource& s) {
   if (!s.has("from") || !s.has("to"))
     s.fail(s.has("from") ? "to" : "from",
            "forceps move over an interval: give \"from\" and \"to\" (not \"at\")");
-  s.require("name");
-  p.name = s.string("name");
-  if (p.name.empty()) s.fail("name", "must not be empty");
-  if (p.name.find_first_of(",\"\n\r") != std::string::npos ||
-      p.name.find('\0') != std::string::npos)
-    s.fail("name", "must not contain a comma, a quote or a line break (it names CSV columns)");
+  p.name = readGraspName(s);
   for (const char* key : {"radius", "length"}) {
     s.require(key);
     const double v = s.number(key);

@@ -54,18 +54,7 @@ class GraspAction final : public TimelineAction {
       }
       c.fail("grasp \"" + p_.name + "\" selects no point of the surface");
     }
-    // A point is held by one constraint: a grasp cannot drag a fixed point, nor one another grasp
-    // holds (their reactions would be meaningless).
-    for (PointId p : points) {
-      if (sim.fixed().contains(p))
-        c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p.idx()) +
-               " is fixed: a point is held by one constraint (select points that are not fixed)");
-      for (std::size_t g = 0; g < sim.numGrasps(); ++g)
-        if (sim.grasp(g).points().contains(p))
-          c.fail("grasp \"" + p_.name + "\": point " + std::to_string(p.idx()) +
-                 " is held by the grasp \"" + sim.grasp(g).name() +
-                 "\": a point is held by one constraint");
-    }
+    requireFree(c, points, "grasp \"" + p_.name + "\"");
     sim.addGrasp(p_.name, points, p_.path);
   }
   std::string graspName() const override { return p_.name; }
@@ -122,15 +111,6 @@ DisplacementPath readPath(const ParameterSource& s) {
   return out;
 }
 
-std::string readName(const ParameterSource& s) {
-  s.require("name");
-  std::string name = s.string("name");
-  if (name.empty()) s.fail("name", "must not be empty");
-  if (name.find_first_of(",\"\n\r") != std::string::npos || name.find('\0') != std::string::npos)
-    s.fail("name", "must not contain a comma, a quote or a line break (it names CSV columns)");
-  return name;
-}
-
 const bool graspRegistered = ActionRegistry::instance().add(
     {"grasp",
      "points (resolved when it starts) that follow their position then plus a displacement path",
@@ -168,7 +148,7 @@ const bool graspRegistered = ActionRegistry::instance().add(
      {},
      [](const ParameterSource& s) -> std::any {
        GraspParameters p;
-       p.name = readName(s);
+       p.name = readGraspName(s);
        if (s.has("sphere")) {
          for (const char* key : {"points", "box", "near", "seed"})
            if (s.has(key)) s.fail(key, "give a sphere or a selection, not both");

@@ -192,6 +192,28 @@ PointId pointAt(topology::Topology& topo, topology::TriangleId t, std::array<dou
   return topo.splitTriangle(t, w);
 }
 
+std::string readGraspName(const ParameterSource& s) {
+  s.require("name");
+  std::string name = s.string("name");
+  if (name.empty()) s.fail("name", "must not be empty");
+  if (name.find_first_of(",\"\n\r") != std::string::npos || name.find('\0') != std::string::npos)
+    s.fail("name", "must not contain a comma, a quote or a line break (it names CSV columns)");
+  return name;
+}
+
+void requireFree(ActionContext& c, std::span<const PointId> points, const std::string& who) {
+  const Simulation& sim = c.simulation();
+  for (PointId p : points) {
+    if (sim.fixed().contains(p))
+      c.fail(who + ": point " + std::to_string(p.idx()) +
+             " is fixed: a point is held by one constraint (select points that are not fixed)");
+    for (std::size_t g = 0; g < sim.numGrasps(); ++g)
+      if (sim.grasp(g).points().contains(p))
+        c.fail(who + ": point " + std::to_string(p.idx()) + " is held by the grasp \"" +
+               sim.grasp(g).name() + "\": a point is held by one constraint");
+  }
+}
+
 topology::RepairOptions repairOptions(const Simulation& simulation, double minAngle) {
   topology::RepairOptions o;
   o.minAngle = minAngle;

@@ -65,6 +65,15 @@ std::vector<PointId> connectedWithin(const topology::Topology& topology,
 PointId pointAt(topology::Topology& topology, topology::TriangleId t,
                 std::array<double, 3> weights);
 
+/// Reads a grasp's "name" (required, not empty, without a comma, a quote or a line break: it
+/// names CSV columns).
+std::string readGraspName(const ParameterSource& s);
+
+class ActionContext;
+/// Fails the action (`who`: "grasp \"forceps\"") if one of `points` is fixed or held by a grasp:
+/// a point is held by one constraint (the reactions would be meaningless otherwise).
+void requireFree(ActionContext& c, std::span<const PointId> points, const std::string& who);
+
 /// A region of rest space: a sphere or a box.
 struct Region {
   enum class Kind { Sphere, Box };
