@@ -76,7 +76,7 @@ std::size_t Sutures::addStitch(PointId a, PointId b, double length) {
                                 std::to_string(a.idx()) + " and " + std::to_string(b.idx()) + ")");
   if (!(length >= 0) || !std::isfinite(length))
     throw std::invalid_argument("Sutures::addStitch: a thread's length must be finite and >= 0");
-  stitches_.push_back({a, b, length, true});
+  stitches_.push_back({a, b, length, 1});
   return stitches_.size() - 1;
 }
 
@@ -181,7 +181,7 @@ void Sutures::continueFrom(const ForceField& previous) {
 void Sutures::onPointsDestroyed(const topology::Topology&, const topology::PointsDestroyed& e) {
   for (PointId p : e.points)
     for (Stitch& s : stitches_)
-      if (s.a == p || s.b == p) s.alive = false;
+      if (s.a == p || s.b == p) s.alive = 0;
 }
 
 void Sutures::onPointsRenumbered(const topology::Topology&, const topology::Renumbering& r) {
@@ -196,6 +196,8 @@ void Sutures::validate(const topology::Topology& topology,
                        std::vector<std::string>& problems) const {
   for (std::size_t i = 0; i < stitches_.size(); ++i) {
     const Stitch& s = stitches_[i];
+    if (s.alive > 1)
+      problems.push_back("Sutures: stitch " + std::to_string(i) + " is neither live nor gone");
     if (!s.alive) continue;
     const auto live = [&](PointId p) {
       return p.idx() < topology.pointCapacity() && topology.isPointAlive(p);

@@ -119,25 +119,31 @@ class ForcepsAction final : public TimelineAction {
       const auto x = sim.state().x();
       return Vec3{x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]};
     };
-    std::vector<PointId> seeds;
+    // Where the middle line crosses the surface (a hit on an edge shared by two triangles may
+    // come twice: one point each place).
+    std::vector<Vec3> seen;
     {
-      forcefields::SurfaceQuery query(topo, sim.state().x());
-      std::vector<forcefields::SurfaceHit> hits = query.segmentHits(line[0], line[1]);
-      // (a hit on an edge shared by two triangles may come twice: one point each place)
-      std::vector<Vec3> seen;
+      const forcefields::SurfaceQuery query(topo, sim.state().x());
       const double same = 1e-18 * c.meanRestEdge() * c.meanRestEdge();
-      for (const forcefields::SurfaceHit& h : hits) {
-        if (std::any_of(seen.begin(), seen.end(),
-                        [&](const Vec3& q) { return dist2(q, h.point) <= same; }))
-          continue;
-        seen.push_back(h.point);
-        try {
-          seeds.push_back(pointAt(topo, h.triangle, h.weights));
-        } catch (const TopologyError& e) {
-          c.failTopology("the forceps \"" + p_.name + "\" cannot take the surface: " + e.what());
-        }
-      }
+      for (const forcefields::SurfaceHit& h : query.segmentHits(line[0], line[1]))
+        if (std::none_of(seen.begin(), seen.end(),
+                         [&](const Vec3& q) { return dist2(q, h.point) <= same; }))
+          seen.push_back(h.point);
     }
+    // Each as a point of the mesh, one at a time: an insertion changes the triangles around it,
+    // so the next is found again where it is (which no insertion moves).
+    std::vector<PointId> seeds;
+    try {
+      for (const Vec3& q : seen) {
+        const forcefields::SurfaceQuery query(topo, sim.state().x());
+        const auto at = query.closestPoint(q);
+        if (at) seeds.push_back(pointAt(topo, at->triangle, at->weights));
+      }
+    } catch (const TopologyError& e) {
+      c.failTopology("the forceps \"" + p_.name + "\" cannot take the surface: " + e.what());
+    }
+    std::sort(seeds.begin(), seeds.end());
+    seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
     if (seeds.empty()) return;  // closed beside the surface: nothing between the jaws
     // The quality repair around the inserted points, which stay where they are.
     topology::RepairOptions repair = repairOptions(sim, p_.minAngle);

@@ -9,6 +9,7 @@
 #include <set>
 
 #include "cutsim/base/numbers.hpp"
+#include "cutsim/forcefields/sutures.hpp"
 #include "cutsim/topology/geometry.hpp"
 
 namespace cutsim::core {
@@ -206,7 +207,7 @@ void requireFree(ActionContext& c, std::span<const PointId> points, const std::s
   for (PointId p : points) {
     if (sim.fixed().contains(p))
       c.fail(who + ": point " + std::to_string(p.idx()) +
-             " is fixed: a point is held by one constraint (select points that are not fixed)");
+             " is fixed: a point is held by one constraint (hold points that are not fixed)");
     for (std::size_t g = 0; g < sim.numGrasps(); ++g)
       if (sim.grasp(g).points().contains(p))
         c.fail(who + ": point " + std::to_string(p.idx()) + " is held by the grasp \"" +
@@ -223,6 +224,15 @@ topology::RepairOptions repairOptions(const Simulation& simulation, double minAn
     auto g = simulation.grasp(i).points().points();
     o.locked.insert(o.locked.end(), g.begin(), g.end());
   }
+  // The points a suture's thread ties: moved or replaced, the stitch would be lost.
+  const Model& model = simulation.model();
+  for (std::size_t i = 0; i < model.numForceFields(); ++i)
+    if (const auto* s = dynamic_cast<const forcefields::Sutures*>(&model.forceField(i)))
+      for (const auto& st : s->stitches())
+        if (st.alive) {
+          o.locked.push_back(st.a);
+          o.locked.push_back(st.b);
+        }
   return o;
 }
 

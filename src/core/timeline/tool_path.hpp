@@ -25,9 +25,8 @@ class ToolPath {
   /// action's start, >= 0 and strictly increasing; every number finite. `what` names the
   /// instrument in messages ("the blade").
   static ToolPath read(const ParameterSource& s, bool withAxis, const std::string& what);
-  /// As above, each row followed by `extras.size()` more numbers (finite; checked by the caller),
-  /// returned in `extras` (one vector per extra column, a value per keyframe), each named in
-  /// messages by its entry in `names`.
+  /// As above, each row followed by `extras.size()` more numbers (checked finite), returned in
+  /// `extras` (one vector per extra column, a value per keyframe).
   static ToolPath read(const ParameterSource& s, bool withAxis, const std::string& what,
                        std::vector<std::vector<double>>& extras);
 

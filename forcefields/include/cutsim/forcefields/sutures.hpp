@@ -8,9 +8,11 @@
 //
 // A stitch (a, b, length L, stiffness k, damping c), d = x_a - x_b, l = |d|, n = d / l:
 //   f_a = -k (l - L) n - c ((v_a - v_b) . n) n   when l > L (f_b = -f_a); nothing when l <= L
-//   K_aa = -k [n n^T + (1 - L / l) (I - n n^T)]  (positive semi-definite as l > L), K_ab = -K_aa
+//   K_aa = -k [n n^T + (1 - L / l) (I - n n^T)], K_ab = -K_aa  (-K is positive semi-definite as
+//   l > L); the damping's B_aa = -c n n^T (K leaves out the damping force's change with n)
 //   energy k (l - L)^2 / 2 when l > L.
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -30,8 +32,8 @@ class Sutures final : public ForceField, public topology::TopologyObserver {
  public:
   struct Stitch {
     PointId a, b;
-    double length = 0.0;  ///< the thread's length now (m)
-    bool alive = true;    ///< false once one of its points is gone
+    double length = 0.0;     ///< the thread's length now (m)
+    std::uint8_t alive = 1;  ///< 0 once one of its points is gone (1 byte: read back, checked)
   };
 
   Sutures(topology::Topology& topology, SuturesParameters parameters);

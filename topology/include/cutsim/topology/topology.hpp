@@ -184,9 +184,10 @@ class Topology {
   /// positions give where that point is now (a cautery carving the surface as it is; a function
   /// of the rest position alone cannot tell the two lips of a cut apart). With `moveBorder`,
   /// border points too move onto a crossing within a quarter of an edge (a hole carved again
-  /// where it is: its border points are at the region's boundary, and a crossing a hair's
-  /// breadth from each would leave edges a tiny fraction of the mesh's, which the repair can
-  /// only refine around).
+  /// where it is: its rim lies on the last region's boundary, a hair's breadth from the next
+  /// one's, where crossings would leave edges a tiny fraction of the mesh's, which the repair can
+  /// only refine around): the outline within a quarter of an edge of the region is drawn onto
+  /// its boundary, the outer border's and a cut's lips' too.
   RepairReport carve(const std::function<double(const Vec3&, PointWeights)>& phi,
                      const RepairOptions& repair, std::size_t* removed = nullptr,
                      bool moveBorder = false);
