@@ -22,6 +22,7 @@
 #include "cutsim/core/simulation.hpp"
 #include "cutsim/forcefields/attachment.hpp"
 #include "cutsim/forcefields/sutures.hpp"
+#include "cutsim/topology/geometry.hpp"
 #include "support/scene_text.hpp"
 
 namespace cutsim::core {
@@ -446,6 +447,34 @@ TEST(Cautery, HeldStillOnASheetAtRestCarvesAsTheRemovalOfItsSphere) {
         EXPECT_NEAR(x.points[i][d], y.points[i][d], 1e-9) << "point " << i;
     EXPECT_EQ(x.triangles, y.triangles);
   }
+}
+
+TEST(Cautery, TouchedRemovesEveryTriangleWithinItsRadiusWhole) {
+  // "boundary": "touched", held still on the sheet at rest, no repair: the triangles gone are
+  // exactly those within the radius of its centre (brute force over the grid's triangles), none
+  // cut.
+  const Vec3 centre{0.43, 0.52, 0.01};
+  const double r = 0.07;
+  SceneRunner runner(parseScene(sheet(cautery("[[0, 0.43, 0.52, 0.01]]", 0.02, r,
+                                              R"(, "boundary": "touched", "minAngle": 0)"),
+                                      0.02),
+                                "a.json", test::kSceneDir));
+  SceneRunner plain(parseScene(sheet("", 0.02), "b.json", test::kSceneDir));
+  plain.start();
+  const Shape before = shapeOf(plain.simulation().topology());
+  run(runner);
+  const Shape after = shapeOf(runner.simulation().topology());
+  std::size_t touched = 0;
+  for (const auto& key : before.triangles) {
+    const Vec3 a{key[0], key[1], key[2]}, b{key[3], key[4], key[5]}, c{key[6], key[7], key[8]};
+    const bool within = std::sqrt(topology::geometry::dist2(
+                            centre, topology::geometry::closestOnTriangle(centre, a, b, c))) <= r;
+    touched += within ? 1 : 0;
+    EXPECT_EQ(after.triangles.count(key), within ? 0u : 1u)
+        << a[0] << ", " << a[1] << " / " << b[0] << ", " << b[1] << " / " << c[0] << ", " << c[1];
+  }
+  EXPECT_GT(touched, 6u);
+  EXPECT_EQ(after.triangles.size(), before.triangles.size() - touched);
 }
 
 TEST(Cautery, OnAMovedSheetCarvesTheRegionItSweptInTheWorld) {

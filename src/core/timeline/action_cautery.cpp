@@ -214,17 +214,17 @@ class CauteryAction final : public TimelineAction {
     // it) is not inside: the points are inside deeper than eps, while the boundary's crossings
     // along edges are where the region's function changes sign.
     const double eps = 1e-9 * c.meanRestEdge();
-    bool any = false;
-    for (PointId p : topo.points())
-      if (region.levelSet({x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]}) + eps <= 0) {
-        any = true;
-        break;
-      }
     const topology::RepairOptions repair = repairOptions(sim, p_.minAngle);
     try {
       if (p_.cutBoundary) {
         // (nothing inside: no transaction; the carve would find the same)
-        if (!any) return;
+        const auto points = topo.points();
+        if (std::none_of(points.begin(), points.end(), [&](PointId p) {
+              return region.levelSet({x[3 * p.idx()], x[3 * p.idx() + 1], x[3 * p.idx() + 2]}) +
+                         eps <=
+                     0;
+            }))
+          return;
         topo.carve(
             [&](const Vec3&, topology::Topology::PointWeights w) {
               return region.levelSet(world(w)) + (w.size() == 1 ? eps : 0.0);
