@@ -23,15 +23,15 @@ using topology::Vec3;
 
 namespace {
 
-// The mix drawn from, one entry per chance in 14: edge splits most often (they are what cuts and
+// The mix drawn from, one entry per chance in 15: edge splits most often (they are what cuts and
 // refinement do all the time), then the cutting operations, and the rarer ones once each.
-constexpr std::array<OpKind, 14> kMix = {
-    OpKind::SplitEdge,     OpKind::SplitEdge,   OpKind::SplitEdge,   OpKind::SplitEdge,
-    OpKind::Tear,          OpKind::Tear,        OpKind::Incise,      OpKind::Incise,
-    OpKind::Carve,         OpKind::CutPolyline, OpKind::CutPolyline, OpKind::Compact,
-    OpKind::SplitTriangle, OpKind::AddTriangles};
+constexpr std::array<OpKind, 15> kMix = {
+    OpKind::SplitEdge,     OpKind::SplitEdge,    OpKind::SplitEdge,   OpKind::SplitEdge,
+    OpKind::Tear,          OpKind::Tear,         OpKind::Incise,      OpKind::Incise,
+    OpKind::Carve,         OpKind::CutPolyline,  OpKind::CutPolyline, OpKind::Compact,
+    OpKind::SplitTriangle, OpKind::AddTriangles, OpKind::Sew};
 
-static_assert(static_cast<int>(OpKind::AddTriangles) + 1 == kNumOpKinds, "one tally slot a kind");
+static_assert(static_cast<int>(OpKind::Sew) + 1 == kNumOpKinds, "one tally slot a kind");
 
 // A sequence stops once this many triangles or fewer are left (see runRandomOps).
 constexpr std::size_t kMinTriangles = 12;
@@ -56,6 +56,8 @@ const char* opKindName(OpKind kind) {
       return "splitTriangle";
     case OpKind::AddTriangles:
       return "addTriangles";
+    case OpKind::Sew:
+      return "sew";
   }
   return "?";
 }
@@ -203,6 +205,39 @@ bool RandomTopologyOps::apply(OpKind kind, std::ostringstream& what) {
       }
       announce(what);
       t_.addTriangles(std::vector<topology::TriangleVertices>{tv});
+      return true;
+    }
+    case OpKind::Sew: {
+      // Around a lip point (a border point off the sheet's outline), the lips as they are at rest:
+      // those a cut, a tear or an incision opened meet there.
+      std::vector<PointId> lips;
+      const double eps = 1e-9 * size_;
+      for (PointId p : t_.points()) {
+        const Vec3 r = t_.restPosition(p);
+        const bool outline = r[0] < eps || r[1] < eps || r[0] > size_ - eps || r[1] > size_ - eps;
+        if (!outline && t_.isBoundaryPoint(p)) lips.push_back(p);
+      }
+      if (lips.empty()) {
+        what << "sew skipped (no lip)";
+        return false;
+      }
+      const Vec3 c = t_.restPosition(
+          lips[static_cast<std::size_t>(pick(0, static_cast<int>(lips.size()) - 1))]);
+      const double radius = std::uniform_real_distribution<double>(0.1, 0.5)(rng_) * size_;
+      topology::SewOptions options;
+      options.tolerance = 1e-6 * size_;
+      options.repair = maybeRepair();
+      options.within = [this, c, radius](PointId p) {
+        const Vec3 r = t_.restPosition(p);
+        return std::hypot(r[0] - c[0], r[1] - c[1]) <= radius;
+      };
+      std::vector<double> x(3 * t_.pointCapacity(), 0.0);
+      for (PointId p : t_.points())
+        for (int k = 0; k < 3; ++k) x[3 * p.idx() + k] = t_.restPosition(p)[k];
+      what << "sew(around (" << c[0] << "," << c[1] << ") within " << radius
+           << (options.repair.minAngle > 0 ? ", repair" : "") << ")";
+      announce(what);
+      t_.sew(x, options);
       return true;
     }
   }

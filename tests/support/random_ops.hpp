@@ -28,8 +28,9 @@ enum class OpKind {
   Compact,        ///< renumbering
   SplitTriangle,  ///< at random barycentric weights
   AddTriangles,   ///< puts back a triangle carved since the last compaction
+  Sew,            ///< the lips around a random lip point, within a random radius, at rest
 };
-inline constexpr int kNumOpKinds = 8;
+inline constexpr int kNumOpKinds = 9;
 const char* opKindName(OpKind kind);
 
 /// What one random operation did.

@@ -89,6 +89,32 @@ struct CutOptions {
   RepairOptions repair;
 };
 
+/// Options of sew.
+struct SewOptions {
+  /// How far apart (world distance, > 0) two lips' points may be and still be joined.
+  double tolerance = 0.0;
+  /// Only border points it accepts take part (empty: every border point).
+  std::function<bool(PointId)> within;
+  /// Points that must not disappear (fixed or grasped): a point joined to one merges into it.
+  /// Two locked points may not be joined.
+  std::vector<PointId> locked;
+  /// Points kept rather than the others they are joined to where the choice is free (the points a
+  /// suture's thread ties).
+  std::vector<PointId> preferred;
+  /// Quality repair around the seam, in the same transaction (off by default at this level).
+  RepairOptions repair;
+};
+
+/// Result of a sew.
+struct SewResult {
+  std::size_t edgesJoined = 0;    ///< pairs of border edges made one interior edge
+  std::size_t pointsRemoved = 0;  ///< lip points that disappeared into the point they joined
+  std::vector<PointId> inserted;  ///< points inserted on a lip facing a point of the other
+  std::vector<PointId> merged;    ///< what each group of joined points became (ascending)
+  double largestGap = 0.0;        ///< the largest world distance between two points joined
+  RepairReport repair;            ///< the repair that followed (all zero without one)
+};
+
 struct ValidationReport {
   std::vector<std::string> problems;
   bool ok() const { return problems.empty(); }
@@ -209,6 +235,20 @@ class Topology {
   /// insertion is planned on a copy of the triangles around the cut first: a request that cannot
   /// be carried out throws TopologyError and changes nothing.
   IncisionResult cutPolyline(std::span<const Vec3> polyline, const CutOptions& options = {});
+  /// Sews lips back together, the reverse of a cut: every pair of facing border edges whose ends
+  /// lie within `options.tolerance` of each other where the surface is now (`positions`: x, y, z
+  /// per point slot, world coordinates) becomes one interior edge. Facing: the two edges run in
+  /// opposite directions and their triangles lie on either side of the seam. A lip point facing
+  /// the middle of the other lip's edge, no point of it within the tolerance, first becomes a
+  /// point of that edge too (split there), so lips cut or repaired apart still meet point to
+  /// point. Each group of joined points becomes one point: one of them where their rest
+  /// positions are the same (a locked one, else a preferred one, else the lowest id: the others
+  /// are destroyed), else a new point at their mean (ancestors: the group, equal weights; the
+  /// group destroyed). Observers follow through the usual events. One transaction ("sew"): a
+  /// request that finds no facing lips within the tolerance, would join both ends of an edge, two
+  /// locked points, or leave a point joining two pieces at a corner only, throws TopologyError
+  /// naming what and where, and changes nothing.
+  SewResult sew(std::span<const double> positions, const SewOptions& options);
   /// Quality repair (edge flips, edge collapses, vertex relocations, border splits) of the
   /// triangles around the given points, as a transaction of its own ("repair"): see
   /// docs/topology-events.md. Points may be dead (ignored).

@@ -1,0 +1,364 @@
+// Sewing: lips joined back into one surface where they meet in the world, the reverse of a cut.
+// See Topology::sew and "Sewing" in docs/topology-events.md.
+#include <CGAL/boost/graph/Euler_operations.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <unordered_set>
+
+#include "cutsim/base/union_find.hpp"
+#include "topology_impl.hpp"
+
+namespace cutsim::topology {
+
+namespace {
+
+Vec3 sub(const Vec3& a, const Vec3& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+double dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+double dist(const Vec3& a, const Vec3& b) {
+  return std::sqrt(dot(sub(a, b), sub(a, b)));
+}
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+std::string pt(std::size_t i) {
+  return std::to_string(i);
+}
+
+/// Uniform hash grid of segments' boxes (grown by a margin), for the lips' edges near a point.
+class SegmentGrid {
+ public:
+  SegmentGrid(double cell) : cell_(cell) {}
+  void insert(std::size_t id, const Vec3& a, const Vec3& b, double margin) {
+    long lo[3], hi[3];
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = cellOf(std::min(a[c], b[c]) - margin);
+      hi[c] = cellOf(std::max(a[c], b[c]) + margin);
+    }
+    for (long i = lo[0]; i <= hi[0]; ++i)
+      for (long j = lo[1]; j <= hi[1]; ++j)
+        for (long k = lo[2]; k <= hi[2]; ++k) cells_[key(i, j, k)].push_back(id);
+  }
+  /// The segments whose grown box holds p (may repeat none: each cell lists a segment once, and
+  /// p lies in one cell).
+  const std::vector<std::size_t>& at(const Vec3& p) const {
+    static const std::vector<std::size_t> none;
+    auto it = cells_.find(key(cellOf(p[0]), cellOf(p[1]), cellOf(p[2])));
+    return it == cells_.end() ? none : it->second;
+  }
+
+ private:
+  long cellOf(double v) const { return long(std::floor(v / cell_)); }
+  static std::uint64_t key(long i, long j, long k) {
+    auto u = [](long v) { return std::uint64_t(v) & 0x1FFFFF; };
+    return (u(i) << 42) | (u(j) << 21) | u(k);
+  }
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> cells_;
+};
+
+}  // namespace
+
+SewResult Topology::sew(std::span<const double> positions, const SewOptions& options) {
+  Impl& I = *impl_;
+  const double tol = options.tolerance;
+  if (!(tol > 0) || !std::isfinite(tol))
+    throw TopologyError("sew: the tolerance " + num(tol) + " must be a positive distance");
+  if (positions.size() < 3 * std::size_t(I.mesh.num_vertices()))
+    throw TopologyError("sew: " + pt(positions.size() / 3) + " positions given for " +
+                        pt(I.mesh.num_vertices()) + " point slots");
+  checkRepairOptions(options.repair, "sew");
+  std::unordered_set<Index> locked, preferred;
+  for (PointId p : options.locked) locked.insert(p.idx());
+  for (PointId p : options.preferred) preferred.insert(p.idx());
+
+  return I.committed(*this, "sew", [&] {
+    Mesh& mesh = I.mesh;
+    SewResult result;
+    // Where a point is now: given for the points that existed before; for a point inserted by
+    // this transaction, the same weights of its ancestors' positions.
+    auto world = [&](VI v) -> Vec3 {
+      auto at = [&](Index p) {
+        return Vec3{positions[3 * p], positions[3 * p + 1], positions[3 * p + 2]};
+      };
+      if (v.idx() < I.vBefore) return at(v.idx());
+      Vec3 out{0, 0, 0};
+      for (auto [a, w] : I.ancestry.at(PointId(v.idx()))) {
+        Vec3 q = at(a.idx());
+        for (int c = 0; c < 3; ++c) out[c] += w * q[c];
+      }
+      return out;
+    };
+    // A point this sew inserted lies on a lip that takes part: `within` is not asked about it.
+    auto taking = [&](VI v) {
+      return !options.within || v.idx() >= I.vBefore || options.within(PointId(v.idx()));
+    };
+
+    // The lips: border halfedges (no face; their opposite has one) with both ends taking part.
+    struct Lip {
+      HI h;
+      VI u, v;      // source, target
+      Vec3 a, b;    // where they are
+      Vec3 inward;  // towards the triangle across, perpendicular to the edge
+    };
+    auto lips = [&] {
+      std::vector<Lip> out;
+      for (HI h : mesh.halfedges()) {
+        if (!mesh.is_border(h)) continue;
+        VI u = mesh.source(h), v = mesh.target(h);
+        if (!taking(u) || !taking(v)) continue;
+        Lip l{h, u, v, world(u), world(v), {0, 0, 0}};
+        for (const Vec3& q : {l.a, l.b})
+          for (double c : q)
+            if (!std::isfinite(c))
+              throw TopologyError("sew: the position of point " + pt(l.u.idx()) + " or " +
+                                  pt(l.v.idx()) + " is not finite");
+        const Vec3 c = world(mesh.target(mesh.next(mesh.opposite(h))));
+        const Vec3 d = sub(l.b, l.a),
+                   m{(l.a[0] + l.b[0]) / 2, (l.a[1] + l.b[1]) / 2, (l.a[2] + l.b[2]) / 2};
+        Vec3 w = sub(c, m);
+        const double dd = dot(d, d);
+        if (dd > 0) {
+          const double along = dot(w, d) / dd;
+          for (int k = 0; k < 3; ++k) w[k] -= along * d[k];
+        }
+        l.inward = w;
+        out.push_back(l);
+      }
+      return out;
+    };
+    auto gridOf = [&](const std::vector<Lip>& ls) {
+      double mean = 0;
+      for (const Lip& l : ls) mean += dist(l.a, l.b);
+      mean = ls.empty() ? tol : mean / double(ls.size());
+      SegmentGrid g(std::max(2 * tol, mean));
+      for (std::size_t i = 0; i < ls.size(); ++i) g.insert(i, ls[i].a, ls[i].b, tol);
+      return g;
+    };
+    // Two lips face each other: they run in opposite directions, their triangles on either side.
+    auto facing = [](const Lip& p, const Lip& q) {
+      return dot(sub(p.b, p.a), sub(q.b, q.a)) < 0 && dot(p.inward, q.inward) < 0;
+    };
+
+    // 1. A lip point facing the middle of the other lip's edge, no end of that edge within the
+    //    tolerance, becomes a point of that edge (one split per edge and round).
+    for (int round = 0; round < 16; ++round) {
+      const std::vector<Lip> ls = lips();
+      const SegmentGrid grid = gridOf(ls);
+      std::map<std::size_t, std::pair<double, double>> splits;  // lip -> (distance, parameter)
+      for (std::size_t i = 0; i < ls.size(); ++i) {
+        // The lip point ls[i].u, with its two lips ls[i] (out) and the one into it (in).
+        const Lip& out = ls[i];
+        const Vec3 p = out.a;
+        for (std::size_t j : grid.at(p)) {
+          const Lip& q = ls[j];
+          if (q.u == out.u || q.v == out.u || !facing(out, q)) continue;
+          const Vec3 d = sub(q.b, q.a);
+          const double dd = dot(d, d);
+          if (!(dd > 0)) continue;
+          const double s = std::clamp(dot(sub(p, q.a), d) / dd, 0.0, 1.0);
+          const Vec3 c{q.a[0] + s * d[0], q.a[1] + s * d[1], q.a[2] + s * d[2]};
+          const double e = dist(p, c);
+          if (e > tol || dist(p, q.a) <= tol || dist(p, q.b) <= tol) continue;
+          auto [it, fresh] = splits.emplace(j, std::make_pair(e, s));
+          if (!fresh && e < it->second.first) it->second = {e, s};
+        }
+      }
+      if (splits.empty()) break;
+      for (const auto& [j, ds] : splits) {
+        const double s = std::clamp(ds.second, 0.05, 0.95);
+        VI m = I.splitEdgeNoTxn(mesh.edge(ls[j].h), ls[j].u, s);
+        result.inserted.push_back(PointId(m.idx()));
+      }
+    }
+
+    // 2. Pairs of facing lips whose ends meet within the tolerance, the closest first.
+    const std::vector<Lip> ls = lips();
+    const SegmentGrid grid = gridOf(ls);
+    struct Pair {
+      double gap;
+      std::size_t p, q;
+    };
+    std::vector<Pair> pairs;
+    for (std::size_t i = 0; i < ls.size(); ++i)
+      for (std::size_t j : grid.at(ls[i].b)) {
+        if (j <= i) continue;
+        const Lip &p = ls[i], &q = ls[j];
+        const double gap = std::max(dist(p.b, q.a), dist(p.a, q.b));
+        if (gap <= tol && facing(p, q)) pairs.push_back({gap, i, j});
+      }
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+      return x.gap != y.gap ? x.gap < y.gap : std::make_pair(x.p, x.q) < std::make_pair(y.p, y.q);
+    });
+    std::vector<char> used(ls.size(), 0);
+    std::vector<Pair> joined;
+    for (const Pair& pr : pairs) {
+      if (used[pr.p] || used[pr.q]) continue;
+      used[pr.p] = used[pr.q] = 1;
+      joined.push_back(pr);
+      result.largestGap = std::max(result.largestGap, pr.gap);
+    }
+    if (joined.empty()) {
+      // Say how far apart the closest facing lips are.
+      double best = std::numeric_limits<double>::infinity();
+      std::size_t bp = 0, bq = 0;
+      for (std::size_t i = 0; i < ls.size(); ++i)
+        for (std::size_t j = i + 1; j < ls.size(); ++j) {
+          if (!facing(ls[i], ls[j]) || ls[i].v == ls[j].v || ls[i].u == ls[j].u) continue;
+          const double gap = std::max(dist(ls[i].b, ls[j].a), dist(ls[i].a, ls[j].b));
+          if (gap < best) best = gap, bp = i, bq = j;
+        }
+      if (!std::isfinite(best))
+        throw TopologyError("sew: there are no two facing lips" +
+                            std::string(options.within ? " where the sew takes part" : "") +
+                            " (border edges running opposite ways, their triangles on either "
+                            "side)");
+      const Vec3 m = ls[bp].a;
+      throw TopologyError("sew: no lips lie within the tolerance " + num(tol) +
+                          " of each other: the closest facing border edges, (" +
+                          pt(ls[bp].u.idx()) + ", " + pt(ls[bp].v.idx()) + ") and (" +
+                          pt(ls[bq].u.idx()) + ", " + pt(ls[bq].v.idx()) + ") near (" + num(m[0]) +
+                          ", " + num(m[1]) + ", " + num(m[2]) + "), are " + num(best) + " apart");
+    }
+    result.edgesJoined = joined.size();
+
+    // 3. Groups of points to join.
+    std::vector<VI> members;
+    std::unordered_map<Index, std::size_t> slot;
+    auto slotOf = [&](VI v) {
+      auto [it, fresh] = slot.emplace(v.idx(), members.size());
+      if (fresh) members.push_back(v);
+      return it->second;
+    };
+    std::vector<std::pair<std::size_t, std::size_t>> unions;
+    for (const Pair& pr : joined) {
+      unions.emplace_back(slotOf(ls[pr.p].v), slotOf(ls[pr.q].u));
+      unions.emplace_back(slotOf(ls[pr.p].u), slotOf(ls[pr.q].v));
+    }
+    UnionFind groups(members.size());
+    for (auto [a, b] : unions) groups.unite(a, b);
+    std::map<std::size_t, std::vector<VI>> byRoot;
+    for (std::size_t i = 0; i < members.size(); ++i) byRoot[groups.find(i)].push_back(members[i]);
+
+    std::unordered_map<std::uint64_t, VI> subst;
+    std::vector<FI> affected;
+    std::vector<std::pair<VI, std::size_t>> expect;  // joined point, triangles it must have
+    std::vector<VI> seeds;
+    for (auto& [root, group] : byRoot) {
+      if (group.size() < 2) continue;
+      std::sort(group.begin(), group.end());
+      for (std::size_t a = 0; a < group.size(); ++a)
+        for (std::size_t b = a + 1; b < group.size(); ++b)
+          if (I.findHalfedge(group[a], group[b]).is_valid())
+            throw TopologyError("sew: joining the lips would join both ends of the edge (" +
+                                pt(group[a].idx()) + ", " + pt(group[b].idx()) +
+                                "): the tolerance " + num(tol) +
+                                " is not small beside the lips' edges there");
+      VI keep;
+      std::vector<VI> held;
+      for (VI v : group)
+        if (locked.count(v.idx())) held.push_back(v);
+      if (held.size() > 1)
+        throw TopologyError("sew: the lips' points " + pt(held[0].idx()) + " and " +
+                            pt(held[1].idx()) +
+                            " are both held (fixed or grasped): one of them would disappear");
+      bool sameRest = true;
+      for (VI v : group) sameRest = sameRest && mesh.point(v) == mesh.point(group.front());
+      if (!held.empty()) {
+        keep = held.front();
+      } else if (sameRest) {
+        keep = group.front();
+        for (VI v : group)
+          if (preferred.count(v.idx())) {
+            keep = v;
+            break;
+          }
+      } else {
+        std::vector<std::pair<PointId, double>> anc;
+        for (VI v : group) anc.emplace_back(PointId(v.idx()), 1.0 / double(group.size()));
+        keep = I.newPoint(anc);
+      }
+      std::size_t triangles = 0;
+      for (VI v : group) {
+        std::vector<HI> in;
+        I.incomingHalfedges(v, in);
+        for (HI h : in)
+          if (FI f = mesh.face(h); f.is_valid()) {
+            ++triangles;
+            if (v != keep) {
+              subst[Impl::faceVertexKey(f, v)] = keep;
+              affected.push_back(f);
+            }
+          }
+        if (v != keep) ++result.pointsRemoved;
+      }
+      expect.emplace_back(keep, triangles);
+      seeds.push_back(keep);
+    }
+    std::sort(affected.begin(), affected.end());
+    affected.erase(std::unique(affected.begin(), affected.end()), affected.end());
+    try {
+      I.reattach(affected, subst);
+    } catch (const InjectedFailure&) {
+      throw;
+    } catch (const TopologyError&) {
+      throw TopologyError(
+          "sew: the lips cannot be joined there without leaving the surface non-manifold (a "
+          "triangle would repeat or an edge join three)");
+    }
+    // A joined point must not hold two pieces together at a corner only (a bowtie): every
+    // triangle it belongs to must lie in the one fan around it.
+    for (auto [v, triangles] : expect) {
+      std::vector<HI> in;
+      I.incomingHalfedges(v, in);
+      std::size_t n = 0;
+      for (HI h : in) n += mesh.face(h).is_valid() ? 1 : 0;
+      if (n != triangles) {
+        const Vec3 w = world(v);
+        throw TopologyError("sew: joining the lips near (" + num(w[0]) + ", " + num(w[1]) + ", " +
+                            num(w[2]) +
+                            ") would leave two pieces touching at a single point: sew more of "
+                            "the seam at once, or less");
+      }
+    }
+
+    // 4. The quality repair around the seam.
+    if (options.repair.minAngle > 0) {
+      RepairOptions repair = options.repair;
+      for (PointId p : options.locked) repair.locked.push_back(p);
+      std::unordered_map<Index, Index> replaced;
+      result.repair = I.repairNoTxn(seeds, repair, replaced);
+      for (VI& v : seeds) {
+        Index p = v.idx();
+        for (auto it = replaced.find(p); it != replaced.end(); it = replaced.find(p))
+          p = it->second;
+        v = VI(p);
+      }
+      for (PointId& q : result.inserted) {
+        Index p = q.idx();
+        for (auto it = replaced.find(p); it != replaced.end(); it = replaced.find(p))
+          p = it->second;
+        q = PointId(p);
+      }
+    }
+    for (VI v : seeds)
+      if (I.vertexAlive(v)) result.merged.push_back(PointId(v.idx()));
+    std::sort(result.merged.begin(), result.merged.end());
+    result.merged.erase(std::unique(result.merged.begin(), result.merged.end()),
+                        result.merged.end());
+    std::sort(result.inserted.begin(), result.inserted.end());
+    result.inserted.erase(std::unique(result.inserted.begin(), result.inserted.end()),
+                          result.inserted.end());
+    return result;
+  });
+}
+
+}  // namespace cutsim::topology
