@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -842,6 +843,142 @@ TEST(Suture, ARunningSutureClosesAGapingWound) {
   ASSERT_EQ(suturesOf(sim).stitches().size(), 3u);
   EXPECT_GT(before, 0.001);  // the wound gaped by more than a millimetre
   EXPECT_LT(gape(), 0.2 * before);
+}
+
+/// The skin of ARunningSutureClosesAGapingWound (border held; 5 % resting tension with
+/// restScale 0.95, none with 1), slit across the middle at t = 0.02 s, then `timeline` (entries
+/// after the cut's).
+std::string wound(const std::string& timeline, double duration, double restScale = 0.95) {
+  return R"({
+  "mesh": {"grid": {"nx": 15, "ny": 15, "size": [0.1, 0.1], "plane": "xy"}},
+  "mass": {"total": 0.02},
+  "gravity": [0, 0, 0],
+  "forceFields": [{"type": "TriangularFEM", "youngModulus": 1e6, "poissonRatio": 0.45,
+                   "thickness": 0.002, "restScale": )" +
+         text(restScale) + R"(},
+                  {"type": "Sutures", "stiffness": 600, "damping": 0.5}],
+  "constraints": [{"type": "fixed", "box": [[0, 0, -1], [0, 0.1, 1]]},
+                  {"type": "fixed", "box": [[0.1, 0, -1], [0.1, 0.1, 1]]},
+                  {"type": "fixed", "box": [[0, 0, -1], [0.1, 0, 1]]},
+                  {"type": "fixed", "box": [[0, 0.1, -1], [0.1, 0.1, 1]]}],
+  "integrator": {"type": "implicit-euler", "rayleighMass": 2.0},
+  "linearSolver": {"type": "cholmod"},
+  "timeStep": 0.005, "duration": )" +
+         text(duration) + R"(,
+  "timeline": [{"at": 0.02, "action": "cut", "polyline": [[0.025, 0.0517, 0], [0.075, 0.0517, 0]]},
+               )" +
+         timeline + R"(]
+})";
+}
+
+/// Seven stitches across the wound, 4 mm either side of it, holding the lips where they are.
+const std::string kStitches = R"({"at": 0.15, "action": "suture", "bite": 0.002, "length": 0.008,
+    "stitches": [[0.035, 0.0477, 0, 0.035, 0.0557, 0], [0.04, 0.0477, 0, 0.04, 0.0557, 0],
+                 [0.045, 0.0477, 0, 0.045, 0.0557, 0], [0.05, 0.0477, 0, 0.05, 0.0557, 0],
+                 [0.055, 0.0477, 0, 0.055, 0.0557, 0], [0.06, 0.0477, 0, 0.06, 0.0557, 0],
+                 [0.065, 0.0477, 0, 0.065, 0.0557, 0]]})";
+
+TEST(Sew, ASuturedWoundSewnIsOneSurfaceAgain) {
+  // Skin without tension, slit, stitched, then sewn: the lips become one surface (the border is
+  // the patch's outline alone), no two points left at one rest position, every observer
+  // following at every step.
+  SceneRunner runner(parseScene(
+      wound(kStitches + R"(, {"at": 0.45, "action": "sew", "tolerance": 0.0008, "minAngle": 0})",
+            0.55, 1.0),
+      "wound.json", test::kSceneDir));
+  runner.start();
+  Simulation& sim = runner.simulation();
+  std::optional<Shape> cut;
+  std::size_t lipsBefore = 0;
+  while (!runner.finished()) {
+    runner.advance();
+    ASSERT_TRUE(sim.topology().validate().ok()) << "step " << runner.currentStep();
+    if (runner.simulation().time() < 0.44) {
+      cut = shapeOf(sim.topology());
+      lipsBefore = 0;
+      for (topology::EdgeId e : sim.topology().edges())
+        lipsBefore += sim.topology().isBoundaryEdge(e) ? 1 : 0;
+    }
+  }
+  ASSERT_TRUE(cut.has_value());
+  EXPECT_EQ(suturesOf(sim).stitches().size(), 7u);
+  EXPECT_EQ(borderLoops(sim.topology()), 1u) << "the wound is still open";
+  std::size_t border = 0;
+  for (topology::EdgeId e : sim.topology().edges()) {
+    if (!sim.topology().isBoundaryEdge(e)) continue;
+    ++border;
+    for (PointId p : sim.topology().edgeVertices(e)) {
+      const Vec3 r = sim.topology().restPosition(p);
+      EXPECT_TRUE(r[0] < 1e-12 || r[1] < 1e-12 || r[0] > 0.1 - 1e-12 || r[1] > 0.1 - 1e-12)
+          << "a lip left open at (" << r[0] << ", " << r[1] << ")";
+    }
+  }
+  EXPECT_EQ(border, 4u * 14u);
+  EXPECT_LT(border, lipsBefore);
+  const topology::Topology& t = sim.topology();
+  EXPECT_EQ(t.numEdges(), t.numPoints() + t.numTriangles() - 1) << "not one disc";
+  std::vector<Vec3> unique = cut->points;
+  unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+  const Shape now = shapeOf(t);
+  std::vector<Vec3> nowUnique = now.points;
+  nowUnique.erase(std::unique(nowUnique.begin(), nowUnique.end()), nowUnique.end());
+  EXPECT_EQ(nowUnique.size(), now.points.size()) << "two points left at one rest position";
+  // Each of the cut's rest positions is still a point's, or lies near the new point at the mean
+  // of the lips' points it was joined with (where the stitches' repair moved one lip's).
+  for (const Vec3& r : unique) {
+    double nearest = 1.0;
+    for (const Vec3& q : now.points)
+      nearest = std::min(nearest, std::hypot(q[0] - r[0], q[1] - r[1], q[2] - r[2]));
+    EXPECT_LT(nearest, 0.001) << "the cut's point at (" << r[0] << ", " << r[1] << ") is lost";
+  }
+  for (double x : sim.state().x()) ASSERT_TRUE(std::isfinite(x));
+}
+
+TEST(Sew, LipsApartAreRefusedSayingHowFarAndBadKeysNamed) {
+  // Without stitches the wound gapes by millimetres: a sew with a tolerance of half a millimetre
+  // finds no lips within it, says how far apart the closest are, and the run stops there.
+  std::string message;
+  try {
+    SceneRunner runner(
+        parseScene(wound(R"({"at": 0.3, "action": "sew", "tolerance": 0.0005})", 0.35),
+                   "wound.json", test::kSceneDir));
+    runner.start();
+    while (!runner.finished()) runner.advance();
+  } catch (const std::exception& e) {
+    message = e.what();
+  }
+  EXPECT_THAT(message, HasSubstr("/timeline/1: at t = 0.3"));
+  EXPECT_THAT(message, HasSubstr("no lips lie within the tolerance 0.0005 of each other"));
+  EXPECT_THAT(message, HasSubstr(" apart"));
+  EXPECT_THAT(parseError(wound(R"({"at": 0.3, "action": "sew"})", 0.35)),
+              HasSubstr("/timeline/1: missing key \"tolerance\""));
+  EXPECT_THAT(parseError(wound(R"({"at": 0.3, "action": "sew", "tolerance": -1})", 0.35)),
+              HasSubstr("/timeline/1/tolerance: must be a positive distance"));
+  EXPECT_THAT(parseError(wound(
+                  R"({"at": 0.3, "action": "sew", "tolerance": 1e-3, "near": [[0, 0, 0]]})", 0.35)),
+              HasSubstr("/timeline/1: missing key \"radius\""));
+  EXPECT_THAT(
+      parseError(wound(R"({"at": 0.3, "action": "sew", "tolerance": 1e-3, "radius": 0.01})", 0.35)),
+      HasSubstr("/timeline/1/radius: goes with \"near\""));
+}
+
+TEST(Sew, OnlyTheLipsNearItsPath) {
+  // Lips that meet at rest (no tension: the cut does not gape), sewn only near x in [0.02, 0.05].
+  SceneRunner runner(parseScene(wound(R"({"at": 0.1, "action": "sew", "tolerance": 1e-4,
+      "near": [[0.0, 0.0517, 0], [0.05, 0.0517, 0]], "radius": 0.003})",
+                                      0.15, 1.0),
+                                "wound.json", test::kSceneDir));
+  run(runner);
+  const topology::Topology& t = runner.simulation().topology();
+  EXPECT_EQ(borderLoops(t), 2u) << "the lips beyond the path should stay open";
+  for (topology::EdgeId e : t.edges()) {
+    if (!t.isBoundaryEdge(e)) continue;
+    for (PointId p : t.edgeVertices(e)) {
+      const Vec3 r = t.restPosition(p);
+      const bool outline = r[0] < 1e-12 || r[1] < 1e-12 || r[0] > 0.1 - 1e-12 || r[1] > 0.1 - 1e-12;
+      if (!outline) EXPECT_GT(r[0], 0.045) << "a lip left open near the path";
+    }
+  }
 }
 
 TEST(Suture, ANeedleThatMissesALipOrASceneWithoutThreadsIsRefusedNamingIt) {

@@ -138,7 +138,7 @@ TEST(Registry, ActionsAndConstraintsNameTheirKeysAndTheAlternatives) {
       parseError(
           timeline("{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"radius\": 1}")),
       HasSubstr("/timeline/0/radius: unknown key \"radius\" for tearing (it belongs to cautery, "
-                "forceps)"));
+                "forceps, sew)"));
   EXPECT_THAT(parseError(timeline(
                   "{\"at\": 0, \"action\": \"tearing\", \"threshold\": 0.3, \"polyline\": []}")),
               HasSubstr("(it belongs to cut, dissect)"));

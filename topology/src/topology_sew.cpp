@@ -3,12 +3,12 @@
 #include <CGAL/boost/graph/Euler_operations.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <unordered_set>
 
-#include "cutsim/base/union_find.hpp"
 #include "topology_impl.hpp"
 
 namespace cutsim::topology {
@@ -198,14 +198,105 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
     std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
       return x.gap != y.gap ? x.gap < y.gap : std::make_pair(x.p, x.q) < std::make_pair(y.p, y.q);
     });
+    // Taken one by one, the closest first: a pair joins the groups of its lips' points facing
+    // each other at either end, unless that would join two points of one edge (lips whose edges
+    // are shorter than the gap between them) or leave the surface non-manifold (lips that cross
+    // each other), which leaves it open.
+    std::vector<VI> members;
+    std::unordered_map<Index, std::size_t> slot;
+    auto slotOf = [&](VI v) {
+      auto [it, fresh] = slot.emplace(v.idx(), members.size());
+      if (fresh) members.push_back(v);
+      return it->second;
+    };
+    std::vector<std::size_t> parent;
+    std::unordered_map<std::size_t, std::vector<std::size_t>> inGroup;  // root -> its slots
+    auto root = [&](std::size_t i) {
+      while (parent[i] != i) i = parent[i] = parent[parent[i]];
+      return i;
+    };
+    auto grow = [&] {
+      while (parent.size() < members.size()) {
+        inGroup[parent.size()] = {parent.size()};
+        parent.push_back(parent.size());
+      }
+    };
+    // The slots two groups would make together, and whether an edge joins two of them.
+    auto together = [&](std::size_t a, std::size_t b) {
+      std::vector<std::size_t> out = inGroup[root(a)];
+      if (root(a) != root(b)) {
+        const auto& other = inGroup[root(b)];
+        out.insert(out.end(), other.begin(), other.end());
+      }
+      return out;
+    };
+    // Whether `group` may become one point, `other` another at the same time: no edge joins two
+    // of its points (it would collapse), and the edges from it to each other point or group
+    // (which become one edge) hold one triangle on either side at most between them (else a
+    // triangle would repeat, an edge join three or two triangles face opposite ways).
+    auto fits = [&](const std::vector<std::size_t>& group, const std::vector<std::size_t>& other) {
+      std::unordered_set<Index> mine, theirs;
+      for (std::size_t i : group) mine.insert(members[i].idx());
+      for (std::size_t i : other) theirs.insert(members[i].idx());
+      // neighbour (a group or a point) -> triangles on the edges into the group, out of it
+      std::unordered_map<std::uint64_t, std::array<int, 2>> faces;
+      std::vector<HI> in;
+      for (std::size_t i : group) {
+        in.clear();
+        I.incomingHalfedges(members[i], in);
+        for (HI h : in) {
+          const VI n = mesh.source(h);
+          if (mine.count(n.idx())) return false;
+          std::uint64_t key;
+          if (theirs.count(n.idx()))
+            key = std::uint64_t(1) << 63;
+          else if (auto it = slot.find(n.idx()); it != slot.end() && it->second < parent.size())
+            key = (std::uint64_t(1) << 62) | root(it->second);
+          else
+            key = n.idx();
+          auto& f = faces[key];
+          f[0] += mesh.face(h).is_valid() ? 1 : 0;
+          f[1] += mesh.face(mesh.opposite(h)).is_valid() ? 1 : 0;
+          if (f[0] > 1 || f[1] > 1) return false;
+        }
+      }
+      return true;
+    };
     std::vector<char> used(ls.size(), 0);
     std::vector<Pair> joined;
+    std::size_t refused = 0;
     for (const Pair& pr : pairs) {
       if (used[pr.p] || used[pr.q]) continue;
+      const std::size_t a1 = slotOf(ls[pr.p].v), b1 = slotOf(ls[pr.q].u);
+      const std::size_t a2 = slotOf(ls[pr.p].u), b2 = slotOf(ls[pr.q].v);
+      grow();
+      const std::vector<std::size_t> s1 = together(a1, b1), s2 = together(a2, b2);
+      bool overlap = false;
+      for (std::size_t i : s1) overlap = overlap || root(i) == root(a2) || root(i) == root(b2);
+      if (overlap || !fits(s1, s2) || !fits(s2, s1)) {
+        ++refused;
+        continue;
+      }
+      for (auto [x, y] : {std::make_pair(a1, b1), std::make_pair(a2, b2)}) {
+        std::size_t rx = root(x), ry = root(y);
+        if (rx == ry) continue;
+        if (ry < rx) std::swap(rx, ry);
+        parent[ry] = rx;
+        auto& into = inGroup[rx];
+        const auto& from = inGroup[ry];
+        into.insert(into.end(), from.begin(), from.end());
+        inGroup.erase(ry);
+      }
       used[pr.p] = used[pr.q] = 1;
       joined.push_back(pr);
       result.largestGap = std::max(result.largestGap, pr.gap);
     }
+    result.edgesLeftOpen = refused;
+    if (joined.empty() && refused > 0)
+      throw TopologyError("sew: the lips within the tolerance " + num(tol) +
+                          " of each other cannot be joined without joining both ends of an "
+                          "edge or leaving the surface non-manifold: the tolerance is not small "
+                          "beside the lips' edges there, or the lips cross");
     if (joined.empty()) {
       // Say how far apart the closest facing lips are.
       double best = std::numeric_limits<double>::infinity();
@@ -230,23 +321,9 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
     }
     result.edgesJoined = joined.size();
 
-    // 3. Groups of points to join.
-    std::vector<VI> members;
-    std::unordered_map<Index, std::size_t> slot;
-    auto slotOf = [&](VI v) {
-      auto [it, fresh] = slot.emplace(v.idx(), members.size());
-      if (fresh) members.push_back(v);
-      return it->second;
-    };
-    std::vector<std::pair<std::size_t, std::size_t>> unions;
-    for (const Pair& pr : joined) {
-      unions.emplace_back(slotOf(ls[pr.p].v), slotOf(ls[pr.q].u));
-      unions.emplace_back(slotOf(ls[pr.p].u), slotOf(ls[pr.q].v));
-    }
-    UnionFind groups(members.size());
-    for (auto [a, b] : unions) groups.unite(a, b);
+    // 3. The groups of points to join.
     std::map<std::size_t, std::vector<VI>> byRoot;
-    for (std::size_t i = 0; i < members.size(); ++i) byRoot[groups.find(i)].push_back(members[i]);
+    for (std::size_t i = 0; i < members.size(); ++i) byRoot[root(i)].push_back(members[i]);
 
     std::unordered_map<std::uint64_t, VI> subst;
     std::vector<FI> affected;
@@ -302,6 +379,9 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
       }
       expect.emplace_back(keep, triangles);
       seeds.push_back(keep);
+      SewResult::Group g{PointId(keep.idx()), {}};
+      for (VI v : group) g.points.push_back(PointId(v.idx()));
+      result.groups.push_back(std::move(g));
     }
     std::sort(affected.begin(), affected.end());
     affected.erase(std::unique(affected.begin(), affected.end()), affected.end());
@@ -341,6 +421,12 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
         for (auto it = replaced.find(p); it != replaced.end(); it = replaced.find(p))
           p = it->second;
         v = VI(p);
+      }
+      for (SewResult::Group& g : result.groups) {
+        Index p = g.into.idx();
+        for (auto it = replaced.find(p); it != replaced.end(); it = replaced.find(p))
+          p = it->second;
+        g.into = PointId(p);
       }
       for (PointId& q : result.inserted) {
         Index p = q.idx();

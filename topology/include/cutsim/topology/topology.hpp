@@ -111,8 +111,19 @@ struct SewResult {
   std::size_t pointsRemoved = 0;  ///< lip points that disappeared into the point they joined
   std::vector<PointId> inserted;  ///< points inserted on a lip facing a point of the other
   std::vector<PointId> merged;    ///< what each group of joined points became (ascending)
-  double largestGap = 0.0;        ///< the largest world distance between two points joined
-  RepairReport repair;            ///< the repair that followed (all zero without one)
+  /// Each group of joined points (ids from before the sew, or inserted by it) and the point it
+  /// became (after the repair: the point that took its place).
+  struct Group {
+    PointId into;
+    std::vector<PointId> points;
+  };
+  std::vector<Group> groups;
+  double largestGap = 0.0;  ///< the largest world distance between two points joined
+  /// Facing pairs within the tolerance left open: joining them would have joined both ends of an
+  /// edge (lips whose edges are shorter than the gap between them there) or left the surface
+  /// non-manifold (lips that cross each other).
+  std::size_t edgesLeftOpen = 0;
+  RepairReport repair;  ///< the repair that followed (all zero without one)
 };
 
 struct ValidationReport {
@@ -244,10 +255,12 @@ class Topology {
   /// point. Each group of joined points becomes one point: one of them where their rest
   /// positions are the same (a locked one, else a preferred one, else the lowest id: the others
   /// are destroyed), else a new point at their mean (ancestors: the group, equal weights; the
-  /// group destroyed). Observers follow through the usual events. One transaction ("sew"): a
-  /// request that finds no facing lips within the tolerance, would join both ends of an edge, two
+  /// group destroyed). A pair that would join both ends of an edge or leave the surface
+  /// non-manifold (lips that cross) is left open (SewResult::edgesLeftOpen). Observers follow
+  /// through the usual events. One transaction ("sew"): a request that finds no facing lips within
+  /// the tolerance (it says how far apart the closest are), can join none of them, would join two
   /// locked points, or leave a point joining two pieces at a corner only, throws TopologyError
-  /// naming what and where, and changes nothing.
+  /// naming what and where, and changes nothing. See "Sewing" in docs/topology-events.md.
   SewResult sew(std::span<const double> positions, const SewOptions& options);
   /// Quality repair (edge flips, edge collapses, vertex relocations, border splits) of the
   /// triangles around the given points, as a transaction of its own ("repair"): see
