@@ -239,3 +239,31 @@ def test_the_blade_is_drawn_in_the_frames_and_the_player(small_scene, tmp_path):
     assert drawn >= 3
     page = cutsim.write_player(run)
     assert "instrumentX" in pathlib.Path(page["path"]).read_text()
+
+
+def border_edges(triangles):
+    """How many edges of the triangles (rows of point indices) belong to one triangle only."""
+    e = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]),
+                axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return int((counts == 1).sum())
+
+
+def test_a_sew_from_a_dict_joins_the_lips_where_they_meet(small_scene):
+    # Cut the hanging cloth, let it hang a few steps (the lips stay together where nothing pulls
+    # them apart), then sew: the border is the cloth's outline again.
+    small_scene["duration"] = 1.0
+    sim = cutsim.Simulation(small_scene)
+    sim.step(20)
+    outline = border_edges(sim.triangles())
+    sim.cut([[0.3, 0.5, 0], [0.7, 0.5, 0]])
+    sim.step(2)
+    assert border_edges(sim.triangles()) > outline
+    with pytest.raises(Exception, match="no lips lie within the tolerance 1e-12"):
+        sim.act({"action": "sew", "at": sim.time, "tolerance": 1e-12, "minAngle": 0})
+        sim.step()
+    sim.act({"action": "sew", "at": sim.time, "tolerance": 0.02})
+    sim.step()
+    assert border_edges(sim.triangles()) == outline
+    assert not sim.validate()
+    assert np.isfinite(sim.x[sim.alive]).all()

@@ -154,13 +154,18 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
       const std::vector<Lip> ls = lips();
       const SegmentGrid grid = gridOf(ls);
       std::map<std::size_t, std::pair<double, double>> splits;  // lip -> (distance, parameter)
+      std::unordered_map<std::uint32_t, std::size_t> lipOf;     // halfedge -> lip
+      for (std::size_t i = 0; i < ls.size(); ++i) lipOf[ls[i].h.idx()] = i;
       for (std::size_t i = 0; i < ls.size(); ++i) {
-        // The lip point ls[i].u, with its two lips ls[i] (out) and the one into it (in).
+        // The lip point ls[i].u, with its two lips: ls[i] (out) and the one into it (in, where
+        // the lip turns it may face the other lip when the one out does not).
         const Lip& out = ls[i];
+        const auto in = lipOf.find(mesh.prev(out.h).idx());
         const Vec3 p = out.a;
         for (std::size_t j : grid.at(p)) {
           const Lip& q = ls[j];
-          if (q.u == out.u || q.v == out.u || !facing(out, q)) continue;
+          if (q.u == out.u || q.v == out.u) continue;
+          if (!facing(out, q) && (in == lipOf.end() || !facing(ls[in->second], q))) continue;
           const Vec3 d = sub(q.b, q.a);
           const double dd = dot(d, d);
           if (!(dd > 0)) continue;
@@ -174,8 +179,13 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
       }
       if (splits.empty()) break;
       for (const auto& [j, ds] : splits) {
+        // (An earlier split this round may have made the lip's edge again, around a triangle
+        // with two lips: found by its ends.)
+        const HI h = I.findHalfedge(ls[j].u, ls[j].v);
+        if (!h.is_valid() || !mesh.is_border(h)) continue;
         const double s = std::clamp(ds.second, 0.05, 0.95);
-        VI m = I.splitEdgeNoTxn(mesh.edge(ls[j].h), ls[j].u, s);
+        VI m = I.splitEdgeNoTxn(mesh.edge(h), ls[j].u, s);
+        ++result.splits;
         result.inserted.push_back(PointId(m.idx()));
       }
     }
@@ -238,6 +248,13 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
       std::unordered_set<Index> mine, theirs;
       for (std::size_t i : group) mine.insert(members[i].idx());
       for (std::size_t i : other) theirs.insert(members[i].idx());
+      // Held points join only the copies of themselves (the same rest position).
+      const VI* held = nullptr;
+      for (std::size_t i : group)
+        if (locked.count(members[i].idx())) {
+          if (held && mesh.point(*held) != mesh.point(members[i])) return false;
+          held = &members[i];
+        }
       // neighbour (a group or a point) -> triangles on the edges into the group, out of it
       std::unordered_map<std::uint64_t, std::array<int, 2>> faces;
       std::vector<HI> in;
@@ -343,10 +360,6 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
       std::vector<VI> held;
       for (VI v : group)
         if (locked.count(v.idx())) held.push_back(v);
-      if (held.size() > 1)
-        throw TopologyError("sew: the lips' points " + pt(held[0].idx()) + " and " +
-                            pt(held[1].idx()) +
-                            " are both held (fixed or grasped): one of them would disappear");
       bool sameRest = true;
       for (VI v : group) sameRest = sameRest && mesh.point(v) == mesh.point(group.front());
       if (!held.empty()) {
@@ -395,13 +408,16 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
           "triangle would repeat or an edge join three)");
     }
     // A joined point must not hold two pieces together at a corner only (a bowtie): every
-    // triangle it belongs to must lie in the one fan around it.
+    // triangle it belongs to in the one fan around it, one border gap at most.
     for (auto [v, triangles] : expect) {
       std::vector<HI> in;
       I.incomingHalfedges(v, in);
-      std::size_t n = 0;
-      for (HI h : in) n += mesh.face(h).is_valid() ? 1 : 0;
-      if (n != triangles) {
+      std::size_t n = 0, gaps = 0;
+      for (HI h : in) {
+        n += mesh.face(h).is_valid() ? 1 : 0;
+        gaps += mesh.is_border(h) ? 1 : 0;
+      }
+      if (n != triangles || gaps > 1) {
         const Vec3 w = world(v);
         throw TopologyError("sew: joining the lips near (" + num(w[0]) + ", " + num(w[1]) + ", " +
                             num(w[2]) +
@@ -440,6 +456,10 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
     std::sort(result.merged.begin(), result.merged.end());
     result.merged.erase(std::unique(result.merged.begin(), result.merged.end()),
                         result.merged.end());
+    // (A point joined into another is isolated now and goes at the commit.)
+    std::erase_if(result.inserted, [&](PointId p) {
+      return !I.vertexAlive(VI(p.idx())) || mesh.is_isolated(VI(p.idx()));
+    });
     std::sort(result.inserted.begin(), result.inserted.end());
     result.inserted.erase(std::unique(result.inserted.begin(), result.inserted.end()),
                           result.inserted.end());

@@ -64,9 +64,11 @@ class SewAction final : public TimelineAction {
             o.preferred.push_back(st.a);
             o.preferred.push_back(st.b);
           }
-    std::sort(o.preferred.begin(), o.preferred.end());
-    for (PointId p : held.locked)
-      if (!std::binary_search(o.preferred.begin(), o.preferred.end(), p)) o.locked.push_back(p);
+    o.locked = sim.fixed().points();
+    for (std::size_t i = 0; i < sim.numGrasps(); ++i) {
+      const auto g = sim.grasp(i).points().points();
+      o.locked.insert(o.locked.end(), g.begin(), g.end());
+    }
     o.repair = held;  // (the repair keeps the threads' points too)
     // Where the lips' points are and how they move, before the sew.
     const std::vector<double> x0(x.begin(), x.end());

@@ -96,7 +96,8 @@ struct SewOptions {
   /// Only border points it accepts take part (empty: every border point).
   std::function<bool(PointId)> within;
   /// Points that must not disappear (fixed or grasped): a point joined to one merges into it.
-  /// Two locked points may not be joined.
+  /// Two locked points are joined only where their rest positions agree (a cut's copies of one
+  /// held point: one of them stays); elsewhere the pair is left open.
   std::vector<PointId> locked;
   /// Points kept rather than the others they are joined to where the choice is free (the points a
   /// suture's thread ties).
@@ -109,7 +110,9 @@ struct SewOptions {
 struct SewResult {
   std::size_t edgesJoined = 0;    ///< pairs of border edges made one interior edge
   std::size_t pointsRemoved = 0;  ///< lip points that disappeared into the point they joined
-  std::vector<PointId> inserted;  ///< points inserted on a lip facing a point of the other
+  std::size_t splits = 0;         ///< lip edges split where a point of the other lip faced them
+  std::vector<PointId> inserted;  ///< points inserted on a lip facing a point of the other, that
+                                  ///< stayed (most are joined into a new point)
   std::vector<PointId> merged;    ///< what each group of joined points became (ascending)
   /// Each group of joined points (ids from before the sew, or inserted by it) and the point it
   /// became (after the repair: the point that took its place).
@@ -258,8 +261,8 @@ class Topology {
   /// group destroyed). A pair that would join both ends of an edge or leave the surface
   /// non-manifold (lips that cross) is left open (SewResult::edgesLeftOpen). Observers follow
   /// through the usual events. One transaction ("sew"): a request that finds no facing lips within
-  /// the tolerance (it says how far apart the closest are), can join none of them, would join two
-  /// locked points, or leave a point joining two pieces at a corner only, throws TopologyError
+  /// the tolerance (it says how far apart the closest are), can join none of them, or would leave
+  /// a point joining two pieces at a corner only, throws TopologyError
   /// naming what and where, and changes nothing. See "Sewing" in docs/topology-events.md.
   SewResult sew(std::span<const double> positions, const SewOptions& options);
   /// Quality repair (edge flips, edge collapses, vertex relocations, border splits) of the
