@@ -63,6 +63,14 @@ TEST(MeshInfo, HingeStripAndTwoComponents) {
   EXPECT_EQ(infoOf(kMeshes / "two_components.obj"), expected(8, 10, 4, 8, 2, 0));
 }
 
+TEST(MeshInfo, TheOrganAndTheSkinOnIt) {
+  // The icosphere subdivided four times: 10 * 4^4 + 2 points, 20 * 4^4 triangles, closed.
+  EXPECT_EQ(infoOf(kMeshes / "organ.obj"), expected(2562, 7680, 5120, 0, 1, 0));
+  // The 31 x 31 grid with one diagonal per cell, lifted: the formulas of the flat grid.
+  EXPECT_EQ(infoOf(kMeshes / "organ_skin.obj"),
+            expected(31 * 31, 2 * 31 * 30 + 30 * 30, 2 * 30 * 30, 4 * 30, 1, 0));
+}
+
 TEST(MeshInfo, IsolatedVertexIsCountedButIsNoComponent) {
   EXPECT_EQ(infoOf(kTestData / "good" / "isolated_vertex.obj"), expected(4, 3, 1, 3, 1, 1));
 }

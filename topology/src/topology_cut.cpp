@@ -110,6 +110,27 @@ Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, con
   if (!lq) return s;
   const double eps = 1e-10;
   std::array<double, 3> d{(*lq)[0] - lp[0], (*lq)[1] - lp[1], (*lq)[2] - lp[2]};
+  // The target right over (or under) where the walk is, a curved surface's sagitta off f's plane
+  // and no farther from it along the plane: reached. Above a ridge of a curved rest surface (a
+  // path drawn on the smooth surface the mesh samples), the target projects a little beyond the
+  // shared edge into each plane, so neither triangle would be entered nor the target reached.
+  {
+    auto at = [&](const std::array<double, 3>& l) {
+      return Point3(l[0] * c[0].x() + l[1] * c[1].x() + l[2] * c[2].x(),
+                    l[0] * c[0].y() + l[1] * c[1].y() + l[2] * c[2].y(),
+                    l[0] * c[0].z() + l[1] * c[1].z() + l[2] * c[2].z());
+    };
+    const Point3 here = at(lp), foot = at(*lq);
+    const double along = std::sqrt(CGAL::squared_distance(here, foot));
+    const double off = std::sqrt(CGAL::squared_distance(q, foot));
+    if (along > 0 && along <= off && off <= 0.05 * longestEdge(c)) {
+      s.enters = true;
+      s.margin = 1.0;
+      s.reached = true;
+      s.at = lp;
+      return s;
+    }
+  }
   double norm = std::max({std::abs(d[0]), std::abs(d[1]), std::abs(d[2]), 1e-300});
   double margin = 1e300;
   for (int j = 0; j < 3; ++j)
@@ -256,6 +277,11 @@ class Walker {
   Walker(Topology::Impl& impl, double snap) : I(impl), m(impl.mesh), snap_(snap) {}
   /// Walking on a patch: `frontier[v]` marks the patch vertices whose triangles are not all in it.
   void setFrontier(const std::vector<char>* frontier) { frontier_ = frontier; }
+  /// A location this close (absolute) to a vertex of its triangle is that vertex, whatever the
+  /// triangle's size: the barycentric tolerance alone depends on how small the triangle is, and
+  /// the cut's own splits make small ones (an end a micron past an edge the path has just crossed
+  /// would stay a second point there, a micron from the crossing, which no repair may remove).
+  void setSamePoint(double distance) { same_ = distance; }
 
   /// Nearest surface point to p, within `tolerance` times the local edge length.
   Location locate(const Point3& p, std::size_t index) {
@@ -425,9 +451,16 @@ class Walker {
     int onBorderEdge = -1;  // the location lies on this border edge: it may snap along it
     for (int j = 0; j < 3; ++j)
       if (l.bary[j] <= exact && edgeIsBorder(j)) onBorderEdge = j;
+    // The same point as a vertex within same_ (see setSamePoint).
+    const std::array<Point3, 3> c = corners(m, l.face);
+    const Point3 here = fromBary(c, l.bary);
+    auto nearVertex = [&](int k) {
+      return same_ > 0 && CGAL::squared_distance(here, c[k]) <= same_ * same_;
+    };
     for (int k = 0; k < 3; ++k) {
       bool mayMove = !m.is_border(fv[k], true) || (onBorderEdge >= 0 && onBorderEdge != k);
-      if (l.bary[k] >= 1.0 - exact || (l.bary[k] >= 1.0 - snap_ && mayMove)) return fv[k];
+      if (l.bary[k] >= 1.0 - exact || ((l.bary[k] >= 1.0 - snap_ || nearVertex(k)) && mayMove))
+        return fv[k];
     }
     int edge = -1;
     for (int j = 0; j < 3; ++j) {
@@ -504,6 +537,7 @@ class Walker {
   Topology::Impl& I;
   Mesh& m;
   double snap_;
+  double same_ = 0.0;
 };
 
 /// A copy of the triangles around a cut, on which the inserting walk is planned. A patch vertex
@@ -697,10 +731,18 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   std::unique_ptr<Patch> patch;
   std::vector<VI> planned;
   std::optional<Walker> planner;
-  // With the quality repair on, crossings are not snapped: the path follows the polyline exactly
-  // (the lips lie on the cut) and the repair removes the slivers (snapping would leave kinks in
-  // the path that no repair may straighten). The ends still snap, so a cut reaches the border.
-  double snap = options.repair.minAngle > 0 ? 0.0 : options.snapTolerance;
+  // With the quality repair on, crossings snap only within kSamePoint of a vertex or an edge:
+  // the path follows the polyline (the lips lie on the cut) and the repair removes the slivers
+  // (snapping further would leave kinks in the path that no repair may straighten). Closer than
+  // that, the polyline's point is the vertex or the edge as given with a rounding, or as lifted
+  // off a curved rest surface by its sagitta (a path drawn on the smooth surface the mesh
+  // samples): a point kept there would leave triangles too thin to repair, around which
+  // refinement would crowd. The ends still snap, so a cut reaches the border.
+  constexpr double kSamePoint = 1e-3;
+  // The same, absolute: kSamePoint of the mesh's mean edge (the locating grid's cell is twice it).
+  const double samePoint = I.grid.cellSize() > 0 ? 0.5 * kSamePoint * I.grid.cellSize() : 0.0;
+  double snap = options.repair.minAngle > 0 ? std::min(kSamePoint, options.snapTolerance)
+                                            : options.snapTolerance;
   auto plan = [&](const std::vector<Point3>& line, const Walker& walker) {
     std::unordered_set<std::uint32_t> faces;
     for (FI f : walker.corridor) faces.insert(f.idx());
@@ -709,6 +751,7 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
       patch = buildPatch(I, faces);
       planner.emplace(patch->impl, snap);
       planner->setFrontier(&patch->frontier);
+      planner->setSamePoint(snap > 0 ? samePoint : 0.0);  // the retry unsnapped: none
       try {
         planned = planner->insert(line, inPatch(*patch, I.mesh, walker.start));
         return;

@@ -36,7 +36,10 @@ using Vector3 = Kernel::Vector_3;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kStraight = 1e-6;  // rad: a border point whose border edges are this straight
-constexpr double kImprove = 1e-4;   // rad: a change must raise the local worst angle this much
+// A point this close to a line, relative to the line's length, lies on it up to a rounding (or a
+// curved surface's sagitta): cutPolyline snaps crossings as close as that even with the repair.
+constexpr double kSamePoint = 1e-3;
+constexpr double kImprove = 1e-4;  // rad: a change must raise the local worst angle this much
 // Ruppert's refinement is proven to end for a smallest angle up to arcsin(1 / (2 sqrt 2)) =
 // 20.7 degrees; it aims no higher (above, it can refine without end).
 constexpr double kRefinable = 20.7 * std::numbers::pi / 180.0;
@@ -181,13 +184,40 @@ class Repairer {
     auto c = cornersOf(f);
     return normal(P(c[0]), P(c[1]), P(c[2]));
   }
-  /// v's star is flat within the flatness tolerance.
-  bool flatStar(VI v) const {
-    std::vector<FI> fs = facesAround(v);
-    for (std::size_t i = 1; i < fs.size(); ++i)
-      if (!aligned(normalOf(fs[0]), normalOf(fs[i]), flat_)) return false;
-    return !fs.empty();
+  /// The triangles fs (and their corners) are flat within the flatness tolerance: seen from
+  /// their centroid, no corner lies more than half the tolerance off the plane of their summed
+  /// (area-weighted) normals. Measured on the points, not by comparing the triangles' own
+  /// normals: a sliver's normal can point anywhere when its corners lie a rounding or a curved
+  /// surface's sagitta off its neighbours' plane, so on a curved rest surface (of bends well
+  /// under the tolerance from one triangle to the next) a normal test takes slivers for creases
+  /// and the repair meant to remove them stops there. Two triangles of a dihedral angle t give
+  /// about t (the same measure as before for triangles of similar size).
+  bool flatTriangles(const std::vector<FI>& fs) const {
+    if (fs.empty()) return false;
+    Vector3 n(0, 0, 0);
+    std::vector<VI> pts;
+    for (FI f : fs) {
+      n = n + normalOf(f);
+      for (VI c : cornersOf(f))
+        if (std::find(pts.begin(), pts.end(), c) == pts.end()) pts.push_back(c);
+    }
+    const double nl = std::sqrt(n.squared_length());
+    if (!(nl > 0)) return false;
+    n = n / nl;
+    Vector3 centroid(0, 0, 0);
+    for (VI c : pts) centroid = centroid + (P(c) - CGAL::ORIGIN);
+    const Point3 o = CGAL::ORIGIN + centroid / double(pts.size());
+    const double slope = std::tan(0.5 * flat_);
+    for (VI c : pts) {
+      const Vector3 r = P(c) - o;
+      const double off = std::abs(r * n);
+      const double along = std::sqrt(std::max(0.0, r.squared_length() - off * off));
+      if (off > slope * along + 1e-12 * std::sqrt(r.squared_length())) return false;
+    }
+    return true;
   }
+  /// v's star is flat within the flatness tolerance.
+  bool flatStar(VI v) const { return flatTriangles(facesAround(v)); }
   /// For a border point: its two border neighbours (prev along the border, next), if it has
   /// exactly one border gap.
   bool borderNeighbours(VI v, VI& a, VI& b) const {
@@ -203,7 +233,33 @@ class Repairer {
   }
   bool straightBorderPoint(VI v, VI& a, VI& b) const {
     if (!borderNeighbours(v, a, b) || a == b) return false;
-    return angleBetween(P(a) - P(v), P(b) - P(v)) >= std::numbers::pi - kStraight;
+    return straightThrough(v, a, b);
+  }
+  /// The path a -> v -> b goes straight on at v: within kStraight; or, where the surface bends
+  /// there (a lip crossing triangles that are not coplanar, on a curved rest surface), turning
+  /// within the flatness with v within kSamePoint of |ab| of the chord a-b along the surface's
+  /// tangent plane. (Following a polyline's segment across triangles that are not coplanar, a cut
+  /// meets each triangle's plane a little aside of the segment, so its lips turn in the tangent
+  /// plane too: by a fraction of a degree where a lip edge is a few microns long, by a rounding of
+  /// the point's place.) On a flat sheet: kStraight.
+  bool straightThrough(VI v, VI a, VI b) const {
+    const Vector3 u = P(v) - P(a), w = P(b) - P(v);
+    const double turn = angleBetween(u, w);
+    if (turn <= kStraight) return true;
+    if (!(turn <= flat_)) return false;
+    Vector3 n(0, 0, 0);
+    for (FI f : facesAround(v)) n = n + normalOf(f);
+    const double nl = std::sqrt(n.squared_length()), lu = std::sqrt(u.squared_length()),
+                 lw = std::sqrt(w.squared_length());
+    if (!(nl > 0 && lu > 0 && lw > 0)) return false;
+    n = n / nl;
+    const double bend = std::abs((u * n) / lu - (w * n) / lw);  // out of the tangent plane
+    if (!(bend > kStraight)) return false;
+    const Vector3 ab = P(b) - P(a), r = P(v) - P(a);
+    const double l2 = ab.squared_length();
+    const Vector3 off = r - ((r * ab) / l2) * ab;
+    const Vector3 inPlane = off - (off * n) * n;
+    return inPlane.squared_length() <= kSamePoint * kSamePoint * l2;
   }
   bool isBorder(VI v) const { return m_.is_border(v, true); }
 
@@ -212,6 +268,10 @@ class Repairer {
   double starQuality(VI v, const Point3& p, const std::vector<FI>& fs,
                      const std::unordered_set<std::uint32_t>& skip = {}) const {
     double q = 1e300;
+    // The star's plane (its area-weighted normal): a new triangle may turn from it by no more
+    // than the flatness allows, so that moving a point over a curved star does not fold it.
+    Vector3 ns(0, 0, 0);
+    for (FI f : fs) ns = ns + normalOf(f);
     for (FI f : fs) {
       if (skip.count(f.idx())) continue;
       auto c = cornersOf(f);
@@ -220,6 +280,7 @@ class Repairer {
         if (c[std::size_t(k)] == v) x[std::size_t(k)] = p;
       const Vector3 n = normal(x[0], x[1], x[2]);
       if (!aligned(n, normalOf(f), 60 * kDeg)) return -1.0;
+      if (!aligned(n, ns, 2 * flat_)) return -1.0;
       q = std::min(q, minAngle(x[0], x[1], x[2]));
     }
     return q;
@@ -325,7 +386,7 @@ class Repairer {
     if (c == d || I_.findHalfedge(c, d).is_valid()) return false;
     FI f1 = m_.face(h), f2 = m_.face(m_.opposite(h));
     const Vector3 n1 = normalOf(f1), n2 = normalOf(f2);
-    if (!aligned(n1, n2, flat_)) return false;
+    if (!flatTriangles({f1, f2})) return false;
     const Vector3 m1 = normal(P(c), P(a), P(d)), m2 = normal(P(d), P(b), P(c));
     if (!aligned(m1, n1 + n2, 60 * kDeg) || !aligned(m2, n1 + n2, 60 * kDeg)) return false;
     const double before = std::min(quality(f1), quality(f2));
@@ -546,7 +607,7 @@ class Repairer {
     if (!g.is_valid() || (!inPatch(a) && !inPatch(b)) || (isLocked(a) && isLocked(b))) return false;
     VI d = m_.target(m_.next(m_.opposite(hf)));
     const Vector3 n = normalOf(f) + normalOf(g);
-    if (!aligned(normalOf(f), normalOf(g), flat_)) return false;
+    if (!flatTriangles({f, g})) return false;
     auto quad = [&](const Point3& p) {
       double q = 1e300;
       const std::array<std::array<Point3, 3>, 4> tris{
@@ -612,7 +673,7 @@ class Repairer {
 
   bool isSegment(HI h) const {
     if (m_.is_border(m_.edge(h))) return true;
-    return !aligned(normalOf(m_.face(h)), normalOf(m_.face(m_.opposite(h))), flat_);
+    return !flatTriangles({m_.face(h), m_.face(m_.opposite(h))});
   }
   /// The angle at corner v of triangle f.
   double angleAt(FI f, VI v) const {
@@ -754,7 +815,7 @@ class Repairer {
     }
     if (segments == 0) return false;
     if (segments != 2) return true;
-    return angleBetween(P(ends[0]) - P(v), P(ends[1]) - P(v)) < std::numbers::pi - kStraight;
+    return !straightThrough(v, ends[0], ends[1]);
   }
   /// Splits the border segment a-b: at its midpoint, or, when one end is a corner, on the
   /// concentric shell (a power of two away from that corner) nearest to the midpoint. A crease is

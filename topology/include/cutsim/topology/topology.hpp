@@ -49,8 +49,11 @@ struct RepairOptions {
   double minAngle = 0.0;
   /// Points that must neither move nor disappear (fixed or grasped points).
   std::vector<PointId> locked;
-  /// Flips and relocations only where the rest surface is flat within this angle (degrees).
-  double flatness = 2.0;
+  /// Flips, collapses and relocations only where the rest surface is flat within this angle
+  /// (degrees): seen from the middle of the triangles involved, none of their corners more than
+  /// half of it off their mean plane. 5 lets a curved rest surface meshed at a few degrees of bend
+  /// from one triangle to the next (skin over an organ) be repaired, and keeps creases.
+  double flatness = 5.0;
 };
 
 /// What a repair did, and the quality of the patch before and after (in degrees; the patch is
