@@ -83,7 +83,7 @@ TEST(Scene, LoadsEveryDemoScene) {
   for (const char* name :
        {"hanging.json", "hanging_cut.json", "tearing.json", "surgery_incision.json",
         "drape_cut.json", "fold_ground.json", "surgery_flap.json", "drape_scalpel.json",
-        "surgery_excision.json", "surgery_suture.json"}) {
+        "surgery_excision.json", "surgery_suture.json", "surgery_organ.json"}) {
     SCOPED_TRACE(name);
     const Scene s = loadScene(kDemoScenes / name);
     EXPECT_GT(s.numSteps(), 0);
