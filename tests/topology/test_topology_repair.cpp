@@ -111,13 +111,16 @@ std::vector<TriangleId> createdSince(const Topology& t, topology::Index capacity
   return out;
 }
 
+/// The rest area (in 3D: on a flat sheet in z = 0 the same bits as in the plane).
 double totalArea(const Topology& t) {
   double a = 0;
   for (TriangleId f : t.triangles()) {
     auto v = t.triangleVertices(f);
     auto p = t.restPosition(v[0]), q = t.restPosition(v[1]), r = t.restPosition(v[2]);
     Vec3 u{q[0] - p[0], q[1] - p[1], q[2] - p[2]}, w{r[0] - p[0], r[1] - p[1], r[2] - p[2]};
-    a += 0.5 * std::abs(u[0] * w[1] - u[1] * w[0]);
+    const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
+                 cz = u[0] * w[1] - u[1] * w[0];
+    a += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
   }
   return a;
 }
@@ -581,19 +584,6 @@ Vec3 onSphere(double x, double y, double size, double radius) {
   return {x, y, std::sqrt(radius * radius - u * u - v * v) - radius + size / 4};
 }
 
-double area3(const Topology& t) {
-  double a = 0;
-  for (TriangleId f : t.triangles()) {
-    auto v = t.triangleVertices(f);
-    auto p = t.restPosition(v[0]), q = t.restPosition(v[1]), r = t.restPosition(v[2]);
-    Vec3 u{q[0] - p[0], q[1] - p[1], q[2] - p[2]}, w{r[0] - p[0], r[1] - p[1], r[2] - p[2]};
-    const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
-                 cz = u[0] * w[1] - u[1] * w[0];
-    a += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-  }
-  return a;
-}
-
 /// Cuts on a curved rest surface (a grid lifted onto a sphere, as a skin patch over an organ),
 /// along arcs drawn on the smooth surface (so their points lie a sagitta off the facets, and
 /// some of them a rounding off a vertex or an edge of the grid): the repair reaches the target as
@@ -627,14 +617,14 @@ TEST(TopologyRepair, ArcsOnACurvedRestSurfaceAreCutAsOnAFlatOne) {
           Topology t(capOfSphere(31, size, radius));
           MirrorObserver mirror(t);
           auto sub = t.subscribe(mirror);
-          const double area = area3(t);
+          const double area = totalArea(t);
           const std::size_t points = t.numPoints();
           const topology::Index before = t.triangleCapacity();
           topology::IncisionResult r;
           ASSERT_NO_THROW(r = t.cutPolyline(curved, options)) << what.str();
           ASSERT_TRUE(t.validate().ok()) << what.str() << ": " << t.validate().summary();
           // Flips over bends of a degree or two change the area by a sagitta's worth at most.
-          EXPECT_NEAR(area3(t), area, 1e-4 * area) << what.str();
+          EXPECT_NEAR(totalArea(t), area, 1e-4 * area) << what.str();
           const Quality q = quality(t, createdSince(t, before), kDefaultTarget);
           EXPECT_TRUE(q.shortfalls.empty()) << what.str() << ": " << q.shortfalls.front();
           EXPECT_FALSE(r.repair.budgetSpent) << what.str();
