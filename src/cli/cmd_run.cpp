@@ -211,13 +211,22 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
     StopSignals signals;  // only while stepping: afterwards a signal ends the program at once
     const long stopAt =
         options.stopAfter > 0 ? options.stopAfter : std::numeric_limits<long>::max();
-    while (!runner.finished() && !signals.received() && runner.currentStep() < stopAt) {
-      const core::StepStats stats = runner.advance();
-      last = {runner.currentStep(), runner.time(), stats};
-      writer.record(runner.simulation(), last, runner.finished());
-      progress.update(runner.currentStep(), runner.time());
-      if (every > 0 && runner.currentStep() % every == 0 && !runner.finished())
-        writeCheckpoint(outDir, source, runner, writer);
+    try {
+      while (!runner.finished() && !signals.received() && runner.currentStep() < stopAt) {
+        const core::StepStats stats = runner.advance();
+        last = {runner.currentStep(), runner.time(), stats};
+        writer.record(runner.simulation(), last, runner.finished());
+        progress.update(runner.currentStep(), runner.time());
+        if (every > 0 && runner.currentStep() % every == 0 && !runner.finished())
+          writeCheckpoint(outDir, source, runner, writer);
+      }
+    } catch (const Error&) {
+      // The run ends with the error (printed by the caller); say where what it made lies: a
+      // failed run leaves no file under a final name, so its rows and frames are easy to miss.
+      std::cerr << "cutsim: the run stopped during step " << runner.currentStep() + 1 << " of "
+                << runner.numSteps() << "; what it made so far is in " << outDir.string()
+                << ": the CSV's rows in .steps.csv.tmp, the frames in *.partial.pvd\n";
+      throw;
     }
     signal = signals.received();
   }

@@ -97,16 +97,19 @@ std::vector<T> numbers(const Xml& xml, const pugi::xml_node& array, std::size_t 
     const auto r = std::from_chars(p, end, v);
     bool fits = r.ec == std::errc();
     if constexpr (std::is_floating_point_v<T>)
-      fits = fits && std::isfinite(T(v));
+      fits = fits && std::isfinite(v) && std::abs(v) <= double(std::numeric_limits<T>::max());
     else
       fits = fits && v >= 0 && static_cast<unsigned long long>(v) <= std::numeric_limits<T>::max();
-    if (!fits)
+    if (!fits) {
+      // The whole number as written (a cut one, "7.96e+7" of "7.96e+70", would look fine).
+      const char* q = p;
+      while (q < end && q - p < 40 && !std::isspace(static_cast<unsigned char>(*q))) ++q;
       throw InvalidInput(xml.at(array),
                          std::string("DataArray ") + array.attribute("Name").value() + ": \"" +
-                             std::string(p, std::min<std::size_t>(20, std::size_t(end - p))) +
-                             "\" is not " +
+                             std::string(p, q) + "\" is not " +
                              (std::is_floating_point_v<T> ? "a finite number (in single precision)"
                                                           : "an index or flag in range"));
+    }
     out.push_back(T(v));
     p = r.ptr;
   }

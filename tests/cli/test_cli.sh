@@ -206,6 +206,21 @@ expect_code 0 "import -o onto a new file"
 run import "$scn" -o "$w/imported.json"
 expect_code 0 "import -o onto a scene it wrote"
 
+# ---- a run that fails part-way says where what it made lies ----
+cat >"$tmp/boom.json" <<'SCENE'
+{"mesh": {"grid": {"nx": 5, "ny": 5}}, "mass": {"density": 0.001},
+ "forceFields": [{"type": "StretchSprings", "stiffness": 1e9}], "solver": {"type": "explicit"},
+ "gravity": [0, 0, -9.81], "constraints": [{"type": "fixed", "points": [0]}],
+ "timeStep": 0.1, "duration": 100, "output": {"every": 1}}
+SCENE
+run run "$tmp/boom.json" --out "$tmp/boom" --quiet
+if expect_code 1 "a run that blows up"; then
+  checks=$((checks + 1))
+  grep -q "the run stopped during step [0-9]* of 1000; what it made so far is in $tmp/boom: the CSV's rows in .steps.csv.tmp" "$tmp/err" &&
+    [ -s "$tmp/boom/.steps.csv.tmp" ] && [ -s "$tmp/boom/surface.partial.pvd" ] ||
+    fail "a failed run should say where its rows and frames are: $(cat "$tmp/err")"
+fi
+
 # ---- --version ----
 run --version
 if expect_code 0 "--version"; then

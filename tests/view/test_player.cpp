@@ -459,6 +459,24 @@ TEST(PlayerRun, BadFoldersAreNamedWithWhatIsWrong) {
     EXPECT_THAT(e.what(), HasSubstr("surface_000000.vtp:6: DataArray constraint: \"257\" is not an "
                                     "index or flag in range"));
   }
+  // A position beyond single precision (a run that blew up) is quoted whole: its first 20
+  // characters, "7.962843447621331e+7", would look like a fine number.
+  std::ofstream(dir / "surface_000000.vtp")
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
+         "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n<Points>\n"
+         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
+         "format=\"ascii\">\n"
+         "0 0 0 1 0 0 7.962843447621331e+70 1 0\n</DataArray>\n</Points>\n<Polys>\n"
+         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 "
+         "2</DataArray>\n</Polys>\n"
+         "</Piece>\n</PolyData>\n</VTKFile>\n";
+  try {
+    readFrame(scanRun(dir), 0);
+    ADD_FAILURE() << "a position of 8e70 was read";
+  } catch (const InvalidInput& e) {
+    EXPECT_THAT(e.what(), HasSubstr("DataArray position: \"7.962843447621331e+70\" is not a finite "
+                                    "number (in single precision)"));
+  }
   fs::remove_all(dir);
 }
 
