@@ -125,7 +125,7 @@ DESCRIPTION = (
     "turns up and back down onto the organ (the contact keeps it out of the organ), the wound "
     "gapes under the skin's tension (about 3 mm), the lips come together as the threads shorten "
     "(drawn in green in the player), the skin puckering beside each stitch, and become one "
-    "surface again where they lie within the tolerance (most of the incision; a few short "
+    "surface again where they lie within the tolerance (more than half of the incision; the "
     "stretches whose lips stay further apart are left open), and the skin settles on the organ "
     "till t = 5.2 s. Made by scripts/make_surgery_organ.py.")
 

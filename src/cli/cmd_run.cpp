@@ -223,9 +223,10 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
     } catch (const Error&) {
       // The run ends with the error (printed by the caller); say where what it made lies: a
       // failed run leaves no file under a final name, so its rows and frames are easy to miss.
-      std::cerr << "cutsim: the run stopped during step " << runner.currentStep() + 1 << " of "
+      std::cerr << "cutsim: the run stopped after step " << runner.currentStep() << " of "
                 << runner.numSteps() << "; what it made so far is in " << outDir.string()
-                << ": the CSV's rows in .steps.csv.tmp, the frames in *.partial.pvd\n";
+                << ": the CSV's rows in .steps.csv.tmp, the frames in its *_NNNNNN.vtp files "
+                   "(listed in *.partial.pvd as of the last update)\n";
       throw;
     }
     signal = signals.received();

@@ -104,9 +104,10 @@ std::vector<T> numbers(const Xml& xml, const pugi::xml_node& array, std::size_t 
       // The whole number as written (a cut one, "7.96e+7" of "7.96e+70", would look fine).
       const char* q = p;
       while (q < end && q - p < 40 && !std::isspace(static_cast<unsigned char>(*q))) ++q;
+      const bool cut = q < end && !std::isspace(static_cast<unsigned char>(*q));
       throw InvalidInput(xml.at(array),
                          std::string("DataArray ") + array.attribute("Name").value() + ": \"" +
-                             std::string(p, q) + "\" is not " +
+                             std::string(p, q) + (cut ? "..." : "") + "\" is not " +
                              (std::is_floating_point_v<T> ? "a finite number (in single precision)"
                                                           : "an index or flag in range"));
     }

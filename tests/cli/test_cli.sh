@@ -216,7 +216,7 @@ SCENE
 run run "$tmp/boom.json" --out "$tmp/boom" --quiet
 if expect_code 1 "a run that blows up"; then
   checks=$((checks + 1))
-  grep -q "the run stopped during step [0-9]* of 1000; what it made so far is in $tmp/boom: the CSV's rows in .steps.csv.tmp" "$tmp/err" &&
+  grep -q "the run stopped after step [0-9]* of 1000; what it made so far is in $tmp/boom: the CSV's rows in .steps.csv.tmp" "$tmp/err" &&
     [ -s "$tmp/boom/.steps.csv.tmp" ] && [ -s "$tmp/boom/surface.partial.pvd" ] ||
     fail "a failed run should say where its rows and frames are: $(cat "$tmp/err")"
 fi

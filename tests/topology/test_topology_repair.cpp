@@ -670,3 +670,74 @@ TEST(TopologyRepair, APolylineARoundingOffAVertexGoesThroughIt) {
 
 }  // namespace
 }  // namespace cutsim::test
+
+namespace cutsim::test {
+namespace {
+
+/// A flat sheet that does not lie in a coordinate plane is as flat as one that does: the U
+/// incision on the skin patch turned about two axes leaves no corner under the target, as in
+/// z = 0 (every point lies a rounding off the sheet's plane there, which the flatness measure
+/// must not take for a bend).
+TEST(TopologyRepair, ATurnedFlatSheetIsRepairedAsOneInZeroPlane) {
+  const double a = 0.6, b = 0.9;  // radians, about x then about z
+  auto turn = [&](const Vec3& p) {
+    const double y = std::cos(a) * p[1] - std::sin(a) * p[2];
+    const double z = std::sin(a) * p[1] + std::cos(a) * p[2];
+    return Vec3{std::cos(b) * p[0] - std::sin(b) * y, std::sin(b) * p[0] + std::cos(b) * y, z};
+  };
+  topology::CutOptions options;
+  options.repair.minAngle = kDefaultTarget;
+  Topology flat(grid(30, 0.1));
+  const auto rf = flat.cutPolyline(uIncision(), options);
+  topology::MeshData m = grid(30, 0.1);
+  for (Vec3& p : m.points) p = turn(p);
+  std::vector<Vec3> u = uIncision();
+  for (Vec3& p : u) p = turn(p);
+  Topology t(m);
+  const topology::Index before = t.triangleCapacity();
+  const auto r = t.cutPolyline(u, options);
+  ASSERT_TRUE(t.validate().ok()) << t.validate().summary();
+  const Quality q = quality(t, createdSince(t, before), kDefaultTarget);
+  EXPECT_TRUE(q.shortfalls.empty()) << q.shortfalls.front();
+  std::cout << "turned: " << t.numPoints() << " points, flips " << r.repair.flips << ", collapses "
+            << r.repair.collapses << ", relocations " << r.repair.relocations
+            << "; in z = 0: " << flat.numPoints() << " points, flips " << rf.repair.flips
+            << ", collapses " << rf.repair.collapses << ", relocations " << rf.repair.relocations
+            << "\n";
+  // The same repair, up to a few decisions that rounding may tip.
+  EXPECT_NEAR(double(t.numPoints()), double(flat.numPoints()), 0.05 * double(flat.numPoints()));
+  EXPECT_NEAR(double(r.repair.relocations + r.repair.collapses),
+              double(rf.repair.relocations + rf.repair.collapses),
+              0.25 * double(rf.repair.relocations + rf.repair.collapses) + 2);
+}
+
+/// A cut across a sharp crease of the rest surface (a sheet folded by 60 degrees) goes on into
+/// the other face and ends at its target: the rule that takes a target a sagitta over the walk's
+/// place as reached is a last resort, never preferred to a triangle the walk can enter.
+TEST(TopologyRepair, ACutAcrossASharpCreaseEndsAtItsTarget) {
+  // Folded by 60 degrees along x = 0.5; the target 6 mm beyond the crease on the far face, where
+  // it lies right over a point of the near face's plane (along <= off), within a twentieth of an
+  // edge of it.
+  topology::MeshData m = grid(11, 1.0);
+  const double c = std::cos(std::numbers::pi / 3), s = std::sin(std::numbers::pi / 3);
+  for (Vec3& p : m.points)
+    if (p[0] > 0.5 + 1e-12) p = Vec3{0.5 + (p[0] - 0.5) * c, p[1], (p[0] - 0.5) * s};
+  // With the repair on (without it, the end would snap onto the crease, a tenth of an edge away).
+  for (double y : {0.45, 0.452, 0.455, 0.458}) {
+    const double minAngle = kDefaultTarget;
+    Topology t(m);
+    topology::CutOptions options;
+    options.repair.minAngle = minAngle;
+    const std::vector<Vec3> poly{{0.25, 0.45, 0}, {0.5, 0.45, 0}, {0.5 + 0.006 * c, y, 0.006 * s}};
+    const auto r = t.cutPolyline(poly, options);
+    ASSERT_TRUE(t.validate().ok());
+    ASSERT_FALSE(r.path.empty());
+    const auto end = t.restPosition(r.path.back());
+    EXPECT_NEAR(end[0], poly.back()[0], 1e-12) << "y " << y;
+    EXPECT_NEAR(end[1], poly.back()[1], 1e-12) << "y " << y;
+    EXPECT_NEAR(end[2], poly.back()[2], 1e-12) << "y " << y;
+  }
+}
+
+}  // namespace
+}  // namespace cutsim::test

@@ -104,33 +104,11 @@ struct Step {
   int exitEdge = -1;           // local index of the vertex opposite the exit edge
 };
 
-Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, const Point3& q) {
+/// The step in f from lp towards the target whose barycentric coordinates in f's plane are lq.
+Step ordinaryStep(const std::array<double, 3>& lp, const std::array<double, 3>& lq) {
   Step s;
-  auto lq = barycentric(c, q);
-  if (!lq) return s;
   const double eps = 1e-10;
-  std::array<double, 3> d{(*lq)[0] - lp[0], (*lq)[1] - lp[1], (*lq)[2] - lp[2]};
-  // The target right over (or under) where the walk is, a curved surface's sagitta off f's plane
-  // and no farther from it along the plane: reached. Above a ridge of a curved rest surface (a
-  // path drawn on the smooth surface the mesh samples), the target projects a little beyond the
-  // shared edge into each plane, so neither triangle would be entered nor the target reached.
-  {
-    auto at = [&](const std::array<double, 3>& l) {
-      return Point3(l[0] * c[0].x() + l[1] * c[1].x() + l[2] * c[2].x(),
-                    l[0] * c[0].y() + l[1] * c[1].y() + l[2] * c[2].y(),
-                    l[0] * c[0].z() + l[1] * c[1].z() + l[2] * c[2].z());
-    };
-    const Point3 here = at(lp), foot = at(*lq);
-    const double along = std::sqrt(CGAL::squared_distance(here, foot));
-    const double off = std::sqrt(CGAL::squared_distance(q, foot));
-    if (along > 0 && along <= off && off <= 0.05 * longestEdge(c)) {
-      s.enters = true;
-      s.margin = 1.0;
-      s.reached = true;
-      s.at = lp;
-      return s;
-    }
-  }
+  std::array<double, 3> d{lq[0] - lp[0], lq[1] - lp[1], lq[2] - lp[2]};
   double norm = std::max({std::abs(d[0]), std::abs(d[1]), std::abs(d[2]), 1e-300});
   double margin = 1e300;
   for (int j = 0; j < 3; ++j)
@@ -151,7 +129,7 @@ Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, con
     }
   if (exitJ < 0) {
     s.reached = true;
-    s.at = *lq;
+    s.at = lq;
     for (double& x : s.at) x = std::max(0.0, x);
     double sum = s.at[0] + s.at[1] + s.at[2];
     for (double& x : s.at) x /= sum;
@@ -169,6 +147,31 @@ Point3 fromBary(const std::array<Point3, 3>& c, const std::array<double, 3>& l) 
   return Point3(l[0] * c[0].x() + l[1] * c[1].x() + l[2] * c[2].x(),
                 l[0] * c[0].y() + l[1] * c[1].y() + l[2] * c[2].y(),
                 l[0] * c[0].z() + l[1] * c[1].z() + l[2] * c[2].z());
+}
+
+Step stepIn(const std::array<Point3, 3>& c, const std::array<double, 3>& lp, const Point3& q) {
+  auto lq = barycentric(c, q);
+  if (!lq) return Step{};
+  const Step ordinary = ordinaryStep(lp, *lq);
+  if (ordinary.enters) return ordinary;
+  // Neither entering f nor reaching the target: the target may lie right over (or under) where
+  // the walk is, a curved surface's sagitta off f's plane and no farther from it along the plane,
+  // and is reached here. Above a ridge of a curved rest surface (a path drawn on the smooth
+  // surface the mesh samples), the target projects a little beyond the shared edge into each
+  // plane, so neither triangle would be entered nor the target reached. The smallest margin
+  // that enters: a triangle the walk can enter (across a crease, say) is always preferred.
+  const Point3 here = fromBary(c, lp), foot = fromBary(c, *lq);
+  const double along = std::sqrt(CGAL::squared_distance(here, foot));
+  const double off = std::sqrt(CGAL::squared_distance(q, foot));
+  if (along > 0 && along <= off && off <= 0.05 * longestEdge(c)) {
+    Step s;
+    s.enters = true;
+    s.margin = -1e-9;
+    s.reached = true;
+    s.at = lp;
+    return s;
+  }
+  return ordinary;
 }
 
 }  // namespace
@@ -454,8 +457,10 @@ class Walker {
     // The same point as a vertex within same_ (see setSamePoint).
     const std::array<Point3, 3> c = corners(m, l.face);
     const Point3 here = fromBary(c, l.bary);
+    // Only a vertex the location lies towards (a crossing on the edge opposite the walk's own
+    // vertex, in a sliver, must not snap back onto that vertex: the walk would not move on).
     auto nearVertex = [&](int k) {
-      return same_ > 0 && CGAL::squared_distance(here, c[k]) <= same_ * same_;
+      return same_ > 0 && l.bary[k] > 0.5 && CGAL::squared_distance(here, c[k]) <= same_ * same_;
     };
     for (int k = 0; k < 3; ++k) {
       bool mayMove = !m.is_border(fv[k], true) || (onBorderEdge >= 0 && onBorderEdge != k);

@@ -184,14 +184,16 @@ class Repairer {
     auto c = cornersOf(f);
     return normal(P(c[0]), P(c[1]), P(c[2]));
   }
-  /// The triangles fs (and their corners) are flat within the flatness tolerance: seen from
-  /// their centroid, no corner lies more than half the tolerance off the plane of their summed
-  /// (area-weighted) normals. Measured on the points, not by comparing the triangles' own
-  /// normals: a sliver's normal can point anywhere when its corners lie a rounding or a curved
-  /// surface's sagitta off its neighbours' plane, so on a curved rest surface (of bends well
-  /// under the tolerance from one triangle to the next) a normal test takes slivers for creases
-  /// and the repair meant to remove them stops there. Two triangles of a dihedral angle t give
-  /// about t (the same measure as before for triangles of similar size).
+  /// The triangles fs (and their corners) are flat within the flatness tolerance: no corner lies
+  /// farther off the plane of their summed (area-weighted) normals, through their centroid, than
+  /// tan(flatness / 4) times the patch's extent along that plane (the largest distance of a corner
+  /// from the centroid along it). Two triangles bent by t along their shared edge reach that at
+  /// t = flatness (for near-equilateral ones; the measure is the patch's, whatever the triangles'
+  /// shapes), a regular star on a sphere at a bend of about 0.6 flatness from one triangle to the
+  /// next. Measured on the points, not by comparing the triangles' own normals: a sliver's normal
+  /// can point anywhere when its corners lie a rounding or a curved surface's sagitta off its
+  /// neighbours' plane, so on a curved rest surface a normal test takes slivers for creases and
+  /// the repair meant to remove them stops there.
   bool flatTriangles(const std::vector<FI>& fs) const {
     if (fs.empty()) return false;
     Vector3 n(0, 0, 0);
@@ -207,14 +209,15 @@ class Repairer {
     Vector3 centroid(0, 0, 0);
     for (VI c : pts) centroid = centroid + (P(c) - CGAL::ORIGIN);
     const Point3 o = CGAL::ORIGIN + centroid / double(pts.size());
-    const double slope = std::tan(0.5 * flat_);
+    double off = 0, extent = 0, reach = 0;
     for (VI c : pts) {
       const Vector3 r = P(c) - o;
-      const double off = std::abs(r * n);
-      const double along = std::sqrt(std::max(0.0, r.squared_length() - off * off));
-      if (off > slope * along + 1e-12 * std::sqrt(r.squared_length())) return false;
+      const double h = std::abs(r * n), r2 = r.squared_length();
+      off = std::max(off, h);
+      extent = std::max(extent, std::sqrt(std::max(0.0, r2 - h * h)));
+      reach = std::max(reach, std::sqrt(r2));
     }
-    return true;
+    return off <= std::tan(0.25 * flat_) * extent + 1e-12 * reach;
   }
   /// v's star is flat within the flatness tolerance.
   bool flatStar(VI v) const { return flatTriangles(facesAround(v)); }
@@ -244,14 +247,15 @@ class Repairer {
   /// the point's place.) On a flat sheet: kStraight.
   bool straightThrough(VI v, VI a, VI b) const {
     const Vector3 u = P(v) - P(a), w = P(b) - P(v);
+    const double lu = std::sqrt(u.squared_length()), lw = std::sqrt(w.squared_length());
+    if (!(lu > 0 && lw > 0)) return false;  // a border edge of no length: a corner
     const double turn = angleBetween(u, w);
     if (turn <= kStraight) return true;
     if (!(turn <= flat_)) return false;
     Vector3 n(0, 0, 0);
     for (FI f : facesAround(v)) n = n + normalOf(f);
-    const double nl = std::sqrt(n.squared_length()), lu = std::sqrt(u.squared_length()),
-                 lw = std::sqrt(w.squared_length());
-    if (!(nl > 0 && lu > 0 && lw > 0)) return false;
+    const double nl = std::sqrt(n.squared_length());
+    if (!(nl > 0)) return false;
     n = n / nl;
     const double bend = std::abs((u * n) / lu - (w * n) / lw);  // out of the tangent plane
     if (!(bend > kStraight)) return false;

@@ -50,9 +50,10 @@ struct RepairOptions {
   /// Points that must neither move nor disappear (fixed or grasped points).
   std::vector<PointId> locked;
   /// Flips, collapses and relocations only where the rest surface is flat within this angle
-  /// (degrees): seen from the middle of the triangles involved, none of their corners more than
-  /// half of it off their mean plane. 5 lets a curved rest surface meshed at a few degrees of bend
-  /// from one triangle to the next (skin over an organ) be repaired, and keeps creases.
+  /// (degrees): no corner of the triangles involved farther off their mean plane than
+  /// tan(flatness / 4) times their extent along it (two triangles bent by this angle reach it).
+  /// 5 lets a curved rest surface meshed at a few degrees of bend from one triangle to the next
+  /// (skin over an organ) be repaired, and keeps creases.
   double flatness = 5.0;
 };
 
