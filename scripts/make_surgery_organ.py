@@ -61,20 +61,23 @@ def scalpel_path(duration):
 
 
 def forceps_path():
-    """The jaws close on the flap's tip, 5 mm inside the incision at -y, 4 mm under the skin
-    (the middle of their tips), then turn it over its base (the chord across the arc's gap) by up
-    to 100 degrees, hold it open, lay it back the same way, and open."""
+    """The jaws close on the flap's tip, 5 mm inside the incision at -y, their tips 4 mm under the
+    skin and their axis along its normal there (+z), then turn over the flap's base (the chord
+    across the arc's gap) by up to 100 degrees, the flap with them, hold it open, lay it back the
+    same way, and open. Rows [t, x, y, z, ax, ay, az, opening]: the jaws turn as the flap does."""
     tip = on_arc(270.0, RADIUS - 0.005)
     base = on_arc(90.0, RADIUS * math.sin(math.radians(ARC[1] - 360.0)))
-    length = math.hypot(tip[1] - base[1], tip[2] - base[2])
     drop = 0.004
     closed, opened = 0.006, 0.015
+    arm = [tip[1] - base[1], tip[2] - drop - base[2]]  # from the base to the jaws' tip (y, z)
 
     def at(phi_deg):
+        # a turn by -phi about the x axis (the tip at -y rises over the base at +y)
         phi = math.radians(phi_deg)
-        start = math.atan2(tip[2] - base[2], tip[1] - base[1])  # about pi: the tip at -y
-        a = start - phi
-        return [0.0, base[1] + length * math.cos(a), base[2] + length * math.sin(a) - drop]
+        c, s = math.cos(phi), math.sin(phi)
+        y = base[1] + c * arm[0] + s * arm[1]
+        z = base[2] - s * arm[0] + c * arm[1]
+        return [0.0, y, z, 0.0, s, c]
 
     rows = [[0.0] + at(0) + [opened], [0.1] + at(0) + [closed]]
     up = [(0.3, 30), (0.5, 60), (0.7, 85), (0.9, 100)]
@@ -117,8 +120,9 @@ DESCRIPTION = (
     "tip 1.5 mm under the skin, along the skin's normal) follows a 280-degree arc of 2 cm radius "
     "over the top of the organ: a curved incision on a curved rest surface, repaired to 20 "
     "degrees as it goes; at t = 1.25 s the flap inside it and a 2 mm margin are undermined "
-    "(dissect). From t = 1.3 s forceps take the flap's tip, turn the flap over its base by 100 "
-    "degrees, showing the organ beneath, hold it, lay it back by t = 3.5 s and open. At t = "
+    "(dissect). From t = 1.3 s forceps take the flap's tip and, turning with it, turn the flap over "
+    "its base by 100 degrees, showing the organ beneath, hold it, lay it back by t = 3.5 s and "
+    "open. At t = "
     "3.7 s a running suture of thirteen stitches 7 mm apart, each 4 mm either side of the "
     "incision, tightens to 1.5 mm over 0.8 s, and at t = 4.7 s the wound is sewn (tolerance "
     "1.5 mm, along the incision). What to see: the incision follows the curved skin; the flap "
@@ -157,7 +161,7 @@ def scene():
              "path": scalpel_path(1.0)},
             {"at": 1.25, "action": "dissect",
              "sphere": {"center": [r6(v) for v in skin_point(0.0, 0.0)], "radius": RADIUS + 0.002}},
-            {"from": 1.3, "to": 3.6, "action": "forceps", "name": "forceps", "axis": [0, 0, 1],
+            {"from": 1.3, "to": 3.6, "action": "forceps", "name": "forceps",
              "across": [1, 0, 0], "radius": 0.003, "length": 0.01, "path": forceps_path()},
             {"at": 3.7, "action": "suture", "bite": 0.003, "stitches": stitches(),
              "length": 0.0015, "tighten": 0.8},

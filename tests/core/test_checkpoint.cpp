@@ -315,6 +315,47 @@ TEST(Checkpoint, ForcepsGoOnBitForBitOpenClosedAndHolding) {
   std::filesystem::remove(file);
 }
 
+TEST(Checkpoint, TurningForcepsGoOnBitForBitWhileTheyTurn) {
+  // Jaws with an axis per keyframe: they close on the hanging sheet, lift it while their axis
+  // turns by 120 degrees (what they hold turns with them about their tip), and open. The grasp's
+  // rotations and pivot are part of the checkpoint.
+  const std::string text = R"({
+  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
+  "mass": {"total": 0.1},
+  "gravity": [0, -9.81, -2],
+  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
+                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01}],
+  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
+  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
+  "timeStep": 0.01, "duration": 0.3,
+  "timeline": [{"action": "forceps", "name": "jaws", "from": 0.02, "to": 0.25,
+                "across": [1, 0, 0], "radius": 0.06, "length": 0.3,
+                "path": [[0, 0.43, 0.47, -0.15, 0, 0, 1, 0.2], [0.03, 0.43, 0.47, -0.15, 0, 0, 1, 0.12],
+                         [0.1, 0.5, 0.45, -0.1, 0, -1, 0, 0.12],
+                         [0.15, 0.6, 0.4, -0.05, 0, -0.5, -0.866, 0.12],
+                         [0.2, 0.6, 0.4, -0.05, 0, -0.5, -0.866, 0.2]]}]
+})";
+  const Scene scene = parseScene(text, "forceps.json", test::kSceneDir);
+  {
+    SceneRunner probe(scene);
+    probe.start();
+    bool turned = false;
+    while (!probe.finished()) {
+      probe.advance();
+      if (const Grasp* g = probe.simulation().findGrasp("jaws"))
+        turned = turned || (g->points().size() > 1 && !g->path().rotations.empty());
+    }
+    ASSERT_TRUE(turned);
+    ASSERT_EQ(probe.simulation().findGrasp("jaws"), nullptr);  // opened
+  }
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "cutsim_ck_forceps_turning.ckpt";
+  std::mt19937 rng(17);
+  for (long stop : {4L, 8L, 13L, 21L}) resumeAndCompare(scene, stop, file);
+  resumeAndCompare(scene, std::uniform_int_distribution<long>(2, 28)(rng), file);
+  std::filesystem::remove(file);
+}
+
 TEST(Checkpoint, SuturesGoOnBitForBitWhileTheyTighten) {
   // Two stitches placed across a hanging, swaying sheet (points inserted where the needles
   // pierce it) and tightened over 0.15 s: checkpoints before, while and after (the threads are

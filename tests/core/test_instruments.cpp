@@ -669,6 +669,85 @@ TEST(Forceps, ClosingOnAPointInsideATriangleCarriesItWithTheJaws) {
   EXPECT_TRUE(released);  // the jaws opened
 }
 
+TEST(Forceps, TurningJawsCarryWhatTheyHoldAboutTheirTip) {
+  // Jaws 6 cm thick (no repair) close around the material point (0.437, 0.521) of the sheet at
+  // rest, their tip 1 cm under it; then their axis turns from +z through (0, -1, 1) to -y (about
+  // +x, 45 degrees per keyframe interval, at a constant rate) while the tip rises and moves along
+  // y. Every held point (the inserted one and the vertices within 6 cm of the middle line) stays
+  // where a rigid motion about the tip puts it, computed here by Rodrigues' formula: to 1e-9.
+  const double r = 0.06;
+  const std::string path =
+      "[[0, 0.437, 0.521, -0.01, 0, 0, 1, 0.2], [0.02, 0.437, 0.521, -0.01, 0, 0, 1, 0.12], "
+      "[0.07, 0.437, 0.521, 0.05, 0, -1, 1, 0.12], [0.12, 0.437, 0.6, 0.1, 0, -1, 0, 0.12], "
+      "[0.13, 0.437, 0.6, 0.1, 0, -1, 0, 0.2]]";
+  SceneRunner runner(parseScene(
+      sheet(R"({"action": "forceps", "name": "jaws", "from": 0.01, "to": 0.14, "across": [1, 0, 0],
+                "radius": )" +
+                text(r) + R"(, "length": 0.04, "minAngle": 0, "path": )" + path + "}",
+            0.16),
+      "a.json", test::kSceneDir));
+  runner.start();
+  Simulation& sim = runner.simulation();
+  // The tip and the turn (about +x) at time t from the action's start, as the path gives them.
+  const auto tipAt = [](double t) -> Vec3 {
+    const double keys[4] = {0.02, 0.07, 0.12, 0.13};
+    const Vec3 tips[4] = {
+        {0.437, 0.521, -0.01}, {0.437, 0.521, 0.05}, {0.437, 0.6, 0.1}, {0.437, 0.6, 0.1}};
+    if (t <= keys[0]) return tips[0];
+    for (int k = 1; k < 4; ++k)
+      if (t <= keys[k]) {
+        const double f = (t - keys[k - 1]) / (keys[k] - keys[k - 1]);
+        return topology::geometry::lerp(tips[k - 1], tips[k], f);
+      }
+    return tips[3];
+  };
+  const auto angleAt = [](double t) {
+    return kPi / 4 * std::clamp((t - 0.02) / 0.05, 0.0, 1.0) +
+           kPi / 4 * std::clamp((t - 0.07) / 0.05, 0.0, 1.0);
+  };
+  std::size_t checked = 0;
+  bool held = false, released = false;
+  while (!runner.finished()) {
+    runner.advance();
+    ASSERT_TRUE(sim.topology().validate().ok()) << "step " << runner.currentStep();
+    const Grasp* g = sim.findGrasp("jaws");
+    if (g && !held) {
+      held = true;
+      EXPECT_EQ(g->points().size(), 5u);  // the inserted point and four vertices
+    }
+    if (!g) {
+      released = released || held;
+      continue;
+    }
+    const double t0 = g->startTime() - 0.01, t = runner.time() - 0.01;
+    const double turn = angleAt(t) - angleAt(t0), c = std::cos(turn), sn = std::sin(turn);
+    const Vec3 tip0 = tipAt(t0), tip = tipAt(t);
+    for (PointId p : g->points().points()) {
+      const Vec3& a = g->points().data(p);  // where it was taken
+      const Vec3 arm{a[0] - tip0[0], a[1] - tip0[1], a[2] - tip0[2]};
+      // Rodrigues about +x: (x, y c - z s, y s + z c).
+      const Vec3 want{tip[0] + arm[0], tip[1] + arm[1] * c - arm[2] * sn,
+                      tip[2] + arm[1] * sn + arm[2] * c};
+      const Vec3 x = worldOf(sim, p);
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[d], want[d], 1e-9) << "t " << t;
+      ++checked;
+    }
+    // The jaws drawn where they are: the first segment of a jaw's wire is its axis, from its tip
+    // along the turned axis.
+    const double angle = angleAt(t);
+    const Vec3 axis{0, -std::sin(angle), std::cos(angle)};
+    const auto wires = runner.instrumentSegments();
+    ASSERT_FALSE(wires.empty());
+    const auto& w = wires.front();
+    const double length = std::sqrt(topology::geometry::dist2(w[0], w[1]));
+    ASSERT_NEAR(length, 0.04, 1e-9);
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR((w[1][d] - w[0][d]) / length, axis[d], 1e-9);
+  }
+  EXPECT_TRUE(held);
+  EXPECT_TRUE(released);
+  EXPECT_GT(checked, 40u);
+}
+
 TEST(Forceps, ClosingAcrossAFoldTakesBothLayers) {
   // The sheet folded over itself at x = 0.5 (its right half 2 cm above its left half): jaws 4 cm
   // long closing around a vertical line through both layers take a point of each, inserted where
@@ -743,6 +822,19 @@ TEST(Forceps, BadInputIsRefusedBeforeTheRunNamingThePlace) {
       "length": 0.04, "path": [[0, 0, 0, 0, 0.03]]}, {"at": 0, "action": "grasp", "name": "f",
       "points": [0], "path": [[0, 0, 0, 0]]})")),
               HasSubstr("/timeline/1/name: a grasp named \"f\" is already active"));
+  // Turning jaws (no "axis"): rows of eight, the axis per keyframe.
+  EXPECT_THAT(parseError(sheet(head + R"("across": [1, 0, 0], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0.03]]})")),
+              HasSubstr("/timeline/0/path/0: expected an array of 8 numbers"));
+  EXPECT_THAT(parseError(sheet(head + R"("across": [1, 0, 0], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0, 0, 1, 0.03], [1, 0, 0, 0, 0, 0, -1, 0.03]]})")),
+              HasSubstr("/timeline/0/path/1/4: the forceps's axis turns by 180 degrees"));
+  EXPECT_THAT(parseError(sheet(head + R"("across": [1, 0, 0], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0, 0, 1, 0.01]]})")),
+              HasSubstr("/timeline/0/path/0/7: the jaws' opening"));
+  EXPECT_THAT(parseError(sheet(head + R"("across": [0, 0, 1], "radius": 0.01,
+      "length": 0.04, "path": [[0, 0, 0, 0, 0, 0, 1, 0.03]]})")),
+              HasSubstr("/timeline/0/across: must not be parallel to the axis"));
 }
 
 // ---- sutures ----

@@ -254,8 +254,11 @@ def test_a_sweep_stopped_and_started_again_reruns_nothing_that_finished(tmp_path
              "results": "results"}
     path = write(tmp_path / "stopped.json", sweep)
     env = dict(os.environ, CUTSIM_EXECUTABLE=program(), MPLBACKEND="Agg")
+    # (Ctrl-C's SIGINT as a terminal sends it: not ignored, as it is when the tests themselves run
+    # as a background job of a shell, which Python would then leave ignored in the sweep too.)
     p = subprocess.Popen([sys.executable, launcher(), str(path), "--workers", "2", "--quiet"], env=env,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     runs = tmp_path / "results" / "runs"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and p.poll() is None:

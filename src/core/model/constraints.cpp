@@ -1,5 +1,6 @@
 #include "cutsim/core/constraints.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "cutsim/base/archive.hpp"
@@ -86,20 +87,57 @@ Vec3 DisplacementPath::at(double t) const {
   return out;
 }
 
+namespace {
+Eigen::Quaterniond quaternion(const Rotation& r) {
+  return Eigen::Quaterniond(r[0], r[1], r[2], r[3]);
+}
+}  // namespace
+
+Rotation DisplacementPath::rotationAt(double t) const {
+  if (rotations.empty() || times.empty()) return {1, 0, 0, 0};
+  if (t <= times.front()) return rotations.front();
+  if (t >= times.back()) return rotations.back();
+  std::size_t k = 1;
+  while (times[k] < t) ++k;
+  const double s = (t - times[k - 1]) / (times[k] - times[k - 1]);
+  // (Eigen's slerp takes the shorter arc)
+  const Eigen::Quaterniond q = quaternion(rotations[k - 1]).slerp(s, quaternion(rotations[k]));
+  return {q.w(), q.x(), q.y(), q.z()};
+}
+
+Vec3 DisplacementPath::move(const Vec3& anchor, double t) const {
+  const Vec3 d = at(t);
+  if (rotations.empty()) return {anchor[0] + d[0], anchor[1] + d[1], anchor[2] + d[2]};
+  const Eigen::Vector3d arm =
+      quaternion(rotationAt(t)) *
+      Eigen::Vector3d(anchor[0] - pivot[0], anchor[1] - pivot[1], anchor[2] - pivot[2]);
+  return {pivot[0] + d[0] + arm[0], pivot[1] + d[1] + arm[1], pivot[2] + d[2] + arm[2]};
+}
+
+void DisplacementPath::check(const std::string& who) const {
+  if (times.size() != displacements.size())
+    throw InvalidInput(who, "path times and displacements differ in number");
+  if (!rotations.empty() && rotations.size() != times.size())
+    throw InvalidInput(who, "path times and rotations differ in number");
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    if (!std::isfinite(times[i]) || (i > 0 && !(times[i] > times[i - 1])))
+      throw InvalidInput(who, "path times must be finite and increasing");
+    for (double c : displacements[i])
+      if (!std::isfinite(c)) throw InvalidInput(who, "non-finite displacement");
+  }
+  for (const Rotation& r : rotations) {
+    const double n2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
+    if (!(std::abs(n2 - 1) <= 1e-9))
+      throw InvalidInput(who, "a rotation of the path is not a unit quaternion");
+  }
+  for (double c : pivot)
+    if (!std::isfinite(c)) throw InvalidInput(who, "non-finite pivot");
+}
+
 Grasp::Grasp(topology::Topology& topology, std::string name, double startTime,
              DisplacementPath path)
     : points_(topology, std::move(name)), start_(startTime), path_(std::move(path)) {
-  if (path_.times.size() != path_.displacements.size())
-    throw InvalidInput("grasp '" + points_.name() + "'",
-                       "path times and displacements differ in number");
-  for (std::size_t i = 0; i < path_.times.size(); ++i) {
-    if (!std::isfinite(path_.times[i]) || (i > 0 && !(path_.times[i] > path_.times[i - 1])))
-      throw InvalidInput("grasp '" + points_.name() + "'",
-                         "path times must be finite and increasing");
-    for (double c : path_.displacements[i])
-      if (!std::isfinite(c))
-        throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
-  }
+  path_.check("grasp '" + points_.name() + "'");
 }
 
 void Grasp::moveBy(double now, const Vec3& delta, double duration) {
@@ -110,17 +148,23 @@ void Grasp::moveBy(double now, const Vec3& delta, double duration) {
       throw InvalidInput("grasp '" + points_.name() + "'", "non-finite displacement");
   const double tau = now - start_;
   const Vec3 d0 = path_.at(tau);
+  const Rotation r0 = path_.rotationAt(tau);
+  const bool turns = !path_.rotations.empty();
   DisplacementPath next;
+  next.pivot = path_.pivot;
   for (std::size_t i = 0; i < path_.times.size() && path_.times[i] < tau; ++i) {
     next.times.push_back(path_.times[i]);
     next.displacements.push_back(path_.displacements[i]);
+    if (turns) next.rotations.push_back(path_.rotations[i]);
   }
   next.times.push_back(tau);
   next.displacements.push_back(d0);
+  if (turns) next.rotations.push_back(r0);
   const Vec3 d1{d0[0] + delta[0], d0[1] + delta[1], d0[2] + delta[2]};
   if (duration > 0) {
     next.times.push_back(tau + duration);
     next.displacements.push_back(d1);
+    if (turns) next.rotations.push_back(r0);
   } else {
     next.displacements.back() = d1;
   }
@@ -128,9 +172,7 @@ void Grasp::moveBy(double now, const Vec3& delta, double duration) {
 }
 
 Vec3 Grasp::target(PointId p, double t) const {
-  Vec3 d = path_.at(t - start_);
-  const Vec3& a = points_.data(p);
-  return {a[0] + d[0], a[1] + d[1], a[2] + d[2]};
+  return path_.move(points_.data(p), t - start_);
 }
 
 template <class Archive, class Self>

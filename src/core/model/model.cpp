@@ -220,6 +220,9 @@ void Model::saveState(ArchiveWriter& out) const {
     out.f64s(g->path().times);
     out.u64(g->path().displacements.size());
     for (const Vec3& d : g->path().displacements) out.raw(d.data(), sizeof(double) * 3);
+    out.u64(g->path().rotations.size());
+    for (const Rotation& r : g->path().rotations) out.raw(r.data(), sizeof(double) * 4);
+    out.raw(g->path().pivot.data(), sizeof(double) * 3);
     out.raw(g->reaction().data(), sizeof(double) * 3);
     g->points().saveState(out);
   }
@@ -268,6 +271,12 @@ void Model::loadState(ArchiveReader& in) {
       in.fail("grasp '" + name + "': its path's times and displacements differ in number");
     path.displacements.resize(m);
     for (Vec3& d : path.displacements) in.raw(d.data(), sizeof(double) * 3);
+    const std::uint64_t turns = in.u64();
+    if (turns != 0 && turns != m)
+      in.fail("grasp '" + name + "': its path's times and rotations differ in number");
+    path.rotations.resize(turns);
+    for (Rotation& r : path.rotations) in.raw(r.data(), sizeof(double) * 4);
+    in.raw(path.pivot.data(), sizeof(double) * 3);
     Vec3 reaction;
     in.raw(reaction.data(), sizeof(double) * 3);
     try {

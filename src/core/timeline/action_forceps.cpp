@@ -4,8 +4,11 @@
 // the mesh (a material point inside a triangle is inserted there, exactly: its weights of the
 // triangle's corners give its rest position and where it is now), with the points within a radius
 // of that line connected to it; a grasp named after the forceps carries them with the jaws (the
-// reaction force in the CSV as for every grasp) until the jaws open again. The jaws keep the
-// orientation the scene gives them (`axis`, `across`): they translate. docs/instruments.md.
+// reaction force in the CSV as for every grasp) until the jaws open again. Given one `axis`, the
+// jaws keep their orientation (they translate); given an axis per keyframe, they turn (the
+// smallest rotation from one keyframe's axis to the next's, at a constant rate: they do not roll
+// about their own axis), and what they hold turns with them about their tip. docs/instruments.md.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -29,12 +32,17 @@ using topology::geometry::unit;
 
 struct ForcepsParameters {
   std::string name;
-  ToolPath path;                 ///< the jaws' tip (the middle of their two tips), world
+  /// The jaws' tip (the middle of their two tips), world; with an axis per keyframe when they
+  /// turn.
+  ToolPath path;
   std::vector<double> openings;  ///< per keyframe: the distance between the jaws' axes (m)
-  Vec3 axis{0, 0, 1};            ///< unit: from the tips along the jaws
-  Vec3 across{1, 0, 0};          ///< unit, normal to the axis: from one jaw to the other
-  double radius = 0.0;           ///< of each jaw
-  double length = 0.0;           ///< of each jaw, from its tip
+  Vec3 axis{0, 0, 1};            ///< unit: from the tips along the jaws (at the first keyframe)
+  Vec3 across{1, 0, 0};  ///< unit, normal to the axis: from one jaw to the other (first keyframe)
+  /// Turning jaws: per keyframe, their rotation from the first keyframe's orientation (the
+  /// smallest rotation between consecutive axes, composed). Empty: they translate.
+  std::vector<Eigen::Quaterniond> turns;
+  double radius = 0.0;  ///< of each jaw
+  double length = 0.0;  ///< of each jaw, from its tip
   double minAngle = kDefaultMinAngle;
 };
 
@@ -91,19 +99,35 @@ class ForcepsAction final : public TimelineAction {
 
  private:
   double opening(double t) const { return p_.path.valueAt(p_.openings, t); }
+  /// The jaws' rotation at time t from their orientation at the first keyframe.
+  Eigen::Quaterniond turn(double t) const {
+    if (p_.turns.empty()) return Eigen::Quaterniond::Identity();
+    const auto& T = p_.path.times();
+    if (!(t > T.front())) return p_.turns.front();
+    if (t >= T.back()) return p_.turns.back();
+    const std::size_t i = std::size_t(std::upper_bound(T.begin(), T.end(), t) - T.begin());
+    return p_.turns[i - 1].slerp((t - T[i - 1]) / (T[i] - T[i - 1]), p_.turns[i]);
+  }
+  /// The unit vector v of the first keyframe's orientation, turned as the jaws are at time t.
+  Vec3 turned(const Vec3& v, double t) const {
+    if (p_.turns.empty()) return v;
+    const Eigen::Vector3d w = turn(t) * Eigen::Vector3d(v[0], v[1], v[2]);
+    return {w[0], w[1], w[2]};
+  }
   /// The middle line between the jaws at time t: from the tip along the axis, `length` long.
   std::array<Vec3, 2> middle(double t) const {
-    const Vec3 tip = p_.path.at(t).first;
-    return {tip,
-            {tip[0] + p_.length * p_.axis[0], tip[1] + p_.length * p_.axis[1],
-             tip[2] + p_.length * p_.axis[2]}};
+    const Vec3 tip = p_.path.at(t).first, axis = turned(p_.axis, t);
+    return {
+        tip,
+        {tip[0] + p_.length * axis[0], tip[1] + p_.length * axis[1], tip[2] + p_.length * axis[2]}};
   }
   /// A jaw's axis at time t (side -1/2 or +1/2 of the opening along `across`).
   std::array<Vec3, 2> jaw(double t, double side) const {
     auto m = middle(t);
     const double d = side * opening(t);
+    const Vec3 across = turned(p_.across, t);
     for (Vec3& q : m)
-      for (int k = 0; k < 3; ++k) q[k] += d * p_.across[k];
+      for (int k = 0; k < 3; ++k) q[k] += d * across[k];
     return m;
   }
 
@@ -167,25 +191,30 @@ class ForcepsAction final : public TimelineAction {
     std::sort(held.begin(), held.end());
     held.erase(std::unique(held.begin(), held.end()), held.end());
     requireFree(c, held, "the forceps \"" + p_.name + "\"");
-    // The tip's displacement from now on (linear between keyframes: exact at the keys).
+    // The tip's displacement from now on, and for turning jaws their rotation about the tip since
+    // now (linear and along the shortest arc between keyframes, as the jaws move: exact).
     DisplacementPath path;
     const Vec3 tip0 = p_.path.at(now).first;
-    path.times.push_back(0.0);
-    path.displacements.push_back({0, 0, 0});
+    const Eigen::Quaterniond since = turn(now).inverse();
+    path.pivot = tip0;
+    const auto key = [&](double t) {
+      const Vec3 tip = p_.path.at(t).first;
+      path.times.push_back(t - now);
+      path.displacements.push_back({tip[0] - tip0[0], tip[1] - tip0[1], tip[2] - tip0[2]});
+      if (!p_.turns.empty()) {
+        const Eigen::Quaterniond q = (turn(t) * since).normalized();
+        path.rotations.push_back({q.w(), q.x(), q.y(), q.z()});
+      }
+    };
+    key(now);
     const double horizon = timing_.to - timing_.from;
     for (std::size_t k = 0; k < p_.path.times().size(); ++k) {
       const double t = std::min(p_.path.times()[k], horizon);
       if (!(t > now + 1e-12 * std::max(1.0, horizon))) continue;
       if (t - now <= path.times.back()) continue;
-      const Vec3 tip = p_.path.at(t).first;
-      path.times.push_back(t - now);
-      path.displacements.push_back({tip[0] - tip0[0], tip[1] - tip0[1], tip[2] - tip0[2]});
+      key(t);
     }
-    if (horizon > now && !(horizon - now <= path.times.back())) {
-      const Vec3 tip = p_.path.at(horizon).first;
-      path.times.push_back(horizon - now);
-      path.displacements.push_back({tip[0] - tip0[0], tip[1] - tip0[1], tip[2] - tip0[2]});
-    }
+    if (horizon > now && !(horizon - now <= path.times.back())) key(horizon);
     sim.addGrasp(p_.name, held, path);
   }
 
@@ -206,18 +235,20 @@ ForcepsParameters readForceps(const ParameterSource& s) {
     if (!(v > 0)) s.fail(key, "must be a positive number (m)");
     (std::string(key) == "radius" ? p.radius : p.length) = v;
   }
+  // One axis: the jaws translate; none: the path gives an axis per keyframe, and they turn.
+  const bool turning = !s.has("axis");
   std::vector<std::vector<double>> extras(1);
-  p.path = ToolPath::read(s, false, "the forceps", extras);
+  p.path = ToolPath::read(s, turning, "the forceps", extras);
   p.openings = extras[0];
   for (std::size_t i = 0; i < p.openings.size(); ++i)
     if (!(p.openings[i] >= 2 * p.radius))
-      s.fail("path/" + std::to_string(i) + "/4",
+      s.fail("path/" + std::to_string(i) + (turning ? "/7" : "/4"),
              "the jaws' opening (the distance between their axes) must be at least 2 radii = " +
                  describeNumber(2 * p.radius) + " (closed: touching); got " +
                  describeNumber(p.openings[i]));
-  s.require("axis");
   s.require("across");
-  const Vec3 axis = s.vec3("axis"), across = s.vec3("across");
+  const Vec3 axis = turning ? p.path.at(p.path.times().front()).second : s.vec3("axis"),
+             across = s.vec3("across");
   if (!(dot(axis, axis) > 0)) s.fail("axis", "must not be zero");
   p.axis = unit(axis);
   // `across` made normal to the axis.
@@ -227,6 +258,18 @@ ForcepsParameters readForceps(const ParameterSource& s) {
   if (!(dot(normal, normal) > 1e-12 * std::max(dot(across, across), 1e-300)))
     s.fail("across", "must not be parallel to the axis (it is the direction the jaws close along)");
   p.across = unit(normal);
+  if (turning) {
+    // Each keyframe's rotation: the smallest one from the axis before (at most
+    // ToolPath::kMaxTurn degrees: never near a half turn, where it is ill-defined), composed.
+    p.turns.push_back(Eigen::Quaterniond::Identity());
+    const auto& T = p.path.times();
+    for (std::size_t i = 1; i < T.size(); ++i) {
+      const Vec3 a = p.path.at(T[i - 1]).second, b = p.path.at(T[i]).second;
+      const Eigen::Quaterniond step = Eigen::Quaterniond::FromTwoVectors(
+          Eigen::Vector3d(a[0], a[1], a[2]), Eigen::Vector3d(b[0], b[1], b[2]));
+      p.turns.push_back((step * p.turns.back()).normalized());
+    }
+  }
   p.minAngle = readMinAngle(s);
   return p;
 }
@@ -245,16 +288,23 @@ const bool registered = ActionRegistry::instance().add(
        true},
       {"path",
        KeyType::Rows,
-       "[[t, x, y, z, opening], ...]: times from \"from\", strictly increasing; the middle of the "
-       "jaws' tips (x, y, z) in world coordinates and the distance between their axes (m, at "
-       "least 2 radii: closed, the jaws touch); linear between keyframes, held outside",
+       "[[t, x, y, z, opening], ...] with \"axis\", [[t, x, y, z, ax, ay, az, opening], ...] "
+       "without: times from \"from\", strictly increasing; the middle of the jaws' tips (x, y, z) "
+       "in world coordinates, the jaws' axis (turning jaws: from the tips along the jaws, not "
+       "zero, at most 170 degrees from the keyframe before) and the distance between their axes "
+       "(m, at least 2 radii: closed, the jaws touch); linear between keyframes (the axis along "
+       "the great circle), held outside",
        {},
        true},
-      {"axis", KeyType::Point, "[x, y, z]: from the tips along the jaws (world)", {}, true},
+      {"axis", KeyType::Point,
+       "[x, y, z]: from the tips along the jaws (world); the jaws keep it (they translate). "
+       "Without it the path gives an axis per keyframe and the jaws turn, the smallest rotation "
+       "from one keyframe's axis to the next's (they do not roll about their axis), and what they "
+       "hold turns with them about their tip"},
       {"across",
        KeyType::Point,
        "[x, y, z]: from one jaw to the other, the direction they close along (made normal to the "
-       "axis)",
+       "axis; turning jaws: at the first keyframe, turned with them)",
        {},
        true},
       {"radius", KeyType::Number, "of each jaw (m), > 0", {}, true},

@@ -66,7 +66,7 @@ ToolPath ToolPath::read(const ParameterSource& s, bool withAxis, const std::stri
     if (withAxis) {
       const Vec3 axis{r[4], r[5], r[6]};
       if (!(dot(axis, axis) > 0))
-        s.fail(key + "/4", what + "'s axis (the last three numbers) must not be zero");
+        s.fail(key + "/4", what + "'s axis (the three numbers after x, y, z) must not be zero");
       const Vec3 a = unit(axis);
       if (!p.axes_.empty() && angleDegrees(p.axes_.back(), a) > kMaxTurn)
         s.fail(key + "/4", what + "'s axis turns by " +

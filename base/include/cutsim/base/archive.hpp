@@ -29,7 +29,8 @@
 namespace cutsim {
 
 /// 2: contact pairs carry their share of the law and their edges (flat-on-flat contact).
-inline constexpr std::uint32_t kArchiveFormat = 2;
+/// 3: a grasp's path carries rotations about a pivot (forceps that turn).
+inline constexpr std::uint32_t kArchiveFormat = 3;
 
 /// zlib's CRC-32 of n bytes, continuing from `crc` (0 to start): the archive's sections' checksum,
 /// also what ties a run's files to its checkpoint.

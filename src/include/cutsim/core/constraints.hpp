@@ -49,15 +49,31 @@ class PointSet : public topology::TopologyObserver {
   topology::Subscription subscription_;  // after the SlotData: notified after them
 };
 
-/// A piecewise-linear displacement path: (time, displacement) keys, constant after the last key
-/// and before the first (times strictly increasing).
+/// A rotation: a unit quaternion (w, x, y, z).
+using Rotation = std::array<double, 4>;
+
+/// A path of rigid motions: (time, displacement) keys, linear between keys, constant after the
+/// last key and before the first (times strictly increasing). Optionally a rotation per key (a
+/// turning instrument's): the points then turn about `pivot` (which the displacement moves),
+/// along the shortest arc between keys at a constant rate (spherical linear interpolation).
 struct DisplacementPath {
   std::vector<double> times;
   std::vector<Vec3> displacements;
+  /// Empty: the points only translate. Else one per key (unit quaternions).
+  std::vector<Rotation> rotations;
+  Vec3 pivot{0, 0, 0};  ///< where the rotations turn about at time 0 (world)
   Vec3 at(double t) const;
+  /// The rotation at time t (identity without rotations).
+  Rotation rotationAt(double t) const;
+  /// Where a point at `anchor` at time 0 is at time t: pivot + at(t) + R(t) (anchor - pivot).
+  Vec3 move(const Vec3& anchor, double t) const;
+  /// Throws InvalidInput (where = `who`) for keys of different counts, times not finite or not
+  /// increasing, a displacement or pivot not finite, a rotation not of unit length (to 1e-9).
+  void check(const std::string& who) const;
 };
 
-/// Grasped points follow anchor + path(t - startTime), where anchor is each point's position when
+/// Grasped points follow path.move(anchor, t - startTime) (anchor + path(t - startTime) for a path
+/// without rotations), where anchor is each point's position when
 /// it was grasped (a copy made later by a cut inherits its original's anchor). The reaction force
 /// is the force the grasp exerts on the surface (the sum over its points of what holds them on the
 /// path), reported after each step.
@@ -76,7 +92,8 @@ class Grasp {
   double startTime() const { return start_; }
   const DisplacementPath& path() const { return path_; }
   /// From time `now` on, the path moves the points by `delta` more over `duration` (>= 0; 0: at
-  /// once), then holds them; the path's keys after `now` are dropped.
+  /// once), then holds them (turned as they are at `now`); the path's keys after `now` are
+  /// dropped.
   void moveBy(double now, const Vec3& delta, double duration);
 
  private:
