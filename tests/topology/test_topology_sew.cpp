@@ -6,12 +6,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "cutsim/core/state.hpp"
 #include "cutsim/forcefields/fast_triangular_bending_springs.hpp"
+#include "cutsim/topology/geometry.hpp"
 #include "cutsim/topology/topology.hpp"
 #include "support/fixtures.hpp"
 
@@ -219,6 +221,43 @@ TEST(Sew, LipsWithPointsApartStillMeetPointToPoint) {
   // mean, since their rest positions differ by rounding, or one of them).
   EXPECT_EQ(s.t.numEdges(), s.t.numPoints() + s.t.numTriangles() - 1);
   EXPECT_LT(s.t.numPoints(), points + splits);
+}
+
+TEST(Sew, APointFacingNearAnEndOfTheOtherLipsEdgeIsNotPutThere) {
+  // Lip edges split at a tenth of their length: the point made faces the other lip a tenth of an
+  // edge from its end. Put there, it would make an edge a tenth long on the other lip (a sliver
+  // no repair mends); the sew splits no edge nearer than a fifth of it to an end, and leaves those
+  // lips open (the point and the end are further apart than the tolerance).
+  Sheet s(9);
+  s.t.cutPolyline(std::vector<Vec3>{{1.3, 5.1, 0}, {8.6, 4.9, 0}});
+  std::vector<topology::EdgeId> lips;
+  for (auto e : s.t.edges())
+    if (s.t.isBoundaryEdge(e)) {
+      const auto v = s.t.edgeVertices(e);
+      const double y = (s.t.restPosition(v[0])[1] + s.t.restPosition(v[1])[1]) / 2;
+      const double x = (s.t.restPosition(v[0])[0] + s.t.restPosition(v[1])[0]) / 2;
+      if (y > 3 && y < 7 && x > 1.5 && x < 8.5) lips.push_back(e);
+    }
+  ASSERT_GE(lips.size(), 6u);
+  for (std::size_t i = 0; i < lips.size(); i += 4) s.t.splitEdge(lips[i], 0.1);
+  const auto shortest = [&] {
+    double m = std::numeric_limits<double>::infinity();
+    for (auto e : s.t.edges()) {
+      const auto v = s.t.edgeVertices(e);
+      m = std::min(
+          m, std::sqrt(topology::geometry::dist2(s.t.restPosition(v[0]), s.t.restPosition(v[1]))));
+    }
+    return m;
+  };
+  const double before = shortest();
+  topology::SewOptions o;
+  o.tolerance = 1e-6;
+  const topology::SewResult r = s.t.sew(atRest(s.t), o);
+  s.expectValid("after the sew");
+  EXPECT_EQ(r.splits, 0u);
+  EXPECT_GE(shortest(), before * (1 - 1e-12)) << "the sew made a shorter edge";
+  EXPECT_GT(innerBorderEdges(s.t, 10.0), 0u);  // left open beside each such point
+  EXPECT_GT(r.edgesJoined, 0u);                // and joined elsewhere
 }
 
 TEST(Sew, OnlyWhereItIsToldTo) {

@@ -9,21 +9,22 @@
 #include <map>
 #include <unordered_set>
 
+#include "cutsim/topology/geometry.hpp"
 #include "topology_impl.hpp"
 
 namespace cutsim::topology {
 
 namespace {
 
-Vec3 sub(const Vec3& a, const Vec3& b) {
-  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-}
-double dot(const Vec3& a, const Vec3& b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
+using geometry::dot;
+using geometry::sub;
 double dist(const Vec3& a, const Vec3& b) {
-  return std::sqrt(dot(sub(a, b), sub(a, b)));
+  return std::sqrt(geometry::dist2(a, b));
 }
+
+/// A lip point is put on the other lip's edge only where its foot is at least this fraction of
+/// the edge from either end.
+constexpr double kSplitFrom = 0.2;
 std::string num(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.4g", v);
@@ -148,7 +149,9 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
       return dot(sub(p.b, p.a), sub(q.b, q.a)) < 0 && dot(p.inward, q.inward) < 0;
     };
 
-    // 1. A lip point facing the middle of the other lip's edge, no end of that edge within the
+    // 1. A lip point facing the middle of the other lip's edge (its foot at least a fifth of the
+    //    edge from either end: nearer an end, a split would make an edge too short for any
+    //    triangle to be well shaped, and the end is its partner), no end of that edge within the
     //    tolerance, becomes a point of that edge (one split per edge and round).
     for (int round = 0; round < 16; ++round) {
       const std::vector<Lip> ls = lips();
@@ -173,6 +176,7 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
           const Vec3 c{q.a[0] + s * d[0], q.a[1] + s * d[1], q.a[2] + s * d[2]};
           const double e = dist(p, c);
           if (e > tol || dist(p, q.a) <= tol || dist(p, q.b) <= tol) continue;
+          if (s < kSplitFrom || s > 1 - kSplitFrom) continue;
           auto [it, fresh] = splits.emplace(j, std::make_pair(e, s));
           if (!fresh && e < it->second.first) it->second = {e, s};
         }
@@ -183,17 +187,19 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
         // with two lips: found by its ends.)
         const HI h = I.findHalfedge(ls[j].u, ls[j].v);
         if (!h.is_valid() || !mesh.is_border(h)) continue;
-        const double s = std::clamp(ds.second, 0.05, 0.95);
-        VI m = I.splitEdgeNoTxn(mesh.edge(h), ls[j].u, s);
+        VI m = I.splitEdgeNoTxn(mesh.edge(h), ls[j].u, ds.second);
         ++result.splits;
         result.inserted.push_back(PointId(m.idx()));
       }
     }
 
-    // 2. Pairs of facing lips whose ends meet within the tolerance, the closest first.
+    // 2. Pairs of facing lips whose ends meet within the tolerance: first those that are the two
+    //    copies a cut made of one edge (their ends at the same rest positions: sewn, the material
+    //    is as it was), then the others, each the closest first.
     const std::vector<Lip> ls = lips();
     const SegmentGrid grid = gridOf(ls);
     struct Pair {
+      bool copies;
       double gap;
       std::size_t p, q;
     };
@@ -203,9 +209,12 @@ SewResult Topology::sew(std::span<const double> positions, const SewOptions& opt
         if (j <= i) continue;
         const Lip &p = ls[i], &q = ls[j];
         const double gap = std::max(dist(p.b, q.a), dist(p.a, q.b));
-        if (gap <= tol && facing(p, q)) pairs.push_back({gap, i, j});
+        const bool copies =
+            mesh.point(p.v) == mesh.point(q.u) && mesh.point(p.u) == mesh.point(q.v);
+        if (gap <= tol && facing(p, q)) pairs.push_back({copies, gap, i, j});
       }
     std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+      if (x.copies != y.copies) return x.copies;
       return x.gap != y.gap ? x.gap < y.gap : std::make_pair(x.p, x.q) < std::make_pair(y.p, y.q);
     });
     // Taken one by one, the closest first: a pair joins the groups of its lips' points facing

@@ -205,9 +205,28 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v,
   for (Pair& p : I.pairs) {
     p.lambda = p.scale * law.force(p.s0);
     p.mu = p.obstacle < 0 ? P.friction : obstacles_[std::size_t(p.obstacle)].friction;
+    p.held = 0;
     if (p.lambda > 0 && p.mu > 0 && !p.excluded)
       frictionForce(p, P.stickVelocity, I.relativeVelocity(p, v), &p);
   }
+}
+
+std::size_t Contact::holdOvershoots(std::span<const double> v1) {
+  Impl& I = *impl_;
+  const double eps = parameters_.stickVelocity;
+  std::size_t held = 0;
+  for (Pair& p : I.pairs) {
+    // Sliding at the step's start (fb > 0: the Coulomb branch, direction ft), not past rest at
+    // its end along that direction: nothing to mend.
+    if (p.excluded || p.held || !(p.lambda > 0 && p.mu > 0) || !(p.fb > 0)) continue;
+    const V3 u = I.relativeVelocity(p, v1);
+    if (!((u - p.n0 * p.n0.dot(u)).dot(p.ft) < 0)) continue;
+    p.held = 1;
+    frictionForce(p, eps, V3::Zero(), &p);  // the viscous law's derivative
+    ++held;
+  }
+  if (held > 0) I.evaluation.invalidate();
+  return held;
 }
 
 }  // namespace cutsim::forcefields

@@ -38,7 +38,9 @@ struct Pair {
   /// penalty's pairs are the closest features (each met once); the displacement bound checks
   /// whole triangles.
   std::uint8_t shape = 3;
-  std::uint8_t padding1 = 0;
+  /// 1: friction held this step (linearised at rest, viscous): with the step's start direction its
+  /// Coulomb force carried the pair past rest, and the step is solved again (holdOvershoots).
+  std::uint8_t held = 0;
   /// The search's record (for the cache): VT, VO, OV: the triangle's index (in the surface or
   /// the obstacle mesh); `margins`: the surface triangles whose margins the search added.
   std::int32_t tri = -1;
@@ -125,12 +127,13 @@ struct Eval {
 };
 
 /// Friction force on the pair's relative velocity u (tangential to n0); with `keep`, its
-/// derivative dF/du = fa (I - n0 n0^T) + fb ft ft^T goes into the pair.
+/// derivative dF/du = fa (I - n0 n0^T) + fb ft ft^T goes into the pair. A held pair's is the
+/// viscous law at any speed.
 inline V3 frictionForce(const Pair& p, double eps, const V3& u, Pair* keep = nullptr) {
   const V3 ut = u - p.n0 * p.n0.dot(u);
   const double l = ut.norm();
   const double c = p.mu * p.lambda;
-  if (l <= eps) {
+  if (l <= eps || p.held) {
     if (keep) {
       keep->fa = -(c / eps);
       keep->fb = 0.0;

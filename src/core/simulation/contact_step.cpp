@@ -43,6 +43,11 @@ void ContactStep::moveObstacle(std::size_t k, double now, const Vec3& delta, dou
 
 StepVerdict ContactStep::afterSolve(const StepProposal& p) {
   StepVerdict verdict;
+  // Friction that carried pairs past rest: held, and the step solved again (once).
+  if (p.implicit && p.solves == 1 && contact_.holdOvershoots(p.v1) > 0) {
+    verdict.again = true;
+    return verdict;
+  }
   verdict.limited = contact_.limitDisplacement(p.x0, p.x1, p.v1, p.dt, p.constrained);
   const forcefields::ContactParameters& P = contact_.parameters();
   const double live = double(p.model.topology().numPoints());

@@ -103,64 +103,82 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
   }
   const StepConstraints constraints = model_->constraints(time_ + h);
   StepInput in{h, &constraints, model_->topology().revision()};
+  // Solved once, or twice when a hook asks for it (contact's friction held where it overshot).
   StepOutput out;
-  try {
-    integrator_->step(*model_, in, out, stats);
-    requireFinite(std::span<const double>(out.v.data(), std::size_t(out.v.size())), "velocity", "");
-    requireFinite(std::span<const double>(out.x.data(), std::size_t(out.x.size())), "position", "");
-    // Finite velocities are a blow-up too when their kinetic energy is beyond the range of
-    // doubles (what the CSV's first column would meet): named here, with the same hint.
-    const std::size_t slots = std::size_t(out.v.size()) / 3;
-    std::size_t overflow = slots;
-    model_->kineticEnergyOf(std::span<const double>(out.v.data(), std::size_t(out.v.size())),
-                            &overflow);
-    if (overflow < slots) throw NonFiniteValue{"kinetic energy", "", overflow};
-  } catch (const NonFiniteValue& e) {
-    std::ostringstream s;
-    s << stepName() << "non-finite " << e.what;
-    if (!e.component.empty()) s << " from " << e.component;
-    s << " at point " << e.point;
-    if (integrator_->isExplicit())
-      s << "; the explicit integrator is unstable at this time step: try a smaller one or an "
-           "implicit solver";
-    throw SolverError(s.str());
-  } catch (const StepFailure& e) {
-    throw SolverError(stepName() + e.message);
-  }
-  // The step's energy flows, measured on the integrator's proposal (kept if no hook splits it).
   EnergyFlows flows;
   std::vector<double> xp, vp;
-  if (ledger_) {
-    flows = ledger_->proposalFlows(*model_, *integrator_, h,
-                                   std::span<const double>(out.x.data(), std::size_t(out.x.size())),
-                                   std::span<const double>(out.v.data(), std::size_t(out.v.size())),
-                                   out.reaction, constraints.constrained);
-    if (!hooks_.empty()) {
-      xp.assign(out.x.data(), out.x.data() + out.x.size());
-      vp.assign(out.v.data(), out.v.data() + out.v.size());
+  for (int solves = 1;; ++solves) {
+    bool again = false;
+    out = StepOutput{};
+    try {
+      integrator_->step(*model_, in, out, stats);
+      requireFinite(std::span<const double>(out.v.data(), std::size_t(out.v.size())), "velocity",
+                    "");
+      requireFinite(std::span<const double>(out.x.data(), std::size_t(out.x.size())), "position",
+                    "");
+      // Finite velocities are a blow-up too when their kinetic energy is beyond the range of
+      // doubles (what the CSV's first column would meet): named here, with the same hint.
+      const std::size_t slots = std::size_t(out.v.size()) / 3;
+      std::size_t overflow = slots;
+      model_->kineticEnergyOf(std::span<const double>(out.v.data(), std::size_t(out.v.size())),
+                              &overflow);
+      if (overflow < slots) throw NonFiniteValue{"kinetic energy", "", overflow};
+    } catch (const NonFiniteValue& e) {
+      std::ostringstream s;
+      s << stepName() << "non-finite " << e.what;
+      if (!e.component.empty()) s << " from " << e.component;
+      s << " at point " << e.point;
+      if (integrator_->isExplicit())
+        s << "; the explicit integrator is unstable at this time step: try a smaller one or an "
+             "implicit solver";
+      throw SolverError(s.str());
+    } catch (const StepFailure& e) {
+      throw SolverError(stepName() + e.message);
     }
-  }
-  if (!hooks_.empty()) {
-    const StepProposal proposal{*model_,
-                                time_,
-                                h,
-                                depth,
-                                x0,
-                                std::span<double>(out.x.data(), std::size_t(out.x.size())),
-                                std::span<double>(out.v.data(), std::size_t(out.v.size())),
-                                constraints.constrained};
-    std::size_t limited = 0;
-    for (const auto& hook : hooks_) {
-      const StepVerdict verdict = hook->afterSolve(proposal);
-      if (verdict.split) {  // the proposal is discarded: the later hooks are not asked
-        ++stats.splits;
-        advance(h / 2, depth + 1, stats);
-        advance(h / 2, depth + 1, stats);
-        return;
+    // The step's energy flows, measured on the integrator's proposal (kept if no hook splits it).
+    xp.clear();
+    vp.clear();
+    if (ledger_) {
+      flows =
+          ledger_->proposalFlows(*model_, *integrator_, h,
+                                 std::span<const double>(out.x.data(), std::size_t(out.x.size())),
+                                 std::span<const double>(out.v.data(), std::size_t(out.v.size())),
+                                 out.reaction, constraints.constrained);
+      if (!hooks_.empty()) {
+        xp.assign(out.x.data(), out.x.data() + out.x.size());
+        vp.assign(out.v.data(), out.v.data() + out.v.size());
       }
-      limited += verdict.limited;
     }
-    stats.clamped += int(limited);
+    if (!hooks_.empty()) {
+      const StepProposal proposal{*model_,
+                                  time_,
+                                  h,
+                                  depth,
+                                  x0,
+                                  std::span<double>(out.x.data(), std::size_t(out.x.size())),
+                                  std::span<double>(out.v.data(), std::size_t(out.v.size())),
+                                  constraints.constrained,
+                                  !integrator_->isExplicit(),
+                                  solves};
+      std::size_t limited = 0;
+      for (const auto& hook : hooks_) {
+        const StepVerdict verdict = hook->afterSolve(proposal);
+        if (verdict.split) {  // the proposal is discarded: the later hooks are not asked
+          ++stats.splits;
+          advance(h / 2, depth + 1, stats);
+          advance(h / 2, depth + 1, stats);
+          return;
+        }
+        if (verdict.again && solves == 1) {  // solved again: the later hooks are not asked
+          again = true;
+          break;
+        }
+        limited += verdict.limited;
+      }
+      if (again) continue;
+      stats.clamped += int(limited);
+    }
+    break;
   }
   ++stats.substeps;
   // Dead points and points without mass (isolated) do not move.

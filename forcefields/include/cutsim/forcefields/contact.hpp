@@ -151,6 +151,15 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// The same with every obstacle at its scene position (offset zero) over the step.
   void beginStep(std::span<const double> x, std::span<const double> v, double dt);
 
+  /// After an implicit step's solve, before limitDisplacement: the friction pairs that slid at
+  /// the step's start and whose tangential relative velocity at v1 points against that sliding
+  /// direction (the Coulomb force, of a fixed direction over the step, carried them past rest:
+  /// the next step would carry them back, a period-two oscillation) are held for the rest of
+  /// the step: their friction becomes the viscous law at any speed (rest within the stick
+  /// velocity). Returns how many; when some, the step is to be solved again (the pairs, normals
+  /// and normal forces stay those of the step's start). docs/contact.md, "Friction".
+  std::size_t holdOvershoots(std::span<const double> v1);
+
   /// After the step's solve: first the response to moving obstacles
   /// (respondToMovingObstacles), then clamps each unconstrained point's displacement x1 - x0 to
   /// its bound (velocities of clamped points become (x1 - x0) / dt). Returns the number of

@@ -8,7 +8,8 @@
 //   afterSolve  after the integrator's solve, with the proposed end positions and velocities
 //               (a hook may limit them in place, and may ask for the step to be redone as two
 //               halves: the simulation then discards the proposal and calls beginStep again for
-//               each half);
+//               each half; or, once, for the step to be solved again as it is: contact's
+//               friction held where it overshot);
 //   endStep     after the step was committed, with the model at its end.
 //
 // Force fields stay timeless: time, paths, bounds on a step's motion and the split policy live
@@ -38,12 +39,17 @@ struct StepProposal {
   std::span<double> x1;               ///< proposed positions: a hook may change them
   std::span<double> v1;               ///< proposed velocities: a hook may change them
   std::span<const char> constrained;  ///< per point slot: 1 if the step prescribes the point
+  bool implicit = false;              ///< the integrator solves for the step's end (not explicit)
+  int solves = 1;                     ///< how many times this step (of this length) has been solved
 };
 
 /// What a hook made of a proposal.
 struct StepVerdict {
   std::size_t limited = 0;  ///< points whose motion it limited (StepStats::clamped)
   bool split = false;       ///< redo the step as two halves
+  /// Solve the step again from its start, once (the hook changed what the step's forces are:
+  /// beginStep is not called again). Asked after a second solve, it is not heeded.
+  bool again = false;
 };
 
 /// A step just committed: the model at time t.
