@@ -212,11 +212,11 @@ TEST(Checkpoint, TheDrapeDemoGoesOnBitForBitFromTheStepOfItsCut) {
   std::filesystem::remove(file);
 }
 
-TEST(Checkpoint, AScalpelGoesOnBitForBitFromAnyStepOfItsIncision) {
-  // A sheet hanging from its top border, cut by a blade that crosses it in world space while it
-  // sways: checkpoints between the pieces of the incision (the blade's position at its last cut
-  // and the incision's tip are saved), at a piece and at random steps.
-  const std::string text = R"({
+/// A 1 m sheet of 11 x 11 points hanging from its top edge and swaying (gravity has a part along
+/// -z), stretch and bending springs, CG, 0.3 s in steps of 0.01 s, with `timeline` (the entries of
+/// its JSON list).
+std::string hangingSheet(const std::string& timeline) {
+  return R"({
   "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
   "mass": {"total": 0.1},
   "gravity": [0, -9.81, -2],
@@ -225,9 +225,17 @@ TEST(Checkpoint, AScalpelGoesOnBitForBitFromAnyStepOfItsIncision) {
   "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
   "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
   "timeStep": 0.01, "duration": 0.3,
-  "timeline": [{"action": "scalpel", "from": 0.02, "to": 0.22, "depth": 0.2,
-                "path": [[0, -0.1, 0.5, -0.1, 0, 0, 1], [0.2, 0.7, 0.45, -0.1, 0, 0.3, 1]]}]
-})";
+  "timeline": [)" +
+         timeline + "]\n}";
+}
+
+TEST(Checkpoint, AScalpelGoesOnBitForBitFromAnyStepOfItsIncision) {
+  // A sheet hanging from its top border, cut by a blade that crosses it in world space while it
+  // sways: checkpoints between the pieces of the incision (the blade's position at its last cut
+  // and the incision's tip are saved), at a piece and at random steps.
+  const std::string text =
+      hangingSheet(R"({"action": "scalpel", "from": 0.02, "to": 0.22, "depth": 0.2,
+                "path": [[0, -0.1, 0.5, -0.1, 0, 0, 1], [0.2, 0.7, 0.45, -0.1, 0, 0.3, 1]]})");
   const Scene scene = parseScene(text, "scalpel.json", test::kSceneDir);
   {
     SceneRunner probe(scene);
@@ -281,20 +289,11 @@ TEST(Checkpoint, ForcepsGoOnBitForBitOpenClosedAndHolding) {
   // Jaws that come down on a hanging, swaying sheet, close on it (a point inserted where their
   // middle line crosses it), carry it aside and open: checkpoints before, while and after they
   // hold (the grasp they made is the simulation's; the jaws keep whether they hold).
-  const std::string text = R"({
-  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
-  "mass": {"total": 0.1},
-  "gravity": [0, -9.81, -2],
-  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
-                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01}],
-  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
-  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
-  "timeStep": 0.01, "duration": 0.3,
-  "timeline": [{"action": "forceps", "name": "jaws", "from": 0.02, "to": 0.25,
+  const std::string text =
+      hangingSheet(R"({"action": "forceps", "name": "jaws", "from": 0.02, "to": 0.25,
                 "axis": [0, 0, 1], "across": [1, 0, 0], "radius": 0.01, "length": 0.3,
                 "path": [[0, 0.43, 0.47, -0.15, 0.1], [0.03, 0.43, 0.47, -0.15, 0.02],
-                         [0.15, 0.6, 0.5, 0.0, 0.02], [0.2, 0.6, 0.5, 0.0, 0.1]]}]
-})";
+                         [0.15, 0.6, 0.5, 0.0, 0.02], [0.2, 0.6, 0.5, 0.0, 0.1]]})");
   const Scene scene = parseScene(text, "forceps.json", test::kSceneDir);
   {
     SceneRunner probe(scene);
@@ -319,22 +318,13 @@ TEST(Checkpoint, TurningForcepsGoOnBitForBitWhileTheyTurn) {
   // Jaws with an axis per keyframe: they close on the hanging sheet, lift it while their axis
   // turns by 120 degrees (what they hold turns with them about their tip), and open. The grasp's
   // rotations and pivot are part of the checkpoint.
-  const std::string text = R"({
-  "mesh": {"grid": {"nx": 11, "ny": 11, "size": [1, 1]}},
-  "mass": {"total": 0.1},
-  "gravity": [0, -9.81, -2],
-  "forceFields": [{"type": "StretchSprings", "stiffness": 200, "damping": 0.1},
-                  {"type": "FastTriangularBendingSprings", "bendingStiffness": 0.01}],
-  "constraints": [{"type": "fixed", "box": [[-0.01, 0.99, -1], [1.01, 1.01, 1]]}],
-  "solver": {"type": "implicit-cg", "iterations": 200, "tolerance": 1e-10, "rayleighMass": 0.5},
-  "timeStep": 0.01, "duration": 0.3,
-  "timeline": [{"action": "forceps", "name": "jaws", "from": 0.02, "to": 0.25,
+  const std::string text =
+      hangingSheet(R"({"action": "forceps", "name": "jaws", "from": 0.02, "to": 0.25,
                 "across": [1, 0, 0], "radius": 0.06, "length": 0.3,
                 "path": [[0, 0.43, 0.47, -0.15, 0, 0, 1, 0.2], [0.03, 0.43, 0.47, -0.15, 0, 0, 1, 0.12],
                          [0.1, 0.5, 0.45, -0.1, 0, -1, 0, 0.12],
                          [0.15, 0.6, 0.4, -0.05, 0, -0.5, -0.866, 0.12],
-                         [0.2, 0.6, 0.4, -0.05, 0, -0.5, -0.866, 0.2]]}]
-})";
+                         [0.2, 0.6, 0.4, -0.05, 0, -0.5, -0.866, 0.2]]})");
   const Scene scene = parseScene(text, "forceps.json", test::kSceneDir);
   {
     SceneRunner probe(scene);

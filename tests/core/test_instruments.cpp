@@ -669,17 +669,29 @@ TEST(Forceps, ClosingOnAPointInsideATriangleCarriesItWithTheJaws) {
   EXPECT_TRUE(released);  // the jaws opened
 }
 
+/// v turned by `angle` about the unit axis k (Rodrigues' formula).
+Vec3 turnAbout(const Vec3& k, double angle, const Vec3& v) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  const Vec3 kxv{k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]};
+  const double kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+  Vec3 out;
+  for (int d = 0; d < 3; ++d) out[d] = v[d] * c + kxv[d] * s + k[d] * kv * (1 - c);
+  return out;
+}
+
 TEST(Forceps, TurningJawsCarryWhatTheyHoldAboutTheirTip) {
   // Jaws 6 cm thick (no repair) close around the material point (0.437, 0.521) of the sheet at
-  // rest, their tip 1 cm under it; then their axis turns from +z through (0, -1, 1) to -y (about
-  // +x, 45 degrees per keyframe interval, at a constant rate) while the tip rises and moves along
-  // y. Every held point (the inserted one and the vertices within 6 cm of the middle line) stays
-  // where a rigid motion about the tip puts it, computed here by Rodrigues' formula: to 1e-9.
+  // rest, their tip 1 cm under it; then their axis turns from +z to -y (a quarter turn about +x)
+  // and on to +x (a quarter turn about +z: the two turns do not commute), at a constant rate each,
+  // while the tip rises and moves along y. Every held point (the inserted one and the vertices
+  // within 6 cm of the middle line) stays where a rigid motion about the tip puts them, and the
+  // jaws are drawn along the turned axis and `across`, all computed here by Rodrigues' formula:
+  // to 1e-9.
   const double r = 0.06;
   const std::string path =
       "[[0, 0.437, 0.521, -0.01, 0, 0, 1, 0.2], [0.02, 0.437, 0.521, -0.01, 0, 0, 1, 0.12], "
-      "[0.07, 0.437, 0.521, 0.05, 0, -1, 1, 0.12], [0.12, 0.437, 0.6, 0.1, 0, -1, 0, 0.12], "
-      "[0.13, 0.437, 0.6, 0.1, 0, -1, 0, 0.2]]";
+      "[0.07, 0.437, 0.521, 0.05, 0, -1, 0, 0.12], [0.12, 0.437, 0.6, 0.1, 1, 0, 0, 0.12], "
+      "[0.13, 0.437, 0.6, 0.1, 1, 0, 0, 0.2]]";
   SceneRunner runner(parseScene(
       sheet(R"({"action": "forceps", "name": "jaws", "from": 0.01, "to": 0.14, "across": [1, 0, 0],
                 "radius": )" +
@@ -688,7 +700,7 @@ TEST(Forceps, TurningJawsCarryWhatTheyHoldAboutTheirTip) {
       "a.json", test::kSceneDir));
   runner.start();
   Simulation& sim = runner.simulation();
-  // The tip and the turn (about +x) at time t from the action's start, as the path gives them.
+  // The tip and the turn at time t from the action's start, as the path gives them.
   const auto tipAt = [](double t) -> Vec3 {
     const double keys[4] = {0.02, 0.07, 0.12, 0.13};
     const Vec3 tips[4] = {
@@ -701,9 +713,14 @@ TEST(Forceps, TurningJawsCarryWhatTheyHoldAboutTheirTip) {
       }
     return tips[3];
   };
-  const auto angleAt = [](double t) {
-    return kPi / 4 * std::clamp((t - 0.02) / 0.05, 0.0, 1.0) +
-           kPi / 4 * std::clamp((t - 0.07) / 0.05, 0.0, 1.0);
+  const Vec3 ex{1, 0, 0}, ez{0, 0, 1};
+  const auto first = [](double t) { return kPi / 2 * std::clamp((t - 0.02) / 0.05, 0.0, 1.0); };
+  const auto second = [](double t) { return kPi / 2 * std::clamp((t - 0.07) / 0.05, 0.0, 1.0); };
+  const auto turn = [&](double t, const Vec3& v) {
+    return turnAbout(ez, second(t), turnAbout(ex, first(t), v));
+  };
+  const auto unturn = [&](double t, const Vec3& v) {
+    return turnAbout(ex, -first(t), turnAbout(ez, -second(t), v));
   };
   std::size_t checked = 0;
   bool held = false, released = false;
@@ -720,28 +737,29 @@ TEST(Forceps, TurningJawsCarryWhatTheyHoldAboutTheirTip) {
       continue;
     }
     const double t0 = g->startTime() - 0.01, t = runner.time() - 0.01;
-    const double turn = angleAt(t) - angleAt(t0), c = std::cos(turn), sn = std::sin(turn);
     const Vec3 tip0 = tipAt(t0), tip = tipAt(t);
     for (PointId p : g->points().points()) {
       const Vec3& a = g->points().data(p);  // where it was taken
-      const Vec3 arm{a[0] - tip0[0], a[1] - tip0[1], a[2] - tip0[2]};
-      // Rodrigues about +x: (x, y c - z s, y s + z c).
-      const Vec3 want{tip[0] + arm[0], tip[1] + arm[1] * c - arm[2] * sn,
-                      tip[2] + arm[1] * sn + arm[2] * c};
+      const Vec3 arm = turn(t, unturn(t0, {a[0] - tip0[0], a[1] - tip0[1], a[2] - tip0[2]}));
       const Vec3 x = worldOf(sim, p);
-      for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[d], want[d], 1e-9) << "t " << t;
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[d], tip[d] + arm[d], 1e-9) << "t " << t;
       ++checked;
     }
-    // The jaws drawn where they are: the first segment of a jaw's wire is its axis, from its tip
-    // along the turned axis.
-    const double angle = angleAt(t);
-    const Vec3 axis{0, -std::sin(angle), std::cos(angle)};
+    // The jaws drawn where they are: a jaw's wire starts with its axis, from its tip; the second
+    // jaw's tip lies `across` from the first's.
     const auto wires = runner.instrumentSegments();
-    ASSERT_FALSE(wires.empty());
+    ASSERT_EQ(wires.size() % 2, 0u);
     const auto& w = wires.front();
+    const auto& w2 = wires[wires.size() / 2];
     const double length = std::sqrt(topology::geometry::dist2(w[0], w[1]));
+    const double apart = std::sqrt(topology::geometry::dist2(w[0], w2[0]));
     ASSERT_NEAR(length, 0.04, 1e-9);
-    for (int d = 0; d < 3; ++d) EXPECT_NEAR((w[1][d] - w[0][d]) / length, axis[d], 1e-9);
+    ASSERT_GT(apart, 0.1);
+    const Vec3 axis = turn(t, ez), across = turn(t, ex);
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_NEAR((w[1][d] - w[0][d]) / length, axis[d], 1e-9);
+      EXPECT_NEAR((w2[0][d] - w[0][d]) / apart, across[d], 1e-9);
+    }
   }
   EXPECT_TRUE(held);
   EXPECT_TRUE(released);

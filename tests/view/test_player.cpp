@@ -395,6 +395,21 @@ TEST(PlayerRun, TextThatWouldCloseTheScriptIsEscaped) {
   EXPECT_THAT(page, HasSubstr("<title>a &lt;/script&gt;&lt;b&gt; - cutsim</title>"));
 }
 
+/// A frame of one triangle: `pointData` (DataArray lines) inside <PointData> unless empty (its
+/// first array on line 6), `positions` the nine numbers of its corners.
+void writeTriangleFrame(const fs::path& file, const std::string& pointData,
+                        const std::string& positions) {
+  std::ofstream(file) << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
+                         "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n"
+                      << (pointData.empty() ? "" : "<PointData>\n" + pointData + "</PointData>\n")
+                      << "<Points>\n<DataArray type=\"Float64\" Name=\"position\" "
+                         "NumberOfComponents=\"3\" format=\"ascii\">\n"
+                      << positions
+                      << "\n</DataArray>\n</Points>\n<Polys>\n"
+                         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 "
+                         "2</DataArray>\n</Polys>\n</Piece>\n</PolyData>\n</VTKFile>\n";
+}
+
 TEST(PlayerRun, BadFoldersAreNamedWithWhatIsWrong) {
   const fs::path dir = freshDir("bad");
   auto message = [](const fs::path& d) {
@@ -441,17 +456,10 @@ TEST(PlayerRun, BadFoldersAreNamedWithWhatIsWrong) {
         HasSubstr("surface_000000.vtp:6: DataArray position has 8 values, the piece needs 9"));
   }
   // A flag beyond a byte is an error, not wrapped to another flag.
-  std::ofstream(dir / "surface_000000.vtp")
-      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
-         "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n<PointData>\n"
-         "<DataArray type=\"Int32\" Name=\"constraint\" format=\"ascii\">0 1 "
-         "257</DataArray>\n</PointData>\n<Points>\n"
-         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
-         "format=\"ascii\">\n"
-         "0 0 0 1 0 0 0 1 0\n</DataArray>\n</Points>\n<Polys>\n"
-         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 "
-         "2</DataArray>\n</Polys>\n"
-         "</Piece>\n</PolyData>\n</VTKFile>\n";
+  writeTriangleFrame(dir / "surface_000000.vtp",
+                     "<DataArray type=\"Int32\" Name=\"constraint\" format=\"ascii\">0 1 "
+                     "257</DataArray>\n",
+                     "0 0 0 1 0 0 0 1 0");
   try {
     readFrame(scanRun(dir), 0);
     ADD_FAILURE() << "a flag of 257 was read";
@@ -461,15 +469,7 @@ TEST(PlayerRun, BadFoldersAreNamedWithWhatIsWrong) {
   }
   // A position beyond single precision (a run that blew up) is quoted whole: its first 20
   // characters, "7.962843447621331e+7", would look like a fine number.
-  std::ofstream(dir / "surface_000000.vtp")
-      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\">\n<PolyData>\n"
-         "<Piece NumberOfPoints=\"3\" NumberOfPolys=\"1\">\n<Points>\n"
-         "<DataArray type=\"Float64\" Name=\"position\" NumberOfComponents=\"3\" "
-         "format=\"ascii\">\n"
-         "0 0 0 1 0 0 7.962843447621331e+70 1 0\n</DataArray>\n</Points>\n<Polys>\n"
-         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 "
-         "2</DataArray>\n</Polys>\n"
-         "</Piece>\n</PolyData>\n</VTKFile>\n";
+  writeTriangleFrame(dir / "surface_000000.vtp", "", "0 0 0 1 0 0 7.962843447621331e+70 1 0");
   try {
     readFrame(scanRun(dir), 0);
     ADD_FAILURE() << "a position of 8e70 was read";

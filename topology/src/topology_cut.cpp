@@ -454,9 +454,13 @@ class Walker {
     int onBorderEdge = -1;  // the location lies on this border edge: it may snap along it
     for (int j = 0; j < 3; ++j)
       if (l.bary[j] <= exact && edgeIsBorder(j)) onBorderEdge = j;
-    // The same point as a vertex within same_ (see setSamePoint).
-    const std::array<Point3, 3> c = corners(m, l.face);
-    const Point3 here = fromBary(c, l.bary);
+    // The same point as a vertex within same_ (see setSamePoint; measured only when it is on).
+    std::array<Point3, 3> c;
+    Point3 here;
+    if (same_ > 0) {
+      c = corners(m, l.face);
+      here = fromBary(c, l.bary);
+    }
     // Only a vertex the location lies towards (a crossing on the edge opposite the walk's own
     // vertex, in a sliver, must not snap back onto that vertex: the walk would not move on).
     auto nearVertex = [&](int k) {
@@ -743,7 +747,6 @@ IncisionResult Topology::cutPolyline(std::span<const Vec3> polyline, const CutOp
   // off a curved rest surface by its sagitta (a path drawn on the smooth surface the mesh
   // samples): a point kept there would leave triangles too thin to repair, around which
   // refinement would crowd. The ends still snap, so a cut reaches the border.
-  constexpr double kSamePoint = 1e-3;
   // The same, absolute: kSamePoint of the mesh's mean edge (the locating grid's cell is twice it).
   const double samePoint = I.grid.cellSize() > 0 ? 0.5 * kSamePoint * I.grid.cellSize() : 0.0;
   double snap = options.repair.minAngle > 0 ? std::min(kSamePoint, options.snapTolerance)

@@ -15,6 +15,11 @@
 
 namespace cutsim::topology {
 
+/// A point this close to a line, relative to the line's length, lies on it up to a rounding (or a
+/// curved surface's sagitta): cutPolyline snaps crossings as close as that even with the quality
+/// repair, and the repair takes a point that close to a chord as on it.
+inline constexpr double kSamePoint = 1e-3;
+
 struct Subscription::Registry {
   std::vector<TopologyObserver*> observers;
   bool delivering = false;

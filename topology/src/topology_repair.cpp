@@ -21,9 +21,12 @@
 // grasped) never move or disappear. Flips and relocations only happen where the rest surface is
 // flat within RepairOptions::flatness, so they do not change the rest shape.
 #include <algorithm>
+#include <array>
+#include <boost/container/small_vector.hpp>
 #include <cmath>
 #include <numbers>
 #include <set>
+#include <span>
 #include <unordered_set>
 
 #include "topology_impl.hpp"
@@ -36,10 +39,7 @@ using Vector3 = Kernel::Vector_3;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kStraight = 1e-6;  // rad: a border point whose border edges are this straight
-// A point this close to a line, relative to the line's length, lies on it up to a rounding (or a
-// curved surface's sagitta): cutPolyline snaps crossings as close as that even with the repair.
-constexpr double kSamePoint = 1e-3;
-constexpr double kImprove = 1e-4;  // rad: a change must raise the local worst angle this much
+constexpr double kImprove = 1e-4;   // rad: a change must raise the local worst angle this much
 // Ruppert's refinement is proven to end for a smallest angle up to arcsin(1 / (2 sqrt 2)) =
 // 20.7 degrees; it aims no higher (above, it can refine without end).
 constexpr double kRefinable = 20.7 * std::numbers::pi / 180.0;
@@ -194,10 +194,10 @@ class Repairer {
   /// can point anywhere when its corners lie a rounding or a curved surface's sagitta off its
   /// neighbours' plane, so on a curved rest surface a normal test takes slivers for creases and
   /// the repair meant to remove them stops there.
-  bool flatTriangles(const std::vector<FI>& fs) const {
+  bool flatTriangles(std::span<const FI> fs) const {
     if (fs.empty()) return false;
     Vector3 n(0, 0, 0);
-    std::vector<VI> pts;
+    boost::container::small_vector<VI, 16> pts;  // (no allocation for a star of ordinary size)
     for (FI f : fs) {
       n = n + normalOf(f);
       for (VI c : cornersOf(f))
@@ -390,7 +390,7 @@ class Repairer {
     if (c == d || I_.findHalfedge(c, d).is_valid()) return false;
     FI f1 = m_.face(h), f2 = m_.face(m_.opposite(h));
     const Vector3 n1 = normalOf(f1), n2 = normalOf(f2);
-    if (!flatTriangles({f1, f2})) return false;
+    if (!flatTriangles(std::array<FI, 2>{f1, f2})) return false;
     const Vector3 m1 = normal(P(c), P(a), P(d)), m2 = normal(P(d), P(b), P(c));
     if (!aligned(m1, n1 + n2, 60 * kDeg) || !aligned(m2, n1 + n2, 60 * kDeg)) return false;
     const double before = std::min(quality(f1), quality(f2));
@@ -611,7 +611,7 @@ class Repairer {
     if (!g.is_valid() || (!inPatch(a) && !inPatch(b)) || (isLocked(a) && isLocked(b))) return false;
     VI d = m_.target(m_.next(m_.opposite(hf)));
     const Vector3 n = normalOf(f) + normalOf(g);
-    if (!flatTriangles({f, g})) return false;
+    if (!flatTriangles(std::array<FI, 2>{f, g})) return false;
     auto quad = [&](const Point3& p) {
       double q = 1e300;
       const std::array<std::array<Point3, 3>, 4> tris{
@@ -677,7 +677,7 @@ class Repairer {
 
   bool isSegment(HI h) const {
     if (m_.is_border(m_.edge(h))) return true;
-    return !flatTriangles({m_.face(h), m_.face(m_.opposite(h))});
+    return !flatTriangles(std::array<FI, 2>{m_.face(h), m_.face(m_.opposite(h))});
   }
   /// The angle at corner v of triangle f.
   double angleAt(FI f, VI v) const {

@@ -211,7 +211,7 @@ void Contact::beginStep(std::span<const double> x, std::span<const double> v,
   }
 }
 
-std::size_t Contact::holdOvershoots(std::span<const double> v1) {
+std::size_t Contact::holdOvershoots(std::span<const double> v1, std::span<const char> constrained) {
   Impl& I = *impl_;
   const double eps = parameters_.stickVelocity;
   std::size_t held = 0;
@@ -219,6 +219,13 @@ std::size_t Contact::holdOvershoots(std::span<const double> v1) {
     // Sliding at the step's start (fb > 0: the Coulomb branch, direction ft), not past rest at
     // its end along that direction: nothing to mend.
     if (p.excluded || p.held || !(p.lambda > 0 && p.mu > 0) || !(p.fb > 0)) continue;
+    bool free = false;
+    for (int i = 0; i < 4; ++i)
+      if ((p.surface >> i) & 1) {
+        const std::size_t q = p.id[std::size_t(i)];
+        free = free || q >= constrained.size() || !constrained[q];
+      }
+    if (!free) continue;
     const V3 u = I.relativeVelocity(p, v1);
     if (!((u - p.n0 * p.n0.dot(u)).dot(p.ft) < 0)) continue;
     p.held = 1;

@@ -30,6 +30,7 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
 
   // Without a valid history this step is implicit Euler: beta = h and no history terms.
   const bool second = historyValid(model, in);
+  restartsBefore_ = restarts_;
   if (!second) ++restarts_;
   const double beta = second ? 2.0 * h / 3.0 : h;
 
@@ -77,7 +78,15 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
     A.apply(dv, Adv);
     out.reaction = (Adv - b) / beta;
   }
-  // The history of the next step.
+  // The history of the next step (the one it replaces kept for rewind()).
+  xPrevBefore_.swap(xPrev_);
+  vPrevBefore_.swap(vPrev_);
+  xLastBefore_.swap(xLast_);
+  vLastBefore_.swap(vLast_);
+  dtBefore_ = dtLast_;
+  revisionBefore_ = revision_;
+  haveBefore_ = have_;
+  rewindable_ = true;
   xPrev_ = x;
   vPrev_ = v;
   xLast_ = out.x;
@@ -85,6 +94,19 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
   dtLast_ = h;
   revision_ = in.revision;
   have_ = true;
+}
+
+void BDF2::rewind() {
+  if (!rewindable_) return;
+  xPrev_.swap(xPrevBefore_);
+  vPrev_.swap(vPrevBefore_);
+  xLast_.swap(xLastBefore_);
+  vLast_.swap(vLastBefore_);
+  dtLast_ = dtBefore_;
+  revision_ = revisionBefore_;
+  have_ = haveBefore_;
+  restarts_ = restartsBefore_;
+  rewindable_ = false;
 }
 
 }  // namespace cutsim::core
@@ -111,6 +133,7 @@ void BDF2::saveState(ArchiveWriter& out) const {
 void BDF2::loadState(ArchiveReader& in) {
   ImplicitIntegrator::loadState(in);
   members(in, *this);
+  rewindable_ = false;
 }
 
 }  // namespace cutsim::core

@@ -44,7 +44,7 @@ void ContactStep::moveObstacle(std::size_t k, double now, const Vec3& delta, dou
 StepVerdict ContactStep::afterSolve(const StepProposal& p) {
   StepVerdict verdict;
   // Friction that carried pairs past rest: held, and the step solved again (once).
-  if (p.implicit && p.solves == 1 && contact_.holdOvershoots(p.v1) > 0) {
+  if (p.implicit && p.solves == 1 && contact_.holdOvershoots(p.v1, p.constrained) > 0) {
     verdict.again = true;
     return verdict;
   }

@@ -110,6 +110,8 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
   for (int solves = 1;; ++solves) {
     bool again = false;
     out = StepOutput{};
+    // (A solve solved again counts as work; its flags and residuals are the kept solve's.)
+    const StepStats before = stats;
     try {
       integrator_->step(*model_, in, out, stats);
       requireFinite(std::span<const double>(out.v.data(), std::size_t(out.v.size())), "velocity",
@@ -175,7 +177,15 @@ void Simulation::advance(double h, int depth, StepStats& stats) {
         }
         limited += verdict.limited;
       }
-      if (again) continue;
+      if (again) {
+        const int iterations = stats.iterations - before.iterations,
+                  linearSolves = stats.solves - before.solves;
+        stats = before;
+        stats.iterations += iterations;
+        stats.solves += linearSolves;
+        integrator_->rewind();
+        continue;
+      }
       stats.clamped += int(limited);
     }
     break;

@@ -156,9 +156,12 @@ class Contact final : public ForceField, public topology::TopologyObserver {
   /// direction (the Coulomb force, of a fixed direction over the step, carried them past rest:
   /// the next step would carry them back, a period-two oscillation) are held for the rest of
   /// the step: their friction becomes the viscous law at any speed (rest within the stick
-  /// velocity). Returns how many; when some, the step is to be solved again (the pairs, normals
-  /// and normal forces stay those of the step's start). docs/contact.md, "Friction".
-  std::size_t holdOvershoots(std::span<const double> v1);
+  /// velocity; where a load beyond the friction limit moves the pair faster than that, more than
+  /// the Coulomb force for this step). Pairs all of whose surface points the step prescribes
+  /// (`constrained`, per point slot; empty: none) are left alone: holding them would change no
+  /// motion. Returns how many; when some, the step is to be solved again (the pairs, normals and
+  /// normal forces stay those of the step's start). docs/contact.md, "Friction".
+  std::size_t holdOvershoots(std::span<const double> v1, std::span<const char> constrained = {});
 
   /// After the step's solve: first the response to moving obstacles
   /// (respondToMovingObstacles), then clamps each unconstrained point's displacement x1 - x0 to

@@ -117,6 +117,10 @@ class Integrator {
   virtual bool isExplicit() const { return false; }
   /// One step of in.dt from the model's current state.
   virtual void step(Model& model, const StepInput& in, StepOutput& out, StepStats& stats) = 0;
+  /// The step just taken is to be taken again from the same state (a step hook asked for it:
+  /// StepVerdict::again): forget what step() kept of it for the next step (a multistep method's
+  /// history). Default: nothing kept.
+  virtual void rewind() {}
   /// The linear solver, if the method uses one.
   virtual LinearSolver* linearSolver() const { return nullptr; }
   /// Its Rayleigh damping factors (mass, stiffness): the damping force -rM M v + rK K v, which

@@ -16,6 +16,8 @@ class BDF2 final : public ImplicitIntegrator {
   long restarts() const { return restarts_; }
   void saveState(ArchiveWriter& out) const override;
   void loadState(ArchiveReader& in) override;
+  /// Puts back the history the last step replaced.
+  void rewind() override;
 
  private:
   bool historyValid(const Model& model, const StepInput& in) const;
@@ -27,6 +29,12 @@ class BDF2 final : public ImplicitIntegrator {
   std::uint64_t revision_ = 0;
   bool have_ = false;
   long restarts_ = 0;
+  // What the last step replaced (rewind()): its vectors swapped in, not copied.
+  Eigen::VectorXd xPrevBefore_, vPrevBefore_, xLastBefore_, vLastBefore_;
+  double dtBefore_ = 0.0;
+  std::uint64_t revisionBefore_ = 0;
+  bool haveBefore_ = false, rewindable_ = false;
+  long restartsBefore_ = 0;
 };
 
 }  // namespace cutsim::core
