@@ -2,6 +2,8 @@
 // integrator.hpp).
 #include "cutsim/core/integrators/bdf2.hpp"
 
+#include <utility>
+
 #include "cutsim/base/archive.hpp"
 
 namespace cutsim::core {
@@ -79,13 +81,7 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
     out.reaction = (Adv - b) / beta;
   }
   // The history of the next step (the one it replaces kept for rewind()).
-  xPrevBefore_.swap(xPrev_);
-  vPrevBefore_.swap(vPrev_);
-  xLastBefore_.swap(xLast_);
-  vLastBefore_.swap(vLast_);
-  dtBefore_ = dtLast_;
-  revisionBefore_ = revision_;
-  haveBefore_ = have_;
+  swapHistory();
   rewindable_ = true;
   xPrev_ = x;
   vPrev_ = v;
@@ -96,15 +92,19 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
   have_ = true;
 }
 
-void BDF2::rewind() {
-  if (!rewindable_) return;
+void BDF2::swapHistory() {
   xPrev_.swap(xPrevBefore_);
   vPrev_.swap(vPrevBefore_);
   xLast_.swap(xLastBefore_);
   vLast_.swap(vLastBefore_);
-  dtLast_ = dtBefore_;
-  revision_ = revisionBefore_;
-  have_ = haveBefore_;
+  std::swap(dtLast_, dtBefore_);
+  std::swap(revision_, revisionBefore_);
+  std::swap(have_, haveBefore_);
+}
+
+void BDF2::rewind() {
+  if (!rewindable_) return;
+  swapHistory();
   restarts_ = restartsBefore_;
   rewindable_ = false;
 }

@@ -21,6 +21,8 @@ class BDF2 final : public ImplicitIntegrator {
 
  private:
   bool historyValid(const Model& model, const StepInput& in) const;
+  /// Swaps the history with the one the last step replaced (the vectors' buffers, not copies).
+  void swapHistory();
   // x_n-1, v_n-1 and the x_n, v_n the previous step returned (to detect an edit between steps).
   Eigen::VectorXd xPrev_, vPrev_, xLast_, vLast_;
   template <class Archive, class Self>
