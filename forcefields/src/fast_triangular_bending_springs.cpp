@@ -11,6 +11,7 @@
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/numbers.hpp"
 #include "hinge_table_impl.hpp"
+#include "parallel.hpp"
 
 namespace cutsim::forcefields {
 
@@ -52,7 +53,7 @@ std::string_view toString(AreaWeights weights) {
 
 FastTriangularBendingSprings::FastTriangularBendingSprings(Topology& topology,
                                                            BendingParameters parameters)
-    : topology_(&topology), params_(parameters) {
+    : topology_(&topology), params_(parameters), partition_(std::make_unique<PointPartition>()) {
   params_.validate();
   attach(topology);
 }
@@ -122,10 +123,11 @@ void FastTriangularBendingSprings::checkSizes(std::span<const double> a, std::sp
 
 namespace {
 
-/// The force pass: f += c w_i R'(x) per spring, streaming over the compact springs. Ids and
-/// weights are read into locals first (the table is __restrict: stores into f cannot change it).
-void scatterPass(std::span<const BendingSpring> springs, const double* __restrict x,
-                 double* __restrict f, double c) {
+/// The force pass on one thread: f += c w_i R'(x) per spring, streaming over the compact
+/// springs. Ids and weights are read into locals first (the table is __restrict: stores into f
+/// cannot change it).
+void scatterSerial(std::span<const BendingSpring> springs, const double* __restrict x,
+                   double* __restrict f, double c) {
   const BendingSpring* __restrict sp = springs.data();
   const std::size_t n = springs.size();
   for (std::size_t k = 0; k < n; ++k) {
@@ -139,11 +141,36 @@ void scatterPass(std::span<const BendingSpring> springs, const double* __restric
 
 }  // namespace
 
+void FastTriangularBendingSprings::scatterPass(const double* __restrict x, double* __restrict f,
+                                               double c) const {
+  const std::span<const BendingSpring> springs = entries();
+  const int parts = partsFor(springs.size());
+  if (parts <= 1) {
+    scatterSerial(springs, x, f, c);
+    return;
+  }
+  const BendingSpring* __restrict sp = springs.data();
+  partition_->update(parts, topology_->pointCapacity(), springs.size(), 4, tableRevision(),
+                     [sp](std::size_t i, std::uint32_t* ids) {
+                       for (int a = 0; a < 4; ++a) ids[a] = sp[i].v[std::size_t(a)];
+                     });
+  inParts(std::size_t(parts), parts, [&](int k, std::size_t, std::size_t) {
+    const std::uint32_t lo = partition_->first(k), span = partition_->size(k);
+    for (const std::uint32_t i : partition_->elements(k)) {
+      const std::array<std::uint32_t, 4> v = sp[i].v;
+      const std::array<double, 4> w = sp[i].weights();
+      double r[3];
+      hingeResidual(x, v.data(), w.data(), r);
+      hingeScatterOwned(f, v.data(), w.data(), c, r, lo, span);
+    }
+  });
+}
+
 void FastTriangularBendingSprings::addForce(std::span<const double> x,
                                             std::span<const double> /*v*/,
                                             std::span<double> f) const {
   checkSizes(x, f, "addForce");
-  scatterPass(entries(), x.data(), f.data(), -params_.bendingStiffness);
+  scatterPass(x.data(), f.data(), -params_.bendingStiffness);
 }
 
 void FastTriangularBendingSprings::addDForce(std::span<const double> /*x*/,
@@ -152,7 +179,7 @@ void FastTriangularBendingSprings::addDForce(std::span<const double> /*x*/,
   checkSizes(dx, df, "addDForce");
   const double k = kFactor + bFactor * params_.rayleighStiffness;
   if (k == 0.0) return;
-  scatterPass(entries(), dx.data(), df.data(), -k * params_.bendingStiffness);
+  scatterPass(dx.data(), df.data(), -k * params_.bendingStiffness);
 }
 
 double FastTriangularBendingSprings::potentialEnergy(std::span<const double> x) const {
@@ -172,10 +199,12 @@ namespace {
 /// factor * K (k the bending stiffness): 16 scaled identities per spring.
 void assemble(std::span<const BendingSpring> springs, MatrixAccumulator& m, double factor,
               double k) {
+  const bool diagonalOnly = m.diagonalOnly();  // (a preconditioner's: the blocks (i, i))
   for (const BendingSpring& s : springs) {
     const std::array<double, 4> w = s.weights();
     for (int i = 0; i < 4; ++i) {
       for (int j = 0; j < 4; ++j) {
+        if (diagonalOnly && i != j) continue;
         m.addScaledIdentity(PointId(s.v[i]), PointId(s.v[j]),
                             factor * hingeBlockCoefficient(k, w.data(), i, j));
       }
@@ -265,7 +294,7 @@ void FastTriangularBendingSprings::fillValidationPositions(const Topology&,
 
 void FastTriangularBendingSprings::addTableForces(std::span<const double> x,
                                                   std::span<double> f) const {
-  scatterPass(entries(), x.data(), f.data(), -params_.bendingStiffness);
+  scatterSerial(entries(), x.data(), f.data(), -params_.bendingStiffness);
 }
 
 }  // namespace cutsim::forcefields

@@ -10,6 +10,7 @@
 
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/numbers.hpp"
+#include "parallel.hpp"
 
 namespace cutsim::forcefields {
 namespace {
@@ -81,7 +82,8 @@ void StretchParameters::validate() const {
 StretchSprings::StretchSprings(Topology& topology, StretchParameters parameters)
     : topology_(&topology),
       params_(parameters),
-      constructedStableJacobian_(parameters.stableJacobian) {
+      constructedStableJacobian_(parameters.stableJacobian),
+      partition_(std::make_unique<PointPartition>()) {
   params_.validate();
   const std::vector<StretchRecord> records = buildFromScratch(topology, params_);
   table_.reset(topology.edgeCapacity(), records.size());
@@ -139,11 +141,35 @@ void StretchSprings::checkSize(std::span<const double> a, const char* name,
   }
 }
 
-double StretchSprings::springWeight(const StretchSpring& s) const {
-  if (!params_.perRestLength) return 1.0;
-  // SOFA's MeshSpringForceField: stiffness and damping divided by the mesh's rest length.
-  const double l = s.restLength / params_.restScale;
+namespace {
+/// SOFA's MeshSpringForceField: stiffness and damping divided by the mesh's rest length.
+inline double perRestLengthWeight(double restLength, double restScale) {
+  const double l = restLength / restScale;
   return l > std::numeric_limits<double>::epsilon() ? 1.0 / l : 1.0;
+}
+}  // namespace
+
+double StretchSprings::springWeight(const StretchSpring& s) const {
+  return params_.perRestLength ? perRestLengthWeight(s.restLength, params_.restScale) : 1.0;
+}
+
+template <class Body>
+void StretchSprings::overSprings(Body&& body) const {
+  const std::span<const StretchSpring> springs = table_.entries();
+  const int parts = partsFor(springs.size());
+  if (parts <= 1) {
+    for (std::size_t i = 0; i < springs.size(); ++i) body(i, 0u, ~0u, std::false_type{});
+    return;
+  }
+  partition_->update(parts, topology_->pointCapacity(), springs.size(), 2, table_.revision(),
+                     [&](std::size_t i, std::uint32_t* ids) {
+                       ids[0] = springs[i].a;
+                       ids[1] = springs[i].b;
+                     });
+  inParts(std::size_t(parts), parts, [&](int k, std::size_t, std::size_t) {
+    const std::uint32_t lo = partition_->first(k), span = partition_->size(k);
+    for (const std::uint32_t i : partition_->elements(k)) body(i, lo, span, std::true_type{});
+  });
 }
 
 void StretchSprings::addForce(std::span<const double> x, std::span<const double> v,
@@ -156,26 +182,33 @@ void StretchSprings::addForce(std::span<const double> x, std::span<const double>
   const double* __restrict xp = x.data();
   const double* __restrict vp = damped ? v.data() : nullptr;
   double* __restrict fp = f.data();
+  const double restScale = params_.restScale;
   // Springs are taken by value in the force passes: a store into f could otherwise alias the
   // table, and the compiler would reload the spring after every store.
-  for (const StretchSpring s : table_.entries()) {
-    double u[3], l;
-    if (!direction(xp, s.a, s.b, u, l)) continue;
-    const double w = springWeight(s);
-    double intensity = -(ks * w) * (l - s.restLength);
-    if (damped) {
-      const double* va = vp + 3 * static_cast<std::size_t>(s.a);
-      const double* vb = vp + 3 * static_cast<std::size_t>(s.b);
-      intensity -=
-          (kd * w) * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
-    }
-    double* fa = fp + 3 * static_cast<std::size_t>(s.a);
-    double* fb = fp + 3 * static_cast<std::size_t>(s.b);
-    for (int k = 0; k < 3; ++k) {
-      fb[k] += intensity * u[k];
-      fa[k] -= intensity * u[k];
-    }
-  }
+  const StretchSpring* __restrict springs = table_.entries().data();
+  withWeights([&](auto perRestLength) {
+    overSprings([&](std::size_t i, std::uint32_t lo, std::uint32_t span, auto owned) {
+      const StretchSpring s = springs[i];
+      double u[3], l;
+      if (!direction(xp, s.a, s.b, u, l)) return;
+      const double w = perRestLength ? perRestLengthWeight(s.restLength, restScale) : 1.0;
+      double intensity = -(ks * w) * (l - s.restLength);
+      if (damped) {
+        const double* va = vp + 3 * static_cast<std::size_t>(s.a);
+        const double* vb = vp + 3 * static_cast<std::size_t>(s.b);
+        intensity -=
+            (kd * w) * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
+      }
+      if (!owned || s.b - lo < span) {
+        double* fb = fp + 3 * static_cast<std::size_t>(s.b);
+        for (int k = 0; k < 3; ++k) fb[k] += intensity * u[k];
+      }
+      if (!owned || s.a - lo < span) {
+        double* fa = fp + 3 * static_cast<std::size_t>(s.a);
+        for (int k = 0; k < 3; ++k) fa[k] -= intensity * u[k];
+      }
+    });
+  });
 }
 
 void StretchSprings::addDForce(std::span<const double> x, std::span<const double> dx,
@@ -190,49 +223,63 @@ void StretchSprings::addDForce(std::span<const double> x, std::span<const double
   const double* __restrict dxp = dx.data();
   double* __restrict dfp = df.data();
   const StretchSpring* __restrict springs = table_.entries().data();
-  const std::size_t count = table_.size();
-  for (std::size_t i = 0; i < count; ++i) {
-    const StretchSpring s = springs[i];
-    const Linearisation& L = lin[i];
-    const double* da = dxp + 3 * static_cast<std::size_t>(s.a);
-    const double* db = dxp + 3 * static_cast<std::size_t>(s.b);
-    const double w[3] = {db[0] - da[0], db[1] - da[1], db[2] - da[2]};
-    const double uw = L.u[0] * w[0] + L.u[1] * w[1] + L.u[2] * w[2];
-    // g = (kFactor K_jj + bFactor B_jj) w = -k (a w + (1 - a) (u.w) u) - b (u.w) u. A spring
-    // without direction has u = 0 and a = 0: no contribution.
-    const double sw = springWeight(s);
-    const double cu = -(k * sw * (1.0 - L.a) + b * sw) * uw;
-    const double cw = -k * sw * L.a;
-    double* fa = dfp + 3 * static_cast<std::size_t>(s.a);
-    double* fb = dfp + 3 * static_cast<std::size_t>(s.b);
-    for (int c = 0; c < 3; ++c) {
-      const double g = cw * w[c] + cu * L.u[c];
-      fb[c] += g;
-      fa[c] -= g;
-    }
-  }
+  const double restScale = params_.restScale;
+  withWeights([&](auto perRestLength) {
+    overSprings([&](std::size_t i, std::uint32_t lo, std::uint32_t span, auto owned) {
+      const StretchSpring s = springs[i];
+      const Linearisation& L = lin[i];
+      const double* da = dxp + 3 * static_cast<std::size_t>(s.a);
+      const double* db = dxp + 3 * static_cast<std::size_t>(s.b);
+      const double w[3] = {db[0] - da[0], db[1] - da[1], db[2] - da[2]};
+      const double uw = L.u[0] * w[0] + L.u[1] * w[1] + L.u[2] * w[2];
+      // g = (kFactor K_jj + bFactor B_jj) w = -k (a w + (1 - a) (u.w) u) - b (u.w) u. A spring
+      // without direction has u = 0 and a = 0: no contribution.
+      const double sw = perRestLength ? perRestLengthWeight(s.restLength, restScale) : 1.0;
+      const double cu = -(k * sw * (1.0 - L.a) + b * sw) * uw;
+      const double cw = -k * sw * L.a;
+      double g[3];
+      for (int c = 0; c < 3; ++c) g[c] = cw * w[c] + cu * L.u[c];
+      if (!owned || s.b - lo < span) {
+        double* fb = dfp + 3 * static_cast<std::size_t>(s.b);
+        for (int c = 0; c < 3; ++c) fb[c] += g[c];
+      }
+      if (!owned || s.a - lo < span) {
+        double* fa = dfp + 3 * static_cast<std::size_t>(s.a);
+        for (int c = 0; c < 3; ++c) fa[c] -= g[c];
+      }
+    });
+  });
 }
 
 const std::vector<StretchSprings::Linearisation>& StretchSprings::linearisation(
     std::span<const double> x) const {
   const std::span<const StretchSpring> springs = table_.entries();
-  if (linValid_ && linX_.size() == x.size() && lin_.size() == springs.size() &&
-      std::memcmp(linX_.data(), x.data(), x.size() * sizeof(double)) == 0)
-    return lin_;
+  const bool atHeld = held_ > 0 && x.data() == heldX_;
+  if (linValid_ && linX_.size() == x.size() && lin_.size() == springs.size()) {
+    if (atHeld && linAtHeld_) return lin_;
+    if (std::memcmp(linX_.data(), x.data(), x.size() * sizeof(double)) == 0) {
+      linAtHeld_ = atHeld;
+      return lin_;
+    }
+  }
+  linAtHeld_ = atHeld;
   const bool stable = params_.stableJacobian;
   const double* __restrict xp = x.data();
   lin_.resize(springs.size());
-  for (std::size_t i = 0; i < springs.size(); ++i) {
-    const StretchSpring s = springs[i];
-    Linearisation& L = lin_[i];
-    double l;
-    if (direction(xp, s.a, s.b, L.u, l)) {
-      L.a = tangentFactor(s.restLength, l, stable);
-    } else {
-      L.u[0] = L.u[1] = L.u[2] = 0.0;
-      L.a = 0.0;
+  // Each spring's own entry: any split of the springs gives the same bits.
+  inParts(springs.size(), partsFor(springs.size()), [&](int, std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const StretchSpring s = springs[i];
+      Linearisation& L = lin_[i];
+      double l;
+      if (direction(xp, s.a, s.b, L.u, l)) {
+        L.a = tangentFactor(s.restLength, l, stable);
+      } else {
+        L.u[0] = L.u[1] = L.u[2] = 0.0;
+        L.a = 0.0;
+      }
     }
-  }
+  });
   linX_.assign(x.begin(), x.end());
   linValid_ = true;
   return lin_;
@@ -257,6 +304,7 @@ void StretchSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& 
   checkSize(x, "x", "addKToMatrix");
   const double k = kFactor * params_.stiffness;
   const bool stable = params_.stableJacobian;
+  const bool diagonalOnly = m.diagonalOnly();  // (a preconditioner's: the (a, a), (b, b) blocks)
   for (const StretchSpring s : table_.entries()) {
     double u[3], l;
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
@@ -266,6 +314,7 @@ void StretchSprings::addKToMatrix(std::span<const double> x, MatrixAccumulator& 
     const PointId a(s.a), b(s.b);
     m.addBlock(a, a, block);
     m.addBlock(b, b, block);
+    if (diagonalOnly) continue;
     m.addBlock(a, b, -block);
     m.addBlock(b, a, -block);
   }
@@ -276,6 +325,7 @@ void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& 
   const double b = bFactor * params_.damping;
   if (b == 0.0) return;
   checkSize(x, "x", "addBToMatrix");
+  const bool diagonalOnly = m.diagonalOnly();
   for (const StretchSpring s : table_.entries()) {
     double u[3], l;
     Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
@@ -286,8 +336,23 @@ void StretchSprings::addBToMatrix(std::span<const double> x, MatrixAccumulator& 
     const PointId a(s.a), b(s.b);
     m.addBlock(a, a, block);
     m.addBlock(b, b, block);
+    if (diagonalOnly) continue;
     m.addBlock(a, b, -block);
     m.addBlock(b, a, -block);
+  }
+}
+
+void StretchSprings::beginProducts(std::span<const double> x) const {
+  if (held_++ == 0) {
+    heldX_ = x.data();
+    linAtHeld_ = false;
+  }
+}
+
+void StretchSprings::endProducts(std::span<const double>) const {
+  if (--held_ == 0) {
+    heldX_ = nullptr;
+    linAtHeld_ = false;
   }
 }
 

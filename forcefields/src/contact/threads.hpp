@@ -2,41 +2,14 @@
 // Private to the contact wing: its loops over many pairs or triangles in contiguous runs, each
 // a task of oneTBB's scheduler (its pool of threads lives between calls), with results appended
 // in the runs' order (the same, bit for bit, whatever the number of threads).
-#include <oneapi/tbb/task_group.h>
-
 #include <algorithm>
 #include <bit>
 #include <cstdint>
-#include <exception>
 #include <vector>
 
-namespace cutsim::forcefields::contact {
+#include "cutsim/base/parallel.hpp"  // inParts
 
-/// Runs body(k, begin, end) for k in [0, parts) over contiguous runs that cover [0, n) in
-/// order: the first run on this thread, each other a task of oneTBB's pool (a fixed partition:
-/// the runs depend on `parts`, not on how many threads the pool has). Every run has ended
-/// before it returns; then the first exception a run threw (in the runs' order) is thrown again.
-template <class Body>
-void inParts(std::size_t n, int parts, Body&& body) {
-  if (parts <= 1) {
-    body(0, std::size_t(0), n);
-    return;
-  }
-  std::vector<std::exception_ptr> failed(static_cast<std::size_t>(parts));
-  auto run = [&](int k) {
-    try {
-      body(k, n * std::size_t(k) / std::size_t(parts), n * std::size_t(k + 1) / std::size_t(parts));
-    } catch (...) {
-      failed[std::size_t(k)] = std::current_exception();
-    }
-  };
-  oneapi::tbb::task_group others;
-  for (int k = 1; k < parts; ++k) others.run([&run, k] { run(k); });
-  run(0);
-  others.wait();
-  for (const std::exception_ptr& e : failed)
-    if (e) std::rethrow_exception(e);
-}
+namespace cutsim::forcefields::contact {
 
 /// run(begin, end, to) over [0, n) in `parts` contiguous runs (inParts), the first into `out`,
 /// each other into a vector of its own in `scratch`, appended to `out` in the runs' order: what

@@ -7,6 +7,7 @@
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
 #include "cutsim/base/numbers.hpp"
+#include "cutsim/base/parallel.hpp"
 
 namespace cutsim::core {
 
@@ -14,6 +15,48 @@ using Vec = Eigen::VectorXd;
 using topology::PointId;
 
 namespace {
+
+// The conjugate gradients' vector work, in blocks of kBlock entries split among the threads
+// (cutsim::inParts): an update writes each entry from entries of the same index; a sum adds the
+// blocks' partial sums (Eigen's, on each block) in the blocks' order. The same bits for any
+// number of threads.
+constexpr Eigen::Index kBlock = 4096;
+constexpr std::size_t kMinEntriesPerPart = 8192;  // (a part's work: a few microseconds)
+
+/// f(block, begin, length) for every block of [0, n), the blocks in parts on the threads.
+template <class F>
+void overBlocks(Eigen::Index n, F&& f) {
+  const std::size_t blocks = std::size_t((n + kBlock - 1) / kBlock);
+  inParts(blocks, partsFor(std::size_t(n), kMinEntriesPerPart),
+          [&](int, std::size_t b0, std::size_t b1) {
+            for (std::size_t b = b0; b < b1; ++b) {
+              const Eigen::Index begin = Eigen::Index(b) * kBlock;
+              f(b, begin, std::min(kBlock, n - begin));
+            }
+          });
+}
+
+double sumInOrder(const std::vector<double>& partial) {
+  double s = 0.0;
+  for (double v : partial) s += v;
+  return s;
+}
+
+/// a . b by blocks.
+double dot(const Vec& a, const Vec& b, std::vector<double>& partial) {
+  partial.assign(std::size_t((a.size() + kBlock - 1) / kBlock), 0.0);
+  overBlocks(a.size(), [&](std::size_t k, Eigen::Index i, Eigen::Index len) {
+    partial[k] = a.segment(i, len).dot(b.segment(i, len));
+  });
+  return sumInOrder(partial);
+}
+
+/// |r| from its squared norm summed by blocks; where that sum may have lost the norm (underflow,
+/// overflow) the scaled norm (Eigen's stableNorm), so that no range of doubles breaks it.
+double normOf(const Vec& r, double squared) {
+  if (squared > 1e-280 && squared < 1e280) return std::sqrt(squared);
+  return r.stableNorm();
+}
 
 /// Keeps only the diagonal entries of the blocks it is given.
 struct DiagonalAccumulator : forcefields::MatrixAccumulator {
@@ -65,15 +108,22 @@ SystemOperator::~SystemOperator() {
 void SystemOperator::apply(const Vec& p, Vec& out) const {
   const Eigen::Index N = size();
   out.resize(N);
-  for (std::size_t q = 0; q < mass_.size(); ++q)
-    for (int c = 0; c < 3; ++c)
-      out[Eigen::Index(3 * q + c)] = mass_[q] * p[Eigen::Index(3 * q + c)];
-  if (fields_.empty()) return;
-  Vec df = Vec::Zero(N);
+  if (scratch_.size() != N) scratch_.resize(N);
+  Vec& df = scratch_;
+  df.setZero();
   std::span<double> dfs(df.data(), std::size_t(N));
   std::span<const double> ps(p.data(), std::size_t(N));
   for (auto* f : fields_) f->addDForce(x_, ps, dfs, kFactor_, bFactor_);
-  out -= df;
+  // out = M p - df, the points in parts on the threads (each entry its own: the same bits).
+  inParts(mass_.size(), partsFor(std::size_t(N), kMinEntriesPerPart),
+          [&](int, std::size_t begin, std::size_t end) {
+            for (std::size_t q = begin; q < end; ++q)
+              for (int c = 0; c < 3; ++c) {
+                const Eigen::Index i = Eigen::Index(3 * q + c);
+                const double mp = mass_[q] * p[i];
+                out[i] = mp - df[i];
+              }
+          });
 }
 
 Vec SystemOperator::diagonal() const {
@@ -144,26 +194,38 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
   A.project(r);
   Vec z = invDiag.cwiseProduct(r);
   Vec pdir = z;
-  double rz = r.dot(z);
-  double rNorm = r.stableNorm();
+  std::vector<double> partial, partialRR;
+  double rz = dot(r, z, partial);
+  double rNorm = normOf(r, dot(r, r, partial));
   SolveReport report;
   const double stop = settings_.tolerance * std::max(bNorm, 1e-300);
+  const Eigen::Index blocks = (N + kBlock - 1) / kBlock;
   while (report.iterations < settings_.maxIterations && rNorm > stop) {
     A.apply(pdir, Ap);
     A.project(Ap);
-    const double pAp = pdir.dot(Ap);
+    const double pAp = dot(pdir, Ap, partial);
     if (!(pAp > 0)) {  // not positive definite along pdir (or a zero direction): stop
       report.indefinite = true;
       break;
     }
     const double alpha = rz / pAp;
-    dv += alpha * pdir;
-    r -= alpha * Ap;
-    z = invDiag.cwiseProduct(r);
-    const double rzNew = r.dot(z);
-    pdir = z + (rzNew / rz) * pdir;
+    // One pass: dv += alpha p, r -= alpha Ap, z = D^-1 r, and the blocks' r.z and r.r.
+    partial.assign(std::size_t(blocks), 0.0);
+    partialRR.assign(std::size_t(blocks), 0.0);
+    overBlocks(N, [&](std::size_t k, Eigen::Index i, Eigen::Index len) {
+      dv.segment(i, len) += alpha * pdir.segment(i, len);
+      r.segment(i, len) -= alpha * Ap.segment(i, len);
+      z.segment(i, len) = invDiag.segment(i, len).cwiseProduct(r.segment(i, len));
+      partial[k] = r.segment(i, len).dot(z.segment(i, len));
+      partialRR[k] = r.segment(i, len).squaredNorm();
+    });
+    const double rzNew = sumInOrder(partial);
+    const double beta = rzNew / rz;
+    overBlocks(N, [&](std::size_t, Eigen::Index i, Eigen::Index len) {
+      pdir.segment(i, len) = z.segment(i, len) + beta * pdir.segment(i, len);
+    });
     rz = rzNew;
-    rNorm = r.stableNorm();
+    rNorm = normOf(r, sumInOrder(partialRR));
     ++report.iterations;
   }
   // Relative to the work the solve had; with none (b = 0 on the free points, nothing prescribed)

@@ -1,7 +1,7 @@
 #pragma once
-// How many threads cutsim's parallel loops may use (today contact's long loops, on oneTBB's
-// tasks): one setting for the process. Outputs never depend on it (the loops' partitions and
-// the order of their results are fixed: docs/contact.md, "Detection").
+// How many threads cutsim's parallel loops may use (cutsim/base/parallel.hpp: the springs'
+// passes, CG's vector work, contact's long loops): one setting for the process. Outputs never
+// depend on it (docs/performance.md, "Threads"; docs/contact.md, "Detection").
 
 namespace cutsim {
 
@@ -14,7 +14,8 @@ void setThreads(int n);
 void overrideThreads(int n);
 
 /// The setting: setThreads' value when one was given, else CUTSIM_THREADS when set (a whole
-/// number in [1, 256]; InvalidInput otherwise), else the machine's hardware threads.
+/// number in [1, 256]; InvalidInput otherwise), else the machine's hardware threads; these two
+/// are read once per process, when first asked.
 int threads();
 
 }  // namespace cutsim

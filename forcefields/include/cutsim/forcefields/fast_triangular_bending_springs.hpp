@@ -10,6 +10,7 @@
 // B = rayleighStiffness K.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -22,6 +23,8 @@
 #include "cutsim/topology/topology.hpp"
 
 namespace cutsim::forcefields {
+
+class PointPartition;  // (parallel.hpp, private)
 
 /// The component's parameters (spec section 1).
 struct BendingParameters {
@@ -192,9 +195,14 @@ class FastTriangularBendingSprings
   void addTableForces(std::span<const double> x, std::span<double> f) const;
 
   void checkSizes(std::span<const double> a, std::span<const double> b, const char* what) const;
+  /// f += c w_i R'(x) per spring (the force with c = -k, the product with c = -kFactor k): on one
+  /// thread in the springs' order, on several (cutsim::threads()) split by the points written
+  /// (PointPartition), with the same bits.
+  void scatterPass(const double* x, double* f, double c) const;
 
   const topology::Topology* topology_;
   BendingParameters params_;
+  std::unique_ptr<PointPartition> partition_;  // (parallel.hpp)
 };
 
 extern template class detail::HingeTable<FastTriangularBendingSprings, detail::BendingSpringTraits>;

@@ -114,6 +114,21 @@ inline void hingeScatter(double* __restrict f, const std::uint32_t* v, const dou
   fd[2] += cd * r2;
 }
 
+/// hingeScatter's terms for the vertices p with p - lo < span (unsigned) only, each computed as
+/// hingeScatter computes it (the passes on several threads: each adds to the points it owns).
+inline void hingeScatterOwned(double* __restrict f, const std::uint32_t* v, const double* w,
+                              double c, const double* r, std::uint32_t lo, std::uint32_t span) {
+  const double r0 = r[0], r1 = r[1], r2 = r[2];
+  for (int i = 0; i < 4; ++i) {
+    if (v[i] - lo >= span) continue;
+    double* fi = f + 3 * static_cast<std::size_t>(v[i]);
+    const double ci = c * w[i];
+    fi[0] += ci * r0;
+    fi[1] += ci * r1;
+    fi[2] += ci * r2;
+  }
+}
+
 /// 1/2 k |R'|^2.
 inline double hingeEnergy(double k, const double* r) {
   return 0.5 * k * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);

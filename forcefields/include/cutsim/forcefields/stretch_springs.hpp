@@ -25,9 +25,11 @@
 // it contributes no force, no damping and zero matrix blocks (its energy 1/2 ks L0^2 still counts).
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "cutsim/forcefields/force_field.hpp"
@@ -36,6 +38,8 @@
 #include "cutsim/topology/topology.hpp"
 
 namespace cutsim::forcefields {
+
+class PointPartition;  // (parallel.hpp, private)
 
 /// The component's parameters.
 struct StretchParameters {
@@ -117,6 +121,9 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   /// exact: stableJacobian = false; otherwise the stableJacobian given at construction. Drops
   /// the linearisation cached by addDForce when that changes K. Returns true.
   bool setExactStiffness(bool exact) override;
+  /// Between these the products at that x reuse the linearisation without comparing x again.
+  void beginProducts(std::span<const double> x) const override;
+  void endProducts(std::span<const double> x) const override;
 
   // ---- TopologyObserver: the table follows edge events and point renumbering only ----
   void onEdgesDestroyed(const topology::Topology&, const topology::EdgesDestroyed&) override;
@@ -150,6 +157,21 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
 
  private:
   double springWeight(const StretchSpring& s) const;
+  /// Runs body(i, lo, span, owned) over the springs i: on one thread every spring once with
+  /// owned = std::false_type (every endpoint its own), on several (cutsim::threads()) the parts
+  /// of a PointPartition in parallel, owned = std::true_type: the spring adds its terms to the
+  /// endpoints p with p - lo < span (unsigned) only. Same bits either way.
+  template <class Body>
+  void overSprings(Body&& body) const;
+  /// pass(std::true_type) if perRestLength, else pass(std::false_type): the loops compiled for
+  /// each, the common one without a weight per spring.
+  template <class Pass>
+  void withWeights(Pass&& pass) const {
+    if (params_.perRestLength)
+      pass(std::true_type{});
+    else
+      pass(std::false_type{});
+  }
   void checkSize(std::span<const double> a, const char* name, const char* what) const;
 
   const topology::Topology* topology_;
@@ -170,6 +192,12 @@ class StretchSprings : public ForceField, public topology::TopologyObserver {
   mutable std::vector<Linearisation> lin_;
   mutable std::vector<double> linX_;
   mutable bool linValid_ = false;
+  // A solve's operator holds x (beginProducts): its memory, and whether lin_ was made at it.
+  mutable int held_ = 0;
+  mutable const double* heldX_ = nullptr;
+  mutable bool linAtHeld_ = false;
+  // The springs split by the points they write, for the passes on several threads.
+  std::unique_ptr<PointPartition> partition_;
   const std::vector<Linearisation>& linearisation(std::span<const double> x) const;
 };
 

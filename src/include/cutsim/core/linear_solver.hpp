@@ -42,7 +42,8 @@ class SystemOperator {
 
   std::size_t numSlots() const { return mass_.size(); }
   Eigen::Index size() const { return Eigen::Index(3 * mass_.size()); }
-  /// out = A p (every entry, constrained rows included).
+  /// out = A p (every entry, constrained rows included). Not for concurrent calls on one
+  /// operator (it keeps its scratch vector).
   void apply(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
   /// The diagonal of A, gathered from the fields' blocks without assembling the matrix.
   Eigen::VectorXd diagonal() const;
@@ -68,6 +69,7 @@ class SystemOperator {
   std::span<const char> constrained_;
   double kFactor_, bFactor_;
   std::uint64_t revision_;
+  mutable Eigen::VectorXd scratch_;  // apply()'s df (one apply at a time on an operator)
 };
 
 /// What one solve did.

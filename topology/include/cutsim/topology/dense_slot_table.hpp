@@ -75,6 +75,7 @@ class DenseSlotTable {
   /// Every slot empty, `slots` of them; reserves a quarter more than `slots` slots and
   /// `expectedEntries` entries, as the topology reserves (later growth is geometric).
   void reset(std::size_t slots, std::size_t expectedEntries) {
+    ++revision_;
     entries_.clear();
     slotOfEntry_.clear();
     indexOfSlot_.clear();
@@ -91,6 +92,9 @@ class DenseSlotTable {
 
   // ---- reading ----
   std::size_t size() const { return entries_.size(); }
+  /// Counts the changes to the entries (set, setStatus, renumbering, reset, load): what a cache
+  /// derived from them (a split of the entries for threads) compares to know it is stale.
+  std::uint64_t revision() const { return revision_; }
   std::size_t numSlots() const { return indexOfSlot_.size(); }
   /// The entries, compact (their order changes with removals and renumbering).
   std::span<const Entry> entries() const { return entries_; }
@@ -122,6 +126,7 @@ class DenseSlotTable {
     if (s >= kSlotLimit)
       throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
     growTo(std::size_t(s) + 1);
+    ++revision_;
     const Index back = s | (flagged && kHasFlag ? kFlagBit : 0u);
     const Index code = indexOfSlot_[s];
     if (isEntry(code)) {
@@ -146,6 +151,7 @@ class DenseSlotTable {
     if (s >= kSlotLimit)
       throw std::length_error(std::string(Traits::kNoun) + " table: id too large");
     growTo(std::size_t(s) + 1);
+    ++revision_;
     const Index code = indexOfSlot_[s];
     if (isEntry(code)) removeEntry(code);
     indexOfSlot_[s] = encode(st);
@@ -156,6 +162,7 @@ class DenseSlotTable {
   /// index (a dead point) is left as it was and reported to `problems`.
   void remapPoints(const Renumbering& r, std::vector<std::string>& problems) {
     const std::span<const Index> map = r.oldToNew;
+    ++revision_;
     for (Entry& e : entries_) {
       Traits::forEachPoint(e, [&](std::uint32_t& p) {
         const Index n = p < map.size() ? map[p] : kInvalidIndex;
@@ -171,6 +178,7 @@ class DenseSlotTable {
   /// IdT's kind renumbered: slots move old -> new, the entries are re-laid out in the new slot
   /// order. A non-empty slot without a new index is dropped and reported to `problems`.
   void renumber(const Renumbering& r, std::vector<std::string>& problems) {
+    ++revision_;
     std::vector<Index> slots(r.newSize, encode(Traits::kEmpty));
     for (std::size_t old = 0; old < indexOfSlot_.size(); ++old) {
       const Index n = old < r.oldToNew.size() ? r.oldToNew[old] : kInvalidIndex;
@@ -217,6 +225,7 @@ class DenseSlotTable {
     std::vector<Entry> entries;
     std::vector<Index> back, slots;
     fields(in, entries, back, slots);
+    ++revision_;
     if (entries.size() >= kStatusBase)
       in.fail(std::string(Traits::kNoun) + " table: " + std::to_string(entries.size()) +
               " entries");
@@ -345,6 +354,7 @@ class DenseSlotTable {
   std::vector<Entry> entries_;
   std::vector<Index> slotOfEntry_;
   std::vector<Index> indexOfSlot_;
+  std::uint64_t revision_ = 0;  // (not saved: nothing derived from it is)
 };
 
 }  // namespace cutsim::topology

@@ -116,6 +116,8 @@ class HingeTable : public topology::TopologyObserver {
   void loadTable(ArchiveReader& in, const topology::Topology& topology);
   /// The active entries, compact (their order changes with removals and compaction).
   std::span<const Entry> entries() const { return table_.entries(); }
+  /// Changes with every change to the entries (DenseSlotTable::revision).
+  std::uint64_t tableRevision() const { return table_.revision(); }
   /// The record of entry i (0 <= i < entries().size()).
   Record entryRecord(std::size_t i) const;
   /// Records of every live edge of the table, ascending edge id.
