@@ -155,13 +155,19 @@ void FastTriangularBendingSprings::scatterPass(const double* __restrict x, doubl
                        for (int a = 0; a < 4; ++a) ids[a] = sp[i].v[std::size_t(a)];
                      });
   inParts(std::size_t(parts), parts, [&](int k, std::size_t, std::size_t) {
+    // Pointers and factor in this thread's locals (not read from the caller's stack after every
+    // store).
+    const BendingSpring* __restrict springsHere = sp;
+    const double* __restrict xHere = x;
+    double* __restrict fHere = f;
+    const double cHere = c;
     const std::uint32_t lo = partition_->first(k), span = partition_->size(k);
     for (const std::uint32_t i : partition_->elements(k)) {
-      const std::array<std::uint32_t, 4> v = sp[i].v;
-      const std::array<double, 4> w = sp[i].weights();
+      const std::array<std::uint32_t, 4> v = springsHere[i].v;
+      const std::array<double, 4> w = springsHere[i].weights();
       double r[3];
-      hingeResidual(x, v.data(), w.data(), r);
-      hingeScatterOwned(f, v.data(), w.data(), c, r, lo, span);
+      hingeResidual(xHere, v.data(), w.data(), r);
+      hingeScatterOwned(fHere, v.data(), w.data(), cHere, r, lo, span);
     }
   });
 }

@@ -167,8 +167,11 @@ void StretchSprings::overSprings(Body&& body) const {
                        ids[1] = springs[i].b;
                      });
   inParts(std::size_t(parts), parts, [&](int k, std::size_t, std::size_t) {
+    // The body's own copy on this thread's stack: what it captured (by value) is not read, after
+    // every store, from the memory of the thread that called (a cache line both would write).
+    auto local = body;
     const std::uint32_t lo = partition_->first(k), span = partition_->size(k);
-    for (const std::uint32_t i : partition_->elements(k)) body(i, lo, span, std::true_type{});
+    for (const std::uint32_t i : partition_->elements(k)) local(i, lo, span, std::true_type{});
   });
 }
 
@@ -187,7 +190,7 @@ void StretchSprings::addForce(std::span<const double> x, std::span<const double>
   // table, and the compiler would reload the spring after every store.
   const StretchSpring* __restrict springs = table_.entries().data();
   withWeights([&](auto perRestLength) {
-    overSprings([&](std::size_t i, std::uint32_t lo, std::uint32_t span, auto owned) {
+    overSprings([=](std::size_t i, std::uint32_t lo, std::uint32_t span, auto owned) {
       const StretchSpring s = springs[i];
       double u[3], l;
       if (!direction(xp, s.a, s.b, u, l)) return;
@@ -225,7 +228,7 @@ void StretchSprings::addDForce(std::span<const double> x, std::span<const double
   const StretchSpring* __restrict springs = table_.entries().data();
   const double restScale = params_.restScale;
   withWeights([&](auto perRestLength) {
-    overSprings([&](std::size_t i, std::uint32_t lo, std::uint32_t span, auto owned) {
+    overSprings([=](std::size_t i, std::uint32_t lo, std::uint32_t span, auto owned) {
       const StretchSpring s = springs[i];
       const Linearisation& L = lin[i];
       const double* da = dxp + 3 * static_cast<std::size_t>(s.a);
