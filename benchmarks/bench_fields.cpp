@@ -19,6 +19,7 @@
 #include <any>
 #include <cmath>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <random>
 #include <string>

@@ -2,6 +2,7 @@
 // Private to the force fields: the split of a field's elements by the points they write
 // (PointPartition), with which a force pass or a product runs on several threads
 // (cutsim::inParts) and still gives the one-thread pass's bits.
+#include <cassert>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -60,7 +61,9 @@ void PointPartition::update(int parts, std::size_t pointSlots, std::size_t eleme
                             std::uint64_t revision, PointsOf&& pointsOf) {
   if (parts == parts_ && pointSlots == slots_ && elements == count_ && revision == revision_)
     return;
+  assert(arity >= 1 && arity <= 8);
   std::uint32_t ids[8];
+  parts_ = 0;  // (stale until the end: an allocation that throws leaves no half-made split)
   // Slot bounds that give each part about the same number of element ends.
   ends_.assign(pointSlots + 1, 0);
   for (std::size_t i = 0; i < elements; ++i) {

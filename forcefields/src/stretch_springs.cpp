@@ -1,6 +1,7 @@
 #include "cutsim/forcefields/stretch_springs.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -202,6 +203,8 @@ void StretchSprings::addForce(std::span<const double> x, std::span<const double>
         intensity -=
             (kd * w) * ((vb[0] - va[0]) * u[0] + (vb[1] - va[1]) * u[1] + (vb[2] - va[2]) * u[2]);
       }
+      // (Each end's sum written as one expression, fused alike on every path: the threads test
+      // compares the paths' bits in the release build, where the compiler may fuse.)
       if (!owned || s.b - lo < span) {
         double* fb = fp + 3 * static_cast<std::size_t>(s.b);
         for (int k = 0; k < 3; ++k) fb[k] += intensity * u[k];
@@ -352,8 +355,11 @@ void StretchSprings::beginProducts(std::span<const double> x) const {
   }
 }
 
-void StretchSprings::endProducts(std::span<const double>) const {
+void StretchSprings::endProducts(std::span<const double> x) const {
+  assert(held_ > 0);
   if (--held_ == 0) {
+    assert(x.data() == heldX_);  // (holds end in the reverse order of their beginning)
+    (void)x;
     heldX_ = nullptr;
     linAtHeld_ = false;
   }

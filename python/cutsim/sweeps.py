@@ -939,8 +939,11 @@ def _call(cmd, p, lock, timeout):
     with open(p["log"], "a", encoding="utf-8") as log:
         log.write(f"$ {' '.join(cmd)}\n")
         log.flush()
+        # One thread a run (a worker a core runs one each), unless the sweep's environment says.
+        env = dict(os.environ)
+        env.setdefault("CUTSIM_THREADS", "1")
         proc = subprocess.Popen(prefix + cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                pass_fds=(lock.fileno(),))
+                                pass_fds=(lock.fileno(),), env=env)
         try:
             code = proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:

@@ -158,11 +158,16 @@ touch "$tmp/a_file"
 "$CUTSIM" run "$scene" --out "$tmp/dumpfile" --dump-final "$tmp/a_file" >/dev/null 2>"$tmp/err_dump"
 check "--dump-final into a file is refused before the run" [ $? -eq 2 ]
 check "the file is named" grep -q "^--dump-final: $tmp/a_file is a file, not a folder" "$tmp/err_dump"
-# A bad thread count for contact (CUTSIM_THREADS) is refused before the run.
+# A bad thread count (CUTSIM_THREADS) is refused before the run: a scene with contact.
 CUTSIM_THREADS=two "$CUTSIM" run "$CUTSIM_DATA_DIR/scenes/fold_ground.json" --out "$tmp/threads" >/dev/null 2>"$tmp/err_threads"
 check "a bad CUTSIM_THREADS exits with 2" [ $? -eq 2 ]
 check "it names CUTSIM_THREADS and its value" grep -q 'CUTSIM_THREADS: must be a whole number in \[1, 256\].*"two"' "$tmp/err_threads"
 check "no output folder for it" [ ! -e "$tmp/threads" ]
+# And for a scene without contact (the springs' passes and CG use the setting too).
+CUTSIM_THREADS=0 "$CUTSIM" run "$CUTSIM_DATA_DIR/scenes/hanging.json" --out "$tmp/threads2" >/dev/null 2>"$tmp/err_threads2"
+check "a bad CUTSIM_THREADS exits with 2 without contact" [ $? -eq 2 ]
+check "it names CUTSIM_THREADS and its value without contact" grep -q 'CUTSIM_THREADS: must be a whole number in \[1, 256\].*"0"' "$tmp/err_threads2"
+check "no output folder for it without contact" [ ! -e "$tmp/threads2" ]
 check "nothing ran" [ ! -e "$tmp/dumpfile" ]
 # A re-run into a folder removes the earlier run's files, keeps the user's, and says so.
 mkdir -p "$tmp/rerun" && touch "$tmp/rerun/surface_000999.vtp" "$tmp/rerun/notes.txt"

@@ -292,6 +292,36 @@ TEST(DenseSlotTable, ReportsWhatItCannotMap) {
   EXPECT_EQ(table.numSlots(), 2u);
 }
 
+// Every change to the entries moves revision() on (a split of the entries among threads is
+// rebuilt from it: forcefields/src/parallel.hpp); reading does not.
+TEST(DenseSlotTable, CountsEveryChangeToItsEntries) {
+  DenseSlotTable<EdgeId, TestEntry, FlagTraits> table;
+  std::uint64_t seen = table.revision();
+  auto changed = [&](const char* what) {
+    EXPECT_GT(table.revision(), seen) << what;
+    seen = table.revision();
+  };
+  table.reset(4, 4);
+  changed("reset");
+  table.set(EdgeId(1), {{0, 1, 2}, 1.0});
+  changed("set, appended");
+  table.set(EdgeId(1), {{0, 1, 3}, 1.0});
+  changed("set, replaced in place (other points, same count)");
+  table.set(EdgeId(2), {{1, 2, 3}, 2.0}, true);
+  changed("set with a flag");
+  table.setStatus(EdgeId(1), TestStatus::B);
+  changed("setStatus, removing an entry");
+  (void)table.find(EdgeId(2));
+  (void)table.entries();
+  EXPECT_EQ(table.revision(), seen) << "reading";
+  std::vector<std::string> problems;
+  table.remapPoints(Renumbering{std::vector<Index>{1, 0, 3, 2}, 4}, problems);
+  changed("points renumbered");
+  table.renumber(Renumbering{std::vector<Index>{0, 1, 2, 3}, 4}, problems);
+  changed("slots renumbered");
+  EXPECT_TRUE(problems.empty());
+}
+
 TEST(DenseSlotTable, ValidatesAgainstTheTopology) {
   const topology::MeshData mesh = grid(4);
   Topology topo(mesh.points, mesh.triangles);

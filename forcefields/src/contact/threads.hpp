@@ -50,9 +50,9 @@ void ascendingOnce(std::size_t records, std::vector<std::uint64_t>& bits,
       out.push_back(std::uint32_t(64 * w + std::size_t(std::countr_zero(b))));
 }
 
-/// The threads contact's loops use when its parameters leave it to the machine: CUTSIM_THREADS
-/// when set (a whole number in [1, 256]; InvalidInput otherwise), else the machine's hardware
-/// threads.
+/// The threads contact's loops use when its parameters leave it to the process: cutsim::threads()
+/// (a scene's "threads", `cutsim run --threads N`, CUTSIM_THREADS, else the machine's hardware
+/// threads).
 int defaultThreads();
 
 }  // namespace cutsim::forcefields::contact

@@ -103,6 +103,8 @@ void SceneRunner::rehearseTimeline(const Scene& scene) {
 
 void SceneRunner::build(bool physics, std::unique_ptr<topology::Topology> topo) {
   if (physics && scene_.threads > 0) setThreads(scene_.threads);  // (outputs do not depend on it)
+  // A bad CUTSIM_THREADS is refused here, before any output, not at the first parallel loop.
+  if (physics) (void)threads();
   if (!topo) topo = std::make_unique<topology::Topology>(scene_.mesh());
   const MassLaw mass = scene_.massLaw(*topo);
   // Mean rest edge length: the smallest piece a progressive cut makes is half of it.

@@ -94,8 +94,8 @@ struct ContactParameters {
   double searchSlack = 0.25;
   /// The most threads contact's long loops may share (the classification and the bound's scan
   /// of a large search cache, a round obstacle's or the bound's obstacle triangles over a large
-  /// surface: docs/contact.md): 0 takes CUTSIM_THREADS from the environment when it is set (a
-  /// whole number in [1, 256]; anything else is refused), else the machine's hardware threads.
+  /// surface: docs/contact.md): 0 takes the process's setting (cutsim::threads(): a scene's
+  /// "threads", `cutsim run --threads N`, CUTSIM_THREADS, else the machine's hardware threads).
   /// The pairs, forces and steps are the same, bit for bit, whatever the count. In [0, 256].
   int threads = 0;
   /// Throws InvalidInput (where = the parameter's name) for a value out of range.
