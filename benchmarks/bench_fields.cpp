@@ -33,29 +33,13 @@ namespace {
 
 using cutsim::KeyType;
 using cutsim::ScalarParameters;
+using cutsim::forcefields::DiagonalAccumulator;
 using cutsim::forcefields::ForceField;
 using cutsim::forcefields::ForceFieldRegistry;
-using cutsim::forcefields::MatrixAccumulator;
 using cutsim::topology::PointId;
 using cutsim::topology::Topology;
 using cutsim::topology::TriangleVertices;
 using cutsim::topology::Vec3;
-
-/// Keeps the diagonal of the blocks it is given (as the conjugate gradients' preconditioner does).
-class DiagonalOnly final : public MatrixAccumulator {
- public:
-  explicit DiagonalOnly(std::size_t n) : d(n, 0.0) {}
-  void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
-    if (i != j) return;
-    for (int a = 0; a < 3; ++a) d[3 * std::size_t(i.idx()) + std::size_t(a)] += b(a, a);
-  }
-  void addScaledIdentity(PointId i, PointId j, double s) override {
-    if (i != j) return;
-    for (int a = 0; a < 3; ++a) d[3 * std::size_t(i.idx()) + std::size_t(a)] += s;
-  }
-  bool diagonalOnly() const override { return true; }
-  std::vector<double> d;
-};
 
 struct Sheet {
   std::unique_ptr<Topology> topo;
@@ -165,11 +149,11 @@ void BM_Field(benchmark::State& st, std::string type, Pass pass) {
       for (auto _ : st) benchmark::DoNotOptimize(s->field->potentialEnergy(s->x));
       break;
     case Pass::Diagonal: {
-      DiagonalOnly d(s->x.size());
+      DiagonalAccumulator d(Eigen::Index(s->x.size()));
       for (auto _ : st) {
         s->field->addKToMatrix(s->x, d, -h * h);
         s->field->addBToMatrix(s->x, d, -h);
-        benchmark::DoNotOptimize(d.d.data());
+        benchmark::DoNotOptimize(d.diagonal.data());
       }
       break;
     }

@@ -33,9 +33,13 @@ void inParts(std::size_t n, int parts,
     if (e) std::rethrow_exception(e);
 }
 
-int partsFor(std::size_t n, std::size_t minPerPart) {
+int partsFor(std::size_t n, std::size_t minPerPart, int threads) {
   const std::size_t most = std::max<std::size_t>(1, n / std::max<std::size_t>(1, minPerPart));
-  return int(std::min<std::size_t>(std::size_t(threads()), most));
+  return int(std::min<std::size_t>(std::size_t(std::max(1, threads)), most));
+}
+
+int partsFor(std::size_t n, std::size_t minPerPart) {
+  return partsFor(n, minPerPart, threads());
 }
 
 }  // namespace cutsim

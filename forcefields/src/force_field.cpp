@@ -26,6 +26,16 @@ void TripletAccumulator::addScaledIdentity(PointId i, PointId j, double s) {
   for (int a = 0; a < 3; ++a) triplets_.emplace_back(r + a, c + a, s);
 }
 
+void DiagonalAccumulator::addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) {
+  if (i != j) return;
+  for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i.idx()) + a] += b(a, a);
+}
+
+void DiagonalAccumulator::addScaledIdentity(PointId i, PointId j, double s) {
+  if (i != j) return;
+  for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i.idx()) + a] += s;
+}
+
 Eigen::SparseMatrix<double> TripletAccumulator::toSparse(Index numPoints) const {
   const Eigen::Index n = 3 * static_cast<Eigen::Index>(numPoints);
   Eigen::SparseMatrix<double> m(n, n);

@@ -579,8 +579,7 @@ struct Contact::Impl {
   static constexpr std::size_t kRecordsPerThread = 16384, kTrianglesPerThread = 8192;
   /// How many threads work on n items, each given at least `least` of them.
   int partsFor(std::size_t n, std::size_t least) const {
-    const std::size_t most = std::max<std::size_t>(1, n / std::max<std::size_t>(1, least));
-    return int(std::min<std::size_t>(std::size_t(threads), most));
+    return cutsim::partsFor(n, least, threads);
   }
   int threads = 1;  // the threads contact's loops may use (Contact's constructor sets it)
   /// The flatness at x of every edge of the cache's self pairs of two edges, on `parts` threads

@@ -12,7 +12,6 @@
 namespace cutsim::core {
 
 using Vec = Eigen::VectorXd;
-using topology::PointId;
 
 namespace {
 
@@ -57,21 +56,6 @@ double normOf(const Vec& r, double squared) {
   if (squared > 1e-280 && squared < 1e280) return std::sqrt(squared);
   return r.stableNorm();
 }
-
-/// Keeps only the diagonal entries of the blocks it is given.
-struct DiagonalAccumulator : forcefields::MatrixAccumulator {
-  explicit DiagonalAccumulator(Eigen::Index n) : diagonal(Vec::Zero(n)) {}
-  void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override {
-    if (i != j) return;
-    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i.idx()) + a] += b(a, a);
-  }
-  void addScaledIdentity(PointId i, PointId j, double s) override {
-    if (i != j) return;
-    for (int a = 0; a < 3; ++a) diagonal[3 * Eigen::Index(i.idx()) + a] += s;
-  }
-  bool diagonalOnly() const override { return true; }
-  Vec diagonal;
-};
 
 }  // namespace
 
@@ -127,7 +111,7 @@ void SystemOperator::apply(const Vec& p, Vec& out) const {
 }
 
 Vec SystemOperator::diagonal() const {
-  DiagonalAccumulator diagK(size());
+  forcefields::DiagonalAccumulator diagK(size());
   for (auto* f : fields_) {
     f->addKToMatrix(x_, diagK, -kFactor_);
     f->addBToMatrix(x_, diagK, -bFactor_);

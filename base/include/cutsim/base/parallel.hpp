@@ -19,5 +19,7 @@ void inParts(std::size_t n, int parts,
 /// would have under minPerPart items (a task costs microseconds: below that the threads cost more
 /// than they save); at least 1.
 int partsFor(std::size_t n, std::size_t minPerPart);
+/// The same with `threads` in place of the setting (a component with a thread count of its own).
+int partsFor(std::size_t n, std::size_t minPerPart, int threads);
 
 }  // namespace cutsim

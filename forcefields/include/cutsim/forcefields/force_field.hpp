@@ -77,6 +77,19 @@ class TripletAccumulator : public MatrixAccumulator {
   std::vector<Eigen::Triplet<double>> triplets_;
 };
 
+/// Keeps the diagonal entries of the diagonal blocks it is given (a Jacobi preconditioner's
+/// diagonal): diagonal[3 i + a] += block (i, i)(a, a). Fields may skip the other blocks.
+class DiagonalAccumulator final : public MatrixAccumulator {
+ public:
+  /// n: the number of entries (3 per point slot; every point given must be below n / 3).
+  explicit DiagonalAccumulator(Eigen::Index n) : diagonal(Eigen::VectorXd::Zero(n)) {}
+  void addBlock(PointId i, PointId j, const Eigen::Matrix3d& b) override;
+  void addScaledIdentity(PointId i, PointId j, double s) override;
+  bool diagonalOnly() const override { return true; }
+
+  Eigen::VectorXd diagonal;
+};
+
 /// A force field over the points of a topology. See the table at the top of this file.
 class ForceField {
  public:
