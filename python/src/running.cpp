@@ -287,6 +287,9 @@ void bindRunning(py::module_& m, SimulationClass& cls) {
                       const std::filesystem::path& base) {
             const core::Scene scene =
                 source.empty() ? core::loadScene(text) : core::parseScene(text, source, base);
+            for (const std::string& w : scene.warnings)
+              if (PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1) != 0)
+                throw py::error_already_set();  // (warnings made errors)
             return std::make_unique<Simulation>(scene);
           }),
           "text"_a, "source"_a, "base"_a)

@@ -397,6 +397,7 @@ void runScene(const RunOptions& options) {
                                                                         : imported.jsonDir);
     return core::sceneFromSofa(imported);
   }();
+  for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
   const std::filesystem::path outDir = options.out.empty()
                                            ? std::filesystem::path("out") / scene.name
                                            : std::filesystem::path(options.out);

@@ -268,11 +268,6 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
 
 namespace cutsim::core {
 namespace {
-struct NewtonParameters {
-  ImplicitSettings implicit;
-  NewtonSettings newton;
-};
-
 std::vector<KeyInfo> newtonKeys() {
   std::vector<KeyInfo> keys = implicitKeys();
   keys.push_back(

@@ -1,5 +1,7 @@
 #pragma once
 // Private to cutsim::core: what the scene's schema and dry run share.
+#include <optional>
+
 #include "cutsim/core/scene.hpp"
 
 namespace cutsim::core::detail {
@@ -9,6 +11,20 @@ class Reader;
 /// Checks every constraint and action of the scene, in order, on a copy of the rest mesh (each
 /// one's dryRun). Fails through r.
 void dryRun(const Reader& r, const Scene& scene, const topology::MeshData& mesh);
+
+/// The memory a run of a mesh of `points` points needs (bytes, an estimate from measured runs:
+/// scene_memory.cpp), without and with a direct solve's factor (CHOLMOD).
+double runBytes(std::size_t points);
+double directFactorBytes(std::size_t points);
+/// The memory this process may still take (bytes): /proc/meminfo's MemAvailable, or what its
+/// cgroup (memory.max less memory.current) leaves if less; CUTSIM_MEMORY_AVAILABLE (bytes)
+/// in place of both; none when unknown (no check).
+std::optional<double> availableMemory();
+/// Refuses a scene whose run cannot fit in the available memory (the mesh at meshPointer, or a
+/// direct solve's factor at the linear solver's type), and adds a warning to the scene when a
+/// fallback to CHOLMOD could not fit.
+void checkMemory(const Reader& r, const std::string& meshPointer, const Scene& s,
+                 std::size_t points);
 
 /// The mean rest length of the topology's edges (0 without edges).
 double meanRestEdge(const topology::Topology& topology);

@@ -74,6 +74,11 @@ class Reader {
     }
   }
 
+  /// "SOURCE:LINE: /pointer: message", as fail() would throw it (a warning's text).
+  std::string located(const std::string& pointer, const std::string& message) const {
+    return location(pointer).where(source_) + ": " + shown(pointer) + ": " + message;
+  }
+
   [[noreturn]] void fail(const std::string& pointer, const std::string& message) const {
     const SceneLocation loc = location(pointer);
     throw InvalidInput(loc.where(source_), shown(pointer) + ": " + message);

@@ -655,6 +655,7 @@ Scene detail::parseSceneDocument(const JsonDocument& doc, const std::string& sou
   const topology::MeshData meshData = s.mesh();
   if (meshData.triangles.empty()) r.fail(meshPtr, "the mesh has no triangle");
   topology::checkManifold(meshData);
+  checkMemory(r, s.grid ? meshPtr + "/grid/nx" : meshPtr, s, meshData.points.size());
   {
     // The mass needs an area: representable (a total spread over an area beyond the range of
     // doubles is no mass) and not zero. Computed scaled, so that nothing overflows on the way.

@@ -16,6 +16,12 @@ struct NewtonSettings {
   void validate() const;
 };
 
+/// What a scene's "newton" integrator reads (its ComponentSpec's parameters).
+struct NewtonParameters {
+  ImplicitSettings implicit;
+  NewtonSettings newton;
+};
+
 class NewtonImplicitEuler final : public ImplicitIntegrator {
  public:
   NewtonImplicitEuler(ImplicitSettings settings, NewtonSettings newton,
