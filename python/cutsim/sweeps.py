@@ -622,7 +622,8 @@ def _load_sweep(sweep, results, exe, check):
             with open(scene_path, encoding="utf-8-sig") as f:
                 base = _Doc(f.read(), scene_path).value  # duplicate keys, NaN: refused with their lines
         if check:  # the base scene as it is, so that its own errors are named at its own lines
-            Simulation(scene_path)
+            with _memory_unchecked():
+                Simulation(scene_path)
     except _Input as e:
         doc.fail("/scene", f"the base scene: {e}")
     except InvalidInputError as e:
@@ -743,7 +744,8 @@ def _load_sweep(sweep, results, exe, check):
         label = ", ".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
         if check and index in to_check:
             try:
-                Simulation(scene, base_dir=out.base_dir, source="RUN")
+                with _memory_unchecked():
+                    Simulation(scene, base_dir=out.base_dir, source="RUN")
             except InvalidInputError as e:
                 # "RUN:LINE: /pointer: message" (or without a line): the pointer and the message,
                 # at the parameter that sets that pointer (or the parameters).
@@ -929,6 +931,21 @@ def _run_command(exe, p, task):
     if task["checkpoint_every"]:
         cmd += ["--checkpoint-every", str(task["checkpoint_every"])]
     return cmd
+
+
+@contextlib.contextmanager
+def _memory_unchecked():
+    """The sweep's check of its scenes, without the memory check: the runs may go to other
+    machines (Dask's workers), whose own `cutsim run` checks their memory. The environment's
+    CUTSIM_MEMORY, when set, is kept."""
+    if "CUTSIM_MEMORY" in os.environ:
+        yield
+        return
+    os.environ["CUTSIM_MEMORY"] = "off"
+    try:
+        yield
+    finally:
+        os.environ.pop("CUTSIM_MEMORY", None)
 
 
 def _call(cmd, p, lock, timeout):

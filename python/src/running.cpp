@@ -288,7 +288,7 @@ void bindRunning(py::module_& m, SimulationClass& cls) {
             const core::Scene scene =
                 source.empty() ? core::loadScene(text) : core::parseScene(text, source, base);
             for (const std::string& w : scene.warnings)
-              if (PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1) != 0)
+              if (PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 2) != 0)
                 throw py::error_already_set();  // (warnings made errors)
             return std::make_unique<Simulation>(scene);
           }),

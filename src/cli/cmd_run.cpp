@@ -485,6 +485,7 @@ void resumeRun(const ResumeOptions& options) {
   if (!options.dumpGiven) run.dumpFinal = source.dumpFinal;
   source.remember(run);  // (the checkpoints this run writes remember what it was asked for)
   const core::Scene scene = core::parseScene(source.sceneText, source.sceneName, source.baseDir);
+  for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
   const std::filesystem::path outDir =
       file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
   checkOutputOptions(run, scene, outDir);

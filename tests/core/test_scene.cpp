@@ -321,48 +321,59 @@ TEST(Scene, ValuesThatWouldMakeARunDoNothingAreRefused) {
 }
 
 // The check estimates the memory a run needs (scene_memory.cpp: 1.28 KB a point and 16 MB, and
-// CHOLMOD's factor 160 B 3N log2(3N)) against what the machine has (here as given by
-// CUTSIM_MEMORY_AVAILABLE): a run that cannot fit is refused at the mesh's size, a direct solve
-// whose factor cannot at the solver's type, and a fallback to CHOLMOD that could not is said.
+// CHOLMOD's factor 160 B 3N log2(3N)) against the machine's (here as CUTSIM_MEMORY gives it: its
+// total, then what is available now): a run that cannot fit the machine is refused at the mesh's
+// size, a direct solve whose factor cannot at the solver's type; a run, or a fallback to CHOLMOD,
+// that needs more than is available now is said.
 TEST(Scene, ARunBeyondTheMemoryIsRefusedAndAFallbackBeyondItIsSaid) {
-  struct Available {
-    explicit Available(const char* bytes) { ::setenv("CUTSIM_MEMORY_AVAILABLE", bytes, 1); }
-    ~Available() { ::unsetenv("CUTSIM_MEMORY_AVAILABLE"); }
+  struct Memory {
+    explicit Memory(const char* value) { ::setenv("CUTSIM_MEMORY", value, 1); }
+    ~Memory() { ::unsetenv("CUTSIM_MEMORY"); }
   };
   // 25 points: the run 16.03 MB, the factor 75 KB more.
   const std::string cholmod = scene("\"linearSolver\": {\"type\": \"cholmod\"}");
   {
-    Available a("1e7");
+    Memory m("1e7");
     EXPECT_THAT(parseError(scene()),
                 StartsWith("inline.json:2: /mesh/grid/nx: a mesh of 25 points needs about "));
-    EXPECT_THAT(parseError(cholmod), HasSubstr("more than the 0.01 GB available: a coarser mesh"));
+    EXPECT_THAT(parseError(cholmod), HasSubstr("more than this machine's 10 MB: a coarser mesh"));
   }
   {
-    Available a("16.05e6");  // the run fits, not with the factor
+    Memory m("16.05e6");  // the run fits, not with the factor
     EXPECT_THAT(parseError(cholmod),
                 StartsWith("inline.json:6: /linearSolver/type: CHOLMOD's factor of 25 points "
                            "needs about "));
-    const Scene s = parseScene(scene(), "inline.json", kScenes);
+    Scene s = parseScene(scene(), "inline.json", kScenes);
     ASSERT_EQ(s.warnings.size(), 1u);
     EXPECT_THAT(s.warnings[0],
                 StartsWith("inline.json:2: /mesh/grid/nx: a solve that misses its tolerance falls "
                            "back to CHOLMOD, whose factor of 25 points needs about "));
-    const Scene named =
-        parseScene(scene("\"integrator\": {\"type\": \"bdf2\"}"), "inline.json", kScenes);
-    ASSERT_EQ(named.warnings.size(), 1u);
-    EXPECT_THAT(named.warnings[0], StartsWith("inline.json:6: /integrator: a solve that misses"));
-    const Scene newton =
-        parseScene(scene("\"integrator\": {\"type\": \"newton\"}"), "inline.json", kScenes);
-    EXPECT_EQ(newton.warnings.size(), 1u);
+    s = parseScene(scene("\"integrator\": {\"type\": \"bdf2\"}"), "inline.json", kScenes);
+    ASSERT_EQ(s.warnings.size(), 1u);
+    EXPECT_THAT(s.warnings[0], StartsWith("inline.json:6: /integrator: a solve that misses"));
+    s = parseScene(scene("\"integrator\": {\"type\": \"newton\"}"), "inline.json", kScenes);
+    EXPECT_EQ(s.warnings.size(), 1u);
     for (const char* extra : {"\"integrator\": {\"type\": \"implicit-euler\", "
                               "\"onSolveFailure\": \"warn\"}",
                               "\"integrator\": {\"type\": \"explicit-euler\"}"})
       EXPECT_TRUE(parseScene(scene(extra), "inline.json", kScenes).warnings.empty()) << extra;
   }
   {
-    Available a("1e12");
-    EXPECT_TRUE(parseScene(cholmod, "inline.json", kScenes).warnings.empty());
-    EXPECT_TRUE(parseScene(scene(), "inline.json", kScenes).warnings.empty());
+    Memory m("1e12,16.05e6");  // a large machine, busy: said, not refused
+    const Scene s = parseScene(cholmod, "inline.json", kScenes);
+    ASSERT_EQ(s.warnings.size(), 1u);
+    EXPECT_THAT(s.warnings[0],
+                StartsWith("inline.json:6: /linearSolver/type: the run needs about "));
+    EXPECT_THAT(s.warnings[0], HasSubstr("more than the 16 MB available now (of 1000 GB)"));
+  }
+  for (const char* value : {"1e12", "off"}) {
+    Memory m(value);
+    EXPECT_TRUE(parseScene(cholmod, "inline.json", kScenes).warnings.empty()) << value;
+    EXPECT_TRUE(parseScene(scene(), "inline.json", kScenes).warnings.empty()) << value;
+  }
+  for (const char* bad : {"8G", "1e12,", "-1", "nan"}) {
+    Memory m(bad);
+    EXPECT_THAT(parseError(scene()), HasSubstr("the memory check: CUTSIM_MEMORY: expected")) << bad;
   }
 }
 

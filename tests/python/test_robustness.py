@@ -393,19 +393,19 @@ def test_an_abandoned_or_failed_recording_is_written_as_partial(small_scene, tmp
 
 def test_a_run_beyond_the_memory_is_refused_and_a_fallback_beyond_it_warns(small_scene, monkeypatch):
     """The scene check estimates the memory a run needs: a mesh that cannot fit is refused, and a
-    fallback to CHOLMOD whose factor could not fit is a RuntimeWarning (CUTSIM_MEMORY_AVAILABLE
-    stands for the machine's free memory)."""
+    fallback to CHOLMOD whose factor could not fit is a RuntimeWarning (CUTSIM_MEMORY stands for
+    the machine's memory)."""
     points = cutsim.Simulation(small_scene).num_points
-    monkeypatch.setenv("CUTSIM_MEMORY_AVAILABLE", "1e7")
+    monkeypatch.setenv("CUTSIM_MEMORY", "1e7")
     with pytest.raises(cutsim.InvalidInputError, match=f"a mesh of {points} points needs about"):
         cutsim.Simulation(small_scene)
     # Enough for the run (16 MB and 1.28 KB a point), not for the factor (160 B 3N log2(3N)).
     run = 16e6 + 1280 * points
-    monkeypatch.setenv("CUTSIM_MEMORY_AVAILABLE", repr(run + 10.0))
+    monkeypatch.setenv("CUTSIM_MEMORY", repr(run + 10.0))
     with pytest.warns(RuntimeWarning, match="falls back to CHOLMOD"):
         sim = cutsim.Simulation(small_scene)
     sim.step()
-    monkeypatch.setenv("CUTSIM_MEMORY_AVAILABLE", "1e12")
+    monkeypatch.setenv("CUTSIM_MEMORY", "1e12")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         cutsim.Simulation(small_scene)

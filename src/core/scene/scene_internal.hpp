@@ -16,15 +16,19 @@ void dryRun(const Reader& r, const Scene& scene, const topology::MeshData& mesh)
 /// scene_memory.cpp), without and with a direct solve's factor (CHOLMOD).
 double runBytes(std::size_t points);
 double directFactorBytes(std::size_t points);
-/// The memory this process may still take (bytes): /proc/meminfo's MemAvailable, or what its
-/// cgroup (memory.max less memory.current) leaves if less; CUTSIM_MEMORY_AVAILABLE (bytes)
-/// in place of both; none when unknown (no check).
-std::optional<double> availableMemory();
-/// Refuses a scene whose run cannot fit in the available memory (the mesh at meshPointer, or a
-/// direct solve's factor at the linear solver's type), and adds a warning to the scene when a
-/// fallback to CHOLMOD could not fit.
-void checkMemory(const Reader& r, const std::string& meshPointer, const Scene& s,
-                 std::size_t points);
+/// The memory of this machine for this process (bytes): the total (/proc/meminfo's MemTotal, or
+/// a smaller cgroup limit) and what is available now (MemAvailable, or less if a cgroup's limit
+/// leaves less beside its working set).
+struct MachineMemory {
+  double total = 0, available = 0;
+};
+/// The environment's CUTSIM_MEMORY stands for it: "off" (no check: none), "TOTAL" or
+/// "TOTAL,AVAILABLE" in bytes (anything else: InvalidInput). None when unknown (no check).
+std::optional<MachineMemory> machineMemory();
+/// Refuses a scene whose run cannot fit in the machine's memory (the mesh at meshPointer, or a
+/// direct solve's factor at the linear solver's type); adds a warning to the scene when the run,
+/// or a fallback to CHOLMOD, needs more than is available now.
+void checkMemory(const Reader& r, const std::string& meshPointer, Scene& s, std::size_t points);
 
 /// The mean rest length of the topology's edges (0 without edges).
 double meanRestEdge(const topology::Topology& topology);

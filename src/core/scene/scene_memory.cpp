@@ -2,19 +2,21 @@
 //
 // Measured on hanging cloths (grids of 200 x 200 and 400 x 400 points, implicit Euler, the
 // process's peak resident size): a run without a direct solve needs 1.0-1.25 KB a point beyond
-// a fixed 10 MB or so (the mesh, the springs' tables, the solver's vectors, the outputs' buffers);
-// CHOLMOD's factor of the 3N x 3N system adds 152-156 bytes times 3N times log2(3N) (nested
-// dissection of a surface mesh: n log n fill), 309 MB and 1.4 GB there, 10 GB for 1000 x 1000.
-// The estimates leave out contact's search and the outputs' pages, which grow with the pairs and
-// the frames, not only with the points.
+// some 10 MB (the mesh, the springs' tables, the solver's vectors, the outputs' buffers); the
+// estimate takes 1.28 KB and 16 MB. CHOLMOD's factor of the 3N x 3N system adds 152-156 bytes
+// times 3N times log2(3N) (nested dissection of a surface mesh: n log n fill), 309 MB and 1.4 GB
+// there; the estimate takes 160 B (10.3 GB for 1000 x 1000). The estimates leave out contact's
+// search and the outputs' pages, which grow with the pairs and the frames, not the points.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <iomanip>
 #include <optional>
 #include <sstream>
 #include <string>
 
-#include "cutsim/base/numbers.hpp"
+#include "cutsim/base/errors.hpp"
 #include "cutsim/core/integrator.hpp"
 #include "cutsim/core/integrators/newton.hpp"
 #include "scene/scene_internal.hpp"
@@ -38,21 +40,73 @@ std::optional<double> memInfo(const std::string& key) {
   return std::nullopt;
 }
 
-/// A number of bytes from a cgroup's file ("max" or unreadable: none).
-std::optional<double> cgroupValue(const char* file) {
+/// The first word of a file as a number of bytes ("max", missing, unreadable: none).
+std::optional<double> fileValue(const std::string& file) {
   std::ifstream in(file);
   std::string word;
-  if (!(in >> word) || word == "max") return std::nullopt;
+  if (!(in >> word)) return std::nullopt;
   char* end = nullptr;
   const double v = std::strtod(word.c_str(), &end);
-  if (end == word.c_str() || !std::isfinite(v)) return std::nullopt;
+  if (end == word.c_str() || *end != '\0' || !std::isfinite(v) || v < 0) return std::nullopt;
   return v;
 }
 
+/// A key's value in a cgroup's memory.stat ("inactive_file 123").
+std::optional<double> statValue(const std::string& file, const std::string& key) {
+  std::ifstream in(file);
+  std::string k;
+  double v = 0;
+  while (in >> k >> v)
+    if (k == key) return v;
+  return std::nullopt;
+}
+
+/// The cgroups' limits on this process: each level's limit, and what it leaves (the limit less
+/// the level's working set: its usage less the inactive file cache, which the kernel reclaims
+/// first, as container runtimes count it), the smallest of each. cgroup v2: the process's own
+/// group (/proc/self/cgroup's "0::PATH") and its ancestors; v1: the memory controller's group.
+void cgroupLimits(std::optional<double>& limit, std::optional<double>& left) {
+  auto take = [&](std::optional<double> max, std::optional<double> used,
+                  std::optional<double> inactive) {
+    if (!max || *max >= 1e18) return;  // (v1 writes "no limit" as a huge number)
+    limit = limit ? std::min(*limit, *max) : *max;
+    if (!used) return;
+    const double rest = std::max(0.0, *max - std::max(0.0, *used - inactive.value_or(0.0)));
+    left = left ? std::min(*left, rest) : rest;
+  };
+  std::ifstream self("/proc/self/cgroup");
+  std::string line;
+  while (std::getline(self, line)) {
+    const std::size_t a = line.find(':'), b = a == std::string::npos ? a : line.find(':', a + 1);
+    if (b == std::string::npos) continue;
+    const std::string controllers = line.substr(a + 1, b - a - 1);
+    std::string path = line.substr(b + 1);
+    if (controllers.empty()) {  // v2: the group and each ancestor
+      while (true) {
+        const std::string dir = "/sys/fs/cgroup" + (path == "/" ? std::string() : path);
+        take(fileValue(dir + "/memory.max"), fileValue(dir + "/memory.current"),
+             statValue(dir + "/memory.stat", "inactive_file"));
+        if (path.empty() || path == "/") break;
+        path = path.substr(0, path.rfind('/'));
+      }
+    } else if (("," + controllers + ",").find(",memory,") != std::string::npos) {
+      const std::string dir = "/sys/fs/cgroup/memory";  // (a namespace's own group is its root)
+      take(fileValue(dir + "/memory.limit_in_bytes"), fileValue(dir + "/memory.usage_in_bytes"),
+           statValue(dir + "/memory.stat", "total_inactive_file"));
+    }
+  }
+}
+
 std::string gigabytes(double bytes) {
+  const double g = bytes / 1e9;
   std::ostringstream s;
-  s.precision(bytes < 1e9 ? 2 : 3);
-  s << bytes / 1e9 << " GB";
+  if (g < 0.1)
+    return (s << std::setprecision(2) << bytes / 1e6 << " MB", s.str());  // 16 MB, 0.075 MB
+  if (g < 1)
+    s << std::setprecision(2) << g;  // 0.016
+  else
+    s << std::fixed << std::setprecision(g < 10 ? 2 : g < 100 ? 1 : 0) << g;  // 1.45, 23.4, 1000
+  s << " GB";
   return s.str();
 }
 
@@ -67,53 +121,81 @@ double directFactorBytes(std::size_t points) {
   return kFactorBytes * dofs * std::log2(std::max(2.0, dofs));
 }
 
-std::optional<double> availableMemory() {
-  if (const char* given = std::getenv("CUTSIM_MEMORY_AVAILABLE"); given && *given) {
-    char* end = nullptr;
-    const double v = std::strtod(given, &end);
-    if (end != given && *end == '\0' && v > 0 && std::isfinite(v)) return v;
-    return std::nullopt;  // (unreadable: no check rather than a wrong one)
+std::optional<MachineMemory> machineMemory() {
+  if (const char* given = std::getenv("CUTSIM_MEMORY"); given && *given) {
+    const std::string text = given;
+    if (text == "off") return std::nullopt;
+    auto number = [&](const std::string& word) {
+      char* end = nullptr;
+      const double v = std::strtod(word.c_str(), &end);
+      // (finite first: comparing a NaN traps where floating-point exceptions are enabled)
+      if (word.empty() || end != word.c_str() + word.size() || !std::isfinite(v) || v <= 0)
+        throw InvalidInput("CUTSIM_MEMORY",
+                           "expected \"off\", a number of bytes (the machine's memory) or two "
+                           "separated by a comma (its memory, then what is available now), got \"" +
+                               text + "\"");
+      return v;
+    };
+    const std::size_t comma = text.find(',');
+    MachineMemory m;
+    m.total = number(text.substr(0, comma));
+    m.available = comma == std::string::npos ? m.total : number(text.substr(comma + 1));
+    return m;
   }
-  std::optional<double> available = memInfo("MemAvailable");
-  const std::optional<double> limit = cgroupValue("/sys/fs/cgroup/memory.max");
-  const std::optional<double> used = cgroupValue("/sys/fs/cgroup/memory.current");
-  if (limit && used) {
-    const double left = std::max(0.0, *limit - *used);
-    if (!available || left < *available) available = left;
-  }
-  return available;
+  const std::optional<double> total = memInfo("MemTotal");
+  if (!total) return std::nullopt;
+  MachineMemory m{*total, memInfo("MemAvailable").value_or(*total)};
+  std::optional<double> limit, left;
+  cgroupLimits(limit, left);
+  if (limit) m.total = std::min(m.total, *limit);
+  if (left) m.available = std::min(m.available, *left);
+  m.available = std::min(m.available, m.total);
+  return m;
 }
 
-void checkMemory(const Reader& r, const std::string& meshPointer, const Scene& s,
-                 std::size_t points) {
-  const std::optional<double> available = availableMemory();
-  if (!available) return;
-  const double base = runBytes(points);
-  const std::string have = gigabytes(*available) + " available";
-  if (base > *available)
-    r.fail(meshPointer, "a mesh of " + std::to_string(points) + " points needs about " +
-                            gigabytes(base) + " to run (" + std::to_string(int(kBytesPerPoint)) +
-                            " bytes a point), more than the " + have + ": a coarser mesh");
+void checkMemory(const Reader& r, const std::string& meshPointer, Scene& s, std::size_t points) {
+  std::optional<MachineMemory> machine;
+  try {
+    machine = machineMemory();
+  } catch (const InvalidInput& e) {
+    r.fail(meshPointer, std::string("the memory check: ") + e.what());
+  }
+  if (!machine) return;
+  const double base = runBytes(points), factor = directFactorBytes(points);
+  const std::string total = gigabytes(machine->total), now = gigabytes(machine->available);
+  const std::string pointsText = std::to_string(points) + " points",
+                    mesh = "a mesh of " + pointsText;
+  if (base > machine->total)
+    r.fail(meshPointer, mesh + " needs about " + gigabytes(base) + " to run (1.28 KB a point), " +
+                            "more than this machine's " + total + ": a coarser mesh");
   const bool direct = s.linearSolver && s.linearSolver->type == "cholmod";
-  const double factor = directFactorBytes(points);
-  if (direct && base + factor > *available)
+  if (direct && base + factor > machine->total)
     r.fail(s.linearSolver->location.pointer + "/type",
-           "CHOLMOD's factor of " + std::to_string(points) + " points needs about " +
-               gigabytes(factor) + " beside the run's " + gigabytes(base) + ", more than the " +
-               have + ": \"cg\" (iterative, no factor) or a coarser mesh");
+           "CHOLMOD's factor of " + pointsText + " needs about " + gigabytes(factor) +
+               " beside the run's " + gigabytes(base) + ", more than this machine's " + total +
+               ": \"cg\" (iterative, no factor) or a coarser mesh");
+  const std::string where =
+      s.integrator.location.pointer.empty() ? meshPointer : s.integrator.location.pointer;
+  const double need = base + (direct ? factor : 0.0);
+  if (need > machine->available) {
+    s.warnings.push_back(r.located(
+        direct ? s.linearSolver->location.pointer + "/type" : meshPointer,
+        "the run needs about " + gigabytes(need) + ", more than the " + now +
+            " available now (of " + total + "): it may swap or be stopped by the system"));
+    return;
+  }
   const ImplicitSettings* implicit = std::any_cast<ImplicitSettings>(&s.integrator.parameters);
   if (const auto* newton = std::any_cast<NewtonParameters>(&s.integrator.parameters))
     implicit = &newton->implicit;
   if (!direct && s.linearSolver && implicit &&
       implicit->onSolveFailure == SolveFailurePolicy::Fallback &&
-      implicit->fallbackSolver == "cholmod" && base + factor > *available)
+      implicit->fallbackSolver == "cholmod" && base + factor > machine->available)
     s.warnings.push_back(r.located(
-        s.integrator.location.pointer.empty() ? meshPointer : s.integrator.location.pointer,
-        "a solve that misses its tolerance falls back to CHOLMOD, whose factor of " +
-            std::to_string(points) + " points needs about " + gigabytes(factor) +
-            " beside the run's " + gigabytes(base) + ", more than the " + have +
-            ": such a step would exhaust the memory (\"onSolveFailure\": \"warn\" keeps CG's "
-            "answer, flagged)"));
+        where, "a solve that misses its tolerance falls back to CHOLMOD, whose factor of " +
+                   pointsText + " needs about " + gigabytes(factor) + " beside the run's " +
+                   gigabytes(base) + ", more than the " + now + " available now (of " + total +
+                   "): such a step would exhaust the memory (\"onSolveFailure\": \"warn\" keeps "
+                   "CG's answer, flagged)"));
 }
 
 }  // namespace cutsim::core::detail

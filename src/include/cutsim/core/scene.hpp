@@ -135,10 +135,10 @@ struct Scene {
   int threads = 0;
   OutputSettings output;
   std::vector<ActionSpec> timeline;  ///< sorted by start time (stable: file order at ties)
-  /// What the check found that does not stop the run ("FILE:LINE: /pointer: message"): a
-  /// fallback whose memory the machine does not have. `cutsim run` prints them on stderr,
-  /// Python warns. (mutable: found while the rest of the scene is checked.)
-  mutable std::vector<std::string> warnings;
+  /// What the check found that does not stop the run ("FILE:LINE: /pointer: message"): memory
+  /// the run, or a fallback to CHOLMOD, would need beyond what is available now. `cutsim run`
+  /// and `resume` print them on stderr, Python warns (RuntimeWarning).
+  std::vector<std::string> warnings;
 
   /// The "contact" section and the "obstacles" list, if the scene has contact (else null).
   const forcefields::ContactSetup* contactSetup() const;
