@@ -124,7 +124,8 @@ py::dict Simulation::summary() {
   return py::dict("flagged_steps"_a = s.flaggedSteps, "missed_tolerance"_a = s.missedTolerance,
                   "indefinite"_a = s.indefinite, "fell_back"_a = s.fellBack,
                   "newton_not_converged"_a = s.newtonNotConverged,
-                  "worst_residual"_a = s.worstResidual, "worst_step"_a = s.worstStep);
+                  "residual_energy"_a = s.residualEnergy, "worst_residual"_a = s.worstResidual,
+                  "worst_step"_a = s.worstStep);
 }
 
 py::object Simulation::contact() {

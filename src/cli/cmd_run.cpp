@@ -296,12 +296,19 @@ void play(const RunOptions& options, const core::Scene& scene, const RunSource& 
       << " steps were flagged by their solves (" << solves.missedTolerance
       << " missed their tolerance, " << solves.indefinite << " indefinite, " << solves.fellBack
       << " fell back to the fallback solver, " << solves.newtonNotConverged
-      << " Newton unconverged); worst relative residual " << solves.worstResidual << " at step "
-      << solves.worstStep << "; the steps are flagged in the solver_flags column of steps.csv";
+      << " Newton unconverged, " << solves.residualEnergy
+      << " with a residual of too much kinetic energy); worst relative residual "
+      << solves.worstResidual << " at step " << solves.worstStep
+      << "; the steps are flagged in the solver_flags column of steps.csv";
     if (solves.missedTolerance > 0)
       w << "; to meet the tolerance: a smaller time step, more iterations or a preconditioner "
            "for CG, a looser tolerance if the residual shown is acceptable, or the direct solver "
            "(cholmod)";
+    if (solves.residualEnergy > 0)
+      w << "; a solve whose residual could carry more than a hundredth of the motion's kinetic "
+           "energy may be far from the system's answer (when it met its tolerance, forces that "
+           "nearly cancel dominate the system: a damping or a stiffness very large against the "
+           "masses): the direct solver (cholmod) solves it";
     std::cerr << w.str() << "\n";
   }
   if (!options.dumpFinal.empty()) {

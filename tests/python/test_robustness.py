@@ -409,3 +409,27 @@ def test_a_run_beyond_the_memory_is_refused_and_a_fallback_beyond_it_warns(small
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         cutsim.Simulation(small_scene)
+
+
+def test_a_solve_whose_residual_carries_the_motions_energy_is_flagged(small_scene):
+    """A spring damping huge against the masses: CG meets its relative tolerance with an answer
+    that makes energy from nothing. The step says so (flag residual-energy, a SolverWarning, the
+    summary's count) and the fallback (CHOLMOD) solves it again: no energy beyond gravity's work."""
+    small_scene["forceFields"][0]["damping"] = 1e15
+    small_scene["integrator"]["rayleighMass"] = 0.0
+    small_scene["linearSolver"] = {"type": "cg", "iterations": 200, "tolerance": 1e-4}
+    sim = cutsim.Simulation(small_scene)
+    with pytest.warns(cutsim.SolverWarning, match="residual-energy"):
+        sim.step(20)
+    summary = sim.solve_summary
+    assert summary["residual_energy"] > 10
+    assert summary["fell_back"] >= summary["residual_energy"]
+    # Free fall of the whole sheet for 0.1 s bounds what gravity could have given it.
+    assert sim.energies()["kinetic"] < 0.5 * 0.2 * (9.81 * 0.1) ** 2
+    # The same sheet with its usual damping: nothing flagged.
+    small_scene["forceFields"][0]["damping"] = 0.2
+    calm = cutsim.Simulation(small_scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        calm.step(20)
+    assert calm.solve_summary["residual_energy"] == 0

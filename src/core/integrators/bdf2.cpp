@@ -62,7 +62,7 @@ void BDF2::step(Model& model, const StepInput& in, StepOutput& out, StepStats& s
         dv[i] = (c.target[std::size_t(i)] - x[i] - history) / beta - v[i];
       }
   const SystemOperator A = systemOperator(model, xs, beta, c);
-  solve(A, b, dv, stats);
+  solve(A, b, dv, stats, vs);
   requireFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change",
                 std::string(name()));
   out.v = v + dv;

@@ -27,7 +27,7 @@ void ImplicitEuler::step(Model& model, const StepInput& in, StepOutput& out, Ste
         dv[i] = (c.target[std::size_t(i)] - x[i]) / h - v[i];
       }
   const SystemOperator A = systemOperator(model, xs, h, c);
-  solve(A, b, dv, stats);
+  solve(A, b, dv, stats, vs);
   requireFinite(std::span<const double>(dv.data(), std::size_t(N)), "velocity change",
                 std::string(name()));
   out.v = v + dv;

@@ -2,8 +2,11 @@
 // settings of the first scenes (integrators/*.hpp, integrator.hpp).
 #include "cutsim/core/integrator.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
+#include <string>
 
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
@@ -28,6 +31,7 @@ std::string StepStats::flagText() const {
   add(Indefinite, "indefinite");
   add(FellBack, "fallback");
   add(NewtonNotConverged, "newton");
+  add(ResidualEnergy, "residual-energy");
   return s;
 }
 
@@ -107,8 +111,54 @@ std::string describe(const LinearSolver& s, const SolveReport& r) {
 }
 }  // namespace
 
+namespace {
+// The residual's kinetic energy that an iterative solve may leave: a hundredth of the motion's
+// kinetic energy, at least that of a velocity of kVelocityFloor over the free points.
+constexpr double kResidualEnergyShare = 1e-2;
+constexpr double kVelocityFloor = 1e-6;  // m/s
+
+// What the residual's kinetic energy is compared with: a hundredth of the larger of the kinetic
+// energies of v and v + dv over the free points (mass m'), plus the floor. Infinite (nothing to
+// compare) when the velocities are beyond the range where their squares are doubles.
+double motionEnergy(const SystemOperator& A, std::span<const double> v, const Eigen::VectorXd& dv) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const Eigen::Map<const Eigen::VectorXd> v0(v.data(), Eigen::Index(v.size()));
+  if (!dv.array().isFinite().all() || !v0.array().isFinite().all()) return inf;
+  if (std::max(v0.cwiseAbs().maxCoeff(), dv.cwiseAbs().maxCoeff()) > 1e100) return inf;
+  const auto m = A.diagonalMass();
+  double before = 0.0, after = 0.0, mass = 0.0;
+  for (std::size_t p = 0; p < m.size(); ++p) {
+    if (A.isConstrained(p) || !(m[p] > 0)) continue;
+    const auto i = Eigen::Index(3 * p);
+    mass += m[p];
+    before += m[p] * v0.segment<3>(i).squaredNorm();
+    after += m[p] * (v0.segment<3>(i) + dv.segment<3>(i)).squaredNorm();
+  }
+  return 0.5 * std::max(before, after) * kResidualEnergyShare +
+         0.5 * mass * kVelocityFloor * kVelocityFloor;
+}
+
+std::string describeResidualEnergy(const LinearSolver& s, const SolveReport& r, double allowed) {
+  std::ostringstream o;
+  o << "the linear solve (" << s.name() << ") "
+    << (r.converged ? "met its tolerance" : "missed its tolerance") << " (relative residual "
+    << r.residual << " after " << r.iterations << (r.iterations == 1 ? " iteration" : " iterations")
+    << ") " << (r.converged ? "but" : "and") << " its residual could carry " << r.residualEnergy
+    << " J of kinetic energy, above the " << allowed
+    << " J allowed (a hundredth of the step's motion)";
+  if (r.converged)
+    o << ": forces that nearly cancel dominate the system (a damping or a stiffness very large "
+         "against the masses); the direct solver (cholmod) or a much tighter tolerance solves it";
+  else
+    o << ": the answer may be further from the system's than the motion it solves for; more "
+         "iterations or the direct solver (cholmod) solve it";
+  return o.str();
+}
+}  // namespace
+
 void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b,
-                               Eigen::VectorXd& dv, StepStats& stats) {
+                               Eigen::VectorXd& dv, StepStats& stats,
+                               std::span<const double> velocity) {
   const Eigen::VectorXd guess = dv;
   SolveReport r = solver_->solve(A, b, dv);
   stats.iterations += r.iterations;
@@ -125,23 +175,33 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
         describe(*solver_, r) + ": the linear system's values overflow the range of doubles",
         false};
   record(r);
-  if (r.converged && !r.indefinite) return;
+  // An iterative solve's answer, to be kept if it met its tolerance (or came close): is its
+  // residual small against the motion?
+  double allowed = 0.0;
+  bool energy = false;
+  if (!r.indefinite && !solver_->direct() && !velocity.empty()) {
+    allowed = motionEnergy(A, velocity, dv);
+    energy = !(std::isfinite(r.residualEnergy) && r.residualEnergy <= allowed);
+  }
+  if (r.converged && !r.indefinite && !energy) return;
   if (r.indefinite) stats.flags |= StepStats::Indefinite;
   if (!r.converged) stats.flags |= StepStats::MissedTolerance;
-  const bool far = !(r.residual <= settings_.fallbackAbove);
+  if (energy) stats.flags |= StepStats::ResidualEnergy;
+  const std::string failure =
+      energy ? describeResidualEnergy(*solver_, r, allowed) : describe(*solver_, r);
+  const bool far = !(r.residual <= settings_.fallbackAbove) || energy;
   switch (settings_.onSolveFailure) {
     case SolveFailurePolicy::Warn:
-      if (solver_->direct() && r.indefinite) throw StepFailure{describe(*solver_, r), true};
+      if (solver_->direct() && r.indefinite) throw StepFailure{failure, true};
       return;
     case SolveFailurePolicy::Fail:
-      throw StepFailure{describe(*solver_, r) + " (the scene's onSolveFailure is \"fail\")",
-                        r.indefinite};
+      throw StepFailure{failure + " (the scene's onSolveFailure is \"fail\")", r.indefinite};
     case SolveFailurePolicy::Fallback:
       break;
   }
   // A capped solve that got close is kept (flagged); non-positive curvature always falls back.
   if (!far && !r.indefinite) return;
-  if (solver_->direct()) throw StepFailure{describe(*solver_, r), r.indefinite};
+  if (solver_->direct()) throw StepFailure{failure, r.indefinite};
   if (!fallback_) fallback_ = makeFallbackSolver(settings_.fallbackSolver);
   const Eigen::VectorXd first = dv;
   dv = guess;
@@ -152,14 +212,13 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   stats.flags |= StepStats::FellBack;
   record(f);
   if (f.indefinite || !std::isfinite(f.residual))
-    throw StepFailure{
-        describe(*solver_, r) + ", and the fallback " + describe(*fallback_, f).substr(4),
-        f.indefinite};
+    throw StepFailure{failure + ", and the fallback " + describe(*fallback_, f).substr(4),
+                      f.indefinite};
   if (f.converged) return;
   // Both missed: the better of the two answers is kept, the step flagged (missed-tolerance and
   // fallback); the run's warning says what to change.
   stats.flags |= StepStats::MissedTolerance;
-  if (!r.indefinite && r.residual < f.residual) {
+  if (!r.indefinite && !energy && r.residual < f.residual) {
     dv = first;
     stats.residual = r.residual;
   }

@@ -212,7 +212,8 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
     const Vec x = P.position(it.v);
     const std::uint8_t flagsBefore = stats.flags;
     try {
-      solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
+      solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats,
+            {it.v.data(), std::size_t(it.v.size())});
     } catch (const StepFailure& e) {
       if (!exact.active || !e.indefinite) throw;
       // The exact stiffness is indefinite here: the fields' default one for the rest of the step
@@ -220,7 +221,8 @@ void NewtonImplicitEuler::step(Model& model, const StepInput& in, StepOutput& ou
       dropExact();
       stats.flags = flagsBefore;
       delta.setZero();
-      solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats);
+      solve(systemOperator(model, {x.data(), std::size_t(x.size())}, h, c), it.r, delta, stats,
+            {it.v.data(), std::size_t(it.v.size())});
     }
     requireFinite({delta.data(), std::size_t(delta.size())}, "velocity change",
                   std::string(name()));

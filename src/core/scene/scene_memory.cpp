@@ -27,17 +27,28 @@ namespace {
 
 constexpr double kBytesPerPoint = 1280, kFixedBytes = 16e6, kFactorBytes = 160;
 
-/// A value of /proc/meminfo in bytes ("MemAvailable:  123 kB"), if the file has it.
-std::optional<double> memInfo(const std::string& key) {
+/// MemTotal and MemAvailable of /proc/meminfo in bytes ("MemAvailable:  123 kB"), as far as the
+/// file has them, read once.
+struct MemInfo {
+  std::optional<double> total, available;
+};
+MemInfo memInfo() {
+  MemInfo m;
   std::ifstream in("/proc/meminfo");
   std::string line;
-  while (std::getline(in, line)) {
-    if (line.compare(0, key.size() + 1, key + ":") != 0) continue;
-    std::istringstream fields(line.substr(key.size() + 1));
+  while (std::getline(in, line) && !(m.total && m.available)) {
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = line.substr(0, colon);
+    std::optional<double>* into = key == "MemTotal"       ? &m.total
+                                  : key == "MemAvailable" ? &m.available
+                                                          : nullptr;
+    if (!into) continue;
+    std::istringstream fields(line.substr(colon + 1));
     double kb = 0;
-    if (fields >> kb) return kb * 1024;
+    if (fields >> kb) *into = kb * 1024;
   }
-  return std::nullopt;
+  return m;
 }
 
 /// The first word of a file as a number of bytes ("max", missing, unreadable: none).
@@ -142,9 +153,9 @@ std::optional<MachineMemory> machineMemory() {
     m.available = comma == std::string::npos ? m.total : number(text.substr(comma + 1));
     return m;
   }
-  const std::optional<double> total = memInfo("MemTotal");
-  if (!total) return std::nullopt;
-  MachineMemory m{*total, memInfo("MemAvailable").value_or(*total)};
+  const MemInfo info = memInfo();
+  if (!info.total) return std::nullopt;
+  MachineMemory m{*info.total, info.available.value_or(*info.total)};
   std::optional<double> limit, left;
   cgroupLimits(limit, left);
   if (limit) m.total = std::min(m.total, *limit);
@@ -163,11 +174,15 @@ void checkMemory(const Reader& r, const std::string& meshPointer, Scene& s, std:
   if (!machine) return;
   const double base = runBytes(points), factor = directFactorBytes(points);
   const std::string total = gigabytes(machine->total), now = gigabytes(machine->available);
+  std::ostringstream perPointText;
+  perPointText << kBytesPerPoint / 1000 << " KB";
+  const std::string perPoint = perPointText.str();
   const std::string pointsText = std::to_string(points) + " points",
                     mesh = "a mesh of " + pointsText;
   if (base > machine->total)
-    r.fail(meshPointer, mesh + " needs about " + gigabytes(base) + " to run (1.28 KB a point), " +
-                            "more than this machine's " + total + ": a coarser mesh");
+    r.fail(meshPointer, mesh + " needs about " + gigabytes(base) + " to run (" + perPoint +
+                            " a point), " + "more than this machine's " + total +
+                            ": a coarser mesh");
   const bool direct = s.linearSolver && s.linearSolver->type == "cholmod";
   if (direct && base + factor > machine->total)
     r.fail(s.linearSolver->location.pointer + "/type",

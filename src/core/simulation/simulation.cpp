@@ -79,6 +79,7 @@ StepStats Simulation::step(double dt) {
     if (stats.flags & StepStats::Indefinite) ++summary_.indefinite;
     if (stats.flags & StepStats::FellBack) ++summary_.fellBack;
     if (stats.flags & StepStats::NewtonNotConverged) ++summary_.newtonNotConverged;
+    if (stats.flags & StepStats::ResidualEnergy) ++summary_.residualEnergy;
     const double worst = std::max(stats.worstResidual, stats.newtonResidual);
     if (!(worst <= summary_.worstResidual)) {
       summary_.worstResidual = worst;
@@ -246,7 +247,7 @@ template <class Archive, class Self>
 void Simulation::members(Archive& a, Self& s) {
   fields(a, s.time_, s.steps_, s.summary_.flaggedSteps, s.summary_.missedTolerance,
          s.summary_.indefinite, s.summary_.fellBack, s.summary_.newtonNotConverged,
-         s.summary_.worstResidual, s.summary_.worstStep);
+         s.summary_.worstResidual, s.summary_.worstStep, s.summary_.residualEnergy);
 }
 
 void Simulation::saveState(ArchiveWriter& out) const {

@@ -84,6 +84,7 @@ SolveReport SofaConjugateGradient::solve(const SystemOperator& A, const Vec& b, 
   const double rNorm = r.norm();
   report.residual = normb > 0 ? rNorm / normb : rNorm;
   report.converged = std::isfinite(rNorm) && report.residual <= settings_.tolerance;
+  report.residualEnergy = A.residualKineticEnergy(r);
   warm_ = dv;
   return report;
 }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "cutsim/base/archive.hpp"
 #include "cutsim/base/errors.hpp"
@@ -126,6 +127,23 @@ void SystemOperator::project(Vec& a) const {
     if (constrained_[p]) a.segment<3>(Eigen::Index(3 * p)).setZero();
 }
 
+double SystemOperator::residualKineticEnergy(const Vec& r) const {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  if (!r.array().isFinite().all()) return std::numeric_limits<double>::quiet_NaN();
+  // Scaled by the largest entry: residuals up to the range of doubles square without overflow
+  // (an energy beyond that range is infinite).
+  const double scale = r.cwiseAbs().maxCoeff();
+  if (scale == 0) return 0.0;
+  if (scale > 1e150) return inf;
+  double e = 0.0;
+  for (std::size_t p = 0; p < constrained_.size(); ++p)
+    if (!constrained_[p] && mass_[p] > 0)
+      e += (r.segment<3>(Eigen::Index(3 * p)) / scale).squaredNorm() / mass_[p];
+  const double s2 = scale * scale;  // (may underflow: then the product is small)
+  if (s2 >= 1 && e > std::numeric_limits<double>::max() / s2) return inf;
+  return 0.5 * e * s2;
+}
+
 Vec SystemOperator::freeRhs(const Vec& b, const Vec& dv) const {
   Vec rhs = b;
   bool prescribed = false;
@@ -217,6 +235,7 @@ SolveReport ConjugateGradient::solve(const SystemOperator& A, const Vec& b, Vec&
   report.residual = bNorm > 0 ? rNorm / bNorm : rNorm;
   report.converged = std::isfinite(rNorm) && rNorm <= stop;
   if (bNorm == 0 && rNorm == 0) report.converged = true;
+  report.residualEnergy = A.residualKineticEnergy(r);
   warm_ = dv;
   return report;
 }

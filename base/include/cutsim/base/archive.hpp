@@ -30,7 +30,8 @@ namespace cutsim {
 
 /// 2: contact pairs carry their share of the law and their edges (flat-on-flat contact).
 /// 3: a grasp's path carries rotations about a pivot (forceps that turn).
-inline constexpr std::uint32_t kArchiveFormat = 3;
+/// 4: the solve summary counts the steps flagged residual-energy.
+inline constexpr std::uint32_t kArchiveFormat = 4;
 
 /// zlib's CRC-32 of n bytes, continuing from `crc` (0 to start): the archive's sections' checksum,
 /// also what ties a run's files to its checkpoint.

@@ -50,6 +50,9 @@ struct StepStats {
     Indefinite = 2,          ///< CG met p^T A p <= 0, or a factorisation found A indefinite
     FellBack = 4,            ///< a solve was redone with the fallback solver
     NewtonNotConverged = 8,  ///< Newton's iterations ended above their tolerance
+    /// An iterative solve's residual could carry more kinetic energy than a hundredth of the
+    /// step's motion, whether or not it met its relative tolerance (ImplicitIntegrator::solve)
+    ResidualEnergy = 16,
   };
   int iterations = 0;           ///< linear iterations over the step's solves (1 per direct solve)
   double residual = 0.0;        ///< relative residual of the step's last linear solve
@@ -64,7 +67,8 @@ struct StepStats {
   int substeps = 1;  ///< integrator steps taken for this step
   std::uint8_t flags = 0;
   bool flagged() const { return flags != 0; }
-  /// "ok", or the flags joined by '+': "missed-tolerance", "indefinite", "fallback", "newton".
+  /// "ok", or the flags joined by '+': "missed-tolerance", "indefinite", "fallback", "newton",
+  /// "residual-energy".
   std::string flagText() const;
 };
 
@@ -152,8 +156,15 @@ class ImplicitIntegrator : public Integrator {
  protected:
   /// Solves A dv = b with the linear solver and applies the failure policy; records the solve in
   /// stats. Throws StepFailure under "fail", or when no solver can solve the system.
+  /// `velocity` is what dv is a change of (3 per slot): an iterative solve's answer is kept only
+  /// if its residual (the solver's own, as its tolerance test uses) could carry no more kinetic
+  /// energy than a hundredth of the larger of velocity's and velocity + dv's plus that of a
+  /// 1 um/s velocity over the free points; else the solve is treated as one far from its
+  /// tolerance, flagged ResidualEnergy. A right-hand side dominated by forces that nearly cancel (a
+  /// damping or a stiffness huge against the masses) meets a relative tolerance with the answer
+  /// still wrong.
   void solve(const SystemOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& dv,
-             StepStats& stats);
+             StepStats& stats, std::span<const double> velocity);
   /// f0 = F(x, v) + M g - rM M v + rK K v at the model's state (checked finite).
   Eigen::VectorXd dampedForce(const Model& model) const;
   /// The linear Rayleigh-damped implicit step shared by implicit Euler and BDF2:

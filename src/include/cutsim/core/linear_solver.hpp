@@ -54,6 +54,10 @@ class SystemOperator {
   /// Residuals are relative to its norm (a grasp that drives a resting sheet has b = 0 there).
   Eigen::VectorXd freeRhs(const Eigen::VectorXd& b, const Eigen::VectorXd& dv) const;
   bool isConstrained(std::size_t point) const { return constrained_[point] != 0; }
+  /// The kinetic energy a residual r of A dv = b (a momentum per point) would carry:
+  /// 1/2 sum over the free points of |r_p|^2 / m'_p. When A >= M' (stiffness and damping that
+  /// add to the mass), it bounds the kinetic energy of the solve's error, 1/2 |A^-1 r|^2_M'.
+  double residualKineticEnergy(const Eigen::VectorXd& r) const;
 
   std::span<forcefields::ForceField* const> fields() const { return fields_; }
   std::span<const double> x() const { return x_; }
@@ -81,6 +85,9 @@ struct SolveReport {
   bool indefinite =
       false;  ///< CG met p^T A p <= 0, or the factorisation found A not positive definite
   bool analysed = false;  ///< a direct solver redid its symbolic analysis
+  /// SystemOperator::residualKineticEnergy of the final residual (J): what the error of dv may
+  /// carry; 0 when nothing was solved.
+  double residualEnergy = 0.0;
 };
 
 class LinearSolver {

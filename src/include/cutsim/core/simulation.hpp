@@ -19,6 +19,7 @@ namespace cutsim::core {
 struct SolveSummary {
   long flaggedSteps = 0;  ///< steps with any flag
   long missedTolerance = 0, indefinite = 0, fellBack = 0, newtonNotConverged = 0;
+  long residualEnergy = 0;     ///< steps with a solve whose residual carried too much energy
   double worstResidual = 0.0;  ///< largest relative residual of a flagged step's solves
   long worstStep = 0;          ///< the step (1-based) it happened at
 };
