@@ -179,7 +179,7 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   // residual small against the motion?
   double allowed = 0.0;
   bool energy = false;
-  if (!r.indefinite && !solver_->direct() && !velocity.empty()) {
+  if (!r.indefinite && !solver_->direct()) {
     allowed = motionEnergy(A, velocity, dv);
     energy = !(std::isfinite(r.residualEnergy) && r.residualEnergy <= allowed);
   }
@@ -187,21 +187,23 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   if (r.indefinite) stats.flags |= StepStats::Indefinite;
   if (!r.converged) stats.flags |= StepStats::MissedTolerance;
   if (energy) stats.flags |= StepStats::ResidualEnergy;
-  const std::string failure =
-      energy ? describeResidualEnergy(*solver_, r, allowed) : describe(*solver_, r);
+  // (The message is made only for a step that stops.)
+  auto failure = [&] {
+    return energy ? describeResidualEnergy(*solver_, r, allowed) : describe(*solver_, r);
+  };
   const bool far = !(r.residual <= settings_.fallbackAbove) || energy;
   switch (settings_.onSolveFailure) {
     case SolveFailurePolicy::Warn:
-      if (solver_->direct() && r.indefinite) throw StepFailure{failure, true};
+      if (solver_->direct() && r.indefinite) throw StepFailure{failure(), true};
       return;
     case SolveFailurePolicy::Fail:
-      throw StepFailure{failure + " (the scene's onSolveFailure is \"fail\")", r.indefinite};
+      throw StepFailure{failure() + " (the scene's onSolveFailure is \"fail\")", r.indefinite};
     case SolveFailurePolicy::Fallback:
       break;
   }
   // A capped solve that got close is kept (flagged); non-positive curvature always falls back.
   if (!far && !r.indefinite) return;
-  if (solver_->direct()) throw StepFailure{failure, r.indefinite};
+  if (solver_->direct()) throw StepFailure{failure(), r.indefinite};
   if (!fallback_) fallback_ = makeFallbackSolver(settings_.fallbackSolver);
   const Eigen::VectorXd first = dv;
   dv = guess;
@@ -212,7 +214,7 @@ void ImplicitIntegrator::solve(const SystemOperator& A, const Eigen::VectorXd& b
   stats.flags |= StepStats::FellBack;
   record(f);
   if (f.indefinite || !std::isfinite(f.residual))
-    throw StepFailure{failure + ", and the fallback " + describe(*fallback_, f).substr(4),
+    throw StepFailure{failure() + ", and the fallback " + describe(*fallback_, f).substr(4),
                       f.indefinite};
   if (f.converged) return;
   // Both missed: the better of the two answers is kept, the step flagged (missed-tolerance and

@@ -165,7 +165,6 @@ SolveReport CholmodSolver::solve(const SystemOperator& A, const Vec& b, Vec& dv)
       rz = rzNew;
     }
   }
-  report.residualEnergy = A.residualKineticEnergy(res);
   // A direct solve is converged unless rounding went wrong (a nearly singular matrix).
   report.converged = std::isfinite(report.residual) && report.residual <= 1e-6;
   return report;

@@ -85,8 +85,8 @@ struct SolveReport {
   bool indefinite =
       false;  ///< CG met p^T A p <= 0, or the factorisation found A not positive definite
   bool analysed = false;  ///< a direct solver redid its symbolic analysis
-  /// SystemOperator::residualKineticEnergy of the final residual (J): what the error of dv may
-  /// carry; 0 when nothing was solved.
+  /// An iterative solver's SystemOperator::residualKineticEnergy of its final residual (J): what
+  /// the error of dv may carry (ImplicitIntegrator::solve's check); 0 from a direct solver.
   double residualEnergy = 0.0;
 };
 
